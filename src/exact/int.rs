@@ -1,0 +1,557 @@
+//! [`Int`]: an exact integer that stays on the machine word while it fits.
+//!
+//! Fraction-free elimination on the sparse, small-coefficient systems that trimorph produces
+//! keeps most entries far below 2^63, yet a few can grow without bound (the bit size grows
+//! linearly with the rank under GCD or Turner simplification, thesis ch. 7). `Int` stores a
+//! value as an `i64` when it fits and as a `num_bigint::BigInt` otherwise; every operation
+//! checks for overflow and promotes, so results are always exact. The invariant "`Big` only
+//! when the value does not fit in `i64`" makes equality and hashing structural.
+//!
+//! `Int` implements the `num-traits` / `num-integer` traits, so `num_rational::Ratio<Int>`
+//! (see [`crate::exact::Rat`]) is an exact rational with the same fast path.
+
+use num_bigint::{BigInt, Sign};
+use num_integer::Integer;
+use num_traits::{FromPrimitive, Num, One, Signed, ToPrimitive, Zero};
+use std::cmp::Ordering;
+use std::fmt;
+use std::ops::{
+    Add, AddAssign, Div, DivAssign, Mul, MulAssign, Neg, Rem, RemAssign, Sub, SubAssign,
+};
+use std::str::FromStr;
+
+/// An exact integer: `Small` while it fits in an `i64`, `Big` otherwise.
+#[derive(Clone)]
+pub enum Int {
+    /// A value that fits in `i64`.
+    Small(i64),
+    /// A value outside the `i64` range (never a value that would fit).
+    Big(BigInt),
+}
+
+impl Int {
+    /// Wraps a `BigInt`, demoting it to `Small` when it fits.
+    pub fn from_big(b: BigInt) -> Int {
+        match b.to_i64() {
+            Some(v) => Int::Small(v),
+            None => Int::Big(b),
+        }
+    }
+
+    /// The value as a `BigInt`.
+    pub fn to_big(&self) -> BigInt {
+        match self {
+            Int::Small(v) => BigInt::from(*v),
+            Int::Big(b) => b.clone(),
+        }
+    }
+
+    /// Converts an `i128`, which may or may not fit in `i64`.
+    #[inline]
+    pub fn from_i128(v: i128) -> Int {
+        if v >= i64::MIN as i128 && v <= i64::MAX as i128 {
+            Int::Small(v as i64)
+        } else {
+            Int::Big(BigInt::from(v))
+        }
+    }
+
+    /// True when the value is zero.
+    #[inline]
+    pub fn is_zero_int(&self) -> bool {
+        matches!(self, Int::Small(0))
+    }
+
+    /// -1, 0 or 1.
+    #[inline]
+    pub fn signum_i32(&self) -> i32 {
+        match self {
+            Int::Small(v) => v.signum() as i32,
+            Int::Big(b) => match b.sign() {
+                Sign::Minus => -1,
+                Sign::NoSign => 0,
+                Sign::Plus => 1,
+            },
+        }
+    }
+
+    /// Compares absolute values.
+    pub fn cmp_abs(&self, other: &Int) -> Ordering {
+        match (self, other) {
+            (Int::Small(a), Int::Small(b)) => a.unsigned_abs().cmp(&b.unsigned_abs()),
+            (Int::Small(_), Int::Big(_)) => Ordering::Less,
+            (Int::Big(_), Int::Small(_)) => Ordering::Greater,
+            (Int::Big(a), Int::Big(b)) => a.magnitude().cmp(b.magnitude()),
+        }
+    }
+
+    /// Number of bits of the magnitude (0 for zero). The "bit size" of ch. 7 of the thesis.
+    pub fn bits(&self) -> u64 {
+        match self {
+            Int::Small(v) => 64 - v.unsigned_abs().leading_zeros() as u64,
+            Int::Big(b) => b.bits(),
+        }
+    }
+
+    /// Exact division; the caller guarantees that `d` divides `self`.
+    ///
+    /// # Panics
+    /// Panics when `d` is zero. In debug builds also when the division is not exact.
+    pub fn div_exact(&self, d: &Int) -> Int {
+        match (self, d) {
+            (Int::Small(a), Int::Small(b)) => {
+                debug_assert!(*b != 0 && a % b == 0, "inexact division {a} / {b}");
+                match a.checked_div(*b) {
+                    Some(q) => Int::Small(q),
+                    None => Int::from_i128(*a as i128 / *b as i128),
+                }
+            }
+            _ => {
+                let (a, b) = (self.to_big(), d.to_big());
+                debug_assert!((&a % &b).is_zero(), "inexact division");
+                Int::from_big(a / b)
+            }
+        }
+    }
+
+    /// Greatest common divisor, always non-negative; gcd(0, 0) = 0.
+    pub fn gcd_int(&self, other: &Int) -> Int {
+        match (self, other) {
+            (Int::Small(a), Int::Small(b)) => {
+                int_from_u64(gcd_u64(a.unsigned_abs(), b.unsigned_abs()))
+            }
+            (Int::Small(a), Int::Big(b)) | (Int::Big(b), Int::Small(a)) => {
+                if *a == 0 {
+                    return Int::from_big(b.abs());
+                }
+                // gcd(a, b) = gcd(a, b mod a), and b mod a fits in a word.
+                let r = (b % BigInt::from(*a)).to_i64().expect("remainder fits");
+                int_from_u64(gcd_u64(a.unsigned_abs(), r.unsigned_abs()))
+            }
+            (Int::Big(a), Int::Big(b)) => Int::from_big(a.gcd(b)),
+        }
+    }
+
+
+    /// `self * a - other * b`, the fraction-free elimination kernel, with one overflow check.
+    #[inline]
+    pub fn cross(a: &Int, x: &Int, b: &Int, y: &Int) -> Int {
+        if let (Int::Small(a), Int::Small(x), Int::Small(b), Int::Small(y)) = (a, x, b, y) {
+            let v = (*a as i128) * (*x as i128) - (*b as i128) * (*y as i128);
+            return Int::from_i128(v);
+        }
+        Int::from_big(a.to_big() * x.to_big() - b.to_big() * y.to_big())
+    }
+
+    /// Approximate value as `f64` (correctly rounded for `Small`, nearest for `Big`).
+    pub fn to_f64_lossy(&self) -> f64 {
+        match self {
+            Int::Small(v) => *v as f64,
+            Int::Big(b) => b.to_f64().unwrap_or(f64::NAN),
+        }
+    }
+}
+
+fn int_from_u64(g: u64) -> Int {
+    Int::from_i128(g as i128)
+}
+
+/// Binary GCD on machine words.
+#[inline]
+pub fn gcd_u64(mut a: u64, mut b: u64) -> u64 {
+    if a == 0 {
+        return b;
+    }
+    if b == 0 {
+        return a;
+    }
+    let shift = (a | b).trailing_zeros();
+    a >>= a.trailing_zeros();
+    loop {
+        b >>= b.trailing_zeros();
+        if a > b {
+            std::mem::swap(&mut a, &mut b);
+        }
+        b -= a;
+        if b == 0 {
+            return a << shift;
+        }
+    }
+}
+
+impl From<i64> for Int {
+    fn from(v: i64) -> Int {
+        Int::Small(v)
+    }
+}
+impl From<i32> for Int {
+    fn from(v: i32) -> Int {
+        Int::Small(v as i64)
+    }
+}
+impl From<BigInt> for Int {
+    fn from(b: BigInt) -> Int {
+        Int::from_big(b)
+    }
+}
+impl From<&Int> for BigInt {
+    fn from(v: &Int) -> BigInt {
+        v.to_big()
+    }
+}
+
+impl PartialEq for Int {
+    fn eq(&self, other: &Int) -> bool {
+        match (self, other) {
+            (Int::Small(a), Int::Small(b)) => a == b,
+            (Int::Big(a), Int::Big(b)) => a == b,
+            _ => false, // normalized: a Big never equals a Small
+        }
+    }
+}
+impl Eq for Int {}
+
+impl std::hash::Hash for Int {
+    fn hash<H: std::hash::Hasher>(&self, state: &mut H) {
+        match self {
+            Int::Small(v) => v.hash(state),
+            Int::Big(b) => b.hash(state),
+        }
+    }
+}
+
+impl PartialOrd for Int {
+    fn partial_cmp(&self, other: &Int) -> Option<Ordering> {
+        Some(self.cmp(other))
+    }
+}
+impl Ord for Int {
+    fn cmp(&self, other: &Int) -> Ordering {
+        match (self, other) {
+            (Int::Small(a), Int::Small(b)) => a.cmp(b),
+            _ => self.to_big().cmp(&other.to_big()),
+        }
+    }
+}
+
+impl fmt::Display for Int {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Int::Small(v) => fmt::Display::fmt(v, f),
+            Int::Big(b) => fmt::Display::fmt(b, f),
+        }
+    }
+}
+impl fmt::Debug for Int {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        fmt::Display::fmt(self, f)
+    }
+}
+
+impl FromStr for Int {
+    type Err = num_bigint::ParseBigIntError;
+    fn from_str(s: &str) -> Result<Int, Self::Err> {
+        Ok(Int::from_big(BigInt::from_str(s)?))
+    }
+}
+
+macro_rules! binop {
+    ($tr:ident, $m:ident, $checked:ident, $bigop:tt) => {
+        impl $tr<&Int> for &Int {
+            type Output = Int;
+            #[inline]
+            fn $m(self, rhs: &Int) -> Int {
+                if let (Int::Small(a), Int::Small(b)) = (self, rhs) {
+                    if let Some(v) = a.$checked(*b) {
+                        return Int::Small(v);
+                    }
+                }
+                Int::from_big(self.to_big() $bigop rhs.to_big())
+            }
+        }
+        impl $tr<Int> for Int {
+            type Output = Int;
+            #[inline]
+            fn $m(self, rhs: Int) -> Int {
+                (&self).$m(&rhs)
+            }
+        }
+        impl $tr<&Int> for Int {
+            type Output = Int;
+            #[inline]
+            fn $m(self, rhs: &Int) -> Int {
+                (&self).$m(rhs)
+            }
+        }
+    };
+}
+binop!(Add, add, checked_add, +);
+binop!(Sub, sub, checked_sub, -);
+binop!(Mul, mul, checked_mul, *);
+
+// Truncating division and remainder (as for primitive integers).
+impl Div<&Int> for &Int {
+    type Output = Int;
+    fn div(self, rhs: &Int) -> Int {
+        if let (Int::Small(a), Int::Small(b)) = (self, rhs) {
+            if let Some(v) = a.checked_div(*b) {
+                return Int::Small(v);
+            }
+        }
+        Int::from_big(self.to_big() / rhs.to_big())
+    }
+}
+impl Div<Int> for Int {
+    type Output = Int;
+    fn div(self, rhs: Int) -> Int {
+        &self / &rhs
+    }
+}
+impl Rem<&Int> for &Int {
+    type Output = Int;
+    fn rem(self, rhs: &Int) -> Int {
+        if let (Int::Small(a), Int::Small(b)) = (self, rhs) {
+            if let Some(v) = a.checked_rem(*b) {
+                return Int::Small(v);
+            }
+        }
+        Int::from_big(self.to_big() % rhs.to_big())
+    }
+}
+impl Rem<Int> for Int {
+    type Output = Int;
+    fn rem(self, rhs: Int) -> Int {
+        &self % &rhs
+    }
+}
+
+impl Neg for Int {
+    type Output = Int;
+    fn neg(self) -> Int {
+        match self {
+            Int::Small(v) => match v.checked_neg() {
+                Some(n) => Int::Small(n),
+                None => Int::Big(-BigInt::from(v)),
+            },
+            Int::Big(b) => Int::from_big(-b),
+        }
+    }
+}
+impl Neg for &Int {
+    type Output = Int;
+    fn neg(self) -> Int {
+        self.clone().neg()
+    }
+}
+
+impl AddAssign<&Int> for Int {
+    fn add_assign(&mut self, rhs: &Int) {
+        *self = &*self + rhs;
+    }
+}
+impl SubAssign<&Int> for Int {
+    fn sub_assign(&mut self, rhs: &Int) {
+        *self = &*self - rhs;
+    }
+}
+impl MulAssign<&Int> for Int {
+    fn mul_assign(&mut self, rhs: &Int) {
+        *self = &*self * rhs;
+    }
+}
+
+macro_rules! assign_owned {
+    ($tr:ident, $m:ident, $op:tt) => {
+        impl $tr<Int> for Int {
+            fn $m(&mut self, rhs: Int) {
+                *self = &*self $op &rhs;
+            }
+        }
+    };
+}
+assign_owned!(AddAssign, add_assign, +);
+assign_owned!(SubAssign, sub_assign, -);
+assign_owned!(MulAssign, mul_assign, *);
+assign_owned!(DivAssign, div_assign, /);
+assign_owned!(RemAssign, rem_assign, %);
+
+impl Zero for Int {
+    fn zero() -> Int {
+        Int::Small(0)
+    }
+    fn is_zero(&self) -> bool {
+        self.is_zero_int()
+    }
+}
+impl One for Int {
+    fn one() -> Int {
+        Int::Small(1)
+    }
+}
+
+impl Num for Int {
+    type FromStrRadixErr = num_bigint::ParseBigIntError;
+    fn from_str_radix(s: &str, radix: u32) -> Result<Int, Self::FromStrRadixErr> {
+        Ok(Int::from_big(BigInt::from_str_radix(s, radix)?))
+    }
+}
+
+impl Signed for Int {
+    fn abs(&self) -> Int {
+        if self.signum_i32() < 0 {
+            -self
+        } else {
+            self.clone()
+        }
+    }
+    fn abs_sub(&self, other: &Int) -> Int {
+        if self <= other {
+            Int::zero()
+        } else {
+            self - other
+        }
+    }
+    fn signum(&self) -> Int {
+        Int::Small(self.signum_i32() as i64)
+    }
+    fn is_positive(&self) -> bool {
+        self.signum_i32() > 0
+    }
+    fn is_negative(&self) -> bool {
+        self.signum_i32() < 0
+    }
+}
+
+impl Integer for Int {
+    fn div_floor(&self, other: &Int) -> Int {
+        match (self, other) {
+            (Int::Small(a), Int::Small(b)) if !(*a == i64::MIN && *b == -1) => {
+                Int::Small(Integer::div_floor(a, b))
+            }
+            _ => Int::from_big(Integer::div_floor(&self.to_big(), &other.to_big())),
+        }
+    }
+    fn mod_floor(&self, other: &Int) -> Int {
+        match (self, other) {
+            (Int::Small(a), Int::Small(b)) if !(*a == i64::MIN && *b == -1) => {
+                Int::Small(Integer::mod_floor(a, b))
+            }
+            _ => Int::from_big(Integer::mod_floor(&self.to_big(), &other.to_big())),
+        }
+    }
+    fn gcd(&self, other: &Int) -> Int {
+        self.gcd_int(other)
+    }
+    fn lcm(&self, other: &Int) -> Int {
+        if self.is_zero() || other.is_zero() {
+            return Int::zero();
+        }
+        let g = self.gcd_int(other);
+        (self.div_exact(&g) * other).abs()
+    }
+    fn is_multiple_of(&self, other: &Int) -> bool {
+        if other.is_zero() {
+            return self.is_zero();
+        }
+        (self % other).is_zero()
+    }
+    fn is_even(&self) -> bool {
+        match self {
+            Int::Small(v) => v % 2 == 0,
+            Int::Big(b) => b.is_even(),
+        }
+    }
+    fn is_odd(&self) -> bool {
+        !self.is_even()
+    }
+    fn div_rem(&self, other: &Int) -> (Int, Int) {
+        (self / other, self % other)
+    }
+}
+
+impl ToPrimitive for Int {
+    fn to_i64(&self) -> Option<i64> {
+        match self {
+            Int::Small(v) => Some(*v),
+            Int::Big(_) => None,
+        }
+    }
+    fn to_u64(&self) -> Option<u64> {
+        match self {
+            Int::Small(v) => u64::try_from(*v).ok(),
+            Int::Big(b) => b.to_u64(),
+        }
+    }
+    fn to_f64(&self) -> Option<f64> {
+        Some(self.to_f64_lossy())
+    }
+}
+impl FromPrimitive for Int {
+    fn from_i64(n: i64) -> Option<Int> {
+        Some(Int::Small(n))
+    }
+    fn from_u64(n: u64) -> Option<Int> {
+        Some(Int::from_i128(n as i128))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn big(v: &Int) -> BigInt {
+        v.to_big()
+    }
+
+    #[test]
+    fn overflow_promotes_and_demotes() {
+        let a = Int::Small(i64::MAX);
+        let s = &a + &Int::Small(1);
+        assert!(matches!(s, Int::Big(_)));
+        let back = &s - &Int::Small(1);
+        assert!(matches!(back, Int::Small(i64::MAX)));
+        let m = &Int::Small(i64::MIN) * &Int::Small(-1);
+        assert_eq!(big(&m), BigInt::from(i64::MAX) + 1);
+        assert_eq!(-Int::Small(i64::MIN), m);
+    }
+
+    #[test]
+    fn gcd_of_min_is_big() {
+        let g = Int::Small(i64::MIN).gcd_int(&Int::Small(0));
+        assert_eq!(big(&g), BigInt::from(1u64 << 63));
+        assert_eq!(Int::Small(12).gcd_int(&Int::Small(-18)), Int::Small(6));
+        assert_eq!(Int::Small(0).gcd_int(&Int::Small(0)), Int::Small(0));
+    }
+
+    #[test]
+    fn bits_matches_bigint() {
+        for v in [0i64, 1, -1, 2, 3, 255, -256, i64::MAX, i64::MIN] {
+            assert_eq!(Int::Small(v).bits(), BigInt::from(v).bits(), "{v}");
+        }
+    }
+
+    proptest! {
+        #[test]
+        fn ops_agree_with_bigint(a in any::<i64>(), b in any::<i64>(), c in any::<i64>(), d in any::<i64>()) {
+            let (x, y) = (Int::Small(a), Int::Small(b));
+            let (ba, bb) = (BigInt::from(a), BigInt::from(b));
+            prop_assert_eq!(big(&(&x + &y)), &ba + &bb);
+            prop_assert_eq!(big(&(&x - &y)), &ba - &bb);
+            prop_assert_eq!(big(&(&x * &y)), &ba * &bb);
+            let p = &x * &y; // often Big
+            prop_assert_eq!(big(&(&p + &x)), &ba * &bb + &ba);
+            prop_assert_eq!(big(&p.gcd_int(&x)), (&ba * &bb).gcd(&ba));
+            prop_assert_eq!(big(&x.gcd_int(&p)), (&ba * &bb).gcd(&ba));
+            prop_assert_eq!(p.cmp_abs(&x), (&ba * &bb).magnitude().cmp(ba.magnitude()));
+            if b != 0 {
+                prop_assert_eq!(big(&p.div_exact(&y)), ba.clone());
+                prop_assert_eq!(big(&Integer::div_floor(&x, &y)), Integer::div_floor(&ba, &bb));
+                prop_assert_eq!(big(&Integer::mod_floor(&x, &y)), Integer::mod_floor(&ba, &bb));
+            }
+            let cr = Int::cross(&x, &y, &Int::Small(c), &Int::Small(d));
+            prop_assert_eq!(big(&cr), &ba * &bb - BigInt::from(c) * BigInt::from(d));
+            prop_assert_eq!(x.cmp(&y), a.cmp(&b));
+        }
+    }
+}

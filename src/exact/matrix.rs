@@ -1,0 +1,364 @@
+//! Integer matrices (dense and sparse) and exact rationals.
+//!
+//! [`IntMatrix`] is a dense row-major integer matrix; [`SparseIntMatrix`] stores each row as
+//! a list of `(column, value)` pairs sorted by column with no explicit zeros. Both use
+//! [`Int`] entries. [`Rat`] is `Ratio<Int>`, the exact rational used for right-hand sides,
+//! parameter values and solutions; it converts losslessly to and from `num_rational`'s
+//! `BigRational`, the type of the public API boundary.
+
+use super::int::Int;
+use num_bigint::BigInt;
+use num_rational::{BigRational, Ratio};
+use num_traits::{One, ToPrimitive, Zero};
+use std::fmt;
+
+/// Exact rational with the small-integer fast path of [`Int`].
+pub type Rat = Ratio<Int>;
+
+/// Converts a `BigRational` into a [`Rat`].
+pub fn rat_from_big(r: &BigRational) -> Rat {
+    Rat::new_raw(Int::from_big(r.numer().clone()), Int::from_big(r.denom().clone()))
+}
+
+/// Converts a [`Rat`] into a `BigRational` (already in lowest terms).
+pub fn rat_to_big(r: &Rat) -> BigRational {
+    BigRational::new_raw(r.numer().to_big(), r.denom().to_big())
+}
+
+/// A [`Rat`] from an integer.
+pub fn rat_int(v: i64) -> Rat {
+    Rat::from_integer(Int::from(v))
+}
+
+/// Nearest `f64` of an exact rational (exact when both parts fit in 53 bits).
+pub fn rat_to_f64(r: &Rat) -> f64 {
+    match (r.numer(), r.denom()) {
+        (Int::Small(n), Int::Small(d))
+            if n.unsigned_abs() < (1u64 << 53) && d.unsigned_abs() < (1u64 << 53) =>
+        {
+            *n as f64 / *d as f64
+        }
+        _ => rat_to_big(r).to_f64().unwrap_or(f64::NAN),
+    }
+}
+
+/// Exact rational value of a finite `f64` (every finite double is a dyadic rational).
+pub fn rat_from_f64(v: f64) -> Option<Rat> {
+    BigRational::from_float(v).map(|b| rat_from_big(&b))
+}
+
+/// Formats a rational as `"p"` or `"p/q"` in lowest terms (the deformation-file convention).
+pub fn rat_to_string(r: &Rat) -> String {
+    if r.denom().is_one() {
+        r.numer().to_string()
+    } else {
+        format!("{}/{}", r.numer(), r.denom())
+    }
+}
+
+/// Error from [`parse_rat`].
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("`{text}` is not an exact number (expected an integer, a decimal like 1.25e-3, or p/q)")]
+pub struct ParseRatError {
+    /// The text that failed to parse.
+    pub text: String,
+}
+
+/// Parses an exact rational from `"p"`, `"p/q"` or a decimal such as `"-1.25e-3"`.
+///
+/// Decimals are read exactly (`"0.1"` is 1/10, not the nearest double).
+pub fn parse_rat(text: &str) -> Result<Rat, ParseRatError> {
+    let err = || ParseRatError { text: text.to_string() };
+    let t = text.trim();
+    if t.is_empty() {
+        return Err(err());
+    }
+    if let Some((p, q)) = t.split_once('/') {
+        let p: BigInt = p.trim().parse().map_err(|_| err())?;
+        let q: BigInt = q.trim().parse().map_err(|_| err())?;
+        if q.is_zero() {
+            return Err(err());
+        }
+        return Ok(rat_from_big(&BigRational::new(p, q)));
+    }
+    let (mant, exp) = match t.find(['e', 'E']) {
+        Some(i) => (&t[..i], t[i + 1..].parse::<i64>().map_err(|_| err())?),
+        None => (t, 0),
+    };
+    let (neg, mant) = match mant.strip_prefix('-') {
+        Some(m) => (true, m),
+        None => (false, mant.strip_prefix('+').unwrap_or(mant)),
+    };
+    let (ip, fp) = mant.split_once('.').unwrap_or((mant, ""));
+    if ip.is_empty() && fp.is_empty() {
+        return Err(err());
+    }
+    if !ip.bytes().chain(fp.bytes()).all(|b| b.is_ascii_digit()) {
+        return Err(err());
+    }
+    if exp.abs() > 10_000 {
+        return Err(err());
+    }
+    let digits: BigInt = format!("0{ip}{fp}").parse().map_err(|_| err())?;
+    let scale = exp - fp.len() as i64;
+    let ten = BigInt::from(10);
+    let v = if scale >= 0 {
+        BigRational::from_integer(digits * num_traits::pow(ten, scale as usize))
+    } else {
+        BigRational::new(digits, num_traits::pow(ten, (-scale) as usize))
+    };
+    Ok(rat_from_big(&if neg { -v } else { v }))
+}
+
+/// A dense row-major matrix of exact integers.
+#[derive(Clone, PartialEq, Eq)]
+pub struct IntMatrix {
+    rows: usize,
+    cols: usize,
+    data: Vec<Int>,
+}
+
+impl IntMatrix {
+    /// The `rows x cols` zero matrix.
+    pub fn zeros(rows: usize, cols: usize) -> IntMatrix {
+        IntMatrix { rows, cols, data: vec![Int::zero(); rows * cols] }
+    }
+
+    /// Builds a matrix from rows of `i64`; all rows must have `cols` entries.
+    ///
+    /// # Panics
+    /// Panics when a row has the wrong length.
+    pub fn from_i64_rows(cols: usize, rows: &[Vec<i64>]) -> IntMatrix {
+        let mut m = IntMatrix::zeros(rows.len(), cols);
+        for (i, r) in rows.iter().enumerate() {
+            assert_eq!(r.len(), cols, "row {i} has {} entries, expected {cols}", r.len());
+            for (j, v) in r.iter().enumerate() {
+                m.set(i, j, Int::from(*v));
+            }
+        }
+        m
+    }
+
+    /// Number of rows.
+    pub fn rows(&self) -> usize {
+        self.rows
+    }
+    /// Number of columns.
+    pub fn cols(&self) -> usize {
+        self.cols
+    }
+    /// Entry `(i, j)`.
+    pub fn get(&self, i: usize, j: usize) -> &Int {
+        &self.data[i * self.cols + j]
+    }
+    /// Sets entry `(i, j)`.
+    pub fn set(&mut self, i: usize, j: usize, v: Int) {
+        self.data[i * self.cols + j] = v;
+    }
+    /// Row `i` as a slice.
+    pub fn row(&self, i: usize) -> &[Int] {
+        &self.data[i * self.cols..(i + 1) * self.cols]
+    }
+
+    /// The sparse form of this matrix.
+    pub fn to_sparse(&self) -> SparseIntMatrix {
+        let rows = (0..self.rows)
+            .map(|i| {
+                self.row(i)
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, v)| !v.is_zero())
+                    .map(|(j, v)| (j, v.clone()))
+                    .collect()
+            })
+            .collect();
+        SparseIntMatrix { rows: self.rows, cols: self.cols, row_entries: rows }
+    }
+
+    /// Largest bit size among the entries.
+    pub fn max_bits(&self) -> u64 {
+        self.data.iter().map(Int::bits).max().unwrap_or(0)
+    }
+}
+
+impl fmt::Debug for IntMatrix {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(f, "IntMatrix {}x{} [", self.rows, self.cols)?;
+        for i in 0..self.rows {
+            writeln!(f, "  {:?}", self.row(i))?;
+        }
+        write!(f, "]")
+    }
+}
+
+/// A sparse integer matrix stored by rows: each row is a list of `(column, value)` pairs,
+/// sorted by column, with no zero values.
+#[derive(Clone, PartialEq, Eq, Debug)]
+pub struct SparseIntMatrix {
+    rows: usize,
+    cols: usize,
+    row_entries: Vec<Vec<(usize, Int)>>,
+}
+
+/// Error building a sparse matrix from entries.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum SparseBuildError {
+    /// A column index is outside `0..cols`.
+    #[error("row {row}: column {col} is outside 0..{cols}")]
+    ColumnOutOfRange {
+        /// Row of the bad entry.
+        row: usize,
+        /// The column index given.
+        col: usize,
+        /// Number of columns.
+        cols: usize,
+    },
+}
+
+impl SparseIntMatrix {
+    /// An empty (all-zero) `rows x cols` matrix.
+    pub fn zeros(rows: usize, cols: usize) -> SparseIntMatrix {
+        SparseIntMatrix { rows, cols, row_entries: vec![Vec::new(); rows] }
+    }
+
+    /// Builds a matrix from per-row entry lists in any order; duplicates are summed and
+    /// zeros dropped.
+    pub fn from_rows(
+        cols: usize,
+        rows: Vec<Vec<(usize, Int)>>,
+    ) -> Result<SparseIntMatrix, SparseBuildError> {
+        let mut out = Vec::with_capacity(rows.len());
+        for (i, mut r) in rows.into_iter().enumerate() {
+            if let Some(&(col, _)) = r.iter().find(|(c, _)| *c >= cols) {
+                return Err(SparseBuildError::ColumnOutOfRange { row: i, col, cols });
+            }
+            r.sort_by_key(|(c, _)| *c);
+            let mut merged: Vec<(usize, Int)> = Vec::with_capacity(r.len());
+            for (c, v) in r {
+                match merged.last_mut() {
+                    Some((lc, lv)) if *lc == c => *lv += &v,
+                    _ => merged.push((c, v)),
+                }
+            }
+            merged.retain(|(_, v)| !v.is_zero());
+            out.push(merged);
+        }
+        Ok(SparseIntMatrix { rows: out.len(), cols, row_entries: out })
+    }
+
+    /// Number of rows.
+    pub fn rows(&self) -> usize {
+        self.rows
+    }
+    /// Number of columns.
+    pub fn cols(&self) -> usize {
+        self.cols
+    }
+    /// Row `i` as sorted `(column, value)` pairs.
+    pub fn row(&self, i: usize) -> &[(usize, Int)] {
+        &self.row_entries[i]
+    }
+    /// Number of stored nonzeros.
+    pub fn nnz(&self) -> usize {
+        self.row_entries.iter().map(Vec::len).sum()
+    }
+    /// Entry `(i, j)` (zero when not stored).
+    pub fn get(&self, i: usize, j: usize) -> Int {
+        let r = &self.row_entries[i];
+        match r.binary_search_by_key(&j, |(c, _)| *c) {
+            Ok(k) => r[k].1.clone(),
+            Err(_) => Int::zero(),
+        }
+    }
+
+    /// The dense form of this matrix.
+    pub fn to_dense(&self) -> IntMatrix {
+        let mut m = IntMatrix::zeros(self.rows, self.cols);
+        for (i, r) in self.row_entries.iter().enumerate() {
+            for (j, v) in r {
+                m.set(i, *j, v.clone());
+            }
+        }
+        m
+    }
+
+    /// The submatrix with the given rows and columns, renumbered in the given order.
+    /// `col_map[j]` is the new index of old column `j`, or `None` to drop it.
+    pub fn select(&self, rows: &[usize], col_map: &[Option<usize>], new_cols: usize) -> Self {
+        let row_entries = rows
+            .iter()
+            .map(|&i| {
+                let mut r: Vec<(usize, Int)> = self.row_entries[i]
+                    .iter()
+                    .filter_map(|(c, v)| col_map[*c].map(|nc| (nc, v.clone())))
+                    .collect();
+                r.sort_by_key(|(c, _)| *c);
+                r
+            })
+            .collect();
+        SparseIntMatrix { rows: rows.len(), cols: new_cols, row_entries }
+    }
+
+    /// Largest bit size among the entries.
+    pub fn max_bits(&self) -> u64 {
+        self.row_entries.iter().flatten().map(|(_, v)| v.bits()).max().unwrap_or(0)
+    }
+
+    /// `self * x` for a rational matrix `x` with `cols` rows of `d` columns.
+    pub fn mul_rat(&self, x: &[Vec<Rat>]) -> Vec<Vec<Rat>> {
+        let d = x.first().map_or(0, Vec::len);
+        self.row_entries
+            .iter()
+            .map(|r| {
+                let mut acc = vec![Rat::zero(); d];
+                for (c, v) in r {
+                    let vr = Rat::from_integer(v.clone());
+                    for (k, a) in acc.iter_mut().enumerate() {
+                        *a += &vr * &x[*c][k];
+                    }
+                }
+                acc
+            })
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parse_rat_forms() {
+        assert_eq!(parse_rat("3").unwrap(), rat_int(3));
+        assert_eq!(parse_rat("-6/4").unwrap(), Rat::new(Int::from(-3), Int::from(2)));
+        assert_eq!(parse_rat("0.1").unwrap(), Rat::new(Int::from(1), Int::from(10)));
+        assert_eq!(parse_rat("-1.25e-3").unwrap(), Rat::new(Int::from(-1), Int::from(800)));
+        assert_eq!(parse_rat("2E3").unwrap(), rat_int(2000));
+        assert_eq!(parse_rat(".5").unwrap(), Rat::new(Int::from(1), Int::from(2)));
+        for bad in ["", "1/0", "abc", "1.2.3", "NaN", "inf", "1e", "--1", "."] {
+            assert!(parse_rat(bad).is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn rat_string_round_trip() {
+        let r = Rat::new(Int::from(-10), Int::from(4));
+        assert_eq!(rat_to_string(&r), "-5/2");
+        assert_eq!(parse_rat(&rat_to_string(&r)).unwrap(), r);
+        assert_eq!(rat_to_string(&rat_int(7)), "7");
+        assert_eq!(rat_to_f64(&r), -2.5);
+    }
+
+    #[test]
+    fn sparse_build_merges_and_validates() {
+        let m = SparseIntMatrix::from_rows(
+            3,
+            vec![vec![(2, Int::from(1)), (0, Int::from(2)), (2, Int::from(-1))], vec![]],
+        )
+        .unwrap();
+        assert_eq!(m.row(0), &[(0, Int::from(2))]);
+        assert_eq!(m.nnz(), 1);
+        assert!(SparseIntMatrix::from_rows(2, vec![vec![(5, Int::from(1))]]).is_err());
+        assert_eq!(m.to_dense().to_sparse(), m);
+    }
+}

@@ -1,0 +1,21 @@
+//! Exact integer and rational linear algebra (thesis Part I, ch. 4 and 6-9).
+//!
+//! * [`Int`]: exact integers with an `i64` fast path; [`Rat`]: exact rationals over them.
+//! * [`IntMatrix`] / [`SparseIntMatrix`]: dense and sparse integer matrices.
+//! * [`Ldu`]: fraction-free LDU factoring `A = Pr L D^-1 U Pc` of any integer matrix, with
+//!   None / GCD / Turner simplification, rank, redundant rows, exact solve and consistency.
+//! * [`WeightedLsq`]: weighted least squares under the independent constraints (Alg. 15).
+
+pub mod bitgrowth;
+pub mod int;
+pub mod ldu;
+pub mod lsq;
+pub mod matrix;
+
+pub use int::Int;
+pub use ldu::{Ldu, LduOptions, Pivoting, Simplification};
+pub use lsq::WeightedLsq;
+pub use matrix::{
+    parse_rat, rat_from_big, rat_from_f64, rat_int, rat_to_big, rat_to_f64, rat_to_string,
+    IntMatrix, ParseRatError, Rat, SparseIntMatrix,
+};

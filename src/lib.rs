@@ -1,0 +1,4 @@
+//! trimorph
+pub mod exact;
+pub mod ecles;
+pub mod render;
