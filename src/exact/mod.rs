@@ -11,6 +11,8 @@ pub mod int;
 pub mod ldu;
 pub mod lsq;
 pub mod matrix;
+#[cfg(test)]
+pub(crate) mod reference;
 
 pub use int::Int;
 pub use ldu::{Ldu, LduOptions, Pivoting, Simplification};

@@ -1,2 +1,3 @@
 //! Rendering.
+pub mod font;
 pub mod plot;

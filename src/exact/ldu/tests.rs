@@ -17,28 +17,11 @@ const ALL_OPTS: [LduOptions; 6] = [
     LduOptions { simplification: Simplification::Turner, pivoting: Pivoting::SmallestMagnitude },
 ];
 
-/// Rank by textbook rational elimination (the reference).
 fn reference_rank(a: &IntMatrix) -> usize {
-    let mut m: Vec<Vec<BigRational>> = (0..a.rows())
+    let rows: Vec<Vec<BigRational>> = (0..a.rows())
         .map(|i| a.row(i).iter().map(|v| BigRational::from_integer(v.to_big())).collect())
         .collect();
-    let (rows, cols) = (a.rows(), a.cols());
-    let mut rank = 0;
-    for c in 0..cols {
-        let Some(p) = (rank..rows).find(|&i| !m[i][c].is_zero()) else { continue };
-        m.swap(rank, p);
-        for i in rank + 1..rows {
-            if !m[i][c].is_zero() {
-                let f = &m[i][c] / &m[rank][c];
-                for j in c..cols {
-                    let t = &f * &m[rank][j];
-                    m[i][j] -= t;
-                }
-            }
-        }
-        rank += 1;
-    }
-    rank
+    crate::exact::reference::rank(&rows)
 }
 
 fn check_all(a: &IntMatrix) {
