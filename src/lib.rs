@@ -1,4 +1,22 @@
-//! trimorph
-pub mod exact;
+//! # trimorph
+//!
+//! Smooth (C1), local, exactly constrained and hand-editable deformations for image
+//! registration and morphing.
+//!
+//! Modules follow the data flow; lower modules never import higher ones:
+//!
+//! * [`exact`]: exact integer / rational linear algebra (fraction-free LDU, exact solve,
+//!   weighted least squares) -- thesis Part I, ch. 4 and 6-9;
+//! * [`ecles`]: editing parameters under affine constraints (ECLES) -- thesis ch. 2 and 5;
+//! * [`render`]: pictures (plots);
+//! * [`io`]: atomic file output;
+//! * [`cli`]: the `trimorph` command line.
+//!
+//! "The thesis" in these docs is *Mathematical and computational methods for modeling and
+//! editing deformations* (2017); "the ECLeS paper" is its 2015 conference version.
+
+pub mod cli;
 pub mod ecles;
+pub mod exact;
+pub mod io;
 pub mod render;

@@ -1,1 +1,5 @@
-fn main() {}
+//! The `trimorph` command-line tool; see `trimorph --help`.
+
+fn main() {
+    std::process::exit(trimorph::cli::run());
+}

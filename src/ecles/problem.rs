@@ -1,1 +1,341 @@
-//! problem
+//! General parameter editing from JSON: the input and output of `trimorph solve`.
+//!
+//! Input keys (fixed; others are ignored):
+//!
+//! | key | meaning |
+//! |---|---|
+//! | `"R"` | `m` rows of `n` integers (numbers or decimal strings) |
+//! | `"Q"` | `m` rows of `d` numbers (default zeros, `d` taken from `"P"`) |
+//! | `"P"` | `n` rows of `d` current values |
+//! | `"anchors"` | object, parameter index -> row of `d` new values |
+//! | `"derived"` | array of parameter indices |
+//! | `"hints"` | optional object, derived index -> row (default: the current value) |
+//! | `"weights"` | optional object, derived index -> positive number (default 1) |
+//! | `"strong"` | bool (default false): require strong solvability |
+//! | `"method"` | `"none"`, `"gcd"` or `"turner"` (default `"turner"`) |
+//!
+//! Every value may be a JSON number (read exactly from its decimal text: `0.1` is 1/10) or a
+//! string `"p/q"`, `"p"` or a decimal. The output holds `"P"` (all `n` rows as exact strings
+//! in lowest terms), `"P_float"`, `"rank"`, `"relevant"`, `"fixed_relevant"` and
+//! `"redundant"` (constraint and parameter indices, 0-based).
+
+use super::{ConstraintSystem, EclesError, InitOptions};
+use crate::exact::ldu::Simplification;
+use crate::exact::matrix::{parse_rat, rat_to_f64, rat_to_string, Rat, SparseIntMatrix};
+use crate::exact::Int;
+use num_traits::Zero;
+use serde_json::{json, Map, Value};
+
+/// Errors reading a problem.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum ProblemError {
+    /// Not valid JSON.
+    #[error("not valid JSON: {0}")]
+    Json(String),
+    /// A key is missing or holds a value of the wrong kind.
+    #[error("{path}: {message}")]
+    Key {
+        /// Where, e.g. `P[3][1]` or `anchors."7"`.
+        path: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// The edit itself is malformed (indices, sizes, weights).
+    #[error("{0}")]
+    Edit(#[from] EclesError),
+}
+
+/// A parsed editing problem.
+#[derive(Clone, Debug)]
+pub struct Problem {
+    /// The constraints `R P = Q`.
+    pub system: ConstraintSystem,
+    /// Current values of all parameters (`n` rows of `d`).
+    pub p: Vec<Vec<Rat>>,
+    /// Anchor indices (ascending).
+    pub anchors: Vec<usize>,
+    /// New anchor values, in the order of `anchors`.
+    pub anchor_values: Vec<Vec<Rat>>,
+    /// Derived indices, in the input order.
+    pub derived: Vec<usize>,
+    /// Hints for the derived parameters, in the order of `derived`.
+    pub hints: Vec<Vec<Rat>>,
+    /// Weights of the derived parameters, in the order of `derived`.
+    pub weights: Vec<Rat>,
+    /// Whether strong solvability is required.
+    pub strong: bool,
+    /// Simplification method of the factoring.
+    pub method: Simplification,
+}
+
+/// The result of [`Problem::solve`].
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Solution {
+    /// All parameters after the edit.
+    pub p: Vec<Vec<Rat>>,
+    /// Rank of `R_ED`.
+    pub rank: usize,
+    /// Relevant constraints.
+    pub relevant: Vec<usize>,
+    /// Fixed relevant parameters.
+    pub fixed_relevant: Vec<usize>,
+    /// Redundant relevant constraints.
+    pub redundant: Vec<usize>,
+    /// Whether every constraint (relevant or not) holds after the edit.
+    pub all_constraints_hold: bool,
+}
+
+fn key_err(path: impl Into<String>, message: impl Into<String>) -> ProblemError {
+    ProblemError::Key { path: path.into(), message: message.into() }
+}
+
+fn describe(v: &Value) -> String {
+    let s = v.to_string();
+    if s.len() > 40 {
+        format!("{}...", &s[..40])
+    } else {
+        s
+    }
+}
+
+fn num(v: &Value, path: &str) -> Result<Rat, ProblemError> {
+    let text = match v {
+        Value::Number(n) => n.to_string(),
+        Value::String(s) => s.clone(),
+        _ => return Err(key_err(path, format!("expected a number or a \"p/q\" string, found {}", describe(v)))),
+    };
+    parse_rat(&text).map_err(|e| key_err(path, e.to_string()))
+}
+
+fn row(v: &Value, path: &str, len: Option<usize>) -> Result<Vec<Rat>, ProblemError> {
+    let arr = v.as_array().ok_or_else(|| key_err(path, format!("expected an array, found {}", describe(v))))?;
+    if let Some(l) = len {
+        if arr.len() != l {
+            return Err(key_err(path, format!("expected {l} values, found {}", arr.len())));
+        }
+    }
+    arr.iter().enumerate().map(|(j, x)| num(x, &format!("{path}[{j}]"))).collect()
+}
+
+fn rows(v: &Value, path: &str, len: Option<usize>) -> Result<Vec<Vec<Rat>>, ProblemError> {
+    let arr = v.as_array().ok_or_else(|| key_err(path, format!("expected an array of rows, found {}", describe(v))))?;
+    arr.iter().enumerate().map(|(i, r)| row(r, &format!("{path}[{i}]"), len)).collect()
+}
+
+fn index_key(k: &str, path: &str, n: usize) -> Result<usize, ProblemError> {
+    let i: usize = k
+        .trim()
+        .parse()
+        .map_err(|_| key_err(format!("{path}.\"{k}\""), "keys must be parameter indices (0, 1, 2, ...)"))?;
+    if i >= n {
+        return Err(key_err(format!("{path}.\"{k}\""), format!("parameter {i} is out of range (there are {n})")));
+    }
+    Ok(i)
+}
+
+fn object<'a>(doc: &'a Map<String, Value>, key: &str) -> Result<Option<&'a Map<String, Value>>, ProblemError> {
+    match doc.get(key) {
+        None | Some(Value::Null) => Ok(None),
+        Some(Value::Object(o)) => Ok(Some(o)),
+        Some(v) => Err(key_err(key, format!("expected an object {{\"index\": ...}}, found {}", describe(v)))),
+    }
+}
+
+impl Problem {
+    /// Parses a problem from JSON text.
+    pub fn from_json(text: &str) -> Result<Problem, ProblemError> {
+        let doc: Value = serde_json::from_str(text).map_err(|e| ProblemError::Json(e.to_string()))?;
+        let doc = doc.as_object().ok_or_else(|| key_err("(top level)", "expected a JSON object"))?;
+        let p = rows(doc.get("P").ok_or_else(|| key_err("P", "missing (n rows of current values)"))?, "P", None)?;
+        let n = p.len();
+        let d = p.first().map_or(1, Vec::len);
+        if d == 0 {
+            return Err(key_err("P[0]", "rows must have at least one value"));
+        }
+        if let Some((i, _)) = p.iter().enumerate().find(|(_, r)| r.len() != d) {
+            return Err(key_err(format!("P[{i}]"), format!("expected {d} values like P[0]")));
+        }
+        let r_val = doc.get("R").ok_or_else(|| key_err("R", "missing (m rows of n integers)"))?;
+        let r_rows = r_val.as_array().ok_or_else(|| key_err("R", "expected an array of rows"))?;
+        let mut sparse = Vec::with_capacity(r_rows.len());
+        for (i, rv) in r_rows.iter().enumerate() {
+            let vals = row(rv, &format!("R[{i}]"), Some(n))?;
+            let mut out = Vec::new();
+            for (j, v) in vals.into_iter().enumerate() {
+                if !v.is_integer() {
+                    return Err(key_err(format!("R[{i}][{j}]"), "coefficients must be integers"));
+                }
+                if !v.is_zero() {
+                    out.push((j, v.to_integer()));
+                }
+            }
+            sparse.push(out);
+        }
+        let m = sparse.len();
+        let r = SparseIntMatrix::from_rows(n, sparse).expect("columns checked");
+        let q = match doc.get("Q") {
+            None | Some(Value::Null) => vec![vec![Rat::zero(); d]; m],
+            Some(v) => {
+                let q = rows(v, "Q", Some(d))?;
+                if q.len() != m {
+                    return Err(key_err("Q", format!("expected {m} rows (one per row of R), found {}", q.len())));
+                }
+                q
+            }
+        };
+        let system = ConstraintSystem::with_dim(r, q, d)?;
+
+        let anchors_obj = object(doc, "anchors")?.ok_or_else(|| key_err("anchors", "missing (object: index -> new value)"))?;
+        let mut anchors: Vec<(usize, Vec<Rat>)> = Vec::new();
+        for (k, v) in anchors_obj {
+            let i = index_key(k, "anchors", n)?;
+            anchors.push((i, row(v, &format!("anchors.\"{k}\""), Some(d))?));
+        }
+        anchors.sort_by_key(|e| e.0);
+        if let Some(w) = anchors.windows(2).find(|w| w[0].0 == w[1].0) {
+            return Err(key_err("anchors", format!("parameter {} is given twice", w[0].0)));
+        }
+        let derived_val = doc.get("derived").ok_or_else(|| key_err("derived", "missing (array of indices)"))?;
+        let derived_arr = derived_val.as_array().ok_or_else(|| key_err("derived", "expected an array of indices"))?;
+        let mut derived = Vec::with_capacity(derived_arr.len());
+        for (k, v) in derived_arr.iter().enumerate() {
+            let i = v.as_u64().ok_or_else(|| key_err(format!("derived[{k}]"), format!("expected a parameter index, found {}", describe(v))))? as usize;
+            if i >= n {
+                return Err(key_err(format!("derived[{k}]"), format!("parameter {i} is out of range (there are {n})")));
+            }
+            derived.push(i);
+        }
+        let pos_of = |i: usize, path: &str| {
+            derived.iter().position(|&s| s == i).ok_or_else(|| key_err(path, format!("parameter {i} is not derived")))
+        };
+        let mut hints: Vec<Vec<Rat>> = derived.iter().map(|&s| p[s].clone()).collect();
+        if let Some(h) = object(doc, "hints")? {
+            for (k, v) in h {
+                let path = format!("hints.\"{k}\"");
+                let i = index_key(k, "hints", n)?;
+                hints[pos_of(i, &path)?] = row(v, &path, Some(d))?;
+            }
+        }
+        let mut weights = vec![Rat::from_integer(Int::from(1)); derived.len()];
+        if let Some(w) = object(doc, "weights")? {
+            for (k, v) in w {
+                let path = format!("weights.\"{k}\"");
+                let i = index_key(k, "weights", n)?;
+                let val = num(v, &path)?;
+                if val <= Rat::zero() {
+                    return Err(key_err(path, "weights must be positive"));
+                }
+                weights[pos_of(i, &path)?] = val;
+            }
+        }
+        let strong = match doc.get("strong") {
+            None | Some(Value::Null) => false,
+            Some(Value::Bool(b)) => *b,
+            Some(v) => return Err(key_err("strong", format!("expected true or false, found {}", describe(v)))),
+        };
+        let method = match doc.get("method") {
+            None | Some(Value::Null) => Simplification::Turner,
+            Some(Value::String(s)) => s.parse().map_err(|e: String| key_err("method", e))?,
+            Some(v) => return Err(key_err("method", format!("expected \"none\", \"gcd\" or \"turner\", found {}", describe(v)))),
+        };
+        let (anchors, anchor_values) = anchors.into_iter().unzip();
+        Ok(Problem { system, p, anchors, anchor_values, derived, hints, weights, strong, method })
+    }
+
+    /// Runs ECLES Initialize and one Update. Errors are the ECLES errors (unsolvable edits
+    /// are `NotStronglySolvable` / `NotWeaklySolvable`).
+    pub fn solve(&self) -> Result<Solution, EclesError> {
+        let opts = InitOptions { strong: self.strong, method: self.method, ..Default::default() };
+        let mut s = self.system.initialize(&self.p, &self.anchors, &self.derived, opts)?;
+        s.update(&self.anchor_values, Some(&self.hints), Some(&self.weights))?;
+        let mut p = self.p.clone();
+        s.write_into(&mut p);
+        Ok(Solution {
+            all_constraints_hold: self.system.is_satisfied(&p),
+            p,
+            rank: s.rank(),
+            relevant: s.relevant().to_vec(),
+            fixed_relevant: s.fixed_relevant().to_vec(),
+            redundant: s.redundant(),
+        })
+    }
+}
+
+impl Solution {
+    /// The output JSON object of `trimorph solve`.
+    pub fn to_json(&self) -> Value {
+        json!({
+            "P": self.p.iter().map(|r| r.iter().map(rat_to_string).collect::<Vec<_>>()).collect::<Vec<_>>(),
+            "P_float": self.p.iter().map(|r| r.iter().map(rat_to_f64).collect::<Vec<_>>()).collect::<Vec<_>>(),
+            "rank": self.rank,
+            "relevant": self.relevant,
+            "fixed_relevant": self.fixed_relevant,
+            "redundant": self.redundant,
+            "all_constraints_hold": self.all_constraints_hold,
+        })
+    }
+}
+
+/// The JSON error object for an ECLES error: `{"error": kind, "condition": ..., "message": ...}`.
+pub fn error_json(e: &EclesError) -> Value {
+    match e {
+        EclesError::NotWeaklySolvable { constraint, column } => json!({
+            "error": "not_solvable", "condition": "weak_solvability",
+            "constraint": constraint, "coordinate": column, "message": e.to_string(),
+        }),
+        EclesError::NotStronglySolvable { constraint, cause } => json!({
+            "error": "not_solvable", "condition": "strong_solvability",
+            "constraint": constraint, "cause": cause, "message": e.to_string(),
+        }),
+        other => json!({ "error": "invalid_edit", "message": other.to_string() }),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const PUMP: &str = r#"{"R": [[1,1,-1,0],[0,0,-1,1]], "Q": [[0],[5]], "P": [[1],[2],[3],[8]],
+        "anchors": {"0": [4]}, "derived": [1, 2, 3]}"#;
+
+    #[test]
+    fn pump_round_trip() {
+        let pr = Problem::from_json(PUMP).unwrap();
+        let s = pr.solve().unwrap();
+        assert_eq!(s.to_json()["P"], json!([["4"], ["0"], ["4"], ["9"]]));
+        assert_eq!(s.to_json()["P_float"], json!([[4.0], [0.0], [4.0], [9.0]]));
+        assert!(s.all_constraints_hold);
+        assert_eq!(s.rank, 2);
+    }
+
+    #[test]
+    fn exact_decimals_and_fractions() {
+        let t = r#"{"R": [[1, -1]], "P": [["1/3"], [0.1]], "anchors": {"0": ["2/3"]}, "derived": [1]}"#;
+        let s = Problem::from_json(t).unwrap().solve().unwrap();
+        assert_eq!(s.to_json()["P"], json!([["2/3"], ["2/3"]]));
+    }
+
+    #[test]
+    fn errors_name_the_element() {
+        let cases = [
+            (r#"{"R": [[1, 2]], "P": [[1], [true]], "anchors": {"0": [1]}, "derived": []}"#, "P[1][0]"),
+            (r#"{"R": [[1]], "P": [[1], [2]], "anchors": {"0": [1]}, "derived": []}"#, "R[0]"),
+            (r#"{"R": [[1, 0.5]], "P": [[1], [2]], "anchors": {"0": [1]}, "derived": []}"#, "R[0][1]"),
+            (r#"{"R": [[1, 1]], "P": [[1], [2]], "anchors": {"x": [1]}, "derived": []}"#, "anchors.\"x\""),
+            (r#"{"R": [[1, 1]], "P": [[1], [2]], "anchors": {"0": [1]}, "derived": [1], "weights": {"1": -2}}"#, "weights.\"1\""),
+            (r#"{"R": [[1, 1]], "P": [[1], [2]], "anchors": {"0": [1]}, "derived": [1], "hints": {"0": [1]}}"#, "hints.\"0\""),
+            (r#"{"R": [[1, 1]], "P": [[1], [2]], "anchors": {"0": [1]}, "derived": [1], "method": "lu"}"#, "method"),
+            (r#"{"R": [[1, 1]], "P": [[1], [2]], "derived": [1]}"#, "anchors"),
+            (r#"{"R": [[1, 1]], "P": [[1], [2]], "anchors": {"0": [1]}, "derived": [5]}"#, "derived[0]"),
+            (r#"{"R": [[1, 1]], "Q": [[1], [2]], "P": [[1], [2]], "anchors": {"0": [1]}, "derived": [1]}"#, "Q"),
+        ];
+        for (text, path) in cases {
+            match Problem::from_json(text) {
+                Err(ProblemError::Key { path: p, .. }) => assert_eq!(p, path, "{text}"),
+                other => panic!("{text}: {other:?}"),
+            }
+        }
+        assert!(matches!(Problem::from_json("{"), Err(ProblemError::Json(_))));
+        assert!(matches!(Problem::from_json("[]"), Err(ProblemError::Key { .. })));
+    }
+}

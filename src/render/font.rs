@@ -339,11 +339,12 @@ mod tests {
     fn draw_text_stays_in_its_box() {
         let mut p = white(100, 40);
         draw_text(&mut p, 10, 5, "H1", 2, Color::BLACK);
-        // 'H' has ink in its first column and top row; '1' reaches row 6 and
-        // column 4 of the second cell ('1' bottom row is 0x0E -> cols 1..=3).
+        // 'H' is lit in its first column and top row; the rightmost ink is
+        // column 3 of '1' (second cell, 6 font pixels right); both glyphs
+        // reach the bottom row.
         let (x0, y0, x1, y1) = ink_bbox(&p).unwrap();
         assert_eq!((x0, y0), (10, 5));
-        assert_eq!(y1, 5 + 14 - 1);
+        assert_eq!((x1, y1), (10 + (6 + 3) * 2 + 1, 5 + 7 * 2 - 1));
         assert!(x1 < 10 + text_width("H1", 2));
         let c = p.pixel(10, 5).unwrap();
         assert_eq!((c.red(), c.green(), c.blue(), c.alpha()), (0, 0, 0, 255));

@@ -278,7 +278,7 @@ fn content(r: &Row) -> Int {
 }
 
 /// Numbers rows and columns by pivot order and stores L, D, U by position.
-fn assemble(
+pub(super) fn assemble(
     m: usize,
     n: usize,
     mut row_perm: Vec<usize>,

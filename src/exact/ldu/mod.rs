@@ -36,6 +36,7 @@
 //! assert!(f.reconstructs(&a.to_sparse()));
 //! ```
 
+pub mod dense;
 mod factor;
 pub mod reconstruct;
 pub mod solve;

@@ -27,6 +27,10 @@ fn reference_rank(a: &IntMatrix) -> usize {
 fn check_all(a: &IntMatrix) {
     let s = a.to_sparse();
     let rank = reference_rank(a);
+    let dense = super::dense::factor_dense_turner(a);
+    dense.sanity_check().unwrap();
+    assert_eq!(dense.rank(), rank, "dense rank");
+    assert!(dense.reconstructs(&s), "dense does not rebuild");
     for opts in ALL_OPTS {
         let f = Ldu::factor(&s, opts);
         f.sanity_check().unwrap_or_else(|e| panic!("{opts:?}: {e}\n{a:?}"));
