@@ -15,7 +15,14 @@ use trimorph::ecles::{ConstraintSystem, InitOptions};
 use trimorph::exact::ldu::dense::factor_dense_turner;
 use trimorph::exact::{rat_int, Int, Ldu, LduOptions, Rat, Simplification, SparseIntMatrix};
 
-fn banded(m: usize, n: usize, per_row: usize, spread: usize, bound: i64, seed: u64) -> SparseIntMatrix {
+fn banded(
+    m: usize,
+    n: usize,
+    per_row: usize,
+    spread: usize,
+    bound: i64,
+    seed: u64,
+) -> SparseIntMatrix {
     let mut rng = SmallRng::seed_from_u64(seed);
     let rows = (0..m)
         .map(|i| {
@@ -62,11 +69,17 @@ fn spline_like() -> (ConstraintSystem, Vec<Vec<Rat>>, Vec<usize>, Vec<usize>) {
             let a: i64 = rng.gen_range(1..=16);
             let b: i64 = rng.gen_range(1..=16);
             let c: i64 = rng.gen_range(1..=16);
-            vec![(cols[0], Int::from(a)), (cols[1], Int::from(b)), (cols[2], Int::from(c)), (cols[3], Int::from(-(a + b + c)))]
+            vec![
+                (cols[0], Int::from(a)),
+                (cols[1], Int::from(b)),
+                (cols[2], Int::from(c)),
+                (cols[3], Int::from(-(a + b + c))),
+            ]
         })
         .collect();
     let r = SparseIntMatrix::from_rows(n, rows).unwrap();
-    let p: Vec<Vec<Rat>> = (0..n).map(|s| vec![rat_int(s as i64 % 7), rat_int(s as i64 % 5)]).collect();
+    let p: Vec<Vec<Rat>> =
+        (0..n).map(|s| vec![rat_int(s as i64 % 7), rat_int(s as i64 % 5)]).collect();
     let q = r.mul_rat(&p);
     let sys = ConstraintSystem::new(r, q).unwrap();
     let anchors = vec![45];
@@ -79,21 +92,37 @@ fn bench(c: &mut Criterion) {
     let newa = vec![vec![Rat::new(Int::from(11), Int::from(2)), rat_int(3)]];
     {
         let s = sys.initialize(&p, &anchors, &derived, InitOptions::default()).unwrap();
-        eprintln!("spline-like session: |E| = {}, |D| = {}, rank {}", s.relevant().len(), derived.len(), s.rank());
+        eprintln!(
+            "spline-like session: |E| = {}, |D| = {}, rank {}",
+            s.relevant().len(),
+            derived.len(),
+            s.rank()
+        );
     }
     c.bench_function("ecles_single_anchor_60/initialize+update", |b| {
         b.iter(|| {
             let mut s = sys.initialize(&p, &anchors, &derived, InitOptions::default()).unwrap();
-            black_box(s.update(&newa, None, None).unwrap().len())
+            s.update(&newa, None, None).unwrap();
+            black_box(s.derived_scaled().len())
+        })
+    });
+    c.bench_function("ecles_single_anchor_60/initialize+update+reduce", |b| {
+        b.iter(|| {
+            let mut s = sys.initialize(&p, &anchors, &derived, InitOptions::default()).unwrap();
+            s.update(&newa, None, None).unwrap();
+            black_box(s.derived_values().len())
         })
     });
     let mut s = sys.initialize(&p, &anchors, &derived, InitOptions::default()).unwrap();
     s.update(&newa, None, None).unwrap();
     c.bench_function("ecles_single_anchor_60/update", |b| {
-        b.iter(|| black_box(s.update(&newa, None, None).unwrap().len()))
+        b.iter(|| {
+            s.update(&newa, None, None).unwrap();
+            black_box(s.derived_scaled().len())
+        })
     });
     let map = s.affine_map(None).unwrap().to_f64();
-    let hints: Vec<f64> = s.derived_values().iter().flatten().map(trimorph::exact::rat_to_f64).collect();
+    let hints: Vec<f64> = s.derived_f64().into_iter().flatten().collect();
     let fixed = map.with_fixed_hints(&hints);
     let mut out = vec![0.0; derived.len() * 2];
     c.bench_function("affine_f64_eval/60_derived", |b| {
@@ -108,9 +137,13 @@ fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("sparse_400x800");
     g.sample_size(10);
     for method in [Simplification::Turner, Simplification::Gcd] {
-        g.bench_function(format!("sparse_{method}"), |b| b.iter(|| black_box(Ldu::factor(&a, LduOptions::with(method)).rank())));
+        g.bench_function(format!("sparse_{method}"), |b| {
+            b.iter(|| black_box(Ldu::factor(&a, LduOptions::with(method)).rank()))
+        });
     }
-    g.bench_function("dense_bareiss_baseline", |b| b.iter(|| black_box(factor_dense_turner(&dense).rank())));
+    g.bench_function("dense_bareiss_baseline", |b| {
+        b.iter(|| black_box(factor_dense_turner(&dense).rank()))
+    });
     g.finish();
 }
 

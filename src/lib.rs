@@ -15,6 +15,9 @@
 //! "The thesis" in these docs is *Mathematical and computational methods for modeling and
 //! editing deformations* (2017); "the ECLeS paper" is its 2015 conference version.
 
+// Index loops are the clearest way to write the matrix algorithms here.
+#![allow(clippy::needless_range_loop)]
+
 pub mod cli;
 pub mod ecles;
 pub mod exact;

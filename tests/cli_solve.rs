@@ -30,12 +30,17 @@ fn rat(v: &Value) -> BigRational {
 
 /// Checks R P = Q exactly on the solver's output, from the input file.
 fn assert_constraints_hold(input: &Value, out: &Value) {
-    let p: Vec<Vec<BigRational>> =
-        out["P"].as_array().unwrap().iter().map(|r| r.as_array().unwrap().iter().map(rat).collect()).collect();
+    let p: Vec<Vec<BigRational>> = out["P"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| r.as_array().unwrap().iter().map(rat).collect())
+        .collect();
     // Lowest terms: re-formatting each value gives the same string.
     for (row, orig) in p.iter().zip(out["P"].as_array().unwrap()) {
         for (v, s) in row.iter().zip(orig.as_array().unwrap()) {
-            let text = if v.denom() == &BigInt::from(1) { v.numer().to_string() } else { v.to_string() };
+            let text =
+                if v.denom() == &BigInt::from(1) { v.numer().to_string() } else { v.to_string() };
             assert_eq!(Value::String(text), *s);
         }
     }
@@ -135,9 +140,15 @@ fn bad_input_exits_1_with_a_clear_message() {
     let dir = tempfile::tempdir().unwrap();
     let cases = [
         ("{\"R\": [[1, 1]], \"P\": [[1], [2]]", "invalid_json"),
-        ("{\"R\": [[1, 1]], \"P\": [[1], [\"x\"]], \"anchors\": {\"0\": [1]}, \"derived\": []}", "P[1][0]"),
+        (
+            "{\"R\": [[1, 1]], \"P\": [[1], [\"x\"]], \"anchors\": {\"0\": [1]}, \"derived\": []}",
+            "P[1][0]",
+        ),
         ("{\"R\": [[1, 1]], \"P\": [[1], [2]], \"anchors\": {}, \"derived\": [1]}", "no anchors"),
-        ("{\"R\": [[1, 1]], \"P\": [[1], [2]], \"anchors\": {\"0\": [1]}, \"derived\": [0]}", "both an anchor and derived"),
+        (
+            "{\"R\": [[1, 1]], \"P\": [[1], [2]], \"anchors\": {\"0\": [1]}, \"derived\": [0]}",
+            "both an anchor and derived",
+        ),
         ("", "invalid_json"),
     ];
     for (i, (text, needle)) in cases.iter().enumerate() {
@@ -168,13 +179,40 @@ fn demo_runs_on_bundled_data() {
 #[test]
 fn bitgrowth_writes_csv_and_png() {
     let dir = tempfile::tempdir().unwrap();
-    let o = trimorph(&["bench", "bitgrowth", "--quick", "--trials", "2", "--only", "fig7_1", "-o", dir.path().to_str().unwrap()]);
+    let o = trimorph(&[
+        "bench",
+        "bitgrowth",
+        "--quick",
+        "--trials",
+        "2",
+        "--only",
+        "fig7_1",
+        "-o",
+        dir.path().to_str().unwrap(),
+    ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let csv = std::fs::read_to_string(dir.path().join("bitgrowth.csv")).unwrap();
     assert!(csv.starts_with("experiment,method,x,mean_bits"));
     assert!(csv.lines().any(|l| l.starts_with("fig7_1,none,")));
     let png = std::fs::read(dir.path().join("fig7_1.png")).unwrap();
     assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
-    let bad = trimorph(&["bench", "bitgrowth", "--only", "nothing", "-o", dir.path().to_str().unwrap()]);
+    let bad =
+        trimorph(&["bench", "bitgrowth", "--only", "nothing", "-o", dir.path().to_str().unwrap()]);
     assert_eq!(bad.status.code(), Some(1));
+}
+
+/// Bug: `trimorph demo | head -3` panicked with "failed printing to stdout: Broken pipe".
+#[test]
+fn closed_stdout_is_not_a_crash() {
+    use std::process::Stdio;
+    let dir = tempfile::tempdir().unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_trimorph"))
+        .args(["demo", "-o", dir.path().to_str().unwrap()])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
 }

@@ -5,6 +5,7 @@ use crate::exact::Simplification;
 use crate::io::write_atomic;
 use crate::render::plot::{LinePlot, Series};
 use anyhow::{bail, Context, Result};
+use std::io::Write;
 use std::path::Path;
 
 fn color(m: Simplification) -> [u8; 3] {
@@ -16,12 +17,19 @@ fn color(m: Simplification) -> [u8; 3] {
 }
 
 /// Runs the experiments and writes `bitgrowth.csv` and one `<id>.png` per experiment.
-pub fn bitgrowth(dir: &Path, trials: usize, quick: bool, seed: u64, only: Option<&str>) -> Result<()> {
+pub fn bitgrowth(
+    dir: &Path,
+    trials: usize,
+    quick: bool,
+    seed: u64,
+    only: Option<&str>,
+) -> Result<()> {
     if trials == 0 {
         bail!("--trials must be at least 1");
     }
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    let exps: Vec<_> = experiments(quick).into_iter().filter(|e| only.is_none_or(|o| e.id.contains(o))).collect();
+    let exps: Vec<_> =
+        experiments(quick).into_iter().filter(|e| only.is_none_or(|o| e.id.contains(o))).collect();
     if exps.is_empty() {
         bail!("no experiment id contains {:?}", only.unwrap_or_default());
     }
@@ -33,8 +41,13 @@ pub fn bitgrowth(dir: &Path, trials: usize, quick: bool, seed: u64, only: Option
         let mut plot = LinePlot::new(exp.title, exp.x_label, "largest bit size of L, D, U");
         plot.log_y = exp.methods.contains(&Simplification::None);
         for &m in &exp.methods {
-            let points = pts.iter().filter(|p| p.method == m).map(|p| (p.x as f64, p.mean_bits)).collect();
-            plot.series.push(Series { label: format!("{m} (mean of {trials})"), points, color: color(m) });
+            let points =
+                pts.iter().filter(|p| p.method == m).map(|p| (p.x as f64, p.mean_bits)).collect();
+            plot.series.push(Series {
+                label: format!("{m} (mean of {trials})"),
+                points,
+                color: color(m),
+            });
         }
         let png = dir.join(format!("{}.png", exp.id));
         plot.save_png(&png).with_context(|| format!("cannot write {}", png.display()))?;
@@ -44,12 +57,24 @@ pub fn bitgrowth(dir: &Path, trials: usize, quick: bool, seed: u64, only: Option
                 .filter(|p| p.method == *m)
                 .map(|p| format!("{}:{:.0}", p.x, p.mean_bits))
                 .collect();
-            println!("{} {:>6}  x:bits  {}", exp.id, m.to_string(), line.join(" "));
+            writeln!(
+                std::io::stdout(),
+                "{} {:>6}  x:bits  {}",
+                exp.id,
+                m.to_string(),
+                line.join(" ")
+            )?;
         }
         all.extend(pts);
     }
     let csv = dir.join("bitgrowth.csv");
     write_atomic(&csv, to_csv(&all).as_bytes())?;
-    println!("wrote {} and {} plots in {}", csv.display(), exps.len(), dir.display());
+    writeln!(
+        std::io::stdout(),
+        "wrote {} and {} plots in {}",
+        csv.display(),
+        exps.len(),
+        dir.display()
+    )?;
     Ok(())
 }

@@ -99,6 +99,12 @@ pub fn run() -> i32 {
                 x.code
             }
             None => {
+                // A closed pipe (`trimorph ... | head`) is not an error of ours.
+                if let Some(io) = e.downcast_ref::<std::io::Error>() {
+                    if io.kind() == std::io::ErrorKind::BrokenPipe {
+                        return 0;
+                    }
+                }
                 eprintln!("error: {e:#}");
                 EXIT_INPUT
             }

@@ -6,6 +6,7 @@ use crate::ecles::EclesError;
 use crate::io::{read_text, write_atomic};
 use anyhow::{Context, Result};
 use serde_json::json;
+use std::io::Write;
 use std::path::Path;
 
 /// Prints a JSON error object on stderr and returns the matching exit.
@@ -22,11 +23,16 @@ fn solve_text(text: &str, source: &str) -> Result<serde_json::Value> {
             ProblemError::Key { .. } => "invalid_input",
             ProblemError::Edit(_) => "invalid_edit",
         };
-        fail(EXIT_INPUT, json!({ "error": kind, "file": source, "message": format!("{source}: {e}") }))
+        fail(
+            EXIT_INPUT,
+            json!({ "error": kind, "file": source, "message": format!("{source}: {e}") }),
+        )
     })?;
     let solution = problem.solve().map_err(|e| {
         let code = match e {
-            EclesError::NotWeaklySolvable { .. } | EclesError::NotStronglySolvable { .. } => EXIT_UNSOLVABLE,
+            EclesError::NotWeaklySolvable { .. } | EclesError::NotStronglySolvable { .. } => {
+                EXIT_UNSOLVABLE
+            }
             _ => EXIT_INPUT,
         };
         let mut obj = error_json(&e);
@@ -36,16 +42,40 @@ fn solve_text(text: &str, source: &str) -> Result<serde_json::Value> {
     Ok(solution.to_json())
 }
 
+/// JSON with one top-level key per line and one row per line for arrays of rows.
+pub fn compact_pretty(v: &serde_json::Value) -> String {
+    use serde_json::Value;
+    let Value::Object(map) = v else { return v.to_string() };
+    let mut s = String::from("{\n");
+    for (i, (k, val)) in map.iter().enumerate() {
+        s.push_str(&format!("  {}: ", Value::String(k.clone())));
+        match val {
+            Value::Array(rows) if rows.iter().any(Value::is_array) => {
+                s.push_str("[\n");
+                for (j, r) in rows.iter().enumerate() {
+                    let sep = if j + 1 < rows.len() { "," } else { "" };
+                    s.push_str(&format!("    {r}{sep}\n"));
+                }
+                s.push_str("  ]");
+            }
+            other => s.push_str(&other.to_string()),
+        }
+        s.push_str(if i + 1 < map.len() { ",\n" } else { "\n" });
+    }
+    s.push_str("}\n");
+    s
+}
+
 /// `trimorph solve SYSTEM [-o OUT]`.
 pub fn run(system: &Path, output: Option<&Path>) -> Result<()> {
     let text = read_text(system).map_err(|e| {
         fail(EXIT_INPUT, json!({ "error": "io", "file": system.display().to_string(), "message": e.to_string() }))
     })?;
     let out = solve_text(&text, &system.display().to_string())?;
-    let body = serde_json::to_string_pretty(&out)? + "\n";
+    let body = compact_pretty(&out);
     match output {
         Some(path) => write_atomic(path, body.as_bytes())?,
-        None => print!("{body}"),
+        None => std::io::stdout().lock().write_all(body.as_bytes())?,
     }
     Ok(())
 }
@@ -57,20 +87,32 @@ const PARALLELOGRAM: &str = include_str!("../../examples/parallelogram_2d.json")
 /// `trimorph demo`: solves the bundled examples and writes their solutions.
 pub fn demo(dir: &Path) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    println!("trimorph demo: exact constrained editing (ECLES) on the bundled examples\n");
+    writeln!(
+        std::io::stdout().lock(),
+        "trimorph demo: exact constrained editing (ECLES) on the bundled examples\n"
+    )?;
     for (name, text, what) in [
         ("pump", PUMP, "four pumps, p0 + p1 = p2, p3 = p2 + 5; set p0 = 4"),
         ("thesis_8_3", THESIS, "thesis 8.3/9.2: rank-3 system with 2 redundant rows, hints all 1"),
-        ("parallelogram_2d", PARALLELOGRAM, "thesis fig. 2.1: drag one corner of a parallelogram in R^2"),
+        (
+            "parallelogram_2d",
+            PARALLELOGRAM,
+            "thesis fig. 2.1: drag one corner of a parallelogram in R^2",
+        ),
     ] {
         let out = solve_text(text, name)?;
         let path = dir.join(format!("{name}.solution.json"));
-        write_atomic(&path, (serde_json::to_string_pretty(&out)? + "\n").as_bytes())?;
-        println!("{name}: {what}");
-        println!("  rank {}  relevant {}  redundant {}", out["rank"], out["relevant"], out["redundant"]);
-        println!("  P = {}", out["P"]);
-        println!("  every constraint holds exactly: {}", out["all_constraints_hold"]);
-        println!("  -> {}\n", path.display());
+        write_atomic(&path, compact_pretty(&out).as_bytes())?;
+        let mut o = std::io::stdout().lock();
+        writeln!(o, "{name}: {what}")?;
+        writeln!(
+            o,
+            "  rank {}  relevant {}  redundant {}",
+            out["rank"], out["relevant"], out["redundant"]
+        )?;
+        writeln!(o, "  P = {}", out["P"])?;
+        writeln!(o, "  every constraint holds exactly: {}", out["all_constraints_hold"])?;
+        writeln!(o, "  -> {}\n", path.display())?;
     }
     Ok(())
 }

@@ -143,7 +143,8 @@ impl Session {
         // Columns of K = R_EA and C over all relevant rows (the solve reads the rows it needs).
         let r_ea = self.r_ea.clone();
         let c_all = self.c.clone();
-        let k_col = |a: usize| -> Vec<Rat> { (0..m).map(|i| Rat::from_integer(r_ea.get(i, a))).collect() };
+        let k_col =
+            |a: usize| -> Vec<Rat> { (0..m).map(|i| Rat::from_integer(r_ea.get(i, a))).collect() };
         let c_col = |j: usize| -> Vec<Rat> { c_all.iter().map(|r| r[j].clone()).collect() };
         let mut jm = vec![vec![Rat::zero(); na]; nd];
         let mut cm = vec![vec![Rat::zero(); d]; nd];
@@ -180,8 +181,13 @@ impl Session {
         let a_hat = lsq.matrix();
         let mut h = vec![vec![Rat::zero(); nd]; nd];
         for t in 0..nd {
-            let col: Vec<Rat> = (0..a_hat.rows()).map(|i| Rat::from_integer(a_hat.get(i, t))).collect();
-            let corr = if col.iter().all(Zero::is_zero) { vec![Rat::zero(); nd] } else { lsq.correction(&col) };
+            let col: Vec<Rat> =
+                (0..a_hat.rows()).map(|i| Rat::from_integer(a_hat.get(i, t))).collect();
+            let corr = if col.iter().all(Zero::is_zero) {
+                vec![Rat::zero(); nd]
+            } else {
+                lsq.correction(&col)
+            };
             for s in 0..nd {
                 h[s][t] = if s == t { Rat::one() } else { Rat::zero() } - &corr[s];
             }

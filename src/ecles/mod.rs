@@ -39,8 +39,8 @@
 //! let p = vec![vec![rat_int(1)], vec![rat_int(2)], vec![rat_int(3)], vec![rat_int(8)]];
 //! // Set pump 1 to 4; pumps 2 and 3 may adjust, pump 4 is fixed.
 //! let mut s = sys.initialize(&p, &[0], &[1, 2], InitOptions::default()).unwrap();
-//! let out = s.update(&[vec![rat_int(4)]], None, None).unwrap();
-//! assert_eq!(out, &[vec![rat_int(-1)], vec![rat_int(3)]]);
+//! s.update(&[vec![rat_int(4)]], None, None).unwrap();
+//! assert_eq!(s.derived_values(), vec![vec![rat_int(-1)], vec![rat_int(3)]]);
 //! ```
 
 mod affine;
@@ -232,7 +232,11 @@ impl ConstraintSystem {
     }
 
     /// Relevant constraints `E` and fixed relevant parameters `F'` (Alg. 2), both sorted.
-    pub fn extract_relevant(&self, anchors: &[usize], derived: &[usize]) -> (Vec<usize>, Vec<usize>) {
+    pub fn extract_relevant(
+        &self,
+        anchors: &[usize],
+        derived: &[usize],
+    ) -> (Vec<usize>, Vec<usize>) {
         let n = self.params();
         let mut moving = vec![false; n];
         for &s in anchors.iter().chain(derived) {

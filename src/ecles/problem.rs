@@ -102,13 +102,20 @@ fn num(v: &Value, path: &str) -> Result<Rat, ProblemError> {
     let text = match v {
         Value::Number(n) => n.to_string(),
         Value::String(s) => s.clone(),
-        _ => return Err(key_err(path, format!("expected a number or a \"p/q\" string, found {}", describe(v)))),
+        _ => {
+            return Err(key_err(
+                path,
+                format!("expected a number or a \"p/q\" string, found {}", describe(v)),
+            ))
+        }
     };
     parse_rat(&text).map_err(|e| key_err(path, e.to_string()))
 }
 
 fn row(v: &Value, path: &str, len: Option<usize>) -> Result<Vec<Rat>, ProblemError> {
-    let arr = v.as_array().ok_or_else(|| key_err(path, format!("expected an array, found {}", describe(v))))?;
+    let arr = v
+        .as_array()
+        .ok_or_else(|| key_err(path, format!("expected an array, found {}", describe(v))))?;
     if let Some(l) = len {
         if arr.len() != l {
             return Err(key_err(path, format!("expected {l} values, found {}", arr.len())));
@@ -118,35 +125,51 @@ fn row(v: &Value, path: &str, len: Option<usize>) -> Result<Vec<Rat>, ProblemErr
 }
 
 fn rows(v: &Value, path: &str, len: Option<usize>) -> Result<Vec<Vec<Rat>>, ProblemError> {
-    let arr = v.as_array().ok_or_else(|| key_err(path, format!("expected an array of rows, found {}", describe(v))))?;
+    let arr = v.as_array().ok_or_else(|| {
+        key_err(path, format!("expected an array of rows, found {}", describe(v)))
+    })?;
     arr.iter().enumerate().map(|(i, r)| row(r, &format!("{path}[{i}]"), len)).collect()
 }
 
 fn index_key(k: &str, path: &str, n: usize) -> Result<usize, ProblemError> {
-    let i: usize = k
-        .trim()
-        .parse()
-        .map_err(|_| key_err(format!("{path}.\"{k}\""), "keys must be parameter indices (0, 1, 2, ...)"))?;
+    let i: usize = k.trim().parse().map_err(|_| {
+        key_err(format!("{path}.\"{k}\""), "keys must be parameter indices (0, 1, 2, ...)")
+    })?;
     if i >= n {
-        return Err(key_err(format!("{path}.\"{k}\""), format!("parameter {i} is out of range (there are {n})")));
+        return Err(key_err(
+            format!("{path}.\"{k}\""),
+            format!("parameter {i} is out of range (there are {n})"),
+        ));
     }
     Ok(i)
 }
 
-fn object<'a>(doc: &'a Map<String, Value>, key: &str) -> Result<Option<&'a Map<String, Value>>, ProblemError> {
+fn object<'a>(
+    doc: &'a Map<String, Value>,
+    key: &str,
+) -> Result<Option<&'a Map<String, Value>>, ProblemError> {
     match doc.get(key) {
         None | Some(Value::Null) => Ok(None),
         Some(Value::Object(o)) => Ok(Some(o)),
-        Some(v) => Err(key_err(key, format!("expected an object {{\"index\": ...}}, found {}", describe(v)))),
+        Some(v) => Err(key_err(
+            key,
+            format!("expected an object {{\"index\": ...}}, found {}", describe(v)),
+        )),
     }
 }
 
 impl Problem {
     /// Parses a problem from JSON text.
     pub fn from_json(text: &str) -> Result<Problem, ProblemError> {
-        let doc: Value = serde_json::from_str(text).map_err(|e| ProblemError::Json(e.to_string()))?;
-        let doc = doc.as_object().ok_or_else(|| key_err("(top level)", "expected a JSON object"))?;
-        let p = rows(doc.get("P").ok_or_else(|| key_err("P", "missing (n rows of current values)"))?, "P", None)?;
+        let doc: Value =
+            serde_json::from_str(text).map_err(|e| ProblemError::Json(e.to_string()))?;
+        let doc =
+            doc.as_object().ok_or_else(|| key_err("(top level)", "expected a JSON object"))?;
+        let p = rows(
+            doc.get("P").ok_or_else(|| key_err("P", "missing (n rows of current values)"))?,
+            "P",
+            None,
+        )?;
         let n = p.len();
         let d = p.first().map_or(1, Vec::len);
         if d == 0 {
@@ -178,14 +201,18 @@ impl Problem {
             Some(v) => {
                 let q = rows(v, "Q", Some(d))?;
                 if q.len() != m {
-                    return Err(key_err("Q", format!("expected {m} rows (one per row of R), found {}", q.len())));
+                    return Err(key_err(
+                        "Q",
+                        format!("expected {m} rows (one per row of R), found {}", q.len()),
+                    ));
                 }
                 q
             }
         };
         let system = ConstraintSystem::with_dim(r, q, d)?;
 
-        let anchors_obj = object(doc, "anchors")?.ok_or_else(|| key_err("anchors", "missing (object: index -> new value)"))?;
+        let anchors_obj = object(doc, "anchors")?
+            .ok_or_else(|| key_err("anchors", "missing (object: index -> new value)"))?;
         let mut anchors: Vec<(usize, Vec<Rat>)> = Vec::new();
         for (k, v) in anchors_obj {
             let i = index_key(k, "anchors", n)?;
@@ -195,18 +222,32 @@ impl Problem {
         if let Some(w) = anchors.windows(2).find(|w| w[0].0 == w[1].0) {
             return Err(key_err("anchors", format!("parameter {} is given twice", w[0].0)));
         }
-        let derived_val = doc.get("derived").ok_or_else(|| key_err("derived", "missing (array of indices)"))?;
-        let derived_arr = derived_val.as_array().ok_or_else(|| key_err("derived", "expected an array of indices"))?;
+        let derived_val =
+            doc.get("derived").ok_or_else(|| key_err("derived", "missing (array of indices)"))?;
+        let derived_arr = derived_val
+            .as_array()
+            .ok_or_else(|| key_err("derived", "expected an array of indices"))?;
         let mut derived = Vec::with_capacity(derived_arr.len());
         for (k, v) in derived_arr.iter().enumerate() {
-            let i = v.as_u64().ok_or_else(|| key_err(format!("derived[{k}]"), format!("expected a parameter index, found {}", describe(v))))? as usize;
+            let i = v.as_u64().ok_or_else(|| {
+                key_err(
+                    format!("derived[{k}]"),
+                    format!("expected a parameter index, found {}", describe(v)),
+                )
+            })? as usize;
             if i >= n {
-                return Err(key_err(format!("derived[{k}]"), format!("parameter {i} is out of range (there are {n})")));
+                return Err(key_err(
+                    format!("derived[{k}]"),
+                    format!("parameter {i} is out of range (there are {n})"),
+                ));
             }
             derived.push(i);
         }
         let pos_of = |i: usize, path: &str| {
-            derived.iter().position(|&s| s == i).ok_or_else(|| key_err(path, format!("parameter {i} is not derived")))
+            derived
+                .iter()
+                .position(|&s| s == i)
+                .ok_or_else(|| key_err(path, format!("parameter {i} is not derived")))
         };
         let mut hints: Vec<Vec<Rat>> = derived.iter().map(|&s| p[s].clone()).collect();
         if let Some(h) = object(doc, "hints")? {
@@ -231,12 +272,22 @@ impl Problem {
         let strong = match doc.get("strong") {
             None | Some(Value::Null) => false,
             Some(Value::Bool(b)) => *b,
-            Some(v) => return Err(key_err("strong", format!("expected true or false, found {}", describe(v)))),
+            Some(v) => {
+                return Err(key_err(
+                    "strong",
+                    format!("expected true or false, found {}", describe(v)),
+                ))
+            }
         };
         let method = match doc.get("method") {
             None | Some(Value::Null) => Simplification::Turner,
             Some(Value::String(s)) => s.parse().map_err(|e: String| key_err("method", e))?,
-            Some(v) => return Err(key_err("method", format!("expected \"none\", \"gcd\" or \"turner\", found {}", describe(v)))),
+            Some(v) => {
+                return Err(key_err(
+                    "method",
+                    format!("expected \"none\", \"gcd\" or \"turner\", found {}", describe(v)),
+                ))
+            }
         };
         let (anchors, anchor_values) = anchors.into_iter().unzip();
         Ok(Problem { system, p, anchors, anchor_values, derived, hints, weights, strong, method })
@@ -310,7 +361,8 @@ mod tests {
 
     #[test]
     fn exact_decimals_and_fractions() {
-        let t = r#"{"R": [[1, -1]], "P": [["1/3"], [0.1]], "anchors": {"0": ["2/3"]}, "derived": [1]}"#;
+        let t =
+            r#"{"R": [[1, -1]], "P": [["1/3"], [0.1]], "anchors": {"0": ["2/3"]}, "derived": [1]}"#;
         let s = Problem::from_json(t).unwrap().solve().unwrap();
         assert_eq!(s.to_json()["P"], json!([["2/3"], ["2/3"]]));
     }
@@ -318,16 +370,40 @@ mod tests {
     #[test]
     fn errors_name_the_element() {
         let cases = [
-            (r#"{"R": [[1, 2]], "P": [[1], [true]], "anchors": {"0": [1]}, "derived": []}"#, "P[1][0]"),
+            (
+                r#"{"R": [[1, 2]], "P": [[1], [true]], "anchors": {"0": [1]}, "derived": []}"#,
+                "P[1][0]",
+            ),
             (r#"{"R": [[1]], "P": [[1], [2]], "anchors": {"0": [1]}, "derived": []}"#, "R[0]"),
-            (r#"{"R": [[1, 0.5]], "P": [[1], [2]], "anchors": {"0": [1]}, "derived": []}"#, "R[0][1]"),
-            (r#"{"R": [[1, 1]], "P": [[1], [2]], "anchors": {"x": [1]}, "derived": []}"#, "anchors.\"x\""),
-            (r#"{"R": [[1, 1]], "P": [[1], [2]], "anchors": {"0": [1]}, "derived": [1], "weights": {"1": -2}}"#, "weights.\"1\""),
-            (r#"{"R": [[1, 1]], "P": [[1], [2]], "anchors": {"0": [1]}, "derived": [1], "hints": {"0": [1]}}"#, "hints.\"0\""),
-            (r#"{"R": [[1, 1]], "P": [[1], [2]], "anchors": {"0": [1]}, "derived": [1], "method": "lu"}"#, "method"),
+            (
+                r#"{"R": [[1, 0.5]], "P": [[1], [2]], "anchors": {"0": [1]}, "derived": []}"#,
+                "R[0][1]",
+            ),
+            (
+                r#"{"R": [[1, 1]], "P": [[1], [2]], "anchors": {"x": [1]}, "derived": []}"#,
+                "anchors.\"x\"",
+            ),
+            (
+                r#"{"R": [[1, 1]], "P": [[1], [2]], "anchors": {"0": [1]}, "derived": [1], "weights": {"1": -2}}"#,
+                "weights.\"1\"",
+            ),
+            (
+                r#"{"R": [[1, 1]], "P": [[1], [2]], "anchors": {"0": [1]}, "derived": [1], "hints": {"0": [1]}}"#,
+                "hints.\"0\"",
+            ),
+            (
+                r#"{"R": [[1, 1]], "P": [[1], [2]], "anchors": {"0": [1]}, "derived": [1], "method": "lu"}"#,
+                "method",
+            ),
             (r#"{"R": [[1, 1]], "P": [[1], [2]], "derived": [1]}"#, "anchors"),
-            (r#"{"R": [[1, 1]], "P": [[1], [2]], "anchors": {"0": [1]}, "derived": [5]}"#, "derived[0]"),
-            (r#"{"R": [[1, 1]], "Q": [[1], [2]], "P": [[1], [2]], "anchors": {"0": [1]}, "derived": [1]}"#, "Q"),
+            (
+                r#"{"R": [[1, 1]], "P": [[1], [2]], "anchors": {"0": [1]}, "derived": [5]}"#,
+                "derived[0]",
+            ),
+            (
+                r#"{"R": [[1, 1]], "Q": [[1], [2]], "P": [[1], [2]], "anchors": {"0": [1]}, "derived": [1]}"#,
+                "Q",
+            ),
         ];
         for (text, path) in cases {
             match Problem::from_json(text) {

@@ -4,7 +4,7 @@
 use super::{ConstraintSystem, EclesError};
 use crate::exact::ldu::{Ldu, LduOptions, Pivoting, Simplification};
 use crate::exact::lsq::{LsqError, WeightedLsq};
-use crate::exact::matrix::{Rat, SparseIntMatrix};
+use crate::exact::matrix::{Rat, ScaledVec, SparseIntMatrix};
 use num_traits::{One, Signed, Zero};
 
 /// Options of [`ConstraintSystem::initialize`].
@@ -37,7 +37,8 @@ pub struct Session {
     pub(super) d: usize,
     pub(super) method: Simplification,
     anchor_values: Vec<Vec<Rat>>,
-    derived_values: Vec<Vec<Rat>>,
+    /// Derived values per coordinate (`d` vectors of length `|D|`).
+    values: Vec<ScaledVec>,
     lsq: Option<(Vec<Rat>, WeightedLsq)>,
 }
 
@@ -56,10 +57,18 @@ fn check_indices(what: &'static str, idx: &[usize], n: usize) -> Result<(), Ecle
 
 fn check_rows(what: &str, m: &[Vec<Rat>], rows: usize, d: usize) -> Result<(), EclesError> {
     if m.len() != rows {
-        return Err(EclesError::Dimension { what: format!("rows of {what}"), expected: rows, found: m.len() });
+        return Err(EclesError::Dimension {
+            what: format!("rows of {what}"),
+            expected: rows,
+            found: m.len(),
+        });
     }
     if let Some(r) = m.iter().find(|r| r.len() != d) {
-        return Err(EclesError::Dimension { what: format!("values per row of {what}"), expected: d, found: r.len() });
+        return Err(EclesError::Dimension {
+            what: format!("values per row of {what}"),
+            expected: d,
+            found: r.len(),
+        });
     }
     Ok(())
 }
@@ -99,18 +108,27 @@ impl ConstraintSystem {
         let r_ed = self.r.select(&relevant, &map_cols(derived), derived.len());
         let r_ea = self.r.select(&relevant, &map_cols(anchors), anchors.len());
         let r_ef = self.r.select(&relevant, &map_cols(&fixed_relevant), fixed_relevant.len());
-        let ldu = Ldu::factor(&r_ed, LduOptions { simplification: opts.method, pivoting: opts.pivoting });
+        let ldu =
+            Ldu::factor(&r_ed, LduOptions { simplification: opts.method, pivoting: opts.pivoting });
         let p_f: Vec<Vec<Rat>> = fixed_relevant.iter().map(|&s| p[s].clone()).collect();
         let rf = r_ef.mul_rat(&p_f);
         let c: Vec<Vec<Rat>> = relevant
             .iter()
             .enumerate()
-            .map(|(k, &i)| (0..self.d).map(|j| match rf[k].get(j) {
-                Some(v) => &self.q[i][j] - v,
-                None => self.q[i][j].clone(),
-            }).collect())
+            .map(|(k, &i)| {
+                (0..self.d)
+                    .map(|j| match rf[k].get(j) {
+                        Some(v) => &self.q[i][j] - v,
+                        None => self.q[i][j].clone(),
+                    })
+                    .collect()
+            })
             .collect();
-        let r_hat = r_ed.select(ldu.independent_rows(), &(0..derived.len()).map(Some).collect::<Vec<_>>(), derived.len());
+        let r_hat = r_ed.select(
+            ldu.independent_rows(),
+            &(0..derived.len()).map(Some).collect::<Vec<_>>(),
+            derived.len(),
+        );
         let session = Session {
             anchors: anchors.to_vec(),
             derived: derived.to_vec(),
@@ -123,7 +141,13 @@ impl ConstraintSystem {
             d: self.d,
             method: opts.method,
             anchor_values: anchors.iter().map(|&s| p[s].clone()).collect(),
-            derived_values: derived.iter().map(|&s| p[s].clone()).collect(),
+            values: (0..self.d)
+                .map(|j| {
+                    ScaledVec::from_rats(
+                        &derived.iter().map(|&s| p[s][j].clone()).collect::<Vec<_>>(),
+                    )
+                })
+                .collect(),
             lsq: None,
         };
         if opts.strong {
@@ -156,13 +180,15 @@ impl Session {
     }
     /// Relevant constraints that are redundant given the others (sorted original indices).
     pub fn redundant(&self) -> Vec<usize> {
-        let mut v: Vec<usize> = self.ldu.redundant_rows().iter().map(|&k| self.relevant[k]).collect();
+        let mut v: Vec<usize> =
+            self.ldu.redundant_rows().iter().map(|&k| self.relevant[k]).collect();
         v.sort_unstable();
         v
     }
     /// Relevant constraints kept as independent (sorted original indices).
     pub fn independent(&self) -> Vec<usize> {
-        let mut v: Vec<usize> = self.ldu.independent_rows().iter().map(|&k| self.relevant[k]).collect();
+        let mut v: Vec<usize> =
+            self.ldu.independent_rows().iter().map(|&k| self.relevant[k]).collect();
         v.sort_unstable();
         v
     }
@@ -174,17 +200,30 @@ impl Session {
     pub fn anchor_values(&self) -> &[Vec<Rat>] {
         &self.anchor_values
     }
-    /// Current derived values (`|D|` rows of `d`).
-    pub fn derived_values(&self) -> &[Vec<Rat>] {
-        &self.derived_values
+    /// Current derived values (`|D|` rows of `d`), each in lowest terms.
+    pub fn derived_values(&self) -> Vec<Vec<Rat>> {
+        let cols: Vec<Vec<Rat>> = self.values.iter().map(ScaledVec::to_rats).collect();
+        (0..self.derived.len()).map(|s| cols.iter().map(|c| c[s].clone()).collect()).collect()
+    }
+
+    /// Current derived values per coordinate, as integers over a common denominator (no
+    /// reduction; the cheap form).
+    pub fn derived_scaled(&self) -> &[ScaledVec] {
+        &self.values
+    }
+
+    /// Current derived values as `f64` (`|D|` rows of `d`).
+    pub fn derived_f64(&self) -> Vec<Vec<f64>> {
+        let cols: Vec<Vec<f64>> = self.values.iter().map(ScaledVec::to_f64).collect();
+        (0..self.derived.len()).map(|s| cols.iter().map(|c| c[s]).collect()).collect()
     }
     /// Writes the current anchor and derived values into a full parameter matrix.
     pub fn write_into(&self, p: &mut [Vec<Rat>]) {
         for (&s, v) in self.anchors.iter().zip(&self.anchor_values) {
             p[s] = v.clone();
         }
-        for (&s, v) in self.derived.iter().zip(&self.derived_values) {
-            p[s] = v.clone();
+        for (&s, v) in self.derived.iter().zip(self.derived_values()) {
+            p[s] = v;
         }
     }
 
@@ -222,10 +261,14 @@ impl Session {
         self.c
             .iter()
             .zip(ka)
-            .map(|(c, k)| (0..self.d).map(|j| match k.get(j) {
-                Some(v) => &c[j] - v,
-                None => c[j].clone(),
-            }).collect())
+            .map(|(c, k)| {
+                (0..self.d)
+                    .map(|j| match k.get(j) {
+                        Some(v) => &c[j] - v,
+                        None => c[j].clone(),
+                    })
+                    .collect()
+            })
             .collect()
     }
 
@@ -236,19 +279,25 @@ impl Session {
             None => true,
         };
         if stale {
-            let lsq = WeightedLsq::new(self.r_hat.clone(), weights, self.method).map_err(|e| match e {
-                LsqError::NonPositiveWeight { index, value } => {
-                    EclesError::NonPositiveWeight { index: self.derived[index], value }
-                }
-                other => unreachable!("independent rows and checked weights: {other}"),
-            })?;
+            let lsq =
+                WeightedLsq::new(self.r_hat.clone(), weights, self.method).map_err(
+                    |e| match e {
+                        LsqError::NonPositiveWeight { index, value } => {
+                            EclesError::NonPositiveWeight { index: self.derived[index], value }
+                        }
+                        other => unreachable!("independent rows and checked weights: {other}"),
+                    },
+                )?;
             self.lsq = Some((weights.to_vec(), lsq));
         }
         Ok(&self.lsq.as_ref().expect("just set").1)
     }
 
     /// Validated weights for the derived parameters (default 1).
-    pub(super) fn weights_or_default(&self, weights: Option<&[Rat]>) -> Result<Vec<Rat>, EclesError> {
+    pub(super) fn weights_or_default(
+        &self,
+        weights: Option<&[Rat]>,
+    ) -> Result<Vec<Rat>, EclesError> {
         match weights {
             None => Ok(vec![Rat::one(); self.derived.len()]),
             Some(w) => {
@@ -260,7 +309,10 @@ impl Session {
                     });
                 }
                 if let Some((k, v)) = w.iter().enumerate().find(|(_, v)| !v.is_positive()) {
-                    return Err(EclesError::NonPositiveWeight { index: self.derived[k], value: v.to_string() });
+                    return Err(EclesError::NonPositiveWeight {
+                        index: self.derived[k],
+                        value: v.to_string(),
+                    });
                 }
                 Ok(w.to_vec())
             }
@@ -270,43 +322,60 @@ impl Session {
     /// ECLES.Update (Alg. 4): sets the anchors to `anchor_values` (`|A|` rows of `d`) and
     /// moves the derived parameters to the values nearest `hints` (default: their current
     /// values) with per-derived `weights` (default 1) that keep every constraint exactly.
+    /// Read the result with [`Session::derived_values`] (or the cheaper
+    /// [`Session::derived_scaled`] / [`Session::derived_f64`]).
     ///
-    /// Returns the new derived values. On error (weak solvability fails, bad sizes or
-    /// weights) the session is unchanged.
+    /// On error (weak solvability fails, bad sizes or weights) the session is unchanged.
     pub fn update(
         &mut self,
         anchor_values: &[Vec<Rat>],
         hints: Option<&[Vec<Rat>]>,
         weights: Option<&[Rat]>,
-    ) -> Result<&[Vec<Rat>], EclesError> {
+    ) -> Result<(), EclesError> {
         check_rows("anchor values", anchor_values, self.anchors.len(), self.d)?;
         if let Some(h) = hints {
             check_rows("hints", h, self.derived.len(), self.d)?;
         }
         let weights = self.weights_or_default(weights)?;
         let b = self.rhs(anchor_values);
-        // Weak solvability (Alg. 5) and the forward substitution, per coordinate.
-        let mut ys = Vec::with_capacity(self.d);
+        // Weak solvability (Alg. 5) per coordinate; with full column rank the same pass gives
+        // the unique solution (Alg. 14).
+        let unique = self.ldu.rank() == self.derived.len();
+        let mut new_values: Vec<ScaledVec> = Vec::with_capacity(self.d);
+        let mut b_cols: Vec<Vec<Rat>> = Vec::with_capacity(self.d);
         for j in 0..self.d {
             let col: Vec<Rat> = b.iter().map(|r| r[j].clone()).collect();
-            let (y, bad) = self.ldu.forward(&col);
-            if let Some(row) = bad {
-                return Err(EclesError::NotWeaklySolvable { constraint: self.relevant[row], column: j });
+            let fail = |row: usize| EclesError::NotWeaklySolvable {
+                constraint: self.relevant[row],
+                column: j,
+            };
+            if unique {
+                let (x, den) = self.ldu.solve_scaled(&col).map_err(|e| fail(e.row))?;
+                new_values.push(ScaledVec::new(x, den));
+            } else if let Some(row) = self.ldu.first_inconsistent(&col) {
+                return Err(fail(row));
             }
-            ys.push(y);
+            b_cols.push(col);
         }
-        let nd = self.derived.len();
-        let new_derived: Vec<Vec<Rat>> = if self.ldu.rank() == nd {
-            // Unique solution: back substitution (Alg. 14).
-            let cols: Vec<Vec<Rat>> = ys.iter().map(|y| self.ldu.back(y)).collect();
-            (0..nd).map(|s| cols.iter().map(|c| c[s].clone()).collect()).collect()
-        } else {
-            let hints = hints.map(<[Vec<Rat>]>::to_vec).unwrap_or_else(|| self.derived_values.clone());
-            let b_hat: Vec<Vec<Rat>> = self.ldu.independent_rows().iter().map(|&k| b[k].clone()).collect();
-            self.lsq_for(&weights)?.solve(&b_hat, &hints)
-        };
+        if !unique {
+            let rows = self.ldu.independent_rows().to_vec();
+            let hint_cols: Vec<ScaledVec> = match hints {
+                Some(h) => (0..self.d)
+                    .map(|j| {
+                        ScaledVec::from_rats(&h.iter().map(|r| r[j].clone()).collect::<Vec<_>>())
+                    })
+                    .collect(),
+                None => self.values.clone(),
+            };
+            let lsq = self.lsq_for(&weights)?;
+            for (j, col) in b_cols.iter().enumerate() {
+                let b_hat =
+                    ScaledVec::from_rats(&rows.iter().map(|&k| col[k].clone()).collect::<Vec<_>>());
+                new_values.push(lsq.solve_scaled(&b_hat, &hint_cols[j]));
+            }
+        }
         self.anchor_values = anchor_values.to_vec();
-        self.derived_values = new_derived;
-        Ok(&self.derived_values)
+        self.values = new_values;
+        Ok(())
     }
 }

@@ -99,16 +99,86 @@ pub fn experiments(quick: bool) -> Vec<Experiment> {
     let step = |hi: usize, s: usize| (2..=hi).step_by(s).collect::<Vec<_>>();
     let (s1, s2) = if quick { (4, 6) } else { (1, 2) };
     vec![
-        Experiment { id: "fig7_1", title: "Fig 7.1: no simplification, dense, 15 columns", x_label: "rows m", xs: step(if quick { 10 } else { 14 }, if quick { 2 } else { 1 }), methods: vec![None, Gcd, Turner], family: Family::DenseRows { cols: 15 } },
-        Experiment { id: "fig7_2", title: "Fig 7.2: GCD, dense square", x_label: "size m = n", xs: step(40, s1), methods: vec![Gcd], family: Family::DenseSquare },
-        Experiment { id: "fig7_3", title: "Fig 7.3: GCD vs Turner, dense, 20 columns", x_label: "rows m", xs: step(40, s1), methods: vec![Gcd, Turner], family: Family::DenseRows { cols: 20 } },
-        Experiment { id: "fig7_4", title: "Fig 7.4: rank deficient 20x20", x_label: "rank r", xs: step(20, s2 / 2 + 1), methods: vec![Gcd, Turner], family: Family::LowRank { size: 20 } },
-        Experiment { id: "fig7_5", title: "Fig 7.5: sparse square, density 0.10", x_label: "size m = n", xs: step(40, s1), methods: vec![Gcd, Turner], family: Family::SparseSquare { h: 0.10 } },
-        Experiment { id: "fig7_6", title: "Fig 7.6: sparse square, density 0.25", x_label: "size m = n", xs: step(40, s1), methods: vec![Gcd, Turner], family: Family::SparseSquare { h: 0.25 } },
-        Experiment { id: "fig7_7", title: "Fig 7.7: sparse 20x20 by density", x_label: "density h (%)", xs: (5..=100).step_by(if quick { 19 } else { 5 }).collect(), methods: vec![Gcd, Turner], family: Family::SparseDensity { size: 20 } },
-        Experiment { id: "fig7_8", title: "Fig 7.8: sparse rank deficient 20x20, density 0.10", x_label: "rank r", xs: step(20, s2 / 2 + 1), methods: vec![Gcd, Turner], family: Family::SparseLowRank { size: 20, h: 0.10 } },
-        Experiment { id: "fig7_9", title: "Fig 7.9: sparse rank deficient 20x20, density 0.25", x_label: "rank r", xs: step(20, s2 / 2 + 1), methods: vec![Gcd, Turner], family: Family::SparseLowRank { size: 20, h: 0.25 } },
-        Experiment { id: "fig7_10", title: "Fig 7.10: sparse rank 10, 20x20, by density", x_label: "density h (%)", xs: (5..=100).step_by(if quick { 19 } else { 5 }).collect(), methods: vec![Gcd, Turner], family: Family::SparseLowRankDensity { size: 20, rank: 10 } },
+        Experiment {
+            id: "fig7_1",
+            title: "Fig 7.1: no simplification, dense, 15 columns",
+            x_label: "rows m",
+            xs: step(if quick { 10 } else { 14 }, if quick { 2 } else { 1 }),
+            methods: vec![None, Gcd, Turner],
+            family: Family::DenseRows { cols: 15 },
+        },
+        Experiment {
+            id: "fig7_2",
+            title: "Fig 7.2: GCD, dense square",
+            x_label: "size m = n",
+            xs: step(40, s1),
+            methods: vec![Gcd],
+            family: Family::DenseSquare,
+        },
+        Experiment {
+            id: "fig7_3",
+            title: "Fig 7.3: GCD vs Turner, dense, 20 columns",
+            x_label: "rows m",
+            xs: step(40, s1),
+            methods: vec![Gcd, Turner],
+            family: Family::DenseRows { cols: 20 },
+        },
+        Experiment {
+            id: "fig7_4",
+            title: "Fig 7.4: rank deficient 20x20",
+            x_label: "rank r",
+            xs: step(20, s2 / 2 + 1),
+            methods: vec![Gcd, Turner],
+            family: Family::LowRank { size: 20 },
+        },
+        Experiment {
+            id: "fig7_5",
+            title: "Fig 7.5: sparse square, density 0.10",
+            x_label: "size m = n",
+            xs: step(40, s1),
+            methods: vec![Gcd, Turner],
+            family: Family::SparseSquare { h: 0.10 },
+        },
+        Experiment {
+            id: "fig7_6",
+            title: "Fig 7.6: sparse square, density 0.25",
+            x_label: "size m = n",
+            xs: step(40, s1),
+            methods: vec![Gcd, Turner],
+            family: Family::SparseSquare { h: 0.25 },
+        },
+        Experiment {
+            id: "fig7_7",
+            title: "Fig 7.7: sparse 20x20 by density",
+            x_label: "density h (%)",
+            xs: (5..=100).step_by(if quick { 19 } else { 5 }).collect(),
+            methods: vec![Gcd, Turner],
+            family: Family::SparseDensity { size: 20 },
+        },
+        Experiment {
+            id: "fig7_8",
+            title: "Fig 7.8: sparse rank deficient 20x20, density 0.10",
+            x_label: "rank r",
+            xs: step(20, s2 / 2 + 1),
+            methods: vec![Gcd, Turner],
+            family: Family::SparseLowRank { size: 20, h: 0.10 },
+        },
+        Experiment {
+            id: "fig7_9",
+            title: "Fig 7.9: sparse rank deficient 20x20, density 0.25",
+            x_label: "rank r",
+            xs: step(20, s2 / 2 + 1),
+            methods: vec![Gcd, Turner],
+            family: Family::SparseLowRank { size: 20, h: 0.25 },
+        },
+        Experiment {
+            id: "fig7_10",
+            title: "Fig 7.10: sparse rank 10, 20x20, by density",
+            x_label: "density h (%)",
+            xs: (5..=100).step_by(if quick { 19 } else { 5 }).collect(),
+            methods: vec![Gcd, Turner],
+            family: Family::SparseLowRankDensity { size: 20, rank: 10 },
+        },
     ]
 }
 
@@ -136,7 +206,11 @@ fn factor_density(h: f64, r: usize) -> f64 {
 /// A random matrix of `family` for x value `x`.
 pub fn random_matrix(family: Family, x: usize, rng: &mut SmallRng) -> SparseIntMatrix {
     let dense = |rng: &mut SmallRng, m: usize, n: usize, h: f64| -> Vec<Vec<i64>> {
-        (0..m).map(|_| (0..n).map(|_| if rng.gen::<f64>() < h { entry(rng, 511) } else { 0 }).collect()).collect()
+        (0..m)
+            .map(|_| {
+                (0..n).map(|_| if rng.gen::<f64>() < h { entry(rng, 511) } else { 0 }).collect()
+            })
+            .collect()
     };
     let rows = match family {
         Family::DenseRows { cols } => dense(rng, x, cols, 1.0),
@@ -152,7 +226,13 @@ pub fn random_matrix(family: Family, x: usize, rng: &mut SmallRng) -> SparseIntM
     let n = rows.first().map_or(0, Vec::len);
     let rows = rows
         .into_iter()
-        .map(|r| r.into_iter().enumerate().filter(|(_, v)| *v != 0).map(|(j, v)| (j, Int::from(v))).collect())
+        .map(|r| {
+            r.into_iter()
+                .enumerate()
+                .filter(|(_, v)| *v != 0)
+                .map(|(j, v)| (j, Int::from(v)))
+                .collect()
+        })
         .collect();
     SparseIntMatrix::from_rows(n, rows).expect("in range")
 }

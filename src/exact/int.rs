@@ -10,7 +10,7 @@
 //! `Int` implements the `num-traits` / `num-integer` traits, so `num_rational::Ratio<Int>`
 //! (see [`crate::exact::Rat`]) is an exact rational with the same fast path.
 
-use num_bigint::{BigInt, Sign};
+use num_bigint::{BigInt, BigUint, Sign};
 use num_integer::Integer;
 use num_traits::{FromPrimitive, Num, One, Signed, ToPrimitive, Zero};
 use std::cmp::Ordering;
@@ -106,9 +106,17 @@ impl Int {
                     None => Int::from_i128(*a as i128 / *b as i128),
                 }
             }
-            _ => {
-                let (a, b) = (self.to_big(), d.to_big());
-                debug_assert!((&a % &b).is_zero(), "inexact division");
+            (Int::Big(a), Int::Small(b)) => {
+                debug_assert!((a % *b).is_zero(), "inexact division");
+                Int::from_big(a / *b)
+            }
+            (Int::Small(a), Int::Big(_)) => {
+                // |d| > |a| unless a = 0, so an exact quotient is 0.
+                debug_assert!(*a == 0, "inexact division");
+                Int::Small(0)
+            }
+            (Int::Big(a), Int::Big(b)) => {
+                debug_assert!((a % b).is_zero(), "inexact division");
                 Int::from_big(a / b)
             }
         }
@@ -128,10 +136,12 @@ impl Int {
                 let r = (b % BigInt::from(*a)).to_i64().expect("remainder fits");
                 int_from_u64(gcd_u64(a.unsigned_abs(), r.unsigned_abs()))
             }
-            (Int::Big(a), Int::Big(b)) => Int::from_big(a.gcd(b)),
+            (Int::Big(a), Int::Big(b)) => Int::from_big(BigInt::from(lehmer_gcd(
+                a.magnitude().clone(),
+                b.magnitude().clone(),
+            ))),
         }
     }
-
 
     /// `self * a - other * b`, the fraction-free elimination kernel, with one overflow check.
     #[inline]
@@ -140,7 +150,7 @@ impl Int {
             let v = (*a as i128) * (*x as i128) - (*b as i128) * (*y as i128);
             return Int::from_i128(v);
         }
-        Int::from_big(a.to_big() * x.to_big() - b.to_big() * y.to_big())
+        &(a * x) - &(b * y)
     }
 
     /// Approximate value as `f64` (correctly rounded for `Small`, nearest for `Big`).
@@ -148,6 +158,67 @@ impl Int {
         match self {
             Int::Small(v) => *v as f64,
             Int::Big(b) => b.to_f64().unwrap_or(f64::NAN),
+        }
+    }
+}
+
+/// Lehmer's gcd (Knuth, TAOCP vol. 2, 4.5.2, Algorithm L) with 64-bit leading digits: most
+/// Euclid steps run on machine words, and the big numbers are updated once per ~60 bits.
+/// (num-bigint's binary gcd is quadratic in the bit size with a large constant.)
+pub fn lehmer_gcd(mut u: BigUint, mut v: BigUint) -> BigUint {
+    if u < v {
+        std::mem::swap(&mut u, &mut v);
+    }
+    loop {
+        if v.is_zero() {
+            return u;
+        }
+        if u.bits() <= 64 {
+            let (a, b) = (u.to_u64().expect("fits"), v.to_u64().expect("fits"));
+            return BigUint::from(gcd_u64(a, b));
+        }
+        // Leading 62 bits, so that every intermediate fits in i64.
+        let shift = u.bits() - 62;
+        let mut uh = (&u >> shift).to_u64().expect("62 bits") as i64;
+        let mut vh = (&v >> shift).to_u64().expect("62 bits") as i64;
+        let (mut a, mut b, mut c, mut d): (i64, i64, i64, i64) = (1, 0, 0, 1);
+        loop {
+            if vh + c == 0 || vh + d == 0 {
+                break;
+            }
+            let q = (uh + a) / (vh + c);
+            if q != (uh + b) / (vh + d) {
+                break;
+            }
+            let t = a - q * c;
+            a = c;
+            c = t;
+            let t = b - q * d;
+            b = d;
+            d = t;
+            let t = uh - q * vh;
+            uh = vh;
+            vh = t;
+        }
+        if b == 0 {
+            let t = &u % &v;
+            u = v;
+            v = t;
+        } else {
+            // Cofactor signs alternate: (a, b) and (c, d) each have one negative entry, and
+            // both combinations are nonnegative.
+            let comb = |x: i64, y: i64, u: &BigUint, v: &BigUint| -> BigUint {
+                let (xu, yv) = (u * x.unsigned_abs(), v * y.unsigned_abs());
+                if x <= 0 && y >= 0 {
+                    yv - xu
+                } else {
+                    xu - yv
+                }
+            };
+            let nu = comb(a, b, &u, &v);
+            let nv = comb(c, d, &u, &v);
+            u = nu;
+            v = nv;
         }
     }
 }
@@ -176,6 +247,12 @@ pub fn gcd_u64(mut a: u64, mut b: u64) -> u64 {
         if b == 0 {
             return a << shift;
         }
+    }
+}
+
+impl Default for Int {
+    fn default() -> Int {
+        Int::Small(0)
     }
 }
 
@@ -256,17 +333,20 @@ impl FromStr for Int {
 }
 
 macro_rules! binop {
-    ($tr:ident, $m:ident, $checked:ident, $bigop:tt) => {
+    ($tr:ident, $m:ident, $checked:ident, $bigop:tt, $small_big:expr) => {
         impl $tr<&Int> for &Int {
             type Output = Int;
             #[inline]
             fn $m(self, rhs: &Int) -> Int {
-                if let (Int::Small(a), Int::Small(b)) = (self, rhs) {
-                    if let Some(v) = a.$checked(*b) {
-                        return Int::Small(v);
-                    }
+                match (self, rhs) {
+                    (Int::Small(a), Int::Small(b)) => match a.$checked(*b) {
+                        Some(v) => Int::Small(v),
+                        None => Int::from_i128((*a as i128) $bigop (*b as i128)),
+                    },
+                    (Int::Big(a), Int::Small(b)) => Int::from_big(a $bigop *b),
+                    (Int::Small(a), Int::Big(b)) => Int::from_big($small_big(*a, b)),
+                    (Int::Big(a), Int::Big(b)) => Int::from_big(a $bigop b),
                 }
-                Int::from_big(self.to_big() $bigop rhs.to_big())
             }
         }
         impl $tr<Int> for Int {
@@ -285,9 +365,9 @@ macro_rules! binop {
         }
     };
 }
-binop!(Add, add, checked_add, +);
-binop!(Sub, sub, checked_sub, -);
-binop!(Mul, mul, checked_mul, *);
+binop!(Add, add, checked_add, +, |a: i64, b: &BigInt| b + a);
+binop!(Sub, sub, checked_sub, -, |a: i64, b: &BigInt| -(b - a));
+binop!(Mul, mul, checked_mul, *, |a: i64, b: &BigInt| b * a);
 
 // Truncating division and remainder (as for primitive integers).
 impl Div<&Int> for &Int {
@@ -533,6 +613,14 @@ mod tests {
 
     proptest! {
         #[test]
+        fn lehmer_gcd_agrees_with_bigint(a in prop::collection::vec(any::<u64>(), 1..6), b in prop::collection::vec(any::<u64>(), 1..6), g in prop::collection::vec(any::<u64>(), 0..3)) {
+            let mk = |v: &[u64]| v.iter().fold(BigUint::from(0u8), |acc, x| (acc << 64) + BigUint::from(*x));
+            let (x, y, f) = (mk(&a), mk(&b), mk(&g) + 1u8);
+            let (x, y) = (x * &f, y * &f);
+            prop_assert_eq!(lehmer_gcd(x.clone(), y.clone()), x.gcd(&y));
+        }
+
+        #[test]
         fn ops_agree_with_bigint(a in any::<i64>(), b in any::<i64>(), c in any::<i64>(), d in any::<i64>()) {
             let (x, y) = (Int::Small(a), Int::Small(b));
             let (ba, bb) = (BigInt::from(a), BigInt::from(b));
@@ -541,6 +629,13 @@ mod tests {
             prop_assert_eq!(big(&(&x * &y)), &ba * &bb);
             let p = &x * &y; // often Big
             prop_assert_eq!(big(&(&p + &x)), &ba * &bb + &ba);
+            prop_assert_eq!(big(&(&x + &p)), &ba * &bb + &ba);
+            prop_assert_eq!(big(&(&p - &x)), &ba * &bb - &ba);
+            prop_assert_eq!(big(&(&x - &p)), &ba - &ba * &bb);
+            prop_assert_eq!(big(&(&x * &p)), &ba * &ba * &bb);
+            prop_assert_eq!(big(&(&p * &p)), (&ba * &bb) * (&ba * &bb));
+            prop_assert_eq!(big(&Int::cross(&p, &p, &x, &y)), (&ba * &bb) * (&ba * &bb) - &ba * &bb);
+            prop_assert_eq!(big(&(&p * &p).div_exact(&p)), &ba * &bb);
             prop_assert_eq!(big(&p.gcd_int(&x)), (&ba * &bb).gcd(&ba));
             prop_assert_eq!(big(&x.gcd_int(&p)), (&ba * &bb).gcd(&ba));
             prop_assert_eq!(p.cmp_abs(&x), (&ba * &bb).magnitude().cmp(ba.magnitude()));

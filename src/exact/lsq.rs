@@ -33,8 +33,8 @@
 //! ```
 
 use super::int::Int;
-use super::ldu::{Ldu, LduOptions, Simplification};
-use super::matrix::{Rat, SparseIntMatrix};
+use super::ldu::{Ldu, LduOptions, Pivoting, Simplification};
+use super::matrix::{Rat, ScaledVec, SparseIntMatrix};
 use num_integer::Integer;
 use num_traits::{One, Signed, Zero};
 
@@ -75,10 +75,14 @@ pub struct WeightedLsq {
     /// Factoring of `scale * G`.
     g: Ldu,
     scale: Rat,
+    /// `scale / w_s`, an integer per unknown.
+    factor: Vec<Int>,
 }
 
 impl WeightedLsq {
     /// Builds and factors `G = A W^-1 A^T` for independent rows `a` and positive `weights`.
+    /// `G` is always factored with Turner's simplification (integer solves); `method` is
+    /// accepted for symmetry with the other factorings and reserved.
     pub fn new(
         a: SparseIntMatrix,
         weights: &[Rat],
@@ -92,49 +96,41 @@ impl WeightedLsq {
             return Err(LsqError::NonPositiveWeight { index, value: w.to_string() });
         }
         let winv: Vec<Rat> = weights.iter().map(|w| w.recip()).collect();
-        // Columns of A, then G_ij = sum_s A_is A_js / w_s over shared unknowns s.
+        // scale * G is an integer matrix: scale = lcm of the weights' numerators, and
+        // scale / w_s = (scale / num_s) * den_s.
+        let scale_i = weights.iter().fold(Int::one(), |acc, w| acc.lcm(w.numer()));
+        let factor: Vec<Int> =
+            weights.iter().map(|w| scale_i.div_exact(w.numer()) * w.denom()).collect();
         let mut cols: Vec<Vec<(usize, &Int)>> = vec![Vec::new(); n];
         for i in 0..r {
             for (s, v) in a.row(i) {
                 cols[*s].push((i, v));
             }
         }
-        let mut g_rows: Vec<Vec<(usize, Rat)>> = vec![Vec::new(); r];
+        let mut g_rows: Vec<Vec<(usize, Int)>> = vec![Vec::new(); r];
         for (s, col) in cols.iter().enumerate() {
             for (i, ai) in col {
+                let f = *ai * &factor[s];
                 for (j, aj) in col {
-                    let v = Rat::from_integer(*ai * *aj) * &winv[s];
-                    g_rows[*i].push((*j, v));
+                    g_rows[*i].push((*j, &f * *aj));
                 }
             }
         }
-        let mut den = Int::one();
-        let mut merged: Vec<Vec<(usize, Rat)>> = Vec::with_capacity(r);
-        for mut row in g_rows {
-            row.sort_by_key(|e| e.0);
-            let mut out: Vec<(usize, Rat)> = Vec::with_capacity(row.len());
-            for (j, v) in row {
-                match out.last_mut() {
-                    Some((lj, lv)) if *lj == j => *lv += v,
-                    _ => out.push((j, v)),
-                }
-            }
-            for (_, v) in &out {
-                den = den.lcm(v.denom());
-            }
-            merged.push(out);
-        }
-        let scale = Rat::from_integer(den);
-        let int_rows = merged
-            .into_iter()
-            .map(|row| row.into_iter().map(|(j, v)| (j, (v * &scale).to_integer())).collect())
-            .collect();
-        let gi = SparseIntMatrix::from_rows(r, int_rows).expect("indices < r");
-        let g = Ldu::factor(&gi, LduOptions::with(method));
+        let gi = SparseIntMatrix::from_rows(r, g_rows).expect("indices < r");
+        // Turner: the factoring of G then solves in integers.
+        let g = Ldu::factor(
+            &gi,
+            LduOptions {
+                simplification: Simplification::Turner,
+                pivoting: Pivoting::SymmetricMarkowitz,
+            },
+        );
+        let _ = method;
         if g.rank() != r {
             return Err(LsqError::DependentRows { rank: g.rank(), rows: r });
         }
-        Ok(WeightedLsq { a, winv, g, scale })
+        let scale = Rat::from_integer(scale_i);
+        Ok(WeightedLsq { a, winv, g, scale, factor })
     }
 
     /// Number of constraints `r`.
@@ -157,36 +153,88 @@ impl WeightedLsq {
     }
 
     /// `W^-1 A^T G^-1 v`: the correction that the constraints force for a residual `v`.
+    /// Computed in integers over one common denominator.
     pub fn correction(&self, v: &[Rat]) -> Vec<Rat> {
-        let lambda = self.multipliers(v);
-        let mut out = vec![Rat::zero(); self.a.cols()];
+        let scaled: Vec<Rat> = v.iter().map(|x| x * &self.scale).collect();
+        let (lambda, den) = self.g.solve_scaled(&scaled).expect("G is invertible");
+        let mut acc = vec![Int::zero(); self.a.cols()];
         for (i, li) in lambda.iter().enumerate() {
             if li.is_zero() {
                 continue;
             }
             for (s, v) in self.a.row(i) {
-                out[*s] += li * Rat::from_integer(v.clone());
+                acc[*s] += &(li * v);
             }
         }
-        for (o, w) in out.iter_mut().zip(&self.winv) {
-            *o *= w;
+        acc.into_iter()
+            .zip(&self.winv)
+            .map(|(x, w)| {
+                if x.is_zero() {
+                    Rat::zero()
+                } else {
+                    Rat::new(x * w.numer(), den.clone() * w.denom())
+                }
+            })
+            .collect()
+    }
+
+    /// The minimizer `x''` for one coordinate, all in integers: right-hand side `b` (length
+    /// `r`) and hints `h` (length `n`) as scaled vectors; the result has denominator
+    /// `scale * det * den(h) * den(b)` before normalization and needs no per-entry gcd.
+    pub fn solve_scaled(&self, b: &ScaledVec, h: &ScaledVec) -> ScaledVec {
+        let (r, n) = (self.a.rows(), self.a.cols());
+        assert_eq!(b.len(), r, "right-hand side length");
+        assert_eq!(h.len(), n, "hints length");
+        // R = bd * A hn - hd * bn, so that A h - b = R / (hd * bd).
+        let resid: Vec<Int> = (0..r)
+            .map(|i| {
+                let mut acc = Int::zero();
+                for (s, v) in self.a.row(i) {
+                    if !h.num[*s].is_zero() {
+                        acc += &(v * &h.num[*s]);
+                    }
+                }
+                Int::cross(&b.den, &acc, &h.den, &b.num[i])
+            })
+            .collect();
+        if resid.iter().all(Int::is_zero_int) {
+            return h.clone();
         }
-        out
+        let scale = self.scale.to_integer();
+        let rhs: Vec<Rat> = resid.iter().map(|v| Rat::from_integer(v * &scale)).collect();
+        let (lambda, det) = self.g.solve_scaled(&rhs).expect("G is invertible");
+        let mut atl = vec![Int::zero(); n];
+        for (i, li) in lambda.iter().enumerate() {
+            if li.is_zero() {
+                continue;
+            }
+            for (s, v) in self.a.row(i) {
+                atl[*s] += &(li * v);
+            }
+        }
+        // x'' = hn / hd - factor * atl / (scale * det * hd * bd)
+        let k = &(&scale * &det) * &b.den;
+        let num = h
+            .num
+            .iter()
+            .zip(atl.iter().zip(&self.factor))
+            .map(|(hn, (a, f))| Int::cross(hn, &k, f, a))
+            .collect();
+        ScaledVec::new(num, &k * &h.den)
     }
 
     /// The minimizer `x''` for right-hand side `b` (`r` rows of `d`) and hints `x'`
     /// (`n` rows of `d`), solved column by column.
     pub fn solve(&self, b: &[Vec<Rat>], hints: &[Vec<Rat>]) -> Vec<Vec<Rat>> {
         let d = hints.first().map_or(0, Vec::len);
-        let ax = self.a.mul_rat(hints);
-        let mut x = hints.to_vec();
+        let n = self.a.cols();
+        let mut x = vec![Vec::with_capacity(d); n];
         for c in 0..d {
-            let resid: Vec<Rat> = (0..self.a.rows()).map(|i| &ax[i][c] - &b[i][c]).collect();
-            if resid.iter().all(Zero::is_zero) {
-                continue;
-            }
-            for (s, corr) in self.correction(&resid).into_iter().enumerate() {
-                x[s][c] -= corr;
+            let bc: Vec<Rat> = b.iter().map(|r| r[c].clone()).collect();
+            let hc: Vec<Rat> = hints.iter().map(|r| r[c].clone()).collect();
+            let sol = self.solve_scaled(&ScaledVec::from_rats(&bc), &ScaledVec::from_rats(&hc));
+            for (s, v) in sol.to_rats().into_iter().enumerate() {
+                x[s].push(v);
             }
         }
         x

@@ -362,3 +362,110 @@ mod tests {
         assert_eq!(m.to_dense().to_sparse(), m);
     }
 }
+
+/// A rational vector stored as integer numerators over one common positive denominator,
+/// `v[i] = num[i] / den`, with `gcd(den, num[0], num[1], ...) = 1`.
+///
+/// Exact solves produce vectors in this form for free (one determinant as denominator);
+/// keeping them so avoids a big gcd per entry. [`ScaledVec::to_rats`] gives each entry in
+/// lowest terms when needed.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ScaledVec {
+    /// Numerators.
+    pub num: Vec<Int>,
+    /// Common denominator (positive).
+    pub den: Int,
+}
+
+impl ScaledVec {
+    /// Builds `num / den` (any nonzero `den`) and normalizes sign and common content.
+    ///
+    /// # Panics
+    /// Panics when `den` is zero.
+    pub fn new(num: Vec<Int>, den: Int) -> ScaledVec {
+        assert!(!den.is_zero(), "zero denominator");
+        let mut v = ScaledVec { num, den };
+        v.normalize();
+        v
+    }
+
+    /// The vector of rationals `r` over the least common denominator.
+    pub fn from_rats(r: &[Rat]) -> ScaledVec {
+        let den = r.iter().fold(Int::one(), |acc, v| {
+            if v.denom().is_one() {
+                acc
+            } else {
+                num_integer::Integer::lcm(&acc, v.denom())
+            }
+        });
+        let num = r
+            .iter()
+            .map(|v| {
+                if den.is_one() {
+                    v.numer().clone()
+                } else {
+                    (v.numer() * &den).div_exact(v.denom())
+                }
+            })
+            .collect();
+        ScaledVec { num, den }
+    }
+
+    /// Number of entries.
+    pub fn len(&self) -> usize {
+        self.num.len()
+    }
+    /// True when there are no entries.
+    pub fn is_empty(&self) -> bool {
+        self.num.is_empty()
+    }
+
+    /// Entry `i` in lowest terms.
+    pub fn get(&self, i: usize) -> Rat {
+        Rat::new(self.num[i].clone(), self.den.clone())
+    }
+
+    /// All entries in lowest terms.
+    pub fn to_rats(&self) -> Vec<Rat> {
+        (0..self.len()).map(|i| self.get(i)).collect()
+    }
+
+    /// Nearest `f64` of each entry.
+    pub fn to_f64(&self) -> Vec<f64> {
+        let d = self.den.to_f64_lossy();
+        if d.is_finite() && self.den.bits() < 1000 {
+            self.num.iter().map(|n| n.to_f64_lossy() / d).collect()
+        } else {
+            self.to_rats().iter().map(rat_to_f64).collect()
+        }
+    }
+
+    fn normalize(&mut self) {
+        if self.den.signum_i32() < 0 {
+            self.den = -std::mem::take(&mut self.den);
+            for v in self.num.iter_mut() {
+                *v = -std::mem::take(v);
+            }
+        }
+        if self.den.is_one() {
+            return;
+        }
+        let mut g = self.den.clone();
+        for v in &self.num {
+            if g.is_one() {
+                return;
+            }
+            if !v.is_zero() {
+                g = g.gcd_int(v);
+            }
+        }
+        if !g.is_one() {
+            self.den = self.den.div_exact(&g);
+            for v in self.num.iter_mut() {
+                if !v.is_zero() {
+                    *v = v.div_exact(&g);
+                }
+            }
+        }
+    }
+}

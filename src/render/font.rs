@@ -324,13 +324,7 @@ mod tests {
     fn glyphs_are_distinct() {
         for a in 33u8..=126 {
             for b in (a + 1)..=126 {
-                assert_ne!(
-                    glyph(a as char),
-                    glyph(b as char),
-                    "{} vs {}",
-                    a as char,
-                    b as char
-                );
+                assert_ne!(glyph(a as char), glyph(b as char), "{} vs {}", a as char, b as char);
             }
         }
     }
@@ -373,10 +367,6 @@ mod tests {
         draw_text(&mut q, 0, 0, "|", 1, Color::from_rgba8(0, 0, 0, 128));
         let c = q.pixel(2, 0).unwrap();
         assert_eq!(c.alpha(), 255);
-        assert!(
-            c.red() > 100 && c.red() < 150,
-            "half blend, got {}",
-            c.red()
-        );
+        assert!(c.red() > 100 && c.red() < 150, "half blend, got {}", c.red());
     }
 }

@@ -86,11 +86,7 @@ pub struct Series {
 impl Series {
     /// Creates a series from its legend label, points and RGB colour.
     pub fn new(label: &str, points: Vec<(f64, f64)>, color: [u8; 3]) -> Self {
-        Series {
-            label: label.to_owned(),
-            points,
-            color,
-        }
+        Series { label: label.to_owned(), points, color }
     }
 }
 
@@ -267,9 +263,8 @@ impl LinePlot {
             let clamp = |v: f64| v.clamp(-1e7, 1e7) as f32;
             (clamp(area.map_x(&x_axis, x)), clamp(area.map_y(&y_axis, y)))
         };
-        let pixel_points: PixelPoints = (data.iter())
-            .map(|pts| pts.iter().map(|p| p.as_ref().map(to_px)).collect())
-            .collect();
+        let pixel_points: PixelPoints =
+            (data.iter()).map(|pts| pts.iter().map(|p| p.as_ref().map(to_px)).collect()).collect();
         self.draw_series(&mut pixmap, &pixel_points, &st);
         self.draw_legend(&mut pixmap, area, &pixel_points, &st);
         Ok(pixmap)
@@ -446,9 +441,9 @@ fn linear_axis(lo: f64, hi: f64, target: usize) -> Axis {
     let max_abs = lo.abs().max(hi.abs());
     let sci = !(1e-3..1e6).contains(&max_abs);
     let ticks = match nice_step(lo, hi, target).and_then(|s| Some((s, tick_span(lo, hi, s)?))) {
-        Some((step, (a, b))) => (a..=b)
-            .map(|k| (k as f64 * step, format_tick(k as f64 * step, step, sci)))
-            .collect(),
+        Some((step, (a, b))) => {
+            (a..=b).map(|k| (k as f64 * step, format_tick(k as f64 * step, step, sci))).collect()
+        }
         // Absurd range (e.g. near f64::MAX): label just the ends.
         None => [lo, hi].map(|v| (v, format_tick(v, hi - lo, sci))).to_vec(),
     };
@@ -650,12 +645,7 @@ mod tests {
 
     #[test]
     fn nice_ticks_and_labels() {
-        let steps = [
-            (10.0, 5, 2.0),
-            (10.0, 3, 5.0),
-            (1.0, 10, 0.1),
-            (2100.0, 5, 500.0),
-        ];
+        let steps = [(10.0, 5, 2.0), (10.0, 3, 5.0), (1.0, 10, 0.1), (2100.0, 5, 500.0)];
         for (hi, t, want) in steps {
             let got = nice_step(0.0, hi, t).unwrap();
             assert!((got - want).abs() <= 1e-12 * want, "0..{hi}/{t}: {got}");
@@ -767,9 +757,7 @@ mod tests {
         let back = Pixmap::load_png(&path).unwrap();
         assert_eq!((back.width(), back.height()), (320, 240));
         assert_eq!(back.data(), plot.render().unwrap().data());
-        let mut names = fs::read_dir(dir.path())
-            .unwrap()
-            .map(|e| e.unwrap().file_name());
+        let mut names = fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name());
         assert_eq!(names.next().unwrap(), "plot.png");
         assert!(names.next().is_none(), "temporary file left behind");
     }

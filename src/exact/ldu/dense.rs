@@ -27,7 +27,9 @@ pub fn factor_dense_turner(a: &IntMatrix) -> Ldu {
         for (ri, &r) in rows.iter().enumerate() {
             for (ci, &c) in cols.iter().enumerate() {
                 let v = &w[r][c];
-                if !v.is_zero() && best.is_none_or(|(br, bc)| v.cmp_abs(&w[rows[br]][cols[bc]]).is_lt()) {
+                if !v.is_zero()
+                    && best.is_none_or(|(br, bc)| v.cmp_abs(&w[rows[br]][cols[bc]]).is_lt())
+                {
                     best = Some((ri, ci));
                 }
             }
@@ -63,7 +65,16 @@ pub fn factor_dense_turner(a: &IntMatrix) -> Ldu {
         l_cols.push(l_col);
         u_rows.push(u);
     }
-    super::factor::assemble(m, n, row_order, col_order, l_cols, u_rows, d)
+    super::factor::assemble(
+        m,
+        n,
+        row_order,
+        col_order,
+        l_cols,
+        u_rows,
+        d,
+        super::Simplification::Turner,
+    )
 }
 
 #[cfg(test)]
@@ -75,7 +86,13 @@ mod tests {
     fn dense_and_sparse_agree_on_rank_and_both_rebuild() {
         let a = IntMatrix::from_i64_rows(
             4,
-            &[vec![4, 9, 16, 29], vec![-1, -6, -19, -16], vec![1, 5, 15, 19], vec![5, 6, -1, -12], vec![5, 10, 15, 20]],
+            &[
+                vec![4, 9, 16, 29],
+                vec![-1, -6, -19, -16],
+                vec![1, 5, 15, 19],
+                vec![5, 6, -1, -12],
+                vec![5, 10, 15, 20],
+            ],
         );
         let f = factor_dense_turner(&a);
         f.sanity_check().unwrap();

@@ -175,12 +175,21 @@ pub(super) fn factor(a: &SparseIntMatrix, opts: LduOptions) -> Ldu {
         l_cols.push(l_col);
         u_rows.push(pivot_row);
     }
-    assemble(m, n, row_order, col_order, l_cols, u_rows, d)
+    assemble(m, n, row_order, col_order, l_cols, u_rows, d, opts.simplification)
 }
 
 impl State {
     /// Full pivoting over the active nonzeros (thesis Alg. 7, or Markowitz).
     fn choose_pivot(&self) -> Option<(usize, usize)> {
+        if self.opts.pivoting == Pivoting::SymmetricMarkowitz {
+            let diag = (0..self.rows.len())
+                .filter(|&t| self.active[t] && !self.rows[t].is_empty())
+                .filter(|&t| value_at(&self.rows[t], t).is_some())
+                .min_by_key(|&t| (self.rows[t].len() - 1) * (self.col_count[t] - 1));
+            if let Some(t) = diag {
+                return Some((t, t));
+            }
+        }
         let mut best: Option<(usize, &Int, usize, usize)> = None; // (cost, value, row, col)
         for (t, r) in self.rows.iter().enumerate() {
             if !self.active[t] || r.is_empty() {
@@ -188,7 +197,9 @@ impl State {
             }
             for (c, v) in r {
                 let cost = match self.opts.pivoting {
-                    Pivoting::Markowitz => (r.len() - 1) * (self.col_count[*c] - 1),
+                    Pivoting::Markowitz | Pivoting::SymmetricMarkowitz => {
+                        (r.len() - 1) * (self.col_count[*c] - 1)
+                    }
                     Pivoting::SmallestMagnitude => 0,
                 };
                 let better = match &best {
@@ -278,6 +289,7 @@ fn content(r: &Row) -> Int {
 }
 
 /// Numbers rows and columns by pivot order and stores L, D, U by position.
+#[allow(clippy::too_many_arguments)]
 pub(super) fn assemble(
     m: usize,
     n: usize,
@@ -286,6 +298,7 @@ pub(super) fn assemble(
     l_cols: Vec<Vec<(usize, Int)>>,
     u_rows: Vec<Row>,
     d: Vec<Int>,
+    simplification: Simplification,
 ) -> Ldu {
     let rank = row_perm.len();
     let mut row_pos = vec![usize::MAX; m];
@@ -309,11 +322,18 @@ pub(super) fn assemble(
         }
     }
     let mut l_rows: Vec<Row> = vec![Vec::new(); m];
-    for (k, col) in l_cols.into_iter().enumerate() {
-        for (t, v) in col {
-            l_rows[row_pos[t]].push((k, v));
-        }
-    }
+    let l_cols: Vec<Row> = l_cols
+        .into_iter()
+        .enumerate()
+        .map(|(k, col)| {
+            let mut col: Row = col.into_iter().map(|(t, v)| (row_pos[t], v)).collect();
+            col.sort_unstable_by_key(|e| e.0);
+            for (i, v) in &col {
+                l_rows[*i].push((k, v.clone()));
+            }
+            col
+        })
+        .collect();
     let u_rows = u_rows
         .into_iter()
         .map(|r| {
@@ -322,5 +342,5 @@ pub(super) fn assemble(
             r
         })
         .collect();
-    Ldu { m, n, rank, row_perm, col_perm, l_rows, d, u_rows }
+    Ldu { m, n, rank, row_perm, col_perm, l_rows, d, u_rows, l_cols, simplification }
 }

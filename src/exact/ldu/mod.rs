@@ -91,6 +91,11 @@ pub enum Pivoting {
     Markowitz,
     /// The nonzero of smallest magnitude (thesis Alg. 7).
     SmallestMagnitude,
+    /// Diagonal entries only, least Markowitz cost first (minimum degree). Only for
+    /// symmetric positive definite matrices, whose diagonal pivots never vanish; keeps the
+    /// factoring symmetric and the fill low. Falls back to `Markowitz` if a diagonal pivot
+    /// would be zero.
+    SymmetricMarkowitz,
 }
 
 /// Options of [`Ldu::factor`].
@@ -122,6 +127,11 @@ pub struct Ldu {
     d: Vec<Int>,
     /// Row `k` of `U`: `(j, U[k][j])` by column position, sorted; the first entry is `(k, pivot)`.
     u_rows: Vec<Vec<(usize, Int)>>,
+    /// Column `k` of `L`: `(i, L[i][k])` by row position, sorted; the first entry is `(k, L_kk)`.
+    l_cols: Vec<Vec<(usize, Int)>>,
+    /// Simplification used; with `Turner` the factors have Jeffrey's form
+    /// (`L_kk = U_kk = p_k`, `D_k = p_(k-1) p_k`) and solves run in integers.
+    simplification: Simplification,
 }
 
 /// A violated invariant found by [`Ldu::sanity_check`].
@@ -171,6 +181,10 @@ impl Ldu {
     pub fn d(&self) -> &[Int] {
         &self.d
     }
+    /// The simplification the factoring was computed with.
+    pub fn simplification(&self) -> Simplification {
+        self.simplification
+    }
     /// Row `k` of `U` (by column position) as sorted `(j, value)` pairs.
     pub fn u_row(&self, k: usize) -> &[(usize, Int)] {
         &self.u_rows[k]
@@ -214,8 +228,7 @@ impl Ldu {
                 Some((j, v)) if *j == k && !v.is_zero_int() => {}
                 _ => return err(format!("U row {k} has no nonzero diagonal")),
             }
-            if row.windows(2).any(|w| w[0].0 >= w[1].0) || row.iter().any(|(j, _)| *j >= self.n)
-            {
+            if row.windows(2).any(|w| w[0].0 >= w[1].0) || row.iter().any(|(j, _)| *j >= self.n) {
                 return err(format!("U row {k} is not sorted or out of range"));
             }
             if row.iter().any(|(_, v)| v.is_zero_int()) {
