@@ -20,6 +20,9 @@
 
 pub mod cli;
 pub mod ecles;
+pub mod edit;
 pub mod exact;
 pub mod io;
+pub mod mesh;
 pub mod render;
+pub mod spline;

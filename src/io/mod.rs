@@ -4,6 +4,8 @@
 //! over the destination, so a reader never sees a half-written file and a failed command
 //! never destroys an earlier output.
 
+pub mod deformation;
+
 use std::fs;
 use std::io::Write;
 use std::path::{Path, PathBuf};

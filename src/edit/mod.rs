@@ -1,0 +1,426 @@
+//! The 2DSD editing algorithm (thesis ch. 14; MSc dissertation ch. 7) on top of ECLES.
+//!
+//! An editing action has two steps:
+//!
+//! 1. [`Editor::select`] (2DSD.Select, Alg. 16): anchors `A` and an initial derived set `S`
+//!    (explicit, or a neighbourhood radius `delta_max` on the control net, or all points);
+//!    ExpandDerived grows `S` into `D` so that the edit is solvable ([`select`]); RelMagnitude
+//!    gives each derived point a weight `theta_s` in `[0, 1]`; ECLES initialize factors the
+//!    relevant C1 conditions once.
+//! 2. Any number of operations, each relative to the positions at selection time (so a drag
+//!    can call them repeatedly with the total motion so far):
+//!    * [`Editor::translate`] by `v` (Alg. 17): anchors to `p + v`, hints `p + theta_s v`;
+//!    * [`Editor::rotate`] about `c` by `alpha`: anchors by an **exact rational rotation**
+//!      `(cos, sin) = ((1 - t^2)/(1 + t^2), 2t/(1 + t^2))`, `t` a rational close to
+//!      `tan(alpha/2)`, so the motion of the anchors is exactly affine and keeps every
+//!      condition among them (thesis ch. 20 lists this as open); hints rotated by
+//!      `theta_s alpha`;
+//!    * [`Editor::scale`] about `c` by a rational `gamma`: anchors `c + gamma (p - c)`,
+//!      hints `c + gamma^theta_s (p - c)`.
+//!
+//!    ECLES update then moves `D` to the exact solution nearest the hints. A failed operation
+//!    leaves the spline exactly as it was.
+//!
+//! Modes: `xy` edits `phi` (parameters in `R^2`); `z0` and `z1` edit the scalar splines of a
+//! 2.5D deformation (parameters in `R^1`) through the same code.
+//!
+//! Hints are computed in `f64` and rounded to multiples of `2^-20` (they need not be exact;
+//! the constraints are). Anchor positions are exact.
+
+pub mod select;
+
+use crate::ecles::{ConstraintSystem, EclesError, InitOptions, Session};
+use crate::exact::{rat_from_f64, rat_to_f64, Int, Rat};
+use crate::spline::Spline;
+use num_traits::{One, Zero};
+use select::{expand, neighborhood, rel_magnitude, Neighborhood, SelectIndex};
+
+/// Which spline an edit changes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
+pub enum Mode {
+    /// The plane deformation phi (2D control points).
+    #[default]
+    Xy,
+    /// The bottom surface sigma0 of a 2.5D deformation.
+    Z0,
+    /// The top surface sigma1 of a 2.5D deformation.
+    Z1,
+}
+
+impl std::str::FromStr for Mode {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Mode, String> {
+        match s {
+            "xy" => Ok(Mode::Xy),
+            "z0" => Ok(Mode::Z0),
+            "z1" => Ok(Mode::Z1),
+            _ => Err(format!("unknown mode `{s}` (use xy, z0 or z1)")),
+        }
+    }
+}
+
+/// Errors of editing operations. After any error the spline is unchanged.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum EditError {
+    /// The constraint layer refused (unsolvable edits carry the failed condition).
+    #[error(transparent)]
+    Ecles(#[from] EclesError),
+    /// A control point index is out of range.
+    #[error("control point {index} does not exist (the spline has {count})")]
+    PointIndex {
+        /// The index.
+        index: usize,
+        /// Number of control points.
+        count: usize,
+    },
+    /// No anchors.
+    #[error("the edit has no anchors: choose at least one control point to move")]
+    NoAnchors,
+    /// An operation came before any selection.
+    #[error("no selection: call select before translate, rotate or scale")]
+    NoSelection,
+    /// A z mode on a deformation without 2.5D layers, or a 2D operation in a z mode.
+    #[error("{0}")]
+    Mode(String),
+    /// A non-finite or otherwise invalid argument.
+    #[error("invalid argument: {0}")]
+    Argument(String),
+}
+
+/// The current selection: anchors, derived points, their weights and the ECLES session.
+#[derive(Clone, Debug)]
+pub struct Selection {
+    /// Anchor indices.
+    pub anchors: Vec<usize>,
+    /// Derived indices (after ExpandDerived).
+    pub derived: Vec<usize>,
+    /// RelMagnitude of each derived point.
+    pub theta: Vec<f64>,
+    /// Whether strong solvability holds (otherwise only exactly affine motions are safe).
+    pub strong: bool,
+    /// The mode.
+    pub mode: Mode,
+    base_anchors: Vec<Vec<Rat>>,
+    base_derived: Vec<Vec<Rat>>,
+    session: Session,
+}
+
+impl Selection {
+    /// The ECLES session of this selection (relevant constraints, rank, ...).
+    pub fn session(&self) -> &Session {
+        &self.session
+    }
+}
+
+/// Edits a spline with 2DSD; see the module docs.
+#[derive(Clone, Debug)]
+pub struct Editor {
+    spline: Spline,
+    index: SelectIndex,
+    zsys: ConstraintSystem,
+    selection: Option<Selection>,
+}
+
+/// Rounds an `f64` to a multiple of `2^-20` as an exact rational (hints only).
+fn hint_rat(v: f64) -> Rat {
+    let scale = (1u64 << 20) as f64;
+    Rat::new(Int::from((v * scale).round() as i64), Int::from(1i64 << 20))
+}
+
+/// An exact rational close to `v`: continued fraction with denominator at most `max_den`.
+pub fn rational_approx(v: f64, max_den: i64) -> Rat {
+    let (mut h0, mut h1, mut k0, mut k1) = (0i64, 1i64, 1i64, 0i64);
+    let mut x = v;
+    for _ in 0..64 {
+        let a = x.floor();
+        if a.abs() > 1e15 {
+            break;
+        }
+        let a = a as i64;
+        let (h2, k2) =
+            (a.saturating_mul(h1).saturating_add(h0), a.saturating_mul(k1).saturating_add(k0));
+        if k2 > max_den || k2 <= 0 {
+            break;
+        }
+        (h0, h1, k0, k1) = (h1, h2, k1, k2);
+        let frac = x - a as f64;
+        if frac.abs() < 1e-15 {
+            break;
+        }
+        x = 1.0 / frac;
+    }
+    Rat::new(Int::from(h1), Int::from(k1))
+}
+
+/// The exact rational rotation closest to `angle` with `t = tan(angle/2)` approximated with
+/// denominator at most `2^16`: returns `(cos, sin)` with `cos^2 + sin^2 = 1` exactly.
+pub fn rational_rotation(angle: f64) -> (Rat, Rat) {
+    let t = rational_approx((angle / 2.0).tan(), 1 << 16);
+    let t2 = &t * &t;
+    let den = Rat::one() + &t2;
+    ((Rat::one() - &t2) / &den, (&t + &t) / den)
+}
+
+impl Editor {
+    /// An editor for `spline`.
+    pub fn new(spline: Spline) -> Editor {
+        let index = SelectIndex::new(&spline);
+        let zsys = ConstraintSystem::homogeneous(spline.c1_matrix().clone(), 1);
+        Editor { spline, index, zsys, selection: None }
+    }
+
+    /// The spline being edited.
+    pub fn spline(&self) -> &Spline {
+        &self.spline
+    }
+    /// Consumes the editor, returning the spline.
+    pub fn into_spline(self) -> Spline {
+        self.spline
+    }
+    /// The current selection, if any.
+    pub fn selection(&self) -> Option<&Selection> {
+        self.selection.as_ref()
+    }
+    /// The selection index (control net, conditions per point, vertex disks).
+    pub fn index(&self) -> &SelectIndex {
+        &self.index
+    }
+
+    fn params(&self, mode: Mode) -> Result<Vec<Vec<Rat>>, EditError> {
+        match mode {
+            Mode::Xy => Ok(self.spline.points().to_vec()),
+            Mode::Z0 | Mode::Z1 => {
+                let z = self.spline.z_layers().ok_or_else(|| {
+                    EditError::Mode("z0/z1 modes need a 2.5D deformation (with z_range)".into())
+                })?;
+                let v = if mode == Mode::Z0 { &z.z0 } else { &z.z1 };
+                Ok(v.iter().map(|x| vec![x.clone()]).collect())
+            }
+        }
+    }
+
+    /// The control points nearest to the given positions in the *deformed* plane (the
+    /// current control points), one per position.
+    pub fn nearest_points(&self, pos: &[[f64; 2]]) -> Vec<usize> {
+        pos.iter()
+            .map(|p| {
+                (0..self.spline.num_points())
+                    .min_by(|&a, &b| {
+                        let (qa, qb) = (self.spline.point_f64(a), self.spline.point_f64(b));
+                        let da = (qa[0] - p[0]).powi(2) + (qa[1] - p[1]).powi(2);
+                        let db = (qb[0] - p[0]).powi(2) + (qb[1] - p[1]).powi(2);
+                        da.total_cmp(&db)
+                    })
+                    .expect("a spline has control points")
+            })
+            .collect()
+    }
+
+    /// 2DSD.Select: anchors, initial derived set (`extra` plus the neighbourhood), mode.
+    pub fn select(
+        &mut self,
+        anchors: &[usize],
+        extra: &[usize],
+        hood: &Neighborhood,
+        mode: Mode,
+    ) -> Result<&Selection, EditError> {
+        let n = self.spline.num_points();
+        if anchors.is_empty() {
+            return Err(EditError::NoAnchors);
+        }
+        if let Some(&index) = anchors.iter().chain(extra).find(|&&p| p >= n) {
+            return Err(EditError::PointIndex { index, count: n });
+        }
+        let mut is_anchor = vec![false; n];
+        for &a in anchors {
+            if std::mem::replace(&mut is_anchor[a], true) {
+                return Err(EclesError::Duplicate { what: "anchors", index: a }.into());
+            }
+        }
+        if let Some(&index) = extra.iter().find(|&&p| is_anchor[p]) {
+            return Err(EclesError::AnchorAlsoDerived { index }.into());
+        }
+        let params = self.params(mode)?;
+        let mut in_d = vec![false; n];
+        let mut seeds: Vec<usize> = anchors.to_vec();
+        for p in extra.iter().copied().chain(neighborhood(&self.index, anchors, hood)) {
+            if !in_d[p] && !is_anchor[p] {
+                in_d[p] = true;
+                seeds.push(p);
+            }
+        }
+        expand(&self.spline, &self.index, &is_anchor, &mut in_d, &seeds);
+        let system = if mode == Mode::Xy { self.spline.system() } else { &self.zsys };
+        let quads = self.spline.quads();
+        let (session, strong, derived) = loop {
+            let derived: Vec<usize> = (0..n).filter(|&p| in_d[p]).collect();
+            let opts = InitOptions { strong: true, ..Default::default() };
+            match system.initialize(&params, anchors, &derived, opts) {
+                Ok(s) => break (s, true, derived),
+                Err(EclesError::NotStronglySolvable { constraint, .. }) => {
+                    let grow: Vec<usize> = quads[constraint]
+                        .members()
+                        .into_iter()
+                        .filter(|&p| !is_anchor[p] && !in_d[p])
+                        .collect();
+                    if grow.is_empty() {
+                        let weak = system.initialize(
+                            &params,
+                            anchors,
+                            &derived,
+                            InitOptions::default(),
+                        )?;
+                        break (weak, false, derived);
+                    }
+                    for &p in &grow {
+                        in_d[p] = true;
+                    }
+                    expand(&self.spline, &self.index, &is_anchor, &mut in_d, &grow);
+                }
+                Err(e) => return Err(e.into()),
+            }
+        };
+        let theta = rel_magnitude(&self.index, anchors, &derived);
+        self.selection = Some(Selection {
+            anchors: anchors.to_vec(),
+            base_anchors: anchors.iter().map(|&a| params[a].clone()).collect(),
+            base_derived: derived.iter().map(|&p| params[p].clone()).collect(),
+            derived,
+            theta,
+            strong,
+            mode,
+            session,
+        });
+        Ok(self.selection.as_ref().expect("just set"))
+    }
+
+    /// Runs ECLES update with these anchor values and hints, then writes the result.
+    fn apply(&mut self, anchors: Vec<Vec<Rat>>, hints: Vec<Vec<Rat>>) -> Result<(), EditError> {
+        let sel = self.selection.as_mut().ok_or(EditError::NoSelection)?;
+        sel.session.update(&anchors, Some(&hints), None)?;
+        let derived = sel.session.derived_values();
+        let mut idx = sel.anchors.clone();
+        idx.extend_from_slice(&sel.derived);
+        let mut vals = anchors;
+        vals.extend(derived);
+        match sel.mode {
+            Mode::Xy => self.spline.write_points(&idx, vals),
+            mode => {
+                let mut z = self.spline.z_layers().cloned().expect("checked at select");
+                let layer = if mode == Mode::Z0 { &mut z.z0 } else { &mut z.z1 };
+                for (&i, v) in idx.iter().zip(vals) {
+                    layer[i] = v.into_iter().next().expect("one coordinate");
+                }
+                self.spline.set_z_layers(Some(z));
+            }
+        }
+        Ok(())
+    }
+
+    fn selection_or_err(&self) -> Result<&Selection, EditError> {
+        self.selection.as_ref().ok_or(EditError::NoSelection)
+    }
+
+    /// Soft translation by `v` (2 values in xy mode, 1 in z modes) from the positions at
+    /// selection time.
+    pub fn translate(&mut self, v: &[Rat]) -> Result<(), EditError> {
+        let sel = self.selection_or_err()?;
+        let dim = if sel.mode == Mode::Xy { 2 } else { 1 };
+        if v.len() != dim {
+            return Err(EditError::Argument(format!(
+                "translation needs {dim} values, got {}",
+                v.len()
+            )));
+        }
+        let anchors = sel
+            .base_anchors
+            .iter()
+            .map(|p| p.iter().zip(v).map(|(a, b)| a + b).collect())
+            .collect();
+        let hints = sel
+            .base_derived
+            .iter()
+            .zip(&sel.theta)
+            .map(|(p, &th)| {
+                p.iter().zip(v).map(|(a, b)| a + hint_rat(th * rat_to_f64(b))).collect()
+            })
+            .collect();
+        self.apply(anchors, hints)
+    }
+
+    /// Soft rotation about `center` by `angle` radians (xy mode), exact for the anchors.
+    pub fn rotate(&mut self, center: [Rat; 2], angle: f64) -> Result<(), EditError> {
+        if !angle.is_finite() {
+            return Err(EditError::Argument(format!("rotation angle {angle} is not finite")));
+        }
+        let sel = self.selection_or_err()?;
+        if sel.mode != Mode::Xy {
+            return Err(EditError::Mode("rotate works in xy mode only".into()));
+        }
+        let (c, s) = rational_rotation(angle);
+        let anchors = sel
+            .base_anchors
+            .iter()
+            .map(|p| {
+                let (dx, dy) = (&p[0] - &center[0], &p[1] - &center[1]);
+                vec![&center[0] + &c * &dx - &s * &dy, &center[1] + &s * &dx + &c * &dy]
+            })
+            .collect();
+        let cf = [rat_to_f64(&center[0]), rat_to_f64(&center[1])];
+        let hints = sel
+            .base_derived
+            .iter()
+            .zip(&sel.theta)
+            .map(|(p, &th)| {
+                let (dx, dy) = (rat_to_f64(&p[0]) - cf[0], rat_to_f64(&p[1]) - cf[1]);
+                let (sa, ca) = (th * angle).sin_cos();
+                vec![hint_rat(cf[0] + ca * dx - sa * dy), hint_rat(cf[1] + sa * dx + ca * dy)]
+            })
+            .collect();
+        self.apply(anchors, hints)
+    }
+
+    /// Soft scaling about `center` (2 values in xy mode, 1 in z modes) by `factor` > 0.
+    pub fn scale(&mut self, center: &[Rat], factor: &Rat) -> Result<(), EditError> {
+        let sel = self.selection_or_err()?;
+        let dim = if sel.mode == Mode::Xy { 2 } else { 1 };
+        if center.len() != dim {
+            return Err(EditError::Argument(format!("scaling centre needs {dim} values")));
+        }
+        if *factor <= Rat::zero() {
+            return Err(EditError::Argument(format!("scale factor {factor} must be positive")));
+        }
+        let anchors = sel
+            .base_anchors
+            .iter()
+            .map(|p| p.iter().zip(center).map(|(x, c)| c + factor * (x - c)).collect())
+            .collect();
+        let fl = rat_to_f64(factor);
+        let hints = sel
+            .base_derived
+            .iter()
+            .zip(&sel.theta)
+            .map(|(p, &th)| {
+                let g = fl.powf(th);
+                p.iter()
+                    .zip(center)
+                    .map(|(x, c)| hint_rat(rat_to_f64(c) + g * (rat_to_f64(x) - rat_to_f64(c))))
+                    .collect()
+            })
+            .collect();
+        self.apply(anchors, hints)
+    }
+
+    /// Ends the selection (the spline keeps its current state).
+    pub fn clear_selection(&mut self) {
+        self.selection = None;
+    }
+}
+
+/// Exact rational from a finite `f64` (convenience for callers).
+pub fn exact(v: f64) -> Result<Rat, EditError> {
+    rat_from_f64(v).ok_or_else(|| EditError::Argument(format!("{v} is not a finite number")))
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,378 @@
+//! The deformation file (JSON, version 1): `format`, `version`, `degree`, `vertices`,
+//! `triangles`, `points`, `patches`, optional `z_range` / `z0` / `z1`, and the `exact` block
+//! with every value as a `"p/q"` string in lowest terms. trimorph always writes the exact
+//! block and reads it when present, so save -> load -> save is bit-exact. Extra keys written
+//! by trimorph: `grid` (the vertex snapping denominator) and `last_edit` (anchors and derived
+//! points of the last edit, for rendering).
+//!
+//! Reading accepts files from other tools: the control-point numbering is taken from
+//! `patches` (points at one nominal position must be one point), and without an exact block
+//! the `f64` values are read exactly (every finite double is a rational). The control points
+//! must satisfy the C1 conditions exactly.
+
+use crate::exact::{parse_rat, rat_from_f64, rat_to_f64, rat_to_string, Int, Rat};
+use crate::mesh::{Mesh, MeshError, MeshOptions};
+use crate::spline::{Spline, SplineError, ZLayers};
+use num_integer::Integer;
+use num_traits::One;
+use serde_json::{json, Map, Value};
+
+/// Errors reading a deformation file.
+#[derive(Debug, thiserror::Error)]
+pub enum DeformationError {
+    /// Not JSON.
+    #[error("not valid JSON: {0}")]
+    Json(String),
+    /// Missing or malformed key.
+    #[error("{key}: {message}")]
+    Key {
+        /// The key (path).
+        key: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// Wrong format or version.
+    #[error("not a trimorph deformation file version 1 ({0})")]
+    Format(String),
+    /// The mesh is invalid.
+    #[error("reference mesh: {0}")]
+    Mesh(#[from] MeshError),
+    /// The spline is invalid (for example not C1).
+    #[error("spline: {0}")]
+    Spline(#[from] SplineError),
+}
+
+/// The last edit, kept in the file for rendering.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct LastEdit {
+    /// Anchor point indices.
+    pub anchors: Vec<usize>,
+    /// Derived point indices.
+    pub derived: Vec<usize>,
+}
+
+fn key(k: &str, m: impl Into<String>) -> DeformationError {
+    DeformationError::Key { key: k.to_string(), message: m.into() }
+}
+
+fn rstr(r: &Rat) -> Value {
+    Value::String(rat_to_string(r))
+}
+
+/// The JSON document of a spline.
+pub fn to_json(s: &Spline, last: Option<&LastEdit>) -> Value {
+    let m = s.mesh();
+    let g = Int::from(m.grid_denominator());
+    let vexact: Vec<[Rat; 2]> = (0..m.num_vertices())
+        .map(|v| m.vertex_int(v).map(|c| Rat::new(Int::from(c), g.clone())))
+        .collect();
+    let mut doc = Map::new();
+    doc.insert("format".into(), json!("trimorph.deformation"));
+    doc.insert("version".into(), json!(1));
+    doc.insert("degree".into(), json!(s.degree()));
+    doc.insert("grid".into(), json!(m.grid_denominator()));
+    doc.insert(
+        "vertices".into(),
+        json!(vexact.iter().map(|v| [rat_to_f64(&v[0]), rat_to_f64(&v[1])]).collect::<Vec<_>>()),
+    );
+    doc.insert("triangles".into(), json!(m.triangles()));
+    doc.insert(
+        "points".into(),
+        json!((0..s.num_points()).map(|i| s.point_f64(i)).collect::<Vec<_>>()),
+    );
+    doc.insert("patches".into(), json!(s.layout().patches()));
+    let mut exact = Map::new();
+    exact.insert(
+        "vertices".into(),
+        Value::Array(vexact.iter().map(|v| json!([rstr(&v[0]), rstr(&v[1])])).collect()),
+    );
+    exact.insert(
+        "points".into(),
+        Value::Array(
+            s.points().iter().map(|p| Value::Array(p.iter().map(rstr).collect())).collect(),
+        ),
+    );
+    if let Some(z) = s.z_layers() {
+        doc.insert("z_range".into(), json!([rat_to_f64(&z.range[0]), rat_to_f64(&z.range[1])]));
+        doc.insert("z0".into(), json!(z.z0.iter().map(rat_to_f64).collect::<Vec<_>>()));
+        doc.insert("z1".into(), json!(z.z1.iter().map(rat_to_f64).collect::<Vec<_>>()));
+        exact.insert("z_range".into(), Value::Array(z.range.iter().map(rstr).collect()));
+        exact.insert("z0".into(), Value::Array(z.z0.iter().map(rstr).collect()));
+        exact.insert("z1".into(), Value::Array(z.z1.iter().map(rstr).collect()));
+    }
+    doc.insert("exact".into(), Value::Object(exact));
+    if let Some(l) = last {
+        doc.insert("last_edit".into(), json!({"anchors": l.anchors, "derived": l.derived}));
+    }
+    Value::Object(doc)
+}
+
+/// The file text of a spline: one key per line, one row per line for arrays of rows.
+pub fn to_string(s: &Spline, last: Option<&LastEdit>) -> String {
+    let doc = to_json(s, last);
+    let Value::Object(map) = &doc else { unreachable!() };
+    let mut out = String::from("{\n");
+    for (i, (k, v)) in map.iter().enumerate() {
+        out.push_str(&format!("  {}: ", Value::String(k.clone())));
+        match v {
+            Value::Array(rows) if rows.iter().any(Value::is_array) => {
+                out.push_str("[\n");
+                for (j, r) in rows.iter().enumerate() {
+                    out.push_str(&format!(
+                        "    {r}{}\n",
+                        if j + 1 < rows.len() { "," } else { "" }
+                    ));
+                }
+                out.push_str("  ]");
+            }
+            Value::Object(inner) => {
+                out.push_str("{\n");
+                for (j, (ik, iv)) in inner.iter().enumerate() {
+                    out.push_str(&format!("    {}: ", Value::String(ik.clone())));
+                    match iv {
+                        Value::Array(rows) if rows.iter().any(Value::is_array) => {
+                            out.push_str("[\n");
+                            for (r, row) in rows.iter().enumerate() {
+                                out.push_str(&format!(
+                                    "      {row}{}\n",
+                                    if r + 1 < rows.len() { "," } else { "" }
+                                ));
+                            }
+                            out.push_str("    ]");
+                        }
+                        other => out.push_str(&other.to_string()),
+                    }
+                    out.push_str(if j + 1 < inner.len() { ",\n" } else { "\n" });
+                }
+                out.push_str("  }");
+            }
+            other => out.push_str(&other.to_string()),
+        }
+        out.push_str(if i + 1 < map.len() { ",\n" } else { "\n" });
+    }
+    out.push_str("}\n");
+    out
+}
+
+fn num(v: &Value, path: &str) -> Result<Rat, DeformationError> {
+    match v {
+        Value::String(s) => parse_rat(s).map_err(|e| key(path, e.to_string())),
+        Value::Number(n) => {
+            let f = n.as_f64().ok_or_else(|| key(path, "not a number"))?;
+            rat_from_f64(f).ok_or_else(|| key(path, "not a finite number"))
+        }
+        other => Err(key(path, format!("expected a number, found {other}"))),
+    }
+}
+
+fn rows(v: Option<&Value>, path: &str, width: usize) -> Result<Vec<Vec<Rat>>, DeformationError> {
+    let arr = v.and_then(Value::as_array).ok_or_else(|| key(path, "missing or not an array"))?;
+    arr.iter()
+        .enumerate()
+        .map(|(i, r)| {
+            let p = format!("{path}[{i}]");
+            let r = r.as_array().ok_or_else(|| key(&p, "expected an array"))?;
+            if r.len() < width {
+                return Err(key(&p, format!("expected {width} values")));
+            }
+            r.iter().take(width).enumerate().map(|(j, x)| num(x, &format!("{p}[{j}]"))).collect()
+        })
+        .collect()
+}
+
+fn scalars(v: Option<&Value>, path: &str) -> Result<Vec<Rat>, DeformationError> {
+    let arr = v.and_then(Value::as_array).ok_or_else(|| key(path, "missing or not an array"))?;
+    arr.iter().enumerate().map(|(i, x)| num(x, &format!("{path}[{i}]"))).collect()
+}
+
+fn indices(v: Option<&Value>, path: &str) -> Result<Vec<Vec<usize>>, DeformationError> {
+    let arr = v.and_then(Value::as_array).ok_or_else(|| key(path, "missing or not an array"))?;
+    arr.iter()
+        .enumerate()
+        .map(|(i, r)| {
+            let p = format!("{path}[{i}]");
+            r.as_array()
+                .ok_or_else(|| key(&p, "expected an array of indices"))?
+                .iter()
+                .map(|x| {
+                    x.as_u64()
+                        .map(|u| u as usize)
+                        .ok_or_else(|| key(&p, "expected non-negative integers"))
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// Reads a deformation file; returns the spline and the last edit, if recorded.
+pub fn from_str(text: &str) -> Result<(Spline, Option<LastEdit>), DeformationError> {
+    let doc: Value =
+        serde_json::from_str(text).map_err(|e| DeformationError::Json(e.to_string()))?;
+    let doc =
+        doc.as_object().ok_or_else(|| DeformationError::Format("not a JSON object".into()))?;
+    if doc.get("format").and_then(Value::as_str) != Some("trimorph.deformation") {
+        return Err(DeformationError::Format("\"format\" must be \"trimorph.deformation\"".into()));
+    }
+    match doc.get("version").and_then(Value::as_u64) {
+        Some(1) => {}
+        other => {
+            return Err(DeformationError::Format(format!("unsupported \"version\": {other:?}")))
+        }
+    }
+    let degree =
+        doc.get("degree").and_then(Value::as_u64).ok_or_else(|| key("degree", "missing"))? as usize;
+    let ex = doc.get("exact").and_then(Value::as_object);
+    let pick = |k: &str| ex.and_then(|e| e.get(k)).or_else(|| doc.get(k));
+    let pick_path = |k: &str| {
+        if ex.is_some_and(|e| e.contains_key(k)) {
+            format!("exact.{k}")
+        } else {
+            k.to_string()
+        }
+    };
+    let verts = rows(pick("vertices"), &pick_path("vertices"), 2)?;
+    // The grid: least common denominator of the vertex coordinates.
+    let mut grid = Int::one();
+    for v in verts.iter().flatten() {
+        grid = grid.lcm(v.denom());
+    }
+    let grid = match grid {
+        Int::Small(g) if g <= 1 << 20 => {
+            g.max(doc.get("grid").and_then(Value::as_i64).unwrap_or(1))
+        }
+        _ => {
+            return Err(key(
+                "vertices",
+                "vertex coordinates are not on a grid of at most 2^20 steps per unit",
+            ))
+        }
+    };
+    let vf: Vec<[f64; 2]> = verts.iter().map(|v| [rat_to_f64(&v[0]), rat_to_f64(&v[1])]).collect();
+    let tris: Vec<[usize; 3]> = indices(doc.get("triangles"), "triangles")?
+        .into_iter()
+        .enumerate()
+        .map(|(i, t)| {
+            <[usize; 3]>::try_from(t)
+                .map_err(|_| key(&format!("triangles[{i}]"), "expected 3 indices"))
+        })
+        .collect::<Result<_, _>>()?;
+    let mesh = Mesh::from_triangles(&vf, &tris, MeshOptions { grid })?;
+    let template = Spline::identity(mesh.clone(), degree)?;
+    let file_points = rows(pick("points"), &pick_path("points"), 2)?;
+    let patches = indices(doc.get("patches"), "patches")?;
+    let lay = template.layout();
+    if patches.len() != lay.patches().len() {
+        return Err(key(
+            "patches",
+            format!("{} patches for {} triangles", patches.len(), lay.patches().len()),
+        ));
+    }
+    // Our point -> the file's point, consistent across patches.
+    let mut map: Vec<Option<usize>> = vec![None; template.num_points()];
+    for (t, (ours, theirs)) in lay.patches().iter().zip(&patches).enumerate() {
+        if theirs.len() != ours.len() {
+            return Err(key(&format!("patches[{t}]"), format!("expected {} points", ours.len())));
+        }
+        for (&o, &f) in ours.iter().zip(theirs) {
+            if f >= file_points.len() {
+                return Err(key(&format!("patches[{t}]"), format!("point {f} does not exist")));
+            }
+            match map[o] {
+                None => map[o] = Some(f),
+                Some(g) if g == f => {}
+                Some(g) => {
+                    return Err(key(
+                        &format!("patches[{t}]"),
+                        format!(
+                            "points {g} and {f} share a nominal position but differ (C0 broken)"
+                        ),
+                    ))
+                }
+            }
+        }
+    }
+    let points: Vec<Vec<Rat>> =
+        map.iter().map(|f| file_points[f.expect("every point is in a patch")].clone()).collect();
+    let remap_scalar = |k: &str| -> Result<Vec<Rat>, DeformationError> {
+        let v = scalars(pick(k), &pick_path(k))?;
+        map.iter()
+            .map(|f| v.get(f.expect("mapped")).cloned().ok_or_else(|| key(k, "too few values")))
+            .collect()
+    };
+    let z = if doc.contains_key("z_range") {
+        let range = scalars(pick("z_range"), &pick_path("z_range"))?;
+        if range.len() != 2 || range[0] >= range[1] {
+            return Err(key("z_range", "expected [a, b] with a < b"));
+        }
+        Some(ZLayers {
+            range: [range[0].clone(), range[1].clone()],
+            z0: remap_scalar("z0")?,
+            z1: remap_scalar("z1")?,
+        })
+    } else {
+        None
+    };
+    let last = match doc.get("last_edit") {
+        Some(Value::Object(o)) => {
+            let list = |k: &str| -> Vec<usize> {
+                o.get(k)
+                    .and_then(Value::as_array)
+                    .map(|a| a.iter().filter_map(Value::as_u64).map(|u| u as usize).collect())
+                    .unwrap_or_default()
+            };
+            Some(LastEdit { anchors: list("anchors"), derived: list("derived") })
+        }
+        _ => None,
+    };
+    let spline = Spline::from_points(mesh, degree, points, z)?;
+    Ok((spline, last))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::exact::rat_int;
+
+    #[test]
+    fn round_trip_is_bit_exact() {
+        let pts = [[0.0, 0.0], [10.0, 0.5], [3.3, 7.1], [8.0, 9.0], [-2.0, 5.0]];
+        let mesh = Mesh::delaunay(&pts, MeshOptions::default()).unwrap();
+        let mut s = Spline::identity(mesh, 5).unwrap();
+        let n = s.num_points();
+        s.set_z_layers(Some(ZLayers {
+            range: [rat_int(-1), rat_int(1)],
+            z0: vec![rat_int(-1); n],
+            z1: vec![Rat::new(3.into(), 7.into()); n],
+        }));
+        let last = LastEdit { anchors: vec![1], derived: vec![2, 3] };
+        let text = to_string(&s, Some(&last));
+        let (back, l2) = from_str(&text).unwrap();
+        assert_eq!(l2, Some(last.clone()));
+        assert_eq!(back.points(), s.points());
+        assert_eq!(back.z_layers(), s.z_layers());
+        assert_eq!(to_string(&back, Some(&last)), text);
+    }
+
+    #[test]
+    fn bad_files_are_reported() {
+        assert!(matches!(from_str("{"), Err(DeformationError::Json(_))));
+        assert!(matches!(from_str("{\"format\": \"x\"}"), Err(DeformationError::Format(_))));
+        assert!(matches!(
+            from_str("{\"format\": \"trimorph.deformation\", \"version\": 2}"),
+            Err(DeformationError::Format(_))
+        ));
+        let pts = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0]];
+        let s = Spline::identity(Mesh::delaunay(&pts, MeshOptions::default()).unwrap(), 5).unwrap();
+        let mut doc = to_json(&s, None);
+        // Break C1: move one medial point in the exact block.
+        let q = s.quads()[0];
+        doc["exact"]["points"][q.l][0] = json!("1/3");
+        assert!(matches!(
+            from_str(&doc.to_string()),
+            Err(DeformationError::Spline(SplineError::NotC1 { .. }))
+        ));
+        let mut doc = to_json(&s, None);
+        doc["patches"][0][0] = json!(999);
+        assert!(matches!(from_str(&doc.to_string()), Err(DeformationError::Key { .. })));
+    }
+}

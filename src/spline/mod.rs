@@ -1,0 +1,296 @@
+//! 2DSD spline deformations: C1 triangular Bezier splines over a reference mesh
+//! (thesis Part II, ch. 10-13; MSc dissertation ch. 3-6).
+//!
+//! `phi: R^2 -> R^2` maps the reference domain (the mesh, in mesh coordinates) to the
+//! deformed plane. On each triangle it is a polynomial of degree `d` in Bernstein-Bezier form
+//! with control points `q^t_ijk` ([`layout`]); points at a shared nominal position are stored
+//! once, so `phi` is C0 by construction; the `d` quadrilateral conditions per interior edge
+//! ([`c1`]) make it C1. They are integer equations because the mesh vertices lie on a
+//! rational grid, and ECLES keeps them exactly during edits (see [`crate::edit`]).
+//!
+//! Control points are stored exactly ([`Rat`]) and mirrored in `f64` for evaluation
+//! ([`eval`]). A new spline is the identity: every control point at its nominal position.
+//!
+//! 2.5D deformations (thesis Part III) add two scalar splines `sigma0`, `sigma1` on the same
+//! layout ([`ZLayers`]); they obey the same C1 conditions with one coordinate.
+
+pub mod c1;
+pub mod eval;
+pub mod layout;
+
+use crate::ecles::ConstraintSystem;
+use crate::exact::{rat_to_f64, Int, Rat, SparseIntMatrix};
+use crate::mesh::Mesh;
+use c1::Quad;
+use eval::EvalCache;
+use layout::Layout;
+use num_traits::Zero;
+use rayon::prelude::*;
+
+/// The bottom and top scalar splines of a 2.5D deformation (thesis ch. 17).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ZLayers {
+    /// Reference prism range `[a, b]`.
+    pub range: [Rat; 2],
+    /// Control coefficients of `sigma0`, one per control point.
+    pub z0: Vec<Rat>,
+    /// Control coefficients of `sigma1`, one per control point.
+    pub z1: Vec<Rat>,
+}
+
+/// Errors of spline construction and evaluation.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SplineError {
+    /// Degree 0 or too large.
+    #[error("degree {0} is not supported (use 1 to 15; 5 or more for local edits)")]
+    Degree(usize),
+    /// Wrong number of control points.
+    #[error("expected {expected} control points, found {found}")]
+    PointCount {
+        /// Expected.
+        expected: usize,
+        /// Found.
+        found: usize,
+    },
+    /// The control points violate a C1 condition.
+    #[error("control points violate C1 condition {quad} (edge {edge}, number {index})")]
+    NotC1 {
+        /// Index of the condition.
+        quad: usize,
+        /// Its edge.
+        edge: usize,
+        /// Its number along the edge.
+        index: usize,
+    },
+    /// A point is outside the mesh.
+    #[error("point ({x}, {y}) is outside the reference mesh")]
+    Outside {
+        /// x.
+        x: f64,
+        /// y.
+        y: f64,
+    },
+}
+
+/// A spline deformation of the plane; see the module docs.
+#[derive(Clone, Debug)]
+pub struct Spline {
+    mesh: Mesh,
+    layout: Layout,
+    quads: Vec<Quad>,
+    system: ConstraintSystem,
+    points: Vec<Vec<Rat>>,
+    z: Option<ZLayers>,
+    cache: EvalCache,
+}
+
+impl Spline {
+    /// The identity deformation of degree `degree` over `mesh`.
+    pub fn identity(mesh: Mesh, degree: usize) -> Result<Spline, SplineError> {
+        if degree == 0 || degree > 15 {
+            return Err(SplineError::Degree(degree));
+        }
+        let layout = Layout::new(&mesh, degree);
+        let den = Int::from(degree as i64 * mesh.grid_denominator());
+        let points: Vec<Vec<Rat>> = layout
+            .nominal_int(&mesh)
+            .into_iter()
+            .map(|q| q.iter().map(|&c| Rat::new(Int::from_i128(c), den.clone())).collect())
+            .collect();
+        Ok(Self::assemble(mesh, layout, points, None))
+    }
+
+    /// A spline from explicit control points (checked to be C1 exactly).
+    pub fn from_points(
+        mesh: Mesh,
+        degree: usize,
+        points: Vec<Vec<Rat>>,
+        z: Option<ZLayers>,
+    ) -> Result<Spline, SplineError> {
+        let id = Self::identity(mesh, degree)?;
+        if points.len() != id.points.len() {
+            return Err(SplineError::PointCount { expected: id.points.len(), found: points.len() });
+        }
+        let s = Self::assemble(id.mesh, id.layout, points, z);
+        s.check_c1()?;
+        Ok(s)
+    }
+
+    fn assemble(mesh: Mesh, layout: Layout, points: Vec<Vec<Rat>>, z: Option<ZLayers>) -> Spline {
+        let quads = c1::quads(&mesh, &layout);
+        let r = c1::matrix(&quads, layout.len());
+        let system = ConstraintSystem::homogeneous(r, 2);
+        let tris: Vec<[[f64; 2]; 3]> =
+            mesh.triangles().iter().map(|t| t.map(|v| mesh.vertex(v))).collect();
+        let cache = EvalCache::new(layout.degree(), &tris, Vec::new());
+        let mut s = Spline { mesh, layout, quads, system, points, z, cache };
+        s.refresh_cache();
+        s
+    }
+
+    fn refresh_cache(&mut self) {
+        let pts: Vec<[f64; 2]> = self
+            .layout
+            .patches()
+            .iter()
+            .flatten()
+            .map(|&p| [rat_to_f64(&self.points[p][0]), rat_to_f64(&self.points[p][1])])
+            .collect();
+        let tris: Vec<[[f64; 2]; 3]> =
+            self.mesh.triangles().iter().map(|t| t.map(|v| self.mesh.vertex(v))).collect();
+        self.cache = EvalCache::new(self.layout.degree(), &tris, pts);
+    }
+
+    /// The reference mesh.
+    pub fn mesh(&self) -> &Mesh {
+        &self.mesh
+    }
+    /// The control-point layout.
+    pub fn layout(&self) -> &Layout {
+        &self.layout
+    }
+    /// The degree `d`.
+    pub fn degree(&self) -> usize {
+        self.layout.degree()
+    }
+    /// The quadrilateral conditions.
+    pub fn quads(&self) -> &[Quad] {
+        &self.quads
+    }
+    /// The C1 conditions as an ECLES constraint system (`R P = 0`, `d = 2`).
+    pub fn system(&self) -> &ConstraintSystem {
+        &self.system
+    }
+    /// The C1 matrix `R` (one row per quadrilateral condition).
+    pub fn c1_matrix(&self) -> &SparseIntMatrix {
+        self.system.matrix()
+    }
+    /// Number of control points.
+    pub fn num_points(&self) -> usize {
+        self.points.len()
+    }
+    /// Exact control points (`n` rows of 2).
+    pub fn points(&self) -> &[Vec<Rat>] {
+        &self.points
+    }
+    /// Control point `i` as `f64`.
+    pub fn point_f64(&self, i: usize) -> [f64; 2] {
+        [rat_to_f64(&self.points[i][0]), rat_to_f64(&self.points[i][1])]
+    }
+    /// The 2.5D layers, if any.
+    pub fn z_layers(&self) -> Option<&ZLayers> {
+        self.z.as_ref()
+    }
+    /// Sets or removes the 2.5D layers.
+    pub fn set_z_layers(&mut self, z: Option<ZLayers>) {
+        self.z = z;
+    }
+
+    /// Nominal position of every control point, exactly.
+    pub fn nominal(&self) -> Vec<[Rat; 2]> {
+        let den = Int::from(self.degree() as i64 * self.mesh.grid_denominator());
+        self.layout
+            .nominal_int(&self.mesh)
+            .into_iter()
+            .map(|q| q.map(|c| Rat::new(Int::from_i128(c), den.clone())))
+            .collect()
+    }
+
+    /// Replaces the control points (all `n`), checking the C1 conditions exactly. On error
+    /// the spline is unchanged.
+    pub fn set_points(&mut self, points: Vec<Vec<Rat>>) -> Result<(), SplineError> {
+        if points.len() != self.points.len() {
+            return Err(SplineError::PointCount {
+                expected: self.points.len(),
+                found: points.len(),
+            });
+        }
+        let old = std::mem::replace(&mut self.points, points);
+        if let Err(e) = self.check_c1() {
+            self.points = old;
+            return Err(e);
+        }
+        self.refresh_cache();
+        Ok(())
+    }
+
+    /// Writes some control points without a C1 check (the editor uses this after ECLES has
+    /// guaranteed the conditions).
+    pub(crate) fn write_points(&mut self, idx: &[usize], values: Vec<Vec<Rat>>) {
+        for (&i, v) in idx.iter().zip(values) {
+            self.points[i] = v;
+        }
+        // Refresh the f64 mirror of the affected patches only when few points changed.
+        self.refresh_cache();
+    }
+
+    /// Exact residual of every quadrilateral condition (all zero for a C1 spline).
+    pub fn c1_residuals(&self) -> Vec<[Rat; 2]> {
+        self.quads
+            .iter()
+            .map(|q| {
+                let mut acc = [Rat::zero(), Rat::zero()];
+                for (&m, &c) in q.members().iter().zip(&q.coef) {
+                    let c = Rat::from_integer(Int::from(c));
+                    for a in 0..2 {
+                        acc[a] += &c * &self.points[m][a];
+                    }
+                }
+                acc
+            })
+            .collect()
+    }
+
+    /// Checks every C1 condition exactly.
+    pub fn check_c1(&self) -> Result<(), SplineError> {
+        match self.system.violations(&self.points).first() {
+            None => Ok(()),
+            Some(&(qi, _)) => {
+                let q = self.quads[qi];
+                Err(SplineError::NotC1 { quad: qi, edge: q.edge, index: q.index })
+            }
+        }
+    }
+
+    /// The evaluation cache (per-triangle frames and `f64` control points).
+    pub fn eval_cache(&self) -> &EvalCache {
+        &self.cache
+    }
+
+    /// phi(p), or `None` outside the mesh. `hint` is a triangle to try first.
+    pub fn eval(&self, p: [f64; 2], hint: Option<usize>) -> Option<[f64; 2]> {
+        let (t, b) = self.mesh.locate(p, hint)?;
+        Some(self.cache.value(t, b))
+    }
+
+    /// phi(p) and its Jacobian, with the triangle used, or `None` outside the mesh.
+    pub fn eval_jacobian(
+        &self,
+        p: [f64; 2],
+        hint: Option<usize>,
+    ) -> Option<([f64; 2], [[f64; 2]; 2], usize)> {
+        let (t, b) = self.mesh.locate(p, hint)?;
+        Some((self.cache.value(t, b), self.cache.jacobian(t, b), t))
+    }
+
+    /// phi at many points, in parallel; `None` for points outside the mesh. Consecutive
+    /// points are located from the previous point's triangle (coherent queries are fast).
+    pub fn eval_many(&self, pts: &[[f64; 2]], out: &mut [Option<[f64; 2]>]) {
+        assert_eq!(pts.len(), out.len(), "output length");
+        out.par_chunks_mut(4096).zip(pts.par_chunks(4096)).for_each(|(o, p)| {
+            let mut hint = None;
+            for (oi, pi) in o.iter_mut().zip(p) {
+                *oi = match self.mesh.locate(*pi, hint) {
+                    Some((t, b)) => {
+                        hint = Some(t);
+                        Some(self.cache.value(t, b))
+                    }
+                    None => None,
+                };
+            }
+        });
+    }
+}
+
+#[cfg(test)]
+mod tests;

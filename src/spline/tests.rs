@@ -1,0 +1,242 @@
+//! Spline tests against the oracles of `spline-facts.md`: counts, the dimension of the C1
+//! space, polynomial reproduction, corner interpolation and gradient continuity.
+
+use super::*;
+use crate::exact::{rat_int, Ldu, LduOptions};
+use crate::mesh::{Mesh, MeshOptions};
+use proptest::prelude::*;
+
+/// The 6-triangle strip of the C. elegans row of table 19.1: V=8, E=13, 5 interior edges.
+pub(crate) fn strip() -> Mesh {
+    let v: Vec<[f64; 2]> =
+        (0..4).flat_map(|i| [[i as f64 * 2.0, 0.0], [i as f64 * 2.0 + 1.0, 1.5]]).collect();
+    let t = vec![[0, 2, 1], [1, 2, 3], [2, 4, 3], [3, 4, 5], [4, 6, 5], [5, 6, 7]];
+    Mesh::from_triangles(&v, &t, MeshOptions::default()).unwrap()
+}
+
+fn binom(n: usize, k: usize) -> i64 {
+    if k > n {
+        return 0;
+    }
+    (1..=k).fold(1i64, |acc, i| acc * (n + 1 - i) as i64 / i as i64)
+}
+
+#[test]
+fn counts_match_table_19() {
+    let s = Spline::identity(strip(), 5).unwrap();
+    assert_eq!(s.num_points(), 96);
+    assert_eq!(s.quads().len(), 25);
+    let g = Mesh::grid(2, 2, 4.0, 4.0, MeshOptions::default()).unwrap();
+    let s = Spline::identity(g, 5).unwrap();
+    assert_eq!(s.num_points(), 121);
+    assert_eq!(s.quads().len(), 40);
+}
+
+#[test]
+fn counts_for_every_degree() {
+    let m = strip();
+    for d in 1..=8 {
+        let s = Spline::identity(m.clone(), d).unwrap();
+        let expect = 8 + (d - 1) * 13 + if d >= 3 { (d - 1) * (d - 2) / 2 * 6 } else { 0 };
+        assert_eq!(s.num_points(), expect, "degree {d}");
+        assert_eq!(s.quads().len(), d * 5);
+    }
+}
+
+fn random_mesh(seed: u64, n: usize) -> Mesh {
+    let mut x = seed.wrapping_mul(2654435761).wrapping_add(17);
+    let mut next = || {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        (x % 10_000) as f64 / 100.0
+    };
+    let pts: Vec<[f64; 2]> = (0..n).map(|_| [next(), next()]).collect();
+    Mesh::delaunay(&pts, MeshOptions::default()).unwrap()
+}
+
+#[test]
+fn rank_of_c1_conditions_matches_the_dimension_formula() {
+    // dim S^1_d = C(d+2,2) + C(d,2) E_I - (C(d+2,2) - 3) V_I + sigma (sigma = 0 here).
+    for (seed, n) in [(1, 9), (2, 14), (3, 20)] {
+        let m = random_mesh(seed, n);
+        for d in [4usize, 5, 6] {
+            let s = Spline::identity(m.clone(), d).unwrap();
+            let (ei, vi) = (m.num_interior_edges() as i64, m.num_interior_vertices() as i64);
+            let c = binom(d + 2, 2);
+            let dim = c + binom(d, 2) * ei - (c - 3) * vi;
+            let rank = Ldu::factor(s.c1_matrix(), LduOptions::default()).rank() as i64;
+            assert_eq!(rank, s.num_points() as i64 - dim, "seed {seed} degree {d}");
+        }
+    }
+}
+
+#[test]
+fn identity_is_identity_and_c1() {
+    let m = random_mesh(5, 30);
+    let s = Spline::identity(m.clone(), 5).unwrap();
+    assert!(s.check_c1().is_ok());
+    assert!(s.c1_residuals().iter().all(|r| r[0].is_zero() && r[1].is_zero()));
+    for t in 0..m.num_triangles() {
+        let tri = m.triangle(t).map(|v| m.vertex(v));
+        let c =
+            [(tri[0][0] + tri[1][0] + tri[2][0]) / 3.0, (tri[0][1] + tri[1][1] + tri[2][1]) / 3.0];
+        let (v, j, _) = s.eval_jacobian(c, None).unwrap();
+        assert!((v[0] - c[0]).abs() < 1e-9 && (v[1] - c[1]).abs() < 1e-9);
+        assert!(
+            (j[0][0] - 1.0).abs() < 1e-9 && j[0][1].abs() < 1e-9 && (j[1][1] - 1.0).abs() < 1e-9
+        );
+    }
+    let (lo, _) = m.bbox();
+    assert_eq!(s.eval([lo[0] - 1.0, lo[1] - 1.0], None), None);
+}
+
+/// The control points of a global quadratic map f(p) = (p^T A0 p, p^T A1 p) + B p + c in
+/// Bezier form of degree d: the blossom evaluated at i copies of v0, j of v1, k of v2.
+/// Exact, from the exact nominal positions.
+pub(crate) fn quadratic_points(
+    s: &Spline,
+    a: [[[i64; 2]; 2]; 2],
+    b: [[i64; 2]; 2],
+    c: [i64; 2],
+) -> Vec<Vec<Rat>> {
+    let d = s.degree();
+    let m = s.mesh();
+    let den = Int::from(m.grid_denominator());
+    let vx = |v: usize| m.vertex_int(v).map(|x| Rat::new(Int::from(x), den.clone()));
+    let mut pts = vec![Vec::new(); s.num_points()];
+    let bil = |r: usize, x: &[Rat; 2], y: &[Rat; 2]| -> Rat {
+        let mut acc = Rat::zero();
+        for u in 0..2 {
+            for w in 0..2 {
+                acc += Rat::from_integer(Int::from(a[r][u][w])) * &x[u] * &y[w];
+            }
+        }
+        acc
+    };
+    for t in 0..m.num_triangles() {
+        let tv = m.triangle(t).map(vx);
+        for mi in layout::multi_indices(d) {
+            let p = s.layout().point(t, mi);
+            let mut out = Vec::new();
+            for r in 0..2 {
+                // Blossom: (1/(d(d-1))) sum_{a != b} x_a^T A x_b + (1/d) sum_a B x_a + c.
+                let mut quad = Rat::zero();
+                if d >= 2 {
+                    for u in 0..3 {
+                        for w in 0..3 {
+                            let pairs = if u == w {
+                                mi[u] * mi[u].saturating_sub(1)
+                            } else {
+                                mi[u] * mi[w]
+                            };
+                            if pairs > 0 {
+                                quad += bil(r, &tv[u], &tv[w]) * rat_int(pairs as i64);
+                            }
+                        }
+                    }
+                    quad = quad / rat_int((d * (d - 1)) as i64);
+                }
+                let mut lin = Rat::zero();
+                for u in 0..3 {
+                    for w in 0..2 {
+                        lin += Rat::from_integer(Int::from(b[r][w]))
+                            * &tv[u][w]
+                            * rat_int(mi[u] as i64);
+                    }
+                }
+                out.push(quad + lin / rat_int(d as i64) + rat_int(c[r]));
+            }
+            pts[p] = out;
+        }
+    }
+    pts
+}
+
+#[test]
+fn polynomial_maps_are_reproduced_and_c1_exactly() {
+    let m = random_mesh(7, 25);
+    let a = [[[1, 2], [0, -1]], [[0, 1], [3, 0]]];
+    let b = [[2, -1], [1, 1]];
+    let c = [5, -3];
+    for d in [2usize, 3, 5] {
+        let id = Spline::identity(m.clone(), d).unwrap();
+        let pts = quadratic_points(&id, a, b, c);
+        let s = Spline::from_points(m.clone(), d, pts, None).expect("a global polynomial is C1");
+        let f = |p: [f64; 2]| {
+            let q = |r: usize| {
+                let aa = a[r];
+                p[0] * (aa[0][0] as f64 * p[0] + aa[0][1] as f64 * p[1])
+                    + p[1] * (aa[1][0] as f64 * p[0] + aa[1][1] as f64 * p[1])
+                    + b[r][0] as f64 * p[0]
+                    + b[r][1] as f64 * p[1]
+                    + c[r] as f64
+            };
+            [q(0), q(1)]
+        };
+        let (lo, hi) = m.bbox();
+        for k in 0..200 {
+            let p = [
+                lo[0] + (hi[0] - lo[0]) * ((k * 37 % 200) as f64 / 200.0),
+                lo[1] + (hi[1] - lo[1]) * ((k * 91 % 200) as f64 / 200.0),
+            ];
+            let Some((v, j, _)) = s.eval_jacobian(p, None) else { continue };
+            let e = f(p);
+            let scale = 1.0 + e[0].abs().max(e[1].abs());
+            assert!(
+                (v[0] - e[0]).abs() < 1e-9 * scale && (v[1] - e[1]).abs() < 1e-9 * scale,
+                "d {d}"
+            );
+            // Jacobian against central differences (tolerance for h = 1e-5 on a quadratic).
+            let h = 1e-5;
+            for axis in 0..2 {
+                let mut p1 = p;
+                let mut p0 = p;
+                p1[axis] += h;
+                p0[axis] -= h;
+                let (f1, f0) = (f(p1), f(p0));
+                for r in 0..2 {
+                    let fd = (f1[r] - f0[r]) / (2.0 * h);
+                    assert!((j[r][axis] - fd).abs() < 1e-6 * scale, "jacobian d {d}");
+                }
+            }
+        }
+        // Corners interpolate: phi(vertex) = its control point.
+        for v in 0..m.num_vertices() {
+            let val = s.eval(m.vertex(v), None).unwrap();
+            let q = s.point_f64(v);
+            assert!((val[0] - q[0]).abs() < 1e-9 * (1.0 + q[0].abs()));
+        }
+    }
+}
+
+#[test]
+fn breaking_one_point_breaks_c1() {
+    let m = random_mesh(9, 12);
+    let s = Spline::identity(m.clone(), 5).unwrap();
+    let mut pts = s.points().to_vec();
+    // An edge-corner point takes part in conditions; move it alone.
+    let q = s.quads()[0];
+    pts[q.l][0] += rat_int(1);
+    let mut s2 = s.clone();
+    assert!(matches!(s2.set_points(pts), Err(SplineError::NotC1 { .. })));
+    assert_eq!(s2.points(), s.points(), "a failed set_points leaves the spline unchanged");
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 24, ..ProptestConfig::default() })]
+    #[test]
+    fn eval_many_agrees_with_eval(seed in 0u64..1000, n in 5usize..30) {
+        let m = random_mesh(seed, n);
+        let s = Spline::identity(m.clone(), 5).unwrap();
+        let (lo, hi) = m.bbox();
+        let pts: Vec<[f64; 2]> = (0..300)
+            .map(|k| [lo[0] - 1.0 + (hi[0] - lo[0] + 2.0) * (k as f64 / 300.0), lo[1] + (hi[1] - lo[1]) * ((k * 7 % 300) as f64 / 300.0)])
+            .collect();
+        let mut out = vec![None; pts.len()];
+        s.eval_many(&pts, &mut out);
+        for (p, o) in pts.iter().zip(&out) {
+            prop_assert_eq!(*o, s.eval(*p, None));
+        }
+    }
+}
