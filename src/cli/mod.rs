@@ -5,6 +5,7 @@
 
 mod bench;
 mod solve;
+pub mod spline_cmds;
 
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
@@ -37,6 +38,55 @@ enum Command {
         /// Folder for the demo's outputs.
         #[arg(short, long, default_value = "out/demo")]
         output: PathBuf,
+    },
+    /// Build a reference mesh and write the identity deformation over it.
+    Mesh {
+        /// Points (CSV `x,y`) to triangulate (Delaunay).
+        #[arg(long)]
+        points: Option<PathBuf>,
+        /// With --points: an outline polygon (CSV `x,y`, in order) for a constrained Delaunay.
+        #[arg(long)]
+        outline: Option<PathBuf>,
+        /// A regular grid of COLSxROWS cells (e.g. 6x4), with --size.
+        #[arg(long)]
+        grid: Option<String>,
+        /// Width and height covered by --grid, e.g. 640,480 (pixels).
+        #[arg(long)]
+        size: Option<String>,
+        /// A 2D reference mesh in OBJ (`v` and `f` lines).
+        #[arg(long)]
+        obj: Option<PathBuf>,
+        /// Spline degree (5 or more for local edits).
+        #[arg(long, default_value_t = 5)]
+        degree: usize,
+        /// Vertex coordinates are snapped to multiples of 1/SNAP.
+        #[arg(long, default_value_t = 16)]
+        snap: i64,
+        /// Make a 2.5D deformation with prisms over [A, B] (e.g. -10,10).
+        #[arg(long, allow_hyphen_values = true)]
+        z_range: Option<String>,
+        /// Output deformation (JSON).
+        #[arg(short, long)]
+        output: PathBuf,
+    },
+    /// Apply a JSON script of editing operations (translate, rotate, scale) to a deformation.
+    Edit {
+        /// Input deformation.
+        deformation: PathBuf,
+        /// JSON array of operations.
+        #[arg(long)]
+        script: PathBuf,
+        /// Output deformation.
+        #[arg(short, long)]
+        output: PathBuf,
+    },
+    /// Report the C1 residuals (exact), Jacobian determinants and folds of a deformation.
+    Check {
+        /// The deformation.
+        deformation: PathBuf,
+        /// Samples per triangle side for the Jacobian scan.
+        #[arg(long, default_value_t = 12)]
+        samples: usize,
     },
     /// Measurements and experiments.
     Bench {
@@ -85,6 +135,23 @@ pub fn run() -> i32 {
     let result = match cli.command {
         Command::Solve { system, output } => solve::run(&system, output.as_deref()),
         Command::Demo { output } => solve::demo(&output),
+        Command::Mesh { points, outline, grid, size, obj, degree, snap, z_range, output } => {
+            spline_cmds::mesh(spline_cmds::MeshArgs {
+                points: points.as_deref(),
+                outline: outline.as_deref(),
+                grid: grid.as_deref(),
+                size: size.as_deref(),
+                obj: obj.as_deref(),
+                degree,
+                snap,
+                z_range: z_range.as_deref(),
+                output: &output,
+            })
+        }
+        Command::Edit { deformation, script, output } => {
+            spline_cmds::edit(&deformation, &script, &output)
+        }
+        Command::Check { deformation, samples } => spline_cmds::check(&deformation, samples),
         Command::Bench { which: BenchCommand::Bitgrowth { output, trials, quick, seed, only } } => {
             bench::bitgrowth(&output, trials, quick, seed, only.as_deref())
         }

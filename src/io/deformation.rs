@@ -204,8 +204,18 @@ fn indices(v: Option<&Value>, path: &str) -> Result<Vec<Vec<usize>>, Deformation
         .collect()
 }
 
-/// Reads a deformation file; returns the spline and the last edit, if recorded.
+/// Reads a deformation file; returns the spline and the last edit, if recorded. The control
+/// points must satisfy every C1 condition exactly.
 pub fn from_str(text: &str) -> Result<(Spline, Option<LastEdit>), DeformationError> {
+    read(text, true)
+}
+
+/// Reads a deformation file without requiring C1 (for `trimorph check`).
+pub fn from_str_unchecked(text: &str) -> Result<(Spline, Option<LastEdit>), DeformationError> {
+    read(text, false)
+}
+
+fn read(text: &str, require_c1: bool) -> Result<(Spline, Option<LastEdit>), DeformationError> {
     let doc: Value =
         serde_json::from_str(text).map_err(|e| DeformationError::Json(e.to_string()))?;
     let doc =
@@ -324,7 +334,11 @@ pub fn from_str(text: &str) -> Result<(Spline, Option<LastEdit>), DeformationErr
         }
         _ => None,
     };
-    let spline = Spline::from_points(mesh, degree, points, z)?;
+    let spline = if require_c1 {
+        Spline::from_points(mesh, degree, points, z)?
+    } else {
+        Spline::from_points_unchecked(mesh, degree, points, z)?
+    };
     Ok((spline, last))
 }
 

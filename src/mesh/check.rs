@@ -92,10 +92,7 @@ impl Mesh {
                 }
             }
         }
-        ensure!(
-            self.edges.len() * 2 - interior == 3 * nt,
-            "edge sides do not add up to 3 x triangles"
-        );
+        ensure!(self.edges.len() + interior == 3 * nt, "edge sides do not add up to 3 x triangles");
 
         // Vertex fans.
         ensure!(self.vt_start.len() == nv + 1, "vt_start has the wrong length");

@@ -4,6 +4,9 @@
 /// Relative tolerance for points on edges and vertices.
 const TOL: f64 = 1e-12;
 
+/// Offset of the bucket grid, as a fraction of the bucket size.
+const OFFSET: f64 = 0.381_966;
+
 /// Barycentric map of one triangle: `l1 = m[0] dx + m[1] dy`, `l2 = m[2] dx + m[3] dy` with
 /// `d = p - o`, `l0 = 1 - l1 - l2`; `p` is accepted when `l_k >= -tol[k]`.
 #[derive(Clone, Copy, Debug)]
@@ -61,10 +64,13 @@ impl Locator {
         let nx = ((target * w / h).sqrt().ceil() as usize).clamp(1, 1 << 12);
         let ny = ((target / nx as f64).ceil() as usize).clamp(1, 1 << 12);
         let margin = 1e-9 * w.hypot(h);
+        // Offset the buckets by an irrational-looking fraction of their size so that they do
+        // not line up with the cells of regular grid meshes.
+        let inv = [(nx as f64 - OFFSET) / w, (ny as f64 - OFFSET) / h];
         let mut loc = Locator {
             maps: Vec::with_capacity(tris.len()),
-            origin: lo,
-            inv: [nx as f64 / w, ny as f64 / h],
+            origin: [lo[0] - OFFSET / inv[0], lo[1] - OFFSET / inv[1]],
+            inv,
             dims: [nx, ny],
             lo: [lo[0] - margin, lo[1] - margin],
             hi: [hi[0] + margin, hi[1] + margin],

@@ -68,8 +68,9 @@ fn fans_are_ordered() {
     // Corner 0 has one triangle (lower-left cell split along 0-4 gives two).
     assert_eq!(m.vertex_triangles(0), &[0, 1]);
     assert_eq!(m.vertex_degree(0), 3);
-    // Border vertex 1 starts with the triangle whose clockwise side (1-0) is on the border.
-    assert_eq!(m.vertex_triangles(1)[0], 0);
+    // Border vertex 1 starts with the triangle whose clockwise side (1-2) is on the border and
+    // turns through 1-5 and 1-4 to the border edge 1-0.
+    assert_eq!(m.vertex_triangles(1), &[2, 3, 0]);
 }
 
 #[test]
@@ -85,7 +86,7 @@ fn locator_buckets_are_small() {
 fn folded_interior_vertex() {
     // Vertex 0 is wrapped twice by six 120-degree wedges.
     let mut v = vec![[0.0, 0.0]];
-    for (i, deg) in [0.0f64, 120.0, 240.0, 60.0, 180.0, 300.0].iter().enumerate() {
+    for (i, deg) in [0.0f64, 120.0, 240.0, 30.0, 150.0, 270.0].iter().enumerate() {
         let r = if i < 3 { 4.0 } else { 2.0 };
         v.push([r * deg.to_radians().cos(), r * deg.to_radians().sin()]);
     }

@@ -1,3 +1,4 @@
 //! Rendering.
+pub mod deformation;
 pub mod font;
 pub mod plot;

@@ -116,6 +116,21 @@ impl Spline {
         Ok(s)
     }
 
+    /// A spline from explicit control points *without* the C1 check (for inspection tools
+    /// such as `trimorph check`, which report the residuals instead).
+    pub fn from_points_unchecked(
+        mesh: Mesh,
+        degree: usize,
+        points: Vec<Vec<Rat>>,
+        z: Option<ZLayers>,
+    ) -> Result<Spline, SplineError> {
+        let id = Self::identity(mesh, degree)?;
+        if points.len() != id.points.len() {
+            return Err(SplineError::PointCount { expected: id.points.len(), found: points.len() });
+        }
+        Ok(Self::assemble(id.mesh, id.layout, points, z))
+    }
+
     fn assemble(mesh: Mesh, layout: Layout, points: Vec<Vec<Rat>>, z: Option<ZLayers>) -> Spline {
         let quads = c1::quads(&mesh, &layout);
         let r = c1::matrix(&quads, layout.len());

@@ -1,0 +1,376 @@
+//! `trimorph mesh`, `trimorph edit` and `trimorph check`.
+
+use super::{Exit, EXIT_INPUT, EXIT_UNSOLVABLE};
+use crate::ecles::EclesError;
+use crate::edit::select::Neighborhood;
+use crate::edit::{EditError, Editor, Mode};
+use crate::exact::{parse_rat, rat_to_string, Rat};
+use crate::io::deformation::{self, LastEdit};
+use crate::io::{read_text, write_atomic};
+use crate::mesh::{Mesh, MeshOptions};
+use crate::spline::{Spline, ZLayers};
+use anyhow::{anyhow, bail, Context, Result};
+use num_traits::Zero;
+use serde_json::{json, Value};
+use std::io::Write;
+use std::path::Path;
+
+/// Reads `x,y` rows from CSV text (a header line and extra columns are allowed).
+pub fn read_points_csv(text: &str, source: &str) -> Result<Vec<[f64; 2]>> {
+    let mut out = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        let line = line.trim();
+        if line.is_empty() || line.starts_with('#') {
+            continue;
+        }
+        let cols: Vec<&str> = line.split([',', ';', '\t', ' ']).filter(|c| !c.is_empty()).collect();
+        let parse = |c: Option<&&str>| c.and_then(|c| c.trim().parse::<f64>().ok());
+        match (parse(cols.first()), parse(cols.get(1))) {
+            (Some(x), Some(y)) if x.is_finite() && y.is_finite() => out.push([x, y]),
+            _ if out.is_empty() && i == 0 => continue, // header
+            _ => bail!("{source}, line {}: expected two numbers `x,y`, found `{line}`", i + 1),
+        }
+    }
+    if out.is_empty() {
+        bail!("{source}: no points");
+    }
+    Ok(out)
+}
+
+fn pair(text: &str, what: &str, sep: char) -> Result<(f64, f64)> {
+    let (a, b) = text
+        .split_once(sep)
+        .ok_or_else(|| anyhow!("{what}: expected two numbers as A{sep}B, found `{text}`"))?;
+    let (a, b): (f64, f64) = (
+        a.trim().parse().map_err(|_| anyhow!("{what}: `{a}` is not a number"))?,
+        b.trim().parse().map_err(|_| anyhow!("{what}: `{b}` is not a number"))?,
+    );
+    if !a.is_finite() || !b.is_finite() {
+        bail!("{what}: values must be finite");
+    }
+    Ok((a, b))
+}
+
+/// Options of `trimorph mesh`.
+pub struct MeshArgs<'a> {
+    pub points: Option<&'a Path>,
+    pub outline: Option<&'a Path>,
+    pub grid: Option<&'a str>,
+    pub size: Option<&'a str>,
+    pub obj: Option<&'a Path>,
+    pub degree: usize,
+    pub snap: i64,
+    pub z_range: Option<&'a str>,
+    pub output: &'a Path,
+}
+
+/// `trimorph mesh`: an identity deformation over a new reference mesh.
+pub fn mesh(a: MeshArgs) -> Result<()> {
+    if a.snap < 1 || a.snap > 1 << 20 {
+        bail!("--snap must be between 1 and 1048576 (grid steps per unit)");
+    }
+    let opts = MeshOptions { grid: a.snap };
+    let mesh = match (a.points, a.grid, a.obj) {
+        (Some(p), None, None) => {
+            let mut pts = read_points_csv(&read_text(p)?, &p.display().to_string())?;
+            match a.outline {
+                None => Mesh::delaunay(&pts, opts),
+                Some(o) => {
+                    let outline_pts = read_points_csv(&read_text(o)?, &o.display().to_string())?;
+                    let first = pts.len();
+                    pts.extend(outline_pts.iter().copied());
+                    let idx: Vec<usize> = (first..pts.len()).collect();
+                    Mesh::constrained_delaunay(&pts, &idx, opts)
+                }
+            }
+            .with_context(|| format!("cannot build a mesh from {}", p.display()))?
+        }
+        (None, Some(g), None) => {
+            let (c, r) = pair(g, "--grid", 'x')?;
+            if c < 1.0 || r < 1.0 || c.fract() != 0.0 || r.fract() != 0.0 || c * r > 1e6 {
+                bail!("--grid: expected COLSxROWS with whole numbers of cells, e.g. 6x4");
+            }
+            let (w, h) =
+                pair(a.size.ok_or_else(|| anyhow!("--grid needs --size W,H"))?, "--size", ',')?;
+            if w <= 0.0 || h <= 0.0 {
+                bail!("--size: width and height must be positive");
+            }
+            Mesh::grid(c as usize, r as usize, w, h, opts)?
+        }
+        (None, None, Some(o)) => Mesh::from_obj(&read_text(o)?, opts)
+            .with_context(|| format!("cannot read the reference mesh {}", o.display()))?,
+        _ => bail!("give exactly one of --points, --grid or --obj"),
+    };
+    let mut spline = Spline::identity(mesh, a.degree)?;
+    if let Some(z) = a.z_range {
+        let (lo, hi) = z.split_once(',').ok_or_else(|| anyhow!("--z-range: expected A,B"))?;
+        let (lo, hi) = (
+            parse_rat(lo).map_err(|e| anyhow!("--z-range: {e}"))?,
+            parse_rat(hi).map_err(|e| anyhow!("--z-range: {e}"))?,
+        );
+        if lo >= hi {
+            bail!("--z-range: need A < B");
+        }
+        let n = spline.num_points();
+        spline.set_z_layers(Some(ZLayers {
+            z0: vec![lo.clone(); n],
+            z1: vec![hi.clone(); n],
+            range: [lo, hi],
+        }));
+    }
+    write_atomic(a.output, deformation::to_string(&spline, None).as_bytes())?;
+    let m = spline.mesh();
+    let snap = m.snap_report();
+    writeln!(
+        std::io::stdout(),
+        "identity deformation of degree {}: {} vertices, {} triangles, {} control points, {} C1 conditions\nsnapped to 1/{}: {} vertices moved, at most {:.3e}\n-> {}",
+        spline.degree(),
+        m.num_vertices(),
+        m.num_triangles(),
+        spline.num_points(),
+        spline.quads().len(),
+        snap.grid,
+        snap.moved,
+        snap.max_shift,
+        a.output.display()
+    )?;
+    Ok(())
+}
+
+fn load(path: &Path) -> Result<(Spline, Option<LastEdit>)> {
+    let text = read_text(path)?;
+    deformation::from_str(&text)
+        .with_context(|| format!("cannot read deformation {}", path.display()))
+}
+
+fn rats(v: &Value, what: &str) -> Result<Vec<Rat>> {
+    let arr = v.as_array().ok_or_else(|| anyhow!("{what}: expected an array of numbers"))?;
+    arr.iter()
+        .map(|x| {
+            let t = match x {
+                Value::Number(n) => n.to_string(),
+                Value::String(s) => s.clone(),
+                _ => bail!("{what}: `{x}` is not a number"),
+            };
+            parse_rat(&t).map_err(|e| anyhow!("{what}: {e}"))
+        })
+        .collect()
+}
+
+fn unsolvable(e: &EditError) -> bool {
+    matches!(
+        e,
+        EditError::Ecles(
+            EclesError::NotWeaklySolvable { .. } | EclesError::NotStronglySolvable { .. }
+        )
+    )
+}
+
+/// Applies one operation of an edit script.
+fn apply_op(ed: &mut Editor, op: &Value, k: usize) -> Result<LastEdit> {
+    let ctx = |m: String| anyhow!("operation {k}: {m}");
+    let o = op.as_object().ok_or_else(|| ctx("expected an object".into()))?;
+    let anchors: Vec<usize> = match o.get("anchors") {
+        Some(Value::Array(a)) => a
+            .iter()
+            .map(|x| {
+                x.as_u64()
+                    .map(|u| u as usize)
+                    .ok_or_else(|| ctx(format!("anchor `{x}` is not a point index")))
+            })
+            .collect::<Result<_>>()?,
+        Some(Value::Object(near)) => {
+            let list = near
+                .get("near")
+                .and_then(Value::as_array)
+                .ok_or_else(|| ctx("anchors: expected {\"near\": [[x, y], ...]}".into()))?;
+            let pos: Vec<[f64; 2]> = list
+                .iter()
+                .map(|p| {
+                    let v = p
+                        .as_array()
+                        .filter(|a| a.len() == 2)
+                        .and_then(|a| Some([a[0].as_f64()?, a[1].as_f64()?]));
+                    v.ok_or_else(|| ctx(format!("near: `{p}` is not [x, y]")))
+                })
+                .collect::<Result<_>>()?;
+            let mut idx = ed.nearest_points(&pos);
+            idx.dedup();
+            idx
+        }
+        _ => {
+            return Err(ctx(
+                "missing \"anchors\" (point indices or {\"near\": [[x, y], ...]})".into()
+            ))
+        }
+    };
+    let derived: Vec<usize> = match o.get("derived") {
+        None | Some(Value::Null) => Vec::new(),
+        Some(Value::Array(a)) => a
+            .iter()
+            .map(|x| {
+                x.as_u64()
+                    .map(|u| u as usize)
+                    .ok_or_else(|| ctx(format!("derived `{x}` is not a point index")))
+            })
+            .collect::<Result<_>>()?,
+        Some(x) => return Err(ctx(format!("derived: expected an array, found {x}"))),
+    };
+    let hood = match o.get("neighborhood") {
+        None | Some(Value::Null) => Neighborhood::Radius(2),
+        Some(Value::String(s)) if s == "all" => Neighborhood::All,
+        Some(Value::Number(n)) if n.as_u64().is_some() => {
+            Neighborhood::Radius(n.as_u64().expect("checked") as usize)
+        }
+        Some(x) => {
+            return Err(ctx(format!("neighborhood: expected a whole number or \"all\", found {x}")))
+        }
+    };
+    let mode: Mode = match o.get("mode") {
+        None | Some(Value::Null) => Mode::Xy,
+        Some(Value::String(s)) => s.parse().map_err(ctx)?,
+        Some(x) => return Err(ctx(format!("mode: expected \"xy\", \"z0\" or \"z1\", found {x}"))),
+    };
+    let kind = o
+        .get("op")
+        .and_then(Value::as_str)
+        .ok_or_else(|| ctx("missing \"op\" (translate, rotate or scale)".into()))?;
+    let run = |ed: &mut Editor| -> Result<(), EditError> {
+        ed.select(&anchors, &derived, &hood, mode)?;
+        Ok(())
+    };
+    let wrap = |e: EditError| -> anyhow::Error {
+        let code = if unsolvable(&e) { EXIT_UNSOLVABLE } else { EXIT_INPUT };
+        Exit { code, message: format!("operation {k} ({kind}): {e}"), printed: false }.into()
+    };
+    run(ed).map_err(wrap)?;
+    let get = |key: &str| o.get(key).ok_or_else(|| ctx(format!("{kind} needs \"{key}\"")));
+    match kind {
+        "translate" => {
+            let by = rats(get("by")?, "by")?;
+            ed.translate(&by).map_err(wrap)?;
+        }
+        "rotate" => {
+            let c = rats(get("center")?, "center")?;
+            if c.len() != 2 {
+                return Err(ctx("center: expected [x, y]".into()));
+            }
+            let angle = get("angle")?
+                .as_f64()
+                .ok_or_else(|| ctx("angle: expected a number (radians)".into()))?;
+            ed.rotate([c[0].clone(), c[1].clone()], angle).map_err(wrap)?;
+        }
+        "scale" => {
+            let c = rats(get("center")?, "center")?;
+            let f = rats(&json!([get("factor")?]), "factor")?;
+            ed.scale(&c, &f[0]).map_err(wrap)?;
+        }
+        other => return Err(ctx(format!("unknown op `{other}` (use translate, rotate or scale)"))),
+    }
+    let sel = ed.selection().expect("selected");
+    Ok(LastEdit { anchors: sel.anchors.clone(), derived: sel.derived.clone() })
+}
+
+/// `trimorph edit DEF --script EDITS -o OUT`.
+pub fn edit(def: &Path, script: &Path, output: &Path) -> Result<()> {
+    let (spline, _) = load(def)?;
+    let text = read_text(script)?;
+    let ops: Value = serde_json::from_str(&text)
+        .with_context(|| format!("{} is not valid JSON", script.display()))?;
+    let ops = ops
+        .as_array()
+        .ok_or_else(|| anyhow!("{}: expected a JSON array of operations", script.display()))?;
+    let mut ed = Editor::new(spline);
+    let mut last = None;
+    let mut out = std::io::stdout();
+    for (k, op) in ops.iter().enumerate() {
+        let l = apply_op(&mut ed, op, k)?;
+        let sel = ed.selection().expect("selected");
+        writeln!(
+            out,
+            "operation {k}: {} anchors, {} derived, {} relevant conditions (rank {}), {}",
+            l.anchors.len(),
+            l.derived.len(),
+            sel.session().relevant().len(),
+            sel.session().rank(),
+            if sel.strong { "strongly solvable" } else { "weakly solvable" }
+        )?;
+        last = Some(l);
+    }
+    ed.spline().check_c1().context("internal error: the edit broke C1")?;
+    write_atomic(output, deformation::to_string(ed.spline(), last.as_ref()).as_bytes())?;
+    writeln!(out, "{} operations applied; C1 holds exactly -> {}", ops.len(), output.display())?;
+    Ok(())
+}
+
+/// The `trimorph check` report of a spline.
+pub fn check_report(s: &Spline, samples_per_side: usize) -> Value {
+    let res = s.c1_residuals();
+    let nonzero = res.iter().filter(|r| !r[0].is_zero() || !r[1].is_zero()).count();
+    let max_res = res
+        .iter()
+        .flat_map(|r| r.iter().cloned())
+        .map(|r| if r < Rat::zero() { -r } else { r })
+        .max()
+        .unwrap_or_else(Rat::zero);
+    let m = s.mesh();
+    let cache = s.eval_cache();
+    let k = samples_per_side.max(1);
+    let mut min_det = f64::INFINITY;
+    let (mut folds, mut samples) = (0usize, 0usize);
+    let mut worst = None;
+    for t in 0..m.num_triangles() {
+        for i in 0..=k {
+            for j in 0..=k - i {
+                let b = [i as f64 / k as f64, j as f64 / k as f64, (k - i - j) as f64 / k as f64];
+                let jm = cache.jacobian(t, b);
+                let det = jm[0][0] * jm[1][1] - jm[0][1] * jm[1][0];
+                samples += 1;
+                if det <= 0.0 {
+                    folds += 1;
+                }
+                if det < min_det {
+                    min_det = det;
+                    let v = m.triangle(t).map(|x| m.vertex(x));
+                    let p = [0, 1].map(|a| b[0] * v[0][a] + b[1] * v[1][a] + b[2] * v[2][a]);
+                    worst = Some(json!({"triangle": t, "point": p}));
+                }
+            }
+        }
+    }
+    json!({
+        "degree": s.degree(),
+        "vertices": m.num_vertices(),
+        "triangles": m.num_triangles(),
+        "interior_edges": m.num_interior_edges(),
+        "control_points": s.num_points(),
+        "c1_conditions": s.quads().len(),
+        "c1_nonzero_residuals": nonzero,
+        "c1_max_abs_residual": rat_to_string(&max_res),
+        "c1_holds": nonzero == 0,
+        "jacobian_samples": samples,
+        "min_jacobian_det": min_det,
+        "min_jacobian_det_at": worst,
+        "fold_samples": folds,
+        "folds": folds > 0,
+        "z_layers": s.z_layers().is_some(),
+    })
+}
+
+/// `trimorph check DEF`: exit 0 when C1 holds exactly, 1 otherwise.
+pub fn check(def: &Path, samples: usize) -> Result<()> {
+    let text = read_text(def)?;
+    let (s, _) = deformation::from_str_unchecked(&text)
+        .with_context(|| format!("cannot read deformation {}", def.display()))?;
+    let rep = check_report(&s, samples);
+    writeln!(std::io::stdout(), "{}", serde_json::to_string_pretty(&rep)?)?;
+    if rep["c1_holds"] != json!(true) {
+        return Err(Exit {
+            code: EXIT_INPUT,
+            message: format!("{}: C1 conditions do not hold", def.display()),
+            printed: false,
+        }
+        .into());
+    }
+    Ok(())
+}
