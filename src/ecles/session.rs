@@ -98,16 +98,14 @@ impl ConstraintSystem {
             return Err(EclesError::AnchorAlsoDerived { index });
         }
         let (relevant, fixed_relevant) = self.extract_relevant(anchors, derived);
-        let map_cols = |cols: &[usize]| {
-            let mut m = vec![None; n];
-            for (k, &s) in cols.iter().enumerate() {
-                m[s] = Some(k);
-            }
-            m
+        // Column maps as hash maps: the edit touches few of the n parameters.
+        let map_cols = |cols: &[usize]| -> std::collections::HashMap<usize, usize> {
+            cols.iter().enumerate().map(|(k, &s)| (s, k)).collect()
         };
-        let r_ed = self.r.select(&relevant, &map_cols(derived), derived.len());
-        let r_ea = self.r.select(&relevant, &map_cols(anchors), anchors.len());
-        let r_ef = self.r.select(&relevant, &map_cols(&fixed_relevant), fixed_relevant.len());
+        let (md, ma, mf) = (map_cols(derived), map_cols(anchors), map_cols(&fixed_relevant));
+        let r_ed = self.r.select_with(&relevant, |c| md.get(&c).copied(), derived.len());
+        let r_ea = self.r.select_with(&relevant, |c| ma.get(&c).copied(), anchors.len());
+        let r_ef = self.r.select_with(&relevant, |c| mf.get(&c).copied(), fixed_relevant.len());
         let ldu =
             Ldu::factor(&r_ed, LduOptions { simplification: opts.method, pivoting: opts.pivoting });
         let p_f: Vec<Vec<Rat>> = fixed_relevant.iter().map(|&s| p[s].clone()).collect();
@@ -203,6 +201,13 @@ impl Session {
     /// Current derived values (`|D|` rows of `d`), each in lowest terms.
     pub fn derived_values(&self) -> Vec<Vec<Rat>> {
         let cols: Vec<Vec<Rat>> = self.values.iter().map(ScaledVec::to_rats).collect();
+        (0..self.derived.len()).map(|s| cols.iter().map(|c| c[s].clone()).collect()).collect()
+    }
+
+    /// Current derived values (`|D|` rows of `d`), exact but not reduced to lowest terms
+    /// (cheap; see [`ScaledVec::to_rats_raw`]).
+    pub fn derived_values_raw(&self) -> Vec<Vec<Rat>> {
+        let cols: Vec<Vec<Rat>> = self.values.iter().map(ScaledVec::to_rats_raw).collect();
         (0..self.derived.len()).map(|s| cols.iter().map(|c| c[s].clone()).collect()).collect()
     }
 
@@ -365,7 +370,14 @@ impl Session {
                         ScaledVec::from_rats(&h.iter().map(|r| r[j].clone()).collect::<Vec<_>>())
                     })
                     .collect(),
-                None => self.values.clone(),
+                None => {
+                    // Reusing the results as hints: divide out common content first so that
+                    // repeated updates do not compound denominators.
+                    for v in self.values.iter_mut() {
+                        v.reduce_content();
+                    }
+                    self.values.clone()
+                }
             };
             let lsq = self.lsq_for(&weights)?;
             for (j, col) in b_cols.iter().enumerate() {

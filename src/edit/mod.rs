@@ -186,9 +186,10 @@ impl Editor {
         &self.index
     }
 
-    fn params(&self, mode: Mode) -> Result<Vec<Vec<Rat>>, EditError> {
+    /// The parameters of a z mode as rows of one value (xy uses the spline's points directly).
+    fn z_params(&self, mode: Mode) -> Result<Vec<Vec<Rat>>, EditError> {
         match mode {
-            Mode::Xy => Ok(self.spline.points().to_vec()),
+            Mode::Xy => unreachable!("xy parameters are borrowed from the spline"),
             Mode::Z0 | Mode::Z1 => {
                 let z = self.spline.z_layers().ok_or_else(|| {
                     EditError::Mode("z0/z1 modes need a 2.5D deformation (with z_range)".into())
@@ -240,7 +241,11 @@ impl Editor {
         if let Some(&index) = extra.iter().find(|&&p| is_anchor[p]) {
             return Err(EclesError::AnchorAlsoDerived { index }.into());
         }
-        let params = self.params(mode)?;
+        let zparams = if mode == Mode::Xy { None } else { Some(self.z_params(mode)?) };
+        let params: &[Vec<Rat>] = match &zparams {
+            Some(z) => z,
+            None => self.spline.points(),
+        };
         let mut in_d = vec![false; n];
         let mut seeds: Vec<usize> = anchors.to_vec();
         for p in extra.iter().copied().chain(neighborhood(&self.index, anchors, hood)) {
@@ -255,7 +260,7 @@ impl Editor {
         let (session, strong, derived) = loop {
             let derived: Vec<usize> = (0..n).filter(|&p| in_d[p]).collect();
             let opts = InitOptions { strong: true, ..Default::default() };
-            match system.initialize(&params, anchors, &derived, opts) {
+            match system.initialize(params, anchors, &derived, opts) {
                 Ok(s) => break (s, true, derived),
                 Err(EclesError::NotStronglySolvable { constraint, .. }) => {
                     let grow: Vec<usize> = quads[constraint]
@@ -298,13 +303,19 @@ impl Editor {
     fn apply(&mut self, anchors: Vec<Vec<Rat>>, hints: Vec<Vec<Rat>>) -> Result<(), EditError> {
         let sel = self.selection.as_mut().ok_or(EditError::NoSelection)?;
         sel.session.update(&anchors, Some(&hints), None)?;
-        let derived = sel.session.derived_values();
+        // Exact values unreduced (no gcd per value during a drag); f64 straight from the
+        // common-denominator form.
+        let derived = sel.session.derived_values_raw();
         let mut idx = sel.anchors.clone();
         idx.extend_from_slice(&sel.derived);
+        let mut approx: Vec<[f64; 2]> =
+            anchors.iter().map(|a| [rat_to_f64(&a[0]), a.get(1).map_or(0.0, rat_to_f64)]).collect();
+        let df = sel.session.derived_f64();
+        approx.extend(df.iter().map(|r| [r[0], r.get(1).copied().unwrap_or(0.0)]));
         let mut vals = anchors;
         vals.extend(derived);
         match sel.mode {
-            Mode::Xy => self.spline.write_points(&idx, vals),
+            Mode::Xy => self.spline.write_points(&idx, vals, &approx),
             mode => {
                 let mut z = self.spline.z_layers().cloned().expect("checked at select");
                 let layer = if mode == Mode::Z0 { &mut z.z0 } else { &mut z.z1 };

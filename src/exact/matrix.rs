@@ -48,7 +48,15 @@ pub fn rat_from_f64(v: f64) -> Option<Rat> {
 }
 
 /// Formats a rational as `"p"` or `"p/q"` in lowest terms (the deformation-file convention).
+/// Accepts unreduced values (see [`ScaledVec::to_rats_raw`]).
 pub fn rat_to_string(r: &Rat) -> String {
+    let reduced;
+    let r = if r.denom().is_one() {
+        r
+    } else {
+        reduced = r.reduced();
+        &reduced
+    };
     if r.denom().is_one() {
         r.numer().to_string()
     } else {
@@ -285,12 +293,22 @@ impl SparseIntMatrix {
     /// The submatrix with the given rows and columns, renumbered in the given order.
     /// `col_map[j]` is the new index of old column `j`, or `None` to drop it.
     pub fn select(&self, rows: &[usize], col_map: &[Option<usize>], new_cols: usize) -> Self {
+        self.select_with(rows, |c| col_map[c], new_cols)
+    }
+
+    /// Like [`SparseIntMatrix::select`] with the column map as a function.
+    pub fn select_with<F: Fn(usize) -> Option<usize>>(
+        &self,
+        rows: &[usize],
+        col_map: F,
+        new_cols: usize,
+    ) -> Self {
         let row_entries = rows
             .iter()
             .map(|&i| {
                 let mut r: Vec<(usize, Int)> = self.row_entries[i]
                     .iter()
-                    .filter_map(|(c, v)| col_map[*c].map(|nc| (nc, v.clone())))
+                    .filter_map(|(c, v)| col_map(*c).map(|nc| (nc, v.clone())))
                     .collect();
                 r.sort_by_key(|(c, _)| *c);
                 r
@@ -364,7 +382,8 @@ mod tests {
 }
 
 /// A rational vector stored as integer numerators over one common positive denominator,
-/// `v[i] = num[i] / den`, with `gcd(den, num[0], num[1], ...) = 1`.
+/// `v[i] = num[i] / den`. [`ScaledVec::reduce_content`] divides out the common content
+/// `gcd(den, num[0], num[1], ...)`; constructors do not (it costs a big gcd per entry).
 ///
 /// Exact solves produce vectors in this form for free (one determinant as denominator);
 /// keeping them so avoids a big gcd per entry. [`ScaledVec::to_rats`] gives each entry in
@@ -378,14 +397,14 @@ pub struct ScaledVec {
 }
 
 impl ScaledVec {
-    /// Builds `num / den` (any nonzero `den`) and normalizes sign and common content.
+    /// Builds `num / den` (any nonzero `den`), making the denominator positive.
     ///
     /// # Panics
     /// Panics when `den` is zero.
     pub fn new(num: Vec<Int>, den: Int) -> ScaledVec {
         assert!(!den.is_zero(), "zero denominator");
         let mut v = ScaledVec { num, den };
-        v.normalize();
+        v.normalize_sign();
         v
     }
 
@@ -430,6 +449,13 @@ impl ScaledVec {
         (0..self.len()).map(|i| self.get(i)).collect()
     }
 
+    /// All entries as rationals over the common denominator, *not* reduced (no gcd per
+    /// entry). Equality, ordering and hashing of `Ratio` treat them correctly, and any
+    /// arithmetic reduces its result; [`rat_to_string`] reduces before printing.
+    pub fn to_rats_raw(&self) -> Vec<Rat> {
+        self.num.iter().map(|n| Rat::new_raw(n.clone(), self.den.clone())).collect()
+    }
+
     /// Nearest `f64` of each entry.
     pub fn to_f64(&self) -> Vec<f64> {
         let d = self.den.to_f64_lossy();
@@ -440,13 +466,18 @@ impl ScaledVec {
         }
     }
 
-    fn normalize(&mut self) {
+    fn normalize_sign(&mut self) {
         if self.den.signum_i32() < 0 {
             self.den = -std::mem::take(&mut self.den);
             for v in self.num.iter_mut() {
                 *v = -std::mem::take(v);
             }
         }
+    }
+
+    /// Divides numerators and denominator by their common content, so that
+    /// `gcd(den, num[0], num[1], ...) = 1`.
+    pub fn reduce_content(&mut self) {
         if self.den.is_one() {
             return;
         }

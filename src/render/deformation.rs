@@ -26,8 +26,8 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use rayon::prelude::*;
 use tiny_skia::{
-    Color, ColorU8, FillRule, LineCap, LineJoin, Paint, PathBuilder, Pixmap, Rect, Stroke,
-    Transform,
+    Color, ColorU8, FillRule, LineCap, LineJoin, Paint, PathBuilder, Pixmap, PremultipliedColorU8,
+    Rect, Stroke, Transform,
 };
 
 use super::font;
@@ -43,15 +43,15 @@ const MARGIN: f64 = 0.05;
 
 type Rgba = [u8; 4];
 const MESH: Rgba = [25, 25, 25, 255];
-const HALO: Rgba = [255, 255, 255, 150];
-const REFERENCE: Rgba = [150, 150, 150, 200];
+const HALO: Rgba = [255, 255, 255, 120];
+const REFERENCE: Rgba = [150, 170, 215, 255];
 const NET: Rgba = [140, 140, 140, 255];
 const QUAD: Rgba = [255, 150, 0, 70];
 const POINT: Rgba = [110, 110, 110, 255];
 const ANCHOR: Rgba = [220, 20, 20, 255];
 const DERIVED: Rgba = [30, 90, 230, 255];
 const TEXT: Rgba = [25, 25, 25, 255];
-const LEGEND_BG: Rgba = [255, 255, 255, 225];
+const LEGEND_BG: Rgba = [255, 255, 255, 210];
 const LEGEND_BORDER: Rgba = [170, 170, 170, 255];
 
 /// What to draw and how large (see the module docs for the coordinate convention).
@@ -260,21 +260,14 @@ pub fn render(
         legend.push(("deformed mesh".into(), Swatch::Line(MESH, 1.0)));
     }
     if opts.show_points {
-        let mut pb = PathBuilder::new();
-        for p in points.iter().filter_map(|&p| view.map(p)) {
-            pb.push_circle(p.0, p.1, 1.2);
-        }
-        fill(&mut pm, pb, POINT);
+        let centres: Vec<(f32, f32)> = points.iter().filter_map(|&p| view.map(p)).collect();
+        dots(&mut pm, &centres, 1.2, POINT);
         legend.push(("control points".into(), Swatch::Dot(POINT, 1.5)));
         if let Some(last) = last {
             let at = |idx: &[usize]| -> Vec<(f32, f32)> {
                 idx.iter().filter_map(|&i| points.get(i).and_then(|&p| view.map(p))).collect()
             };
-            let mut pb = PathBuilder::new();
-            for (x, y) in at(&last.derived) {
-                pb.push_circle(x, y, 2.5);
-            }
-            fill(&mut pm, pb, DERIVED);
+            dots(&mut pm, &at(&last.derived), 2.5, DERIVED);
             let mut pb = PathBuilder::new();
             for (x, y) in at(&last.anchors) {
                 pb.push_circle(x, y, 5.0);
@@ -415,6 +408,38 @@ fn fill(pm: &mut Pixmap, pb: PathBuilder, rgba: Rgba) {
     pm.fill_path(&path, &paint(rgba), FillRule::Winding, Transform::identity(), None);
 }
 
+/// Fills anti-aliased discs of radius `r` around the canvas points `centres` (coverage from
+/// the distance of each pixel centre; much faster than a path for many tiny dots).
+fn dots(pm: &mut Pixmap, centres: &[(f32, f32)], r: f32, rgba: Rgba) {
+    let (w, h) = (pm.width() as i64, pm.height() as i64);
+    let alpha = f32::from(rgba[3]) / 255.0;
+    let pixels = pm.pixels_mut();
+    for &(cx, cy) in centres {
+        let span = |c: f32, n: i64| {
+            (((c - r - 1.0).floor() as i64).max(0), ((c + r + 1.0).ceil() as i64).min(n))
+        };
+        let ((x0, x1), (y0, y1)) = (span(cx, w), span(cy, h));
+        for y in y0..y1 {
+            for x in x0..x1 {
+                let d = (x as f32 + 0.5 - cx).hypot(y as f32 + 0.5 - cy);
+                let cov = (r + 0.5 - d).clamp(0.0, 1.0) * alpha;
+                if cov <= 0.0 {
+                    continue;
+                }
+                let px = &mut pixels[(y * w + x) as usize];
+                let mix = |src: u8, dst: u8| {
+                    (f32::from(src) * cov + f32::from(dst) * (1.0 - cov)).round() as u8
+                };
+                let a = mix(255, px.alpha());
+                let (r, g, b) =
+                    (mix(rgba[0], px.red()), mix(rgba[1], px.green()), mix(rgba[2], px.blue()));
+                *px = PremultipliedColorU8::from_rgba(r.min(a), g.min(a), b.min(a), a)
+                    .expect("premultiplied: channels at most alpha");
+            }
+        }
+    }
+}
+
 /// How a legend entry is pictured.
 #[derive(Clone, Copy, Debug)]
 enum Swatch {
@@ -427,7 +452,7 @@ enum Swatch {
 /// Draws the legend in the image corner covering the fewest `samples` (canvas points).
 fn draw_legend(pm: &mut Pixmap, entries: &[(String, Swatch)], samples: &[(f32, f32)]) {
     let (w, h) = (pm.width() as i32, pm.height() as i32);
-    let scale = (w.min(h) / 300).clamp(1, 4) as u32;
+    let scale = (w.min(h) / 500).clamp(1, 4) as u32;
     let s = scale as i32;
     let (th, pad, swatch_w) = (font::text_height(scale) as i32, 3 * s, 12 * s);
     let Some(label_w) = entries.iter().map(|e| font::text_width(&e.0, scale) as i32).max() else {

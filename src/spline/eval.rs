@@ -97,6 +97,12 @@ impl EvalCache {
         self.mi.len()
     }
 
+    /// Sets one slot (`triangle * per_patch + local index`) of the patch control points.
+    #[inline]
+    pub fn set_slot(&mut self, slot: usize, q: [f64; 2]) {
+        self.pts[slot] = q;
+    }
+
     /// Replaces the control points of the patches (same layout).
     pub fn set_points(&mut self, patch_points: Vec<[f64; 2]>) {
         assert_eq!(patch_points.len(), self.pts.len());

@@ -82,6 +82,8 @@ pub struct Spline {
     points: Vec<Vec<Rat>>,
     z: Option<ZLayers>,
     cache: EvalCache,
+    /// For each control point, its slots in the flattened patch array of the cache.
+    slots: Vec<Vec<u32>>,
 }
 
 impl Spline {
@@ -138,7 +140,11 @@ impl Spline {
         let tris: Vec<[[f64; 2]; 3]> =
             mesh.triangles().iter().map(|t| t.map(|v| mesh.vertex(v))).collect();
         let cache = EvalCache::new(layout.degree(), &tris, Vec::new());
-        let mut s = Spline { mesh, layout, quads, system, points, z, cache };
+        let mut slots = vec![Vec::new(); layout.len()];
+        for (k, &p) in layout.patches().iter().flatten().enumerate() {
+            slots[p].push(k as u32);
+        }
+        let mut s = Spline { mesh, layout, quads, system, points, z, cache, slots };
         s.refresh_cache();
         s
     }
@@ -231,12 +237,18 @@ impl Spline {
 
     /// Writes some control points without a C1 check (the editor uses this after ECLES has
     /// guaranteed the conditions).
-    pub(crate) fn write_points(&mut self, idx: &[usize], values: Vec<Vec<Rat>>) {
-        for (&i, v) in idx.iter().zip(values) {
+    pub(crate) fn write_points(
+        &mut self,
+        idx: &[usize],
+        values: Vec<Vec<Rat>>,
+        approx: &[[f64; 2]],
+    ) {
+        for ((&i, v), &q) in idx.iter().zip(values).zip(approx) {
+            for &slot in &self.slots[i] {
+                self.cache.set_slot(slot as usize, q);
+            }
             self.points[i] = v;
         }
-        // Refresh the f64 mirror of the affected patches only when few points changed.
-        self.refresh_cache();
     }
 
     /// Exact residual of every quadrilateral condition (all zero for a C1 spline).
