@@ -173,7 +173,10 @@ fn demo_runs_on_bundled_data() {
     let text = String::from_utf8_lossy(&o.stdout);
     assert!(text.contains("every constraint holds exactly: true"));
     assert!(!text.contains("holds exactly: false"));
-    assert!(dir.path().join("pump.solution.json").exists());
+    assert!(text.contains("nonzero residuals: 0"), "{text}");
+    for f in ["pump.solution.json", "identity.json", "edited.json", "before.png", "after.png", "edits.json"] {
+        assert!(dir.path().join(f).exists(), "{f}");
+    }
 }
 
 #[test]

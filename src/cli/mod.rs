@@ -4,6 +4,7 @@
 //! (`trimorph solve`). Outputs are written atomically (temporary file, then rename).
 
 mod bench;
+mod demo;
 mod solve;
 pub mod spline_cmds;
 
@@ -33,7 +34,7 @@ enum Command {
         #[arg(short, long)]
         output: Option<PathBuf>,
     },
-    /// Run the demonstration on the bundled examples.
+    /// Run the demonstration on bundled data (ECLES examples, a C1 edit over a cell image).
     Demo {
         /// Folder for the demo's outputs.
         #[arg(short, long, default_value = "out/demo")]
@@ -88,6 +89,23 @@ enum Command {
         #[arg(long, default_value_t = 12)]
         samples: usize,
     },
+    /// Draw a deformation (deformed mesh, control net, C1 conditions, points) as a PNG.
+    Render {
+        /// The deformation.
+        deformation: PathBuf,
+        /// Output PNG.
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Background image (PNG, JPEG or TIFF); mesh coordinates are its pixels.
+        #[arg(long)]
+        background: Option<PathBuf>,
+        /// Layers: comma list of mesh, net, constraints, points, reference, all.
+        #[arg(long, default_value = "mesh,points")]
+        show: String,
+        /// Output size without a background, e.g. 800,600.
+        #[arg(long, default_value = "800,600")]
+        size: String,
+    },
     /// Measurements and experiments.
     Bench {
         #[command(subcommand)]
@@ -134,7 +152,7 @@ pub fn run() -> i32 {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Solve { system, output } => solve::run(&system, output.as_deref()),
-        Command::Demo { output } => solve::demo(&output),
+        Command::Demo { output } => demo::run(&output),
         Command::Mesh { points, outline, grid, size, obj, degree, snap, z_range, output } => {
             spline_cmds::mesh(spline_cmds::MeshArgs {
                 points: points.as_deref(),
@@ -152,6 +170,9 @@ pub fn run() -> i32 {
             spline_cmds::edit(&deformation, &script, &output)
         }
         Command::Check { deformation, samples } => spline_cmds::check(&deformation, samples),
+        Command::Render { deformation, output, background, show, size } => {
+            spline_cmds::render(&deformation, &output, background.as_deref(), &show, &size)
+        }
         Command::Bench { which: BenchCommand::Bitgrowth { output, trials, quick, seed, only } } => {
             bench::bitgrowth(&output, trials, quick, seed, only.as_deref())
         }

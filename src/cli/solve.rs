@@ -4,7 +4,7 @@ use super::{Exit, EXIT_INPUT, EXIT_UNSOLVABLE};
 use crate::ecles::problem::{error_json, Problem, ProblemError};
 use crate::ecles::EclesError;
 use crate::io::{read_text, write_atomic};
-use anyhow::{Context, Result};
+use anyhow::Result;
 use serde_json::json;
 use std::io::Write;
 use std::path::Path;
@@ -16,7 +16,7 @@ fn fail(code: i32, obj: serde_json::Value) -> anyhow::Error {
     Exit { code, message, printed: true }.into()
 }
 
-fn solve_text(text: &str, source: &str) -> Result<serde_json::Value> {
+pub(super) fn solve_text(text: &str, source: &str) -> Result<serde_json::Value> {
     let problem = Problem::from_json(text).map_err(|e| {
         let kind = match e {
             ProblemError::Json(_) => "invalid_json",
@@ -80,39 +80,6 @@ pub fn run(system: &Path, output: Option<&Path>) -> Result<()> {
     Ok(())
 }
 
-const PUMP: &str = include_str!("../../examples/pump.json");
-const THESIS: &str = include_str!("../../examples/thesis_8_3.json");
-const PARALLELOGRAM: &str = include_str!("../../examples/parallelogram_2d.json");
-
-/// `trimorph demo`: solves the bundled examples and writes their solutions.
-pub fn demo(dir: &Path) -> Result<()> {
-    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    writeln!(
-        std::io::stdout().lock(),
-        "trimorph demo: exact constrained editing (ECLES) on the bundled examples\n"
-    )?;
-    for (name, text, what) in [
-        ("pump", PUMP, "four pumps, p0 + p1 = p2, p3 = p2 + 5; set p0 = 4"),
-        ("thesis_8_3", THESIS, "thesis 8.3/9.2: rank-3 system with 2 redundant rows, hints all 1"),
-        (
-            "parallelogram_2d",
-            PARALLELOGRAM,
-            "thesis fig. 2.1: drag one corner of a parallelogram in R^2",
-        ),
-    ] {
-        let out = solve_text(text, name)?;
-        let path = dir.join(format!("{name}.solution.json"));
-        write_atomic(&path, compact_pretty(&out).as_bytes())?;
-        let mut o = std::io::stdout().lock();
-        writeln!(o, "{name}: {what}")?;
-        writeln!(
-            o,
-            "  rank {}  relevant {}  redundant {}",
-            out["rank"], out["relevant"], out["redundant"]
-        )?;
-        writeln!(o, "  P = {}", out["P"])?;
-        writeln!(o, "  every constraint holds exactly: {}", out["all_constraints_hold"])?;
-        writeln!(o, "  -> {}\n", path.display())?;
-    }
-    Ok(())
-}
+pub(super) const PUMP: &str = include_str!("../../examples/pump.json");
+pub(super) const THESIS: &str = include_str!("../../examples/thesis_8_3.json");
+pub(super) const PARALLELOGRAM: &str = include_str!("../../examples/parallelogram_2d.json");

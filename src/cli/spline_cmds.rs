@@ -374,3 +374,26 @@ pub fn check(def: &Path, samples: usize) -> Result<()> {
     }
     Ok(())
 }
+
+/// `trimorph render DEF -o OUT.png [--background IMG] [--show LAYERS] [--size W,H]`.
+pub fn render(
+    def: &Path,
+    output: &Path,
+    background: Option<&Path>,
+    show: &str,
+    size: &str,
+) -> Result<()> {
+    use crate::render::deformation as rd;
+    let (s, last) = load(def)?;
+    let mut opts = rd::RenderOptions::parse_show(show)?;
+    let (w, h) = pair(size, "--size", ',')?;
+    if w < 16.0 || h < 16.0 || w > 16384.0 || h > 16384.0 || w.fract() != 0.0 || h.fract() != 0.0 {
+        bail!("--size: width and height must be whole numbers from 16 to 16384");
+    }
+    (opts.width, opts.height) = (w as u32, h as u32);
+    let bg = background.map(rd::load_background).transpose()?;
+    let pm = rd::render(&s, last.as_ref(), bg.as_ref(), &opts)?;
+    rd::save_png(&pm, output)?;
+    writeln!(std::io::stdout(), "{}x{} -> {}", pm.width(), pm.height(), output.display())?;
+    Ok(())
+}

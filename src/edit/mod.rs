@@ -87,6 +87,15 @@ pub enum EditError {
     Argument(String),
 }
 
+/// The anchors and derived points of an edit (saved in deformation files for rendering).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct LastEdit {
+    /// Anchor point indices.
+    pub anchors: Vec<usize>,
+    /// Derived point indices.
+    pub derived: Vec<usize>,
+}
+
 /// The current selection: anchors, derived points, their weights and the ECLES session.
 #[derive(Clone, Debug)]
 pub struct Selection {
@@ -269,12 +278,8 @@ impl Editor {
                         .filter(|&p| !is_anchor[p] && !in_d[p])
                         .collect();
                     if grow.is_empty() {
-                        let weak = system.initialize(
-                            &params,
-                            anchors,
-                            &derived,
-                            InitOptions::default(),
-                        )?;
+                        let weak =
+                            system.initialize(params, anchors, &derived, InitOptions::default())?;
                         break (weak, false, derived);
                     }
                     for &p in &grow {

@@ -42,14 +42,7 @@ pub enum DeformationError {
     Spline(#[from] SplineError),
 }
 
-/// The last edit, kept in the file for rendering.
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
-pub struct LastEdit {
-    /// Anchor point indices.
-    pub anchors: Vec<usize>,
-    /// Derived point indices.
-    pub derived: Vec<usize>,
-}
+pub use crate::edit::LastEdit;
 
 fn key(k: &str, m: impl Into<String>) -> DeformationError {
     DeformationError::Key { key: k.to_string(), message: m.into() }

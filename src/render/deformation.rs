@@ -31,7 +31,7 @@ use tiny_skia::{
 };
 
 use super::font;
-use crate::io::deformation::LastEdit;
+use crate::edit::LastEdit;
 use crate::spline::Spline;
 
 /// Smallest accepted output width or height in pixels.

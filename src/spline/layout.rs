@@ -53,7 +53,7 @@ pub fn classify(m: [usize; 3], d: usize) -> PointType {
         PointType::EdgeCorner
     } else if i == 0 || j == 0 || k == 0 {
         PointType::Edge
-    } else if (i == 1 && j == 1) || (i == 1 && k == 1) || (j == 1 && k == 1) {
+    } else if [i, j, k].iter().filter(|&&x| x == 1).count() >= 2 {
         PointType::InnerCorner
     } else if i == 1 || j == 1 || k == 1 {
         PointType::InnerEdge

@@ -135,7 +135,7 @@ pub(crate) fn quadratic_points(
                             }
                         }
                     }
-                    quad = quad / rat_int((d * (d - 1)) as i64);
+                    quad /= rat_int((d * (d - 1)) as i64);
                 }
                 let mut lin = Rat::zero();
                 for u in 0..3 {
