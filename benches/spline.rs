@@ -9,6 +9,7 @@ use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughpu
 use rand::rngs::SmallRng;
 use rand::{Rng, SeedableRng};
 use std::hint::black_box;
+use trimorph::ecles::InitOptions;
 use trimorph::edit::select::Neighborhood;
 use trimorph::edit::{Editor, Mode};
 use trimorph::exact::{rat_int, Int, Rat};
@@ -67,6 +68,33 @@ fn bench(c: &mut Criterion) {
             BatchSize::LargeInput,
         )
     });
+    // ECLES alone on the real relevant systems of these selections: factoring + one update
+    // (issue 2's "typical single-anchor relevant system" target: 1 ms).
+    for (name, anchor) in [("vertex", v), ("edge", e)] {
+        let mut probe = fresh.clone();
+        let sel = probe.select(&[anchor], &[], &Neighborhood::Radius(2), Mode::Xy).unwrap().clone();
+        eprintln!(
+            "{name} anchor relevant system: {} x {} (rank {})",
+            sel.session().relevant().len(),
+            sel.derived.len(),
+            sel.session().rank()
+        );
+        let sys = spline.system();
+        let target: Vec<Vec<Rat>> = sel
+            .anchors
+            .iter()
+            .map(|&a| spline.points()[a].iter().zip(&by).map(|(p, d)| p + d).collect())
+            .collect();
+        c.bench_function(&format!("ecles_2dsd_single_anchor/{name}_factor+update"), |b| {
+            b.iter(|| {
+                let opts = InitOptions { strong: true, ..Default::default() };
+                let mut s =
+                    sys.initialize(spline.points(), &sel.anchors, &sel.derived, opts).unwrap();
+                s.update(&target, None, None).unwrap();
+                black_box(s.derived_scaled().len())
+            })
+        });
+    }
     let mut ed = fresh.clone();
     ed.select(&[v], &[], &Neighborhood::Radius(2), Mode::Xy).unwrap();
     let mut k = 0i64;

@@ -174,7 +174,14 @@ fn demo_runs_on_bundled_data() {
     assert!(text.contains("every constraint holds exactly: true"));
     assert!(!text.contains("holds exactly: false"));
     assert!(text.contains("nonzero residuals: 0"), "{text}");
-    for f in ["pump.solution.json", "identity.json", "edited.json", "before.png", "after.png", "edits.json"] {
+    for f in [
+        "pump.solution.json",
+        "identity.json",
+        "edited.json",
+        "before.png",
+        "after.png",
+        "edits.json",
+    ] {
         assert!(dir.path().join(f).exists(), "{f}");
     }
 }

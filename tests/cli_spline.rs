@@ -254,19 +254,49 @@ fn render_writes_png_with_and_without_background() {
     let id = dir.path().join("id.json");
     ok(&trimorph(&["mesh", "--grid", "3x2", "--size", "120,80", "-o", id.to_str().unwrap()]));
     let png = dir.path().join("r.png");
-    ok(&trimorph(&["render", id.to_str().unwrap(), "-o", png.to_str().unwrap(), "--show", "all", "--size", "300,200"]));
+    ok(&trimorph(&[
+        "render",
+        id.to_str().unwrap(),
+        "-o",
+        png.to_str().unwrap(),
+        "--show",
+        "all",
+        "--size",
+        "300,200",
+    ]));
     let bytes = std::fs::read(&png).unwrap();
     assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n");
     // A background sets the output size.
     let bg = dir.path().join("bg.png");
     image::GrayImage::from_pixel(120, 80, image::Luma([90u8])).save(&bg).unwrap();
     let png2 = dir.path().join("r2.png");
-    ok(&trimorph(&["render", id.to_str().unwrap(), "-o", png2.to_str().unwrap(), "--background", bg.to_str().unwrap()]));
+    ok(&trimorph(&[
+        "render",
+        id.to_str().unwrap(),
+        "-o",
+        png2.to_str().unwrap(),
+        "--background",
+        bg.to_str().unwrap(),
+    ]));
     let img = image::open(&png2).unwrap();
     assert_eq!((img.width(), img.height()), (120, 80));
-    let bad = trimorph(&["render", id.to_str().unwrap(), "-o", png2.to_str().unwrap(), "--show", "sparkles"]);
+    let bad = trimorph(&[
+        "render",
+        id.to_str().unwrap(),
+        "-o",
+        png2.to_str().unwrap(),
+        "--show",
+        "sparkles",
+    ]);
     assert_eq!(bad.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&bad.stderr).contains("sparkles"));
-    let missing = trimorph(&["render", id.to_str().unwrap(), "-o", png2.to_str().unwrap(), "--background", "/nonexistent.png"]);
+    let missing = trimorph(&[
+        "render",
+        id.to_str().unwrap(),
+        "-o",
+        png2.to_str().unwrap(),
+        "--background",
+        "/nonexistent.png",
+    ]);
     assert_eq!(missing.status.code(), Some(1));
 }
