@@ -300,3 +300,72 @@ fn render_writes_png_with_and_without_background() {
     ]);
     assert_eq!(missing.status.code(), Some(1));
 }
+
+#[test]
+fn constraints_in_scripts_persist_and_can_make_edits_unsolvable() {
+    let dir = tempfile::tempdir().unwrap();
+    let id = dir.path().join("id.json");
+    ok(&trimorph(&["mesh", "--grid", "4x3", "--size", "80,60", "-o", id.to_str().unwrap()]));
+    let doc = read(&id);
+    let vertex = |x: f64, y: f64| {
+        doc["vertices"].as_array().unwrap().iter().position(|v| v == &json!([x, y])).unwrap()
+    };
+    let row: Vec<usize> = [0.0, 20.0, 40.0, 60.0, 80.0].iter().map(|&x| vertex(x, 20.0)).collect();
+    let a = vertex(40.0, 40.0);
+    let script = dir.path().join("s.json");
+    std::fs::write(
+        &script,
+        json!([
+            {"op": "constrain", "horizontal": [row], "pin": [a]},
+            {"anchors": [row[2]], "neighborhood": 1, "op": "translate", "by": [1, 3]}
+        ])
+        .to_string(),
+    )
+    .unwrap();
+    let out = dir.path().join("out.json");
+    ok(&trimorph(&[
+        "edit",
+        id.to_str().unwrap(),
+        "--script",
+        script.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]));
+    let d = read(&out);
+    assert_eq!(d["constraints"].as_array().unwrap().len(), 2);
+    for &p in &row {
+        assert_eq!(d["exact"]["points"][p][1], "23", "point {p} left the line");
+    }
+    assert_eq!(d["exact"]["points"][a], json!(["40", "40"]));
+    // The stored pin makes moving that vertex unsolvable: exit 2, nothing written.
+    std::fs::write(&script, json!([{"anchors": [a], "op": "translate", "by": [1, 0]}]).to_string())
+        .unwrap();
+    let out2 = dir.path().join("out2.json");
+    let r = trimorph(&[
+        "edit",
+        out.to_str().unwrap(),
+        "--script",
+        script.to_str().unwrap(),
+        "-o",
+        out2.to_str().unwrap(),
+    ]);
+    assert_eq!(r.status.code(), Some(2), "{}", String::from_utf8_lossy(&r.stderr));
+    assert!(String::from_utf8_lossy(&r.stderr).contains("not weakly solvable"));
+    assert!(!out2.exists());
+    // A constraint that does not hold is refused.
+    std::fs::write(
+        &script,
+        json!([{"op": "constrain", "vertical": [[row[0], row[1]]]}]).to_string(),
+    )
+    .unwrap();
+    let r = trimorph(&[
+        "edit",
+        id.to_str().unwrap(),
+        "--script",
+        script.to_str().unwrap(),
+        "-o",
+        out2.to_str().unwrap(),
+    ]);
+    assert_eq!(r.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&r.stderr).contains("vertical line"));
+}

@@ -170,6 +170,9 @@ fn unsolvable(e: &EditError) -> bool {
 fn apply_op(ed: &mut Editor, op: &Value, k: usize) -> Result<LastEdit> {
     let ctx = |m: String| anyhow!("operation {k}: {m}");
     let o = op.as_object().ok_or_else(|| ctx("expected an object".into()))?;
+    if o.get("op").and_then(Value::as_str) == Some("constrain") {
+        return add_constraints(ed, o, k).map(|()| LastEdit::default());
+    }
     let anchors: Vec<usize> = match o.get("anchors") {
         Some(Value::Array(a)) => a
             .iter()
@@ -234,7 +237,7 @@ fn apply_op(ed: &mut Editor, op: &Value, k: usize) -> Result<LastEdit> {
     let kind = o
         .get("op")
         .and_then(Value::as_str)
-        .ok_or_else(|| ctx("missing \"op\" (translate, rotate or scale)".into()))?;
+        .ok_or_else(|| ctx("missing \"op\" (translate, rotate, scale or constrain)".into()))?;
     let run = |ed: &mut Editor| -> Result<(), EditError> {
         ed.select(&anchors, &derived, &hood, mode)?;
         Ok(())
@@ -271,9 +274,70 @@ fn apply_op(ed: &mut Editor, op: &Value, k: usize) -> Result<LastEdit> {
     Ok(LastEdit { anchors: sel.anchors.clone(), derived: sel.derived.clone() })
 }
 
+/// The `constrain` operation: `pin` (indices), `horizontal` / `vertical` (lists of index
+/// lists), `equal_displacement` (list of `[a, b]` pairs).
+fn add_constraints(ed: &mut Editor, o: &serde_json::Map<String, Value>, k: usize) -> Result<()> {
+    use crate::edit::extra::Extra;
+    let fail = |m: String| -> anyhow::Error {
+        Exit {
+            code: EXIT_INPUT,
+            message: format!("operation {k} (constrain): {m}"),
+            printed: false,
+        }
+        .into()
+    };
+    let idx_list = |v: &Value, what: &str| -> Result<Vec<usize>> {
+        v.as_array()
+            .ok_or_else(|| fail(format!("{what}: expected an array of point indices")))?
+            .iter()
+            .map(|x| {
+                x.as_u64()
+                    .map(|u| u as usize)
+                    .ok_or_else(|| fail(format!("{what}: `{x}` is not a point index")))
+            })
+            .collect()
+    };
+    let lists = |key: &str| -> Result<Vec<Vec<usize>>> {
+        match o.get(key) {
+            None => Ok(Vec::new()),
+            Some(Value::Array(a)) => a.iter().map(|l| idx_list(l, key)).collect(),
+            Some(x) => Err(fail(format!("{key}: expected an array of index lists, found {x}"))),
+        }
+    };
+    let mut new = Vec::new();
+    let pts = ed.spline().points();
+    if let Some(p) = o.get("pin") {
+        for i in idx_list(p, "pin")? {
+            new.push(Extra::pin(i, pts).map_err(|e| fail(e.to_string()))?);
+        }
+    }
+    for (key, axis) in [("horizontal", 1), ("vertical", 0)] {
+        for l in lists(key)? {
+            new.push(Extra::line(l, axis, pts).map_err(|e| fail(e.to_string()))?);
+        }
+    }
+    for l in lists("equal_displacement")? {
+        if l.len() != 2 {
+            return Err(fail("equal_displacement: each entry is [a, b]".into()));
+        }
+        new.push(Extra::equal_displacement(l[0], l[1], pts).map_err(|e| fail(e.to_string()))?);
+    }
+    if new.is_empty() {
+        return Err(fail(
+            "no constraint given (pin, horizontal, vertical or equal_displacement)".into(),
+        ));
+    }
+    for e in new {
+        ed.add_constraint(e).map_err(|e| fail(e.to_string()))?;
+    }
+    Ok(())
+}
+
 /// `trimorph edit DEF --script EDITS -o OUT`.
 pub fn edit(def: &Path, script: &Path, output: &Path) -> Result<()> {
     let (spline, _) = load(def)?;
+    let extras = deformation::constraints_from_str(&read_text(def)?, &spline)
+        .with_context(|| format!("cannot read the constraints of {}", def.display()))?;
     let text = read_text(script)?;
     let ops: Value = serde_json::from_str(&text)
         .with_context(|| format!("{} is not valid JSON", script.display()))?;
@@ -281,11 +345,17 @@ pub fn edit(def: &Path, script: &Path, output: &Path) -> Result<()> {
         .as_array()
         .ok_or_else(|| anyhow!("{}: expected a JSON array of operations", script.display()))?;
     let mut ed = Editor::new(spline);
+    for e in extras {
+        ed.add_constraint(e).context("a stored constraint does not hold")?;
+    }
     let mut last = None;
     let mut out = std::io::stdout();
     for (k, op) in ops.iter().enumerate() {
         let l = apply_op(&mut ed, op, k)?;
-        let sel = ed.selection().expect("selected");
+        let Some(sel) = ed.selection() else {
+            writeln!(out, "operation {k}: {} constraints in force", ed.constraints().len())?;
+            continue;
+        };
         writeln!(
             out,
             "operation {k}: {} anchors, {} derived, {} relevant conditions (rank {}), {}",
@@ -298,7 +368,10 @@ pub fn edit(def: &Path, script: &Path, output: &Path) -> Result<()> {
         last = Some(l);
     }
     ed.spline().check_c1().context("internal error: the edit broke C1")?;
-    write_atomic(output, deformation::to_string(ed.spline(), last.as_ref()).as_bytes())?;
+    write_atomic(
+        output,
+        deformation::to_string_with(ed.spline(), last.as_ref(), ed.constraints()).as_bytes(),
+    )?;
     writeln!(out, "{} operations applied; C1 holds exactly -> {}", ops.len(), output.display())?;
     Ok(())
 }

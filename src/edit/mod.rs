@@ -27,11 +27,13 @@
 //! Hints are computed in `f64` and rounded to multiples of `2^-20` (they need not be exact;
 //! the constraints are). Anchor positions are exact.
 
+pub mod extra;
 pub mod select;
 
 use crate::ecles::{ConstraintSystem, EclesError, InitOptions, Session};
 use crate::exact::{rat_from_f64, rat_to_f64, Int, Rat};
 use crate::spline::Spline;
+use extra::{axis_system, Extra};
 use num_traits::{One, Zero};
 use select::{expand, neighborhood, rel_magnitude, Neighborhood, SelectIndex};
 
@@ -111,13 +113,19 @@ pub struct Selection {
     pub mode: Mode,
     base_anchors: Vec<Vec<Rat>>,
     base_derived: Vec<Vec<Rat>>,
-    session: Session,
+    /// One session (parameters in R^2 or R^1), or two one-coordinate sessions (x, y) when
+    /// extra constraints bind the coordinates differently.
+    sessions: Vec<Session>,
 }
 
 impl Selection {
-    /// The ECLES session of this selection (relevant constraints, rank, ...).
+    /// The (first) ECLES session of this selection (relevant constraints, rank, ...).
     pub fn session(&self) -> &Session {
-        &self.session
+        &self.sessions[0]
+    }
+    /// All ECLES sessions of this selection (two, x and y, with extra constraints).
+    pub fn sessions(&self) -> &[Session] {
+        &self.sessions
     }
 }
 
@@ -127,6 +135,8 @@ pub struct Editor {
     spline: Spline,
     index: SelectIndex,
     zsys: ConstraintSystem,
+    extras: Vec<Extra>,
+    axis_sys: Option<[ConstraintSystem; 2]>,
     selection: Option<Selection>,
 }
 
@@ -175,7 +185,39 @@ impl Editor {
     pub fn new(spline: Spline) -> Editor {
         let index = SelectIndex::new(&spline);
         let zsys = ConstraintSystem::homogeneous(spline.c1_matrix().clone(), 1);
-        Editor { spline, index, zsys, selection: None }
+        Editor { spline, index, zsys, extras: Vec::new(), axis_sys: None, selection: None }
+    }
+
+    /// The extra affine constraints in force.
+    pub fn constraints(&self) -> &[Extra] {
+        &self.extras
+    }
+
+    /// Adds an extra constraint (it must hold for the current points; see [`Extra`]). Ends
+    /// the current selection.
+    pub fn add_constraint(&mut self, e: Extra) -> Result<(), EditError> {
+        let n = self.spline.num_points();
+        if let Some(&index) = e.points().iter().find(|&&p| p >= n) {
+            return Err(EditError::PointIndex { index, count: n });
+        }
+        let holds = {
+            let sys = axis_system(self.spline.c1_matrix(), std::slice::from_ref(&e), 0);
+            let sys_y = axis_system(self.spline.c1_matrix(), std::slice::from_ref(&e), 1);
+            let col = |a: usize| -> Vec<Vec<Rat>> {
+                self.spline.points().iter().map(|p| vec![p[a].clone()]).collect()
+            };
+            sys.is_satisfied(&col(0)) && sys_y.is_satisfied(&col(1))
+        };
+        if !holds {
+            return Err(EditError::Argument(format!(
+                "constraint {} does not hold for the current points",
+                e.to_json()
+            )));
+        }
+        self.extras.push(e);
+        self.axis_sys = None;
+        self.selection = None;
+        Ok(())
     }
 
     /// The spline being edited.
@@ -264,31 +306,64 @@ impl Editor {
             }
         }
         expand(&self.spline, &self.index, &is_anchor, &mut in_d, &seeds);
-        let system = if mode == Mode::Xy { self.spline.system() } else { &self.zsys };
-        let quads = self.spline.quads();
-        let (session, strong, derived) = loop {
+        let split = mode == Mode::Xy && !self.extras.is_empty();
+        if split && self.axis_sys.is_none() {
+            let c1 = self.spline.c1_matrix();
+            self.axis_sys =
+                Some([axis_system(c1, &self.extras, 0), axis_system(c1, &self.extras, 1)]);
+        }
+        let cols: Vec<Vec<Vec<Rat>>> = if split {
+            (0..2).map(|a| params.iter().map(|p| vec![p[a].clone()]).collect()).collect()
+        } else {
+            Vec::new()
+        };
+        let systems: Vec<(&ConstraintSystem, &[Vec<Rat>])> = if split {
+            let [x, y] = self.axis_sys.as_ref().expect("built above");
+            vec![(x, &cols[0]), (y, &cols[1])]
+        } else if mode == Mode::Xy {
+            vec![(self.spline.system(), params)]
+        } else {
+            vec![(&self.zsys, params)]
+        };
+        let (sessions, strong, derived) = loop {
             let derived: Vec<usize> = (0..n).filter(|&p| in_d[p]).collect();
             let opts = InitOptions { strong: true, ..Default::default() };
-            match system.initialize(params, anchors, &derived, opts) {
-                Ok(s) => break (s, true, derived),
-                Err(EclesError::NotStronglySolvable { constraint, .. }) => {
-                    let grow: Vec<usize> = quads[constraint]
-                        .members()
-                        .into_iter()
-                        .filter(|&p| !is_anchor[p] && !in_d[p])
-                        .collect();
-                    if grow.is_empty() {
-                        let weak =
-                            system.initialize(params, anchors, &derived, InitOptions::default())?;
-                        break (weak, false, derived);
+            let mut failed = None;
+            let mut sessions = Vec::with_capacity(systems.len());
+            for (sys, p) in &systems {
+                match sys.initialize(p, anchors, &derived, opts) {
+                    Ok(s) => sessions.push(s),
+                    Err(EclesError::NotStronglySolvable { constraint, .. }) => {
+                        failed = Some((*sys, constraint));
+                        break;
                     }
-                    for &p in &grow {
-                        in_d[p] = true;
-                    }
-                    expand(&self.spline, &self.index, &is_anchor, &mut in_d, &grow);
+                    Err(e) => return Err(e.into()),
                 }
-                Err(e) => return Err(e.into()),
             }
+            let Some((sys, constraint)) = failed else { break (sessions, true, derived) };
+            // Grow D by the free members of the failing condition; if it has none, by the
+            // fixed points that the relevant conditions involve (F'), which are what blocks.
+            let mut grow: Vec<usize> = sys
+                .matrix()
+                .row(constraint)
+                .iter()
+                .map(|(p, _)| *p)
+                .filter(|&p| !is_anchor[p] && !in_d[p])
+                .collect();
+            if grow.is_empty() {
+                grow = sys.extract_relevant(anchors, &derived).1;
+            }
+            if grow.is_empty() {
+                let weak = systems
+                    .iter()
+                    .map(|(sys, p)| sys.initialize(p, anchors, &derived, InitOptions::default()))
+                    .collect::<Result<Vec<_>, _>>()?;
+                break (weak, false, derived);
+            }
+            for &p in &grow {
+                in_d[p] = true;
+            }
+            expand(&self.spline, &self.index, &is_anchor, &mut in_d, &grow);
         };
         let theta = rel_magnitude(&self.index, anchors, &derived);
         self.selection = Some(Selection {
@@ -299,7 +374,7 @@ impl Editor {
             theta,
             strong,
             mode,
-            session,
+            sessions,
         });
         Ok(self.selection.as_ref().expect("just set"))
     }
@@ -307,15 +382,34 @@ impl Editor {
     /// Runs ECLES update with these anchor values and hints, then writes the result.
     fn apply(&mut self, anchors: Vec<Vec<Rat>>, hints: Vec<Vec<Rat>>) -> Result<(), EditError> {
         let sel = self.selection.as_mut().ok_or(EditError::NoSelection)?;
-        sel.session.update(&anchors, Some(&hints), None)?;
-        // Exact values unreduced (no gcd per value during a drag); f64 straight from the
-        // common-denominator form.
-        let derived = sel.session.derived_values_raw();
+        let (derived, df): (Vec<Vec<Rat>>, Vec<Vec<f64>>) = if sel.sessions.len() == 1 {
+            sel.sessions[0].update(&anchors, Some(&hints), None)?;
+            // Exact values unreduced (no gcd per value during a drag); f64 straight from
+            // the common-denominator form.
+            (sel.sessions[0].derived_values_raw(), sel.sessions[0].derived_f64())
+        } else {
+            // x and y separately; on failure restore both sessions.
+            let saved = sel.sessions.clone();
+            for (a, s) in sel.sessions.iter_mut().enumerate() {
+                let av: Vec<Vec<Rat>> = anchors.iter().map(|r| vec![r[a].clone()]).collect();
+                let hv: Vec<Vec<Rat>> = hints.iter().map(|r| vec![r[a].clone()]).collect();
+                if let Err(e) = s.update(&av, Some(&hv), None) {
+                    sel.sessions = saved;
+                    return Err(e.into());
+                }
+            }
+            let (x, y) =
+                (sel.sessions[0].derived_values_raw(), sel.sessions[1].derived_values_raw());
+            let (xf, yf) = (sel.sessions[0].derived_f64(), sel.sessions[1].derived_f64());
+            (
+                x.into_iter().zip(y).map(|(a, b)| vec![a[0].clone(), b[0].clone()]).collect(),
+                xf.into_iter().zip(yf).map(|(a, b)| vec![a[0], b[0]]).collect(),
+            )
+        };
         let mut idx = sel.anchors.clone();
         idx.extend_from_slice(&sel.derived);
         let mut approx: Vec<[f64; 2]> =
             anchors.iter().map(|a| [rat_to_f64(&a[0]), a.get(1).map_or(0.0, rat_to_f64)]).collect();
-        let df = sel.session.derived_f64();
         approx.extend(df.iter().map(|r| [r[0], r.get(1).copied().unwrap_or(0.0)]));
         let mut vals = anchors;
         vals.extend(derived);

@@ -16,7 +16,8 @@
 //! Points that would lie on missing triangles (at the border) simply do not exist. The rules
 //! are then *checked*: ECLES initialize with strong solvability. If the check fails at some
 //! constraint, its non-anchor members join `D` (with the same closure) and the check runs
-//! again. If `D` cannot grow any more (for example when several anchors share one
+//! again; if they are all in `D` already, the fixed points of the relevant conditions (`F'`)
+//! join instead. If `D` cannot grow any more (for example when several anchors share one
 //! condition), the selection is kept with weak solvability only: every exactly affine motion
 //! of the anchors (translation, rational rotation, rational scaling) is still solvable.
 //!

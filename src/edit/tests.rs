@@ -265,3 +265,92 @@ proptest! {
         }
     }
 }
+
+mod extras {
+    use super::*;
+    use crate::edit::extra::Extra;
+
+    fn grid_editor() -> (Editor, Mesh) {
+        let mesh = Mesh::grid(4, 3, 80.0, 60.0, MeshOptions::default()).unwrap();
+        (Editor::new(Spline::identity(mesh.clone(), 5).unwrap()), mesh)
+    }
+
+    fn vertex_at(m: &Mesh, x: f64, y: f64) -> usize {
+        (0..m.num_vertices()).find(|&v| m.vertex(v) == [x, y]).unwrap()
+    }
+
+    #[test]
+    fn pinned_points_stay_and_pinned_anchors_cannot_move() {
+        let (mut ed, m) = grid_editor();
+        let a = vertex_at(&m, 40.0, 20.0);
+        let pinned = ed.index().disks[a][0];
+        ed.add_constraint(Extra::pin(pinned, ed.spline().points()).unwrap()).unwrap();
+        let before = ed.spline().clone();
+        ed.select(&[a], &[], &Neighborhood::Radius(2), Mode::Xy).unwrap();
+        ed.translate(&[rat_int(3), rat_int(1)]).unwrap();
+        assert_eq!(ed.spline().points()[pinned], before.points()[pinned]);
+        assert!(ed.spline().check_c1().is_ok());
+        // Pinning the anchor itself: any nonzero move is unsolvable, the spline unchanged.
+        ed.add_constraint(Extra::pin(a, ed.spline().points()).unwrap()).unwrap();
+        let before = ed.spline().clone();
+        ed.select(&[a], &[], &Neighborhood::Radius(2), Mode::Xy).unwrap();
+        let err = ed.translate(&[rat_int(1), rat_int(0)]).unwrap_err();
+        assert!(matches!(err, EditError::Ecles(EclesError::NotWeaklySolvable { .. })), "{err}");
+        assert_eq!(ed.spline().points(), before.points());
+        ed.translate(&[rat_int(0), rat_int(0)]).unwrap();
+    }
+
+    #[test]
+    fn points_on_a_horizontal_line_stay_on_one() {
+        let (mut ed, m) = grid_editor();
+        let row: Vec<usize> =
+            [0.0, 20.0, 40.0, 60.0, 80.0].iter().map(|&x| vertex_at(&m, x, 20.0)).collect();
+        ed.add_constraint(Extra::line(row.clone(), 1, ed.spline().points()).unwrap()).unwrap();
+        // A vertical line through points that are not aligned is refused.
+        assert!(Extra::line(vec![row[0], row[1]], 0, ed.spline().points()).is_err());
+        ed.select(&[row[2]], &[], &Neighborhood::Radius(1), Mode::Xy).unwrap();
+        ed.translate(&[rat_int(2), rat_int(5)]).unwrap();
+        let y = &ed.spline().points()[row[0]][1];
+        assert_eq!(y, &rat_int(25));
+        for &p in &row {
+            assert_eq!(&ed.spline().points()[p][1], y, "point {p} left the line");
+        }
+        assert!(ed.spline().check_c1().is_ok());
+        assert_eq!(ed.spline().points()[row[2]][0], rat_int(42));
+    }
+
+    #[test]
+    fn equal_displacements() {
+        let (mut ed, m) = grid_editor();
+        let (a, b) = (vertex_at(&m, 20.0, 20.0), vertex_at(&m, 60.0, 40.0));
+        let before = ed.spline().clone();
+        ed.add_constraint(Extra::equal_displacement(a, b, ed.spline().points()).unwrap()).unwrap();
+        ed.select(&[a], &[], &Neighborhood::Radius(2), Mode::Xy).unwrap();
+        ed.translate(&[Rat::new(Int::from(7), Int::from(3)), rat_int(-1)]).unwrap();
+        for c in 0..2 {
+            assert_eq!(
+                &ed.spline().points()[b][c] - &before.points()[b][c],
+                &ed.spline().points()[a][c] - &before.points()[a][c]
+            );
+        }
+        assert!(ed.spline().check_c1().is_ok());
+    }
+
+    #[test]
+    fn constraints_round_trip_through_json() {
+        let (ed, m) = grid_editor();
+        let pts = ed.spline().points();
+        let row: Vec<usize> = [0.0, 20.0].iter().map(|&x| vertex_at(&m, x, 0.0)).collect();
+        for e in [
+            Extra::pin(3, pts).unwrap(),
+            Extra::line(row.clone(), 1, pts).unwrap(),
+            Extra::equal_displacement(1, 2, pts).unwrap(),
+        ] {
+            assert_eq!(Extra::from_json(&e.to_json(), pts).unwrap(), e);
+        }
+        let bad = serde_json::json!({"pin": 3, "at": ["1/3", "0"]});
+        assert!(Extra::from_json(&bad, pts).is_err());
+        assert!(Extra::from_json(&serde_json::json!({"glue": 1}), pts).is_err());
+        assert!(Extra::pin(10_000, pts).is_err());
+    }
+}

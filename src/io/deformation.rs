@@ -42,6 +42,7 @@ pub enum DeformationError {
     Spline(#[from] SplineError),
 }
 
+use crate::edit::extra::Extra;
 pub use crate::edit::LastEdit;
 
 fn key(k: &str, m: impl Into<String>) -> DeformationError {
@@ -54,6 +55,11 @@ fn rstr(r: &Rat) -> Value {
 
 /// The JSON document of a spline.
 pub fn to_json(s: &Spline, last: Option<&LastEdit>) -> Value {
+    to_json_with(s, last, &[])
+}
+
+/// The JSON document of a spline with extra constraints (key `"constraints"`).
+pub fn to_json_with(s: &Spline, last: Option<&LastEdit>, extras: &[Extra]) -> Value {
     let m = s.mesh();
     let g = Int::from(m.grid_denominator());
     let vexact: Vec<[Rat; 2]> = (0..m.num_vertices())
@@ -97,12 +103,39 @@ pub fn to_json(s: &Spline, last: Option<&LastEdit>) -> Value {
     if let Some(l) = last {
         doc.insert("last_edit".into(), json!({"anchors": l.anchors, "derived": l.derived}));
     }
+    if !extras.is_empty() {
+        doc.insert("constraints".into(), Value::Array(extras.iter().map(Extra::to_json).collect()));
+    }
     Value::Object(doc)
+}
+
+/// The extra constraints stored in a deformation file (key `"constraints"`), checked
+/// against the spline's control points.
+pub fn constraints_from_str(text: &str, s: &Spline) -> Result<Vec<Extra>, DeformationError> {
+    let doc: Value =
+        serde_json::from_str(text).map_err(|e| DeformationError::Json(e.to_string()))?;
+    match doc.get("constraints") {
+        None | Some(Value::Null) => Ok(Vec::new()),
+        Some(Value::Array(a)) => a
+            .iter()
+            .enumerate()
+            .map(|(i, c)| {
+                Extra::from_json(c, s.points())
+                    .map_err(|e| key(&format!("constraints[{i}]"), e.to_string()))
+            })
+            .collect(),
+        Some(_) => Err(key("constraints", "expected an array")),
+    }
 }
 
 /// The file text of a spline: one key per line, one row per line for arrays of rows.
 pub fn to_string(s: &Spline, last: Option<&LastEdit>) -> String {
-    let doc = to_json(s, last);
+    to_string_with(s, last, &[])
+}
+
+/// [`to_string`] with extra constraints.
+pub fn to_string_with(s: &Spline, last: Option<&LastEdit>, extras: &[Extra]) -> String {
+    let doc = to_json_with(s, last, extras);
     let Value::Object(map) = &doc else { unreachable!() };
     let mut out = String::from("{\n");
     for (i, (k, v)) in map.iter().enumerate() {
