@@ -5,7 +5,10 @@
 //! largest numerator and denominator bit size among the stored control points (in lowest
 //! terms) and the mean time per edit since the previous checkpoint, as CSV.
 //!
-//! `cargo run --release --example exact_growth -- [MAX_EDITS] [SECONDS_LIMIT]`
+//! `cargo run --release --example exact_growth -- [MAX_EDITS] [SECONDS_LIMIT] [BOUNDED_BITS]`
+//!
+//! With `BOUNDED_BITS` the editor runs in bounded mode (free points of the determining set
+//! rounded to multiples of `2^-BITS` after each edit).
 
 use rand::rngs::SmallRng;
 use rand::{Rng, SeedableRng};
@@ -30,14 +33,20 @@ fn main() {
     let args: Vec<String> = std::env::args().collect();
     let max_edits: usize = args.get(1).and_then(|a| a.parse().ok()).unwrap_or(10_000);
     let limit: f64 = args.get(2).and_then(|a| a.parse().ok()).unwrap_or(600.0);
+    let bounded: Option<u32> = args.get(3).and_then(|a| a.parse().ok());
     let mut rng = SmallRng::seed_from_u64(1);
     let pts: Vec<[f64; 2]> =
         (0..30).map(|_| [rng.gen_range(0.0..200.0), rng.gen_range(0.0..200.0)]).collect();
     let delaunay = Mesh::delaunay(&pts, MeshOptions::default()).unwrap();
     let grid = Mesh::grid(5, 5, 200.0, 200.0, MeshOptions::default()).unwrap();
-    println!("mesh,triangles,edits,max_numerator_bits,max_denominator_bits,mean_ms_per_edit");
+    println!("mode,mesh,triangles,edits,max_numerator_bits,max_denominator_bits,mean_ms_per_edit");
+    let mode = match bounded {
+        Some(b) => format!("bounded{b}"),
+        None => "unbounded".to_string(),
+    };
     for (name, mesh) in [("delaunay", delaunay), ("grid", grid)] {
         let mut ed = Editor::new(Spline::identity(mesh.clone(), 5).unwrap());
+        ed.set_bounded(bounded).unwrap();
         let n = ed.spline().num_points();
         let start = Instant::now();
         let mut last = Instant::now();
@@ -70,7 +79,7 @@ fn main() {
             let ms = last.elapsed().as_secs_f64() * 1e3
                 / (cp as f64
                     - (checkpoints.iter().rev().find(|&&c| c < cp).copied().unwrap_or(0)) as f64);
-            println!("{name},{},{done},{nb},{db},{ms:.3}", mesh.num_triangles());
+            println!("{mode},{name},{},{done},{nb},{db},{ms:.3}", mesh.num_triangles());
             assert!(ed.spline().check_c1().is_ok());
             last = Instant::now();
             if start.elapsed().as_secs_f64() > limit {

@@ -86,7 +86,7 @@ pub fn run(dir: &Path) -> Result<()> {
     let script = dir.join("edits.json");
     write_atomic(&script, serde_json::to_string_pretty(&demo_script())?.as_bytes())?;
     let edited = dir.join("edited.json");
-    spline_cmds::edit(&id, &script, &edited)?;
+    spline_cmds::edit(&id, &script, &edited, Some(24))?;
     let (s, _) = crate::io::deformation::from_str(&std::fs::read_to_string(&edited)?)?;
     let rep = spline_cmds::check_report(&s, 12);
     let before = dir.join("before.png");

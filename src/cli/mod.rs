@@ -80,6 +80,15 @@ enum Command {
         /// Output deformation.
         #[arg(short, long)]
         output: PathBuf,
+        /// Bounded exactness: after each operation round the free points of the minimal
+        /// determining set to multiples of 2^-BITS (anchors land within 1e-4; sizes stay
+        /// bounded over long histories).
+        #[arg(long, default_value_t = 24)]
+        bounded_bits: u32,
+        /// Keep every value exactly as ECLES computes it (anchors exact; sizes grow with the
+        /// edit history).
+        #[arg(long)]
+        unbounded: bool,
     },
     /// Report the C1 residuals (exact), Jacobian determinants and folds of a deformation.
     Check {
@@ -166,8 +175,9 @@ pub fn run() -> i32 {
                 output: &output,
             })
         }
-        Command::Edit { deformation, script, output } => {
-            spline_cmds::edit(&deformation, &script, &output)
+        Command::Edit { deformation, script, output, bounded_bits, unbounded } => {
+            let bounded = if unbounded { None } else { Some(bounded_bits) };
+            spline_cmds::edit(&deformation, &script, &output, bounded)
         }
         Command::Check { deformation, samples } => spline_cmds::check(&deformation, samples),
         Command::Render { deformation, output, background, show, size } => {

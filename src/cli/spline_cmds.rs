@@ -334,7 +334,10 @@ fn add_constraints(ed: &mut Editor, o: &serde_json::Map<String, Value>, k: usize
 }
 
 /// `trimorph edit DEF --script EDITS -o OUT`.
-pub fn edit(def: &Path, script: &Path, output: &Path) -> Result<()> {
+pub fn edit(def: &Path, script: &Path, output: &Path, bounded: Option<u32>) -> Result<()> {
+    if bounded.is_some_and(|b| !(8..=62).contains(&b)) {
+        bail!("--bounded-bits must be between 8 and 62");
+    }
     let (spline, _) = load(def)?;
     let extras = deformation::constraints_from_str(&read_text(def)?, &spline)
         .with_context(|| format!("cannot read the constraints of {}", def.display()))?;
@@ -345,6 +348,9 @@ pub fn edit(def: &Path, script: &Path, output: &Path) -> Result<()> {
         .as_array()
         .ok_or_else(|| anyhow!("{}: expected a JSON array of operations", script.display()))?;
     let mut ed = Editor::new(spline);
+    if let Err(e) = ed.set_bounded(bounded) {
+        eprintln!("note: {e}; keeping exact values unbounded");
+    }
     for e in extras {
         ed.add_constraint(e).context("a stored constraint does not hold")?;
     }

@@ -137,6 +137,7 @@ pub struct Editor {
     zsys: ConstraintSystem,
     extras: Vec<Extra>,
     axis_sys: Option<[ConstraintSystem; 2]>,
+    bounded: Option<(crate::spline::mds::Mds, u32)>,
     selection: Option<Selection>,
 }
 
@@ -185,7 +186,30 @@ impl Editor {
     pub fn new(spline: Spline) -> Editor {
         let index = SelectIndex::new(&spline);
         let zsys = ConstraintSystem::homogeneous(spline.c1_matrix().clone(), 1);
-        Editor { spline, index, zsys, extras: Vec::new(), axis_sys: None, selection: None }
+        Editor {
+            spline,
+            index,
+            zsys,
+            extras: Vec::new(),
+            axis_sys: None,
+            bounded: None,
+            selection: None,
+        }
+    }
+
+    /// Bounded exactness (xy mode without extra constraints): after every operation the free
+    /// points of a minimal determining set among the edited points are rounded to multiples
+    /// of `2^-bits` and the dependent points recomputed exactly (see
+    /// [`crate::spline::mds`]). C1 still holds exactly and nothing outside the edit changes;
+    /// control-point sizes no longer grow with the edit history; anchors land within a
+    /// small tolerance instead of exactly. `None` turns it off.
+    pub fn set_bounded(&mut self, bits: Option<u32>) -> Result<(), crate::spline::mds::MdsError> {
+        self.bounded = match bits {
+            None => None,
+            Some(b) => Some((crate::spline::mds::Mds::new(&self.spline)?, b.min(62))),
+        };
+        self.selection = None;
+        Ok(())
     }
 
     /// The extra affine constraints in force.
@@ -307,6 +331,20 @@ impl Editor {
         }
         expand(&self.spline, &self.index, &is_anchor, &mut in_d, &seeds);
         let split = mode == Mode::Xy && !self.extras.is_empty();
+        let bounded = mode == Mode::Xy && !split && self.bounded.is_some();
+        let close = |in_d: &mut Vec<bool>, bd: &Option<(crate::spline::mds::Mds, u32)>| {
+            if let (true, Some((mds, _))) = (bounded, bd) {
+                let mut set: Vec<bool> =
+                    in_d.iter().zip(&is_anchor).map(|(a, b)| *a || *b).collect();
+                mds.close(&mut set);
+                for (p, x) in set.into_iter().enumerate() {
+                    if x && !is_anchor[p] {
+                        in_d[p] = true;
+                    }
+                }
+            }
+        };
+        close(&mut in_d, &self.bounded);
         if split && self.axis_sys.is_none() {
             let c1 = self.spline.c1_matrix();
             self.axis_sys =
@@ -364,6 +402,7 @@ impl Editor {
                 in_d[p] = true;
             }
             expand(&self.spline, &self.index, &is_anchor, &mut in_d, &grow);
+            close(&mut in_d, &self.bounded);
         };
         let theta = rel_magnitude(&self.index, anchors, &derived);
         self.selection = Some(Selection {
@@ -414,7 +453,16 @@ impl Editor {
         let mut vals = anchors;
         vals.extend(derived);
         match sel.mode {
-            Mode::Xy => self.spline.write_points(&idx, vals, &approx),
+            Mode::Xy => {
+                self.spline.write_points(&idx, vals, &approx);
+                if let (Some((mds, bits)), 1) = (&self.bounded, sel.sessions.len()) {
+                    let mut region = vec![false; self.spline.num_points()];
+                    for &p in &idx {
+                        region[p] = true;
+                    }
+                    self.spline.bound_region(mds, &region, *bits);
+                }
+            }
             mode => {
                 let mut z = self.spline.z_layers().cloned().expect("checked at select");
                 let layer = if mode == Mode::Z0 { &mut z.z0 } else { &mut z.z1 };

@@ -354,3 +354,84 @@ mod extras {
         assert!(Extra::pin(10_000, pts).is_err());
     }
 }
+
+mod bounded {
+    use super::*;
+
+    /// Anchors land within this distance of their targets in bounded mode with 24 bits
+    /// (rounding of the free points, `2^-25` per coordinate, through the local formulas).
+    const TOLERANCE: f64 = 1e-4;
+
+    fn max_bits(s: &Spline) -> u64 {
+        s.points()
+            .iter()
+            .flatten()
+            .map(|r| {
+                let r = r.reduced();
+                r.numer().bits().max(r.denom().bits())
+            })
+            .max()
+            .unwrap()
+    }
+
+    #[test]
+    fn long_random_sessions_stay_bounded_and_exact() {
+        for mesh in
+            [random_mesh(21, 30), Mesh::grid(5, 5, 100.0, 100.0, MeshOptions::default()).unwrap()]
+        {
+            let mut ed = Editor::new(Spline::identity(mesh, 5).unwrap());
+            ed.set_bounded(Some(24)).unwrap();
+            let n = ed.spline().num_points();
+            let mut x = 12345u64;
+            let mut next = |m: u64| {
+                x ^= x << 13;
+                x ^= x >> 7;
+                x ^= x << 17;
+                x % m
+            };
+            let mut worst_anchor = 0.0f64;
+            let mut sizes = Vec::new();
+            for k in 0..150 {
+                let a = next(n as u64) as usize;
+                let before = ed.spline().clone();
+                ed.select(&[a], &[], &Neighborhood::Radius(next(3) as usize), Mode::Xy).unwrap();
+                let sel = ed.selection().unwrap().clone();
+                let q = before.points()[a].clone();
+                let target: Vec<f64>;
+                match next(3) {
+                    0 => {
+                        let v = [
+                            Rat::new(Int::from(next(33) as i64 - 16), Int::from(8)),
+                            Rat::new(Int::from(next(33) as i64 - 16), Int::from(8)),
+                        ];
+                        target = (0..2).map(|c| rat_to_f64(&(&q[c] + &v[c]))).collect();
+                        ed.translate(&v).unwrap();
+                    }
+                    1 => {
+                        target = q.iter().map(rat_to_f64).collect();
+                        ed.rotate([q[0].clone(), q[1].clone()], (next(100) as f64 - 50.0) / 100.0)
+                            .unwrap();
+                    }
+                    _ => {
+                        target = q.iter().map(rat_to_f64).collect();
+                        ed.scale(&q, &Rat::new(Int::from(58 + next(13) as i64), Int::from(64)))
+                            .unwrap();
+                    }
+                }
+                let mut moved = sel.anchors.clone();
+                moved.extend(&sel.derived);
+                check_invariants(&before, ed.spline(), &moved);
+                let got = ed.spline().point_f64(a);
+                worst_anchor =
+                    worst_anchor.max((got[0] - target[0]).abs().max((got[1] - target[1]).abs()));
+                if k % 50 == 49 {
+                    sizes.push(max_bits(ed.spline()));
+                }
+            }
+            assert!(worst_anchor <= TOLERANCE, "anchor off by {worst_anchor}");
+            // Sizes do not grow with the history.
+            assert!(sizes.iter().all(|&b| b <= 400), "sizes {sizes:?}");
+            assert!(sizes[2] <= sizes[0] + 64, "sizes {sizes:?}");
+        }
+    }
+}

@@ -17,6 +17,7 @@
 pub mod c1;
 pub mod eval;
 pub mod layout;
+pub mod mds;
 
 use crate::ecles::ConstraintSystem;
 use crate::exact::{rat_to_f64, Int, Rat, SparseIntMatrix};
@@ -249,6 +250,27 @@ impl Spline {
             }
             self.points[i] = v;
         }
+    }
+
+    /// Bounded exactness (see [`mds`]): rounds the free points among `region` to multiples
+    /// of `2^-bits` and recomputes the dependents in `region` exactly. `region` must be
+    /// closed under [`mds::Mds::close`], so no point outside it changes.
+    pub fn bound_region(&mut self, mds: &mds::Mds, region: &[bool], bits: u32) {
+        let mut vals = std::mem::take(&mut self.points);
+        for p in 0..vals.len() {
+            if region[p] && matches!(mds.role(p), mds::Role::Free) {
+                for x in vals[p].iter_mut() {
+                    *x = mds::round_to_grid(x, bits);
+                }
+            }
+        }
+        mds.recompute(&mut vals, region);
+        let idx: Vec<usize> = (0..vals.len()).filter(|&p| region[p]).collect();
+        let approx: Vec<[f64; 2]> =
+            idx.iter().map(|&p| [rat_to_f64(&vals[p][0]), rat_to_f64(&vals[p][1])]).collect();
+        let values: Vec<Vec<Rat>> = idx.iter().map(|&p| vals[p].clone()).collect();
+        self.points = vals;
+        self.write_points(&idx, values, &approx);
     }
 
     /// Exact residual of every quadrilateral condition (all zero for a C1 spline).

@@ -240,3 +240,53 @@ proptest! {
         }
     }
 }
+
+mod determining_set {
+    use super::*;
+    use crate::spline::mds::{Mds, Role};
+
+    #[test]
+    fn free_count_is_the_dimension_and_any_free_values_give_c1() {
+        for (seed, n) in [(1u64, 9usize), (2, 14), (3, 25), (4, 40)] {
+            let m = random_mesh(seed, n);
+            for d in [5usize, 6, 7] {
+                let s = Spline::identity(m.clone(), d).unwrap();
+                let mds = Mds::new(&s).expect("generic meshes have a local MDS");
+                let (ei, vi) = (m.num_interior_edges() as i64, m.num_interior_vertices() as i64);
+                let c = binom(d + 2, 2);
+                let dim = c + binom(d, 2) * ei - (c - 3) * vi;
+                assert_eq!(mds.num_free() as i64, dim, "seed {seed} degree {d}");
+                // Arbitrary free values: the recomputed spline is C1 exactly.
+                let mut vals: Vec<Vec<Rat>> = (0..s.num_points())
+                    .map(|p| {
+                        vec![
+                            rat_int((p * 7 % 13) as i64 - 6),
+                            Rat::new(Int::from((p * 3 % 11) as i64), Int::from(4)),
+                        ]
+                    })
+                    .collect();
+                mds.recompute(&mut vals, &vec![true; s.num_points()]);
+                Spline::from_points(m.clone(), d, vals, None).expect("C1 from free values");
+                // The identity is reproduced from its own free points.
+                let mut id = s.points().to_vec();
+                for p in 0..id.len() {
+                    if !matches!(mds.role(p), Role::Free) {
+                        id[p] = vec![rat_int(999), rat_int(999)];
+                    }
+                }
+                mds.recompute(&mut id, &vec![true; s.num_points()]);
+                assert_eq!(id, s.points());
+            }
+        }
+    }
+
+    #[test]
+    fn grid_meshes_and_low_degree() {
+        let g = Mesh::grid(4, 3, 40.0, 30.0, MeshOptions::default()).unwrap();
+        let s = Spline::identity(g, 5).unwrap();
+        // Grid vertices have degree 6 with three lines through them: not singular.
+        assert!(Mds::new(&s).is_ok());
+        let s4 = Spline::identity(strip(), 4).unwrap();
+        assert!(Mds::new(&s4).is_err());
+    }
+}
