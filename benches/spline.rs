@@ -106,6 +106,15 @@ fn bench(c: &mut Criterion) {
         })
     });
 
+    let mut k2 = 0.0f64;
+    ed.preview_translate([0.0, 0.0]).unwrap();
+    c.bench_function("drag_preview_1000/vertex_anchor_f64", |b| {
+        b.iter(|| {
+            k2 += 0.25;
+            black_box(ed.preview_translate([k2 % 4.0, 1.0]).unwrap().len())
+        })
+    });
+
     let (lo, hi) = mesh.bbox();
     let n = 1000usize;
     let pts: Vec<[f64; 2]> = (0..n * n)

@@ -40,6 +40,9 @@ fn grid_mesh_counts_and_identity_check() {
     assert_eq!(doc["patches"][0].as_array().unwrap().len(), 21);
     let rep = check(&out);
     assert_eq!(rep["c1_conditions"], 40);
+    let res = rep["c1_residuals"].as_array().unwrap();
+    assert_eq!(res.len(), 40);
+    assert!(res.iter().all(|r| r == &json!(["0", "0"])));
     assert_eq!(rep["c1_holds"], true);
     assert_eq!(rep["folds"], false);
     assert!((rep["min_jacobian_det"].as_f64().unwrap() - 1.0).abs() < 1e-9);

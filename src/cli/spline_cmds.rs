@@ -427,6 +427,7 @@ pub fn check_report(s: &Spline, samples_per_side: usize) -> Value {
         "c1_nonzero_residuals": nonzero,
         "c1_max_abs_residual": rat_to_string(&max_res),
         "c1_holds": nonzero == 0,
+        "c1_residuals": res.iter().map(|r| [rat_to_string(&r[0]), rat_to_string(&r[1])]).collect::<Vec<_>>(),
         "jacobian_samples": samples,
         "min_jacobian_det": min_det,
         "min_jacobian_det_at": worst,
