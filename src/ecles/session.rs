@@ -40,6 +40,8 @@ pub struct Session {
     /// Derived values per coordinate (`d` vectors of length `|D|`).
     values: Vec<ScaledVec>,
     lsq: Option<(Vec<Rat>, WeightedLsq)>,
+    /// Strong solvability was verified: every update is solvable, no weak check needed.
+    strong_ok: bool,
 }
 
 fn check_indices(what: &'static str, idx: &[usize], n: usize) -> Result<(), EclesError> {
@@ -147,9 +149,12 @@ impl ConstraintSystem {
                 })
                 .collect(),
             lsq: None,
+            strong_ok: false,
         };
+        let mut session = session;
         if opts.strong {
             session.check_strong()?;
+            session.strong_ok = true;
         }
         Ok(session)
     }
@@ -357,8 +362,10 @@ impl Session {
             if unique {
                 let (x, den) = self.ldu.solve_scaled(&col).map_err(|e| fail(e.row))?;
                 new_values.push(ScaledVec::new(x, den));
-            } else if let Some(row) = self.ldu.first_inconsistent(&col) {
-                return Err(fail(row));
+            } else if !self.strong_ok {
+                if let Some(row) = self.ldu.first_inconsistent(&col) {
+                    return Err(fail(row));
+                }
             }
             b_cols.push(col);
         }

@@ -77,6 +77,10 @@ pub struct WeightedLsq {
     scale: Rat,
     /// `scale / w_s`, an integer per unknown.
     factor: Vec<Int>,
+    /// `adj = det * (scale G)^-1` (integer, by columns) and `det`, built on the fifth solve:
+    /// repeated solves (dragging) then need products only, no exact divisions.
+    adj: std::cell::OnceCell<(Vec<Vec<Int>>, Int)>,
+    solves: std::cell::Cell<u32>,
 }
 
 impl WeightedLsq {
@@ -130,7 +134,15 @@ impl WeightedLsq {
             return Err(LsqError::DependentRows { rank: g.rank(), rows: r });
         }
         let scale = Rat::from_integer(scale_i);
-        Ok(WeightedLsq { a, winv, g, scale, factor })
+        Ok(WeightedLsq {
+            a,
+            winv,
+            g,
+            scale,
+            factor,
+            adj: Default::default(),
+            solves: Default::default(),
+        })
     }
 
     /// Number of constraints `r`.
@@ -178,6 +190,44 @@ impl WeightedLsq {
             .collect()
     }
 
+    /// `(lambda, det)` with `(scale G)(lambda / det) = scale * resid`.
+    fn lambda(&self, resid: &[Int], scale: &Int) -> (Vec<Int>, Int) {
+        let n = self.solves.get();
+        self.solves.set(n.saturating_add(1));
+        let r = resid.len();
+        // Build the adjugate once a drag is under way (after two 2D updates), not for a
+        // one-off edit.
+        if n >= 4 && self.adj.get().is_none() {
+            let mut cols = Vec::with_capacity(r);
+            let mut det = Int::one();
+            for j in 0..r {
+                let e: Vec<Rat> =
+                    (0..r).map(|i| if i == j { Rat::one() } else { Rat::zero() }).collect();
+                let (x, d) = self.g.solve_scaled(&e).expect("G is invertible");
+                det = d;
+                cols.push(x);
+            }
+            let _ = self.adj.set((cols, det));
+        }
+        if let Some((cols, det)) = self.adj.get() {
+            let mut out = vec![Int::zero(); r];
+            for (j, rj) in resid.iter().enumerate() {
+                if rj.is_zero() {
+                    continue;
+                }
+                let f = rj * scale;
+                for (o, a) in out.iter_mut().zip(&cols[j]) {
+                    if !a.is_zero() {
+                        *o += &(a * &f);
+                    }
+                }
+            }
+            return (out, det.clone());
+        }
+        let rhs: Vec<Rat> = resid.iter().map(|v| Rat::from_integer(v * scale)).collect();
+        self.g.solve_scaled(&rhs).expect("G is invertible")
+    }
+
     /// The minimizer `x''` for one coordinate, all in integers: right-hand side `b` (length
     /// `r`) and hints `h` (length `n`) as scaled vectors; the result has denominator
     /// `scale * det * den(h) * den(b)` before normalization and needs no per-entry gcd.
@@ -201,8 +251,7 @@ impl WeightedLsq {
             return h.clone();
         }
         let scale = self.scale.to_integer();
-        let rhs: Vec<Rat> = resid.iter().map(|v| Rat::from_integer(v * &scale)).collect();
-        let (lambda, det) = self.g.solve_scaled(&rhs).expect("G is invertible");
+        let (lambda, det) = self.lambda(&resid, &scale);
         let mut atl = vec![Int::zero(); n];
         for (i, li) in lambda.iter().enumerate() {
             if li.is_zero() {
@@ -238,5 +287,34 @@ impl WeightedLsq {
             }
         }
         x
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::exact::matrix::rat_int;
+
+    /// Repeated solves switch to the cached adjugate of G; the results must not change.
+    #[test]
+    fn repeated_solves_agree_with_first_solves() {
+        let rows: Vec<Vec<(usize, Int)>> = (0..6)
+            .map(|i| {
+                vec![(i, Int::from(3)), (i + 1, Int::from(-2)), (i + 3, Int::from(i as i64 - 2))]
+            })
+            .collect();
+        let a = SparseIntMatrix::from_rows(9, rows).unwrap();
+        let w: Vec<Rat> = (0..9).map(|s| Rat::new(Int::from(s as i64 + 1), Int::from(3))).collect();
+        let warm = WeightedLsq::new(a.clone(), &w, Simplification::Turner).unwrap();
+        for k in 0..12i64 {
+            let b = ScaledVec::from_rats(
+                &(0..6).map(|i| Rat::new(Int::from(i * k - 3), Int::from(7))).collect::<Vec<_>>(),
+            );
+            let h = ScaledVec::from_rats(&(0..9).map(|s| rat_int(s * k % 5)).collect::<Vec<_>>());
+            let fresh = WeightedLsq::new(a.clone(), &w, Simplification::Turner).unwrap();
+            let (x1, x2) = (warm.solve_scaled(&b, &h), fresh.solve_scaled(&b, &h));
+            assert_eq!(x1.to_rats(), x2.to_rats(), "solve {k}");
+        }
+        assert!(warm.adj.get().is_some(), "the adjugate path was exercised");
     }
 }
