@@ -42,28 +42,9 @@ pub(super) fn solve_text(text: &str, source: &str) -> Result<serde_json::Value> 
     Ok(solution.to_json())
 }
 
-/// JSON with one top-level key per line and one row per line for arrays of rows.
+/// JSON with one key per line and one row per line for arrays of rows.
 pub fn compact_pretty(v: &serde_json::Value) -> String {
-    use serde_json::Value;
-    let Value::Object(map) = v else { return v.to_string() };
-    let mut s = String::from("{\n");
-    for (i, (k, val)) in map.iter().enumerate() {
-        s.push_str(&format!("  {}: ", Value::String(k.clone())));
-        match val {
-            Value::Array(rows) if rows.iter().any(Value::is_array) => {
-                s.push_str("[\n");
-                for (j, r) in rows.iter().enumerate() {
-                    let sep = if j + 1 < rows.len() { "," } else { "" };
-                    s.push_str(&format!("    {r}{sep}\n"));
-                }
-                s.push_str("  ]");
-            }
-            other => s.push_str(&other.to_string()),
-        }
-        s.push_str(if i + 1 < map.len() { ",\n" } else { "\n" });
-    }
-    s.push_str("}\n");
-    s
+    crate::io::json_rows(v)
 }
 
 /// `trimorph solve SYSTEM [-o OUT]`.

@@ -135,49 +135,7 @@ pub fn to_string(s: &Spline, last: Option<&LastEdit>) -> String {
 
 /// [`to_string`] with extra constraints.
 pub fn to_string_with(s: &Spline, last: Option<&LastEdit>, extras: &[Extra]) -> String {
-    let doc = to_json_with(s, last, extras);
-    let Value::Object(map) = &doc else { unreachable!() };
-    let mut out = String::from("{\n");
-    for (i, (k, v)) in map.iter().enumerate() {
-        out.push_str(&format!("  {}: ", Value::String(k.clone())));
-        match v {
-            Value::Array(rows) if rows.iter().any(Value::is_array) => {
-                out.push_str("[\n");
-                for (j, r) in rows.iter().enumerate() {
-                    out.push_str(&format!(
-                        "    {r}{}\n",
-                        if j + 1 < rows.len() { "," } else { "" }
-                    ));
-                }
-                out.push_str("  ]");
-            }
-            Value::Object(inner) => {
-                out.push_str("{\n");
-                for (j, (ik, iv)) in inner.iter().enumerate() {
-                    out.push_str(&format!("    {}: ", Value::String(ik.clone())));
-                    match iv {
-                        Value::Array(rows) if rows.iter().any(Value::is_array) => {
-                            out.push_str("[\n");
-                            for (r, row) in rows.iter().enumerate() {
-                                out.push_str(&format!(
-                                    "      {row}{}\n",
-                                    if r + 1 < rows.len() { "," } else { "" }
-                                ));
-                            }
-                            out.push_str("    ]");
-                        }
-                        other => out.push_str(&other.to_string()),
-                    }
-                    out.push_str(if j + 1 < inner.len() { ",\n" } else { "\n" });
-                }
-                out.push_str("  }");
-            }
-            other => out.push_str(&other.to_string()),
-        }
-        out.push_str(if i + 1 < map.len() { ",\n" } else { "\n" });
-    }
-    out.push_str("}\n");
-    out
+    super::json_rows(&to_json_with(s, last, extras))
 }
 
 fn num(v: &Value, path: &str) -> Result<Rat, DeformationError> {

@@ -55,6 +55,41 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), IoError> {
     Ok(())
 }
 
+/// JSON text that stays readable for matrices: objects have one key per line, arrays of
+/// arrays one row per line, everything else is compact.
+pub fn json_rows(v: &serde_json::Value) -> String {
+    fn go(v: &serde_json::Value, indent: usize, out: &mut String) {
+        use serde_json::Value;
+        let pad = "  ".repeat(indent + 1);
+        match v {
+            Value::Object(map) if !map.is_empty() => {
+                out.push_str("{\n");
+                for (i, (k, val)) in map.iter().enumerate() {
+                    out.push_str(&format!("{pad}{}: ", Value::String(k.clone())));
+                    go(val, indent + 1, out);
+                    out.push_str(if i + 1 < map.len() { ",\n" } else { "\n" });
+                }
+                out.push_str(&format!("{}}}", "  ".repeat(indent)));
+            }
+            Value::Array(rows) if rows.iter().any(Value::is_array) => {
+                out.push_str("[\n");
+                for (j, r) in rows.iter().enumerate() {
+                    out.push_str(&format!(
+                        "{pad}{r}{}\n",
+                        if j + 1 < rows.len() { "," } else { "" }
+                    ));
+                }
+                out.push_str(&format!("{}]", "  ".repeat(indent)));
+            }
+            other => out.push_str(&other.to_string()),
+        }
+    }
+    let mut out = String::new();
+    go(v, 0, &mut out);
+    out.push('\n');
+    out
+}
+
 /// Reads a whole text file (or standard input for `-`).
 pub fn read_text(path: &Path) -> Result<String, IoError> {
     if path.as_os_str() == "-" {

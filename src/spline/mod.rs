@@ -110,11 +110,7 @@ impl Spline {
         points: Vec<Vec<Rat>>,
         z: Option<ZLayers>,
     ) -> Result<Spline, SplineError> {
-        let id = Self::identity(mesh, degree)?;
-        if points.len() != id.points.len() {
-            return Err(SplineError::PointCount { expected: id.points.len(), found: points.len() });
-        }
-        let s = Self::assemble(id.mesh, id.layout, points, z);
+        let s = Self::from_points_unchecked(mesh, degree, points, z)?;
         s.check_c1()?;
         Ok(s)
     }

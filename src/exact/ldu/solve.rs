@@ -213,18 +213,6 @@ impl Ldu {
 
 /// `b` as integers over a common positive denominator: `b = num / den`.
 pub fn scale_to_int(b: &[Rat]) -> (Vec<Int>, Int) {
-    let den = b
-        .iter()
-        .fold(Int::one(), |acc, v| if v.denom().is_one() { acc } else { acc.lcm(v.denom()) });
-    let num =
-        b.iter()
-            .map(|v| {
-                if den.is_one() {
-                    v.numer().clone()
-                } else {
-                    (v.numer() * &den).div_exact(v.denom())
-                }
-            })
-            .collect();
-    (num, den)
+    let v = crate::exact::matrix::ScaledVec::from_rats(b);
+    (v.num, v.den)
 }
