@@ -8,7 +8,10 @@
 //! * [`exact`]: exact integer / rational linear algebra (fraction-free LDU, exact solve,
 //!   weighted least squares) -- thesis Part I, ch. 4 and 6-9;
 //! * [`ecles`]: editing parameters under affine constraints (ECLES) -- thesis ch. 2 and 5;
-//! * [`render`]: pictures (plots);
+//! * [`mesh`], [`spline`], [`edit`]: 2DSD spline deformations and their editing -- thesis
+//!   Part II;
+//! * [`warp`]: points and images through a deformation (forward and inverse);
+//! * [`render`]: pictures (plots, deformations);
 //! * [`io`]: atomic file output;
 //! * [`cli`]: the `trimorph` command line.
 //!
@@ -26,3 +29,4 @@ pub mod io;
 pub mod mesh;
 pub mod render;
 pub mod spline;
+pub mod warp;

@@ -181,6 +181,7 @@ fn demo_runs_on_bundled_data() {
         "before.png",
         "after.png",
         "edits.json",
+        "warped.png",
     ] {
         assert!(dir.path().join(f).exists(), "{f}");
     }

@@ -3,7 +3,7 @@
 //! 1. ECLES on the bundled constraint problems (`examples/*.json`).
 //! 2. 2DSD on the bundled microscope image `data/microscopy/cell.png`: a 6x6-cell reference
 //!    grid over the image, three local edits (translate, rotate, scale), an exact C1 check,
-//!    and before/after pictures over the image.
+//!    before/after pictures over the image, and the image warped through the deformation.
 
 use super::solve::{compact_pretty, solve_text, PARALLELOGRAM, PUMP, THESIS};
 use super::spline_cmds;
@@ -93,6 +93,17 @@ pub fn run(dir: &Path) -> Result<()> {
     let after = dir.join("after.png");
     spline_cmds::render(&id, &before, Some(&img), "mesh,points", "800,600")?;
     spline_cmds::render(&edited, &after, Some(&img), "mesh,points", "800,600")?;
+    let warped = dir.join("warped.png");
+    super::warp_cmd::run(super::warp_cmd::WarpArgs {
+        deformation: &edited,
+        image: Some(&img),
+        points: None,
+        output: &warped,
+        inverse: false,
+        interp: "bicubic",
+        background: 0.0,
+        tolerance: 0.01,
+    })?;
     let mut o = std::io::stdout().lock();
     writeln!(
         o,

@@ -7,6 +7,7 @@ mod bench;
 mod demo;
 mod solve;
 pub mod spline_cmds;
+mod warp_cmd;
 
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
@@ -115,6 +116,33 @@ enum Command {
         #[arg(long, default_value = "800,600")]
         size: String,
     },
+    /// Move an image or points through a deformation. Images: O(q) = I(phi^-1(q)), same
+    /// size, type and bit depth. Points: forward p -> phi(p), or --inverse q -> phi^-1(q).
+    Warp {
+        /// The deformation.
+        deformation: PathBuf,
+        /// Input image (PNG, TIFF, JPEG).
+        #[arg(long)]
+        image: Option<PathBuf>,
+        /// Input points (CSV `x,y`).
+        #[arg(long)]
+        points: Option<PathBuf>,
+        /// Output image or CSV.
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Points: map q -> phi^-1(q) instead of p -> phi(p).
+        #[arg(long)]
+        inverse: bool,
+        /// Image resampling: nearest, bilinear or bicubic.
+        #[arg(long, default_value = "bilinear")]
+        interp: String,
+        /// Value of pixels whose preimage is outside the mesh.
+        #[arg(long, default_value_t = 0.0)]
+        background: f64,
+        /// Largest accepted error of an inverse point (pixels).
+        #[arg(long, default_value_t = 0.01)]
+        tolerance: f64,
+    },
     /// Measurements and experiments.
     Bench {
         #[command(subcommand)]
@@ -183,6 +211,25 @@ pub fn run() -> i32 {
         Command::Render { deformation, output, background, show, size } => {
             spline_cmds::render(&deformation, &output, background.as_deref(), &show, &size)
         }
+        Command::Warp {
+            deformation,
+            image,
+            points,
+            output,
+            inverse,
+            interp,
+            background,
+            tolerance,
+        } => warp_cmd::run(warp_cmd::WarpArgs {
+            deformation: &deformation,
+            image: image.as_deref(),
+            points: points.as_deref(),
+            output: &output,
+            inverse,
+            interp: &interp,
+            background,
+            tolerance,
+        }),
         Command::Bench { which: BenchCommand::Bitgrowth { output, trials, quick, seed, only } } => {
             bench::bitgrowth(&output, trials, quick, seed, only.as_deref())
         }

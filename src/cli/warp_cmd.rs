@@ -1,0 +1,130 @@
+//! `trimorph warp DEF (--image IN | --points IN.csv) -o OUT`.
+
+use crate::io::{read_text, write_atomic};
+use crate::warp::inverse::InverseOptions;
+use crate::warp::{forward, inverse, warp_image, Interp};
+use anyhow::{anyhow, bail, Context, Result};
+use std::io::Write;
+use std::path::Path;
+
+/// Options of `trimorph warp`.
+pub struct WarpArgs<'a> {
+    pub deformation: &'a Path,
+    pub image: Option<&'a Path>,
+    pub points: Option<&'a Path>,
+    pub output: &'a Path,
+    pub inverse: bool,
+    pub interp: &'a str,
+    pub background: f64,
+    pub tolerance: f64,
+}
+
+/// Reads `x,y` rows; a row with empty fields (as `warp` writes for missing points) is `None`,
+/// so warped files can be warped back row for row.
+fn read_optional_points(text: &str, source: &str) -> Result<Vec<Option<[f64; 2]>>> {
+    let mut out = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        let line = line.trim();
+        if line.is_empty() || line.starts_with('#') {
+            continue;
+        }
+        let cols: Vec<&str> = line.split(',').map(str::trim).collect();
+        if cols.len() >= 2 && cols[0].is_empty() && cols[1].is_empty() {
+            out.push(None);
+            continue;
+        }
+        let parse =
+            |c: Option<&&str>| c.and_then(|c| c.parse::<f64>().ok()).filter(|v| v.is_finite());
+        match (parse(cols.first()), parse(cols.get(1))) {
+            (Some(x), Some(y)) => out.push(Some([x, y])),
+            _ if out.is_empty() && i == 0 => continue, // header
+            _ => bail!("{source}, line {}: expected `x,y` (finite numbers) or an empty row `,`, found `{line}`", i + 1),
+        }
+    }
+    Ok(out)
+}
+
+/// Runs `trimorph warp`.
+pub fn run(a: WarpArgs) -> Result<()> {
+    let text = read_text(a.deformation)?;
+    let (s, _) = crate::io::deformation::from_str(&text)
+        .with_context(|| format!("cannot read deformation {}", a.deformation.display()))?;
+    if !(a.tolerance > 0.0 && a.tolerance.is_finite()) {
+        bail!("--tolerance must be a positive number of pixels");
+    }
+    let opts = InverseOptions { tolerance: a.tolerance, ..Default::default() };
+    let mut out = std::io::stdout().lock();
+    match (a.image, a.points) {
+        (Some(img_path), None) => {
+            if a.inverse {
+                bail!("--inverse applies to --points; images are always warped as O(q) = I(phi^-1(q))");
+            }
+            let interp: Interp = a.interp.parse().map_err(|e: String| anyhow!(e))?;
+            if !a.background.is_finite() {
+                bail!("--background must be a finite number");
+            }
+            let img = image::ImageReader::open(img_path)
+                .with_context(|| format!("cannot open {}", img_path.display()))?
+                .with_guessed_format()?
+                .decode()
+                .with_context(|| format!("cannot decode image {}", img_path.display()))?;
+            if img.width() == 0 || img.height() == 0 {
+                bail!("{}: empty image", img_path.display());
+            }
+            let (warped, rep) = warp_image(&s, &img, interp, a.background, opts)?;
+            // Encode in memory in the output's format, then write atomically.
+            let fmt = image::ImageFormat::from_path(a.output).with_context(|| {
+                format!("{}: unknown image extension (use .png, .tif or .jpg)", a.output.display())
+            })?;
+            let mut bytes = std::io::Cursor::new(Vec::new());
+            warped
+                .write_to(&mut bytes, fmt)
+                .with_context(|| format!("cannot encode {}", a.output.display()))?;
+            write_atomic(a.output, &bytes.into_inner())?;
+            writeln!(
+                out,
+                "{}x{} {:?} -> {}: {} pixels outside the deformed mesh (background), max inverse error bound {:.2e} px",
+                img.width(),
+                img.height(),
+                img.color(),
+                a.output.display(),
+                rep.outside,
+                rep.max_error_bound
+            )?;
+        }
+        (None, Some(p)) => {
+            let rows = read_optional_points(&read_text(p)?, &p.display().to_string())?;
+            let pts: Vec<[f64; 2]> = rows.iter().flatten().copied().collect();
+            let mapped: Vec<Option<[f64; 2]>> = if a.inverse {
+                inverse(&s, &pts, opts).into_iter().map(|r| r.map(|r| r.p)).collect()
+            } else {
+                forward(&s, &pts)
+            };
+            let mut it = mapped.into_iter();
+            let res: Vec<Option<[f64; 2]>> =
+                rows.iter().map(|r| r.and_then(|_| it.next().expect("one per point"))).collect();
+            let mut csv = String::from("x,y\n");
+            let mut missing = 0;
+            for r in &res {
+                match r {
+                    Some(q) => csv.push_str(&format!("{},{}\n", q[0], q[1])),
+                    None => {
+                        missing += 1;
+                        csv.push_str(",\n");
+                    }
+                }
+            }
+            write_atomic(a.output, csv.as_bytes())?;
+            let dir = if a.inverse { "phi^-1 (inverse)" } else { "phi (forward)" };
+            writeln!(out, "{} points through {dir} -> {}", rows.len(), a.output.display())?;
+            if missing > 0 {
+                eprintln!(
+                    "warning: {missing} points are outside the {} (written as empty fields)",
+                    if a.inverse { "deformed mesh" } else { "reference mesh" }
+                );
+            }
+        }
+        _ => bail!("give exactly one of --image or --points"),
+    }
+    Ok(())
+}

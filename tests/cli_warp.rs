@@ -1,0 +1,84 @@
+//! `trimorph warp` from outside: images keep size, type and bit depth; points go both ways.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn trimorph(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_trimorph")).args(args).output().expect("runs")
+}
+
+fn ok(o: &Output) {
+    assert!(
+        o.status.success(),
+        "stdout: {}\nstderr: {}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+#[test]
+fn identity_warp_keeps_16_bit_tiff_and_points_round_trip() {
+    let dir = tempfile::tempdir().unwrap();
+    let id = dir.path().join("id.json");
+    ok(&trimorph(&["mesh", "--grid", "3x3", "--size", "47,31", "-o", s(&id)]));
+    let img: image::ImageBuffer<image::Luma<u16>, Vec<u16>> =
+        image::ImageBuffer::from_fn(48, 32, |x, y| image::Luma([(x * 1000 + y * 17) as u16]));
+    let inp = dir.path().join("in.tif");
+    img.save(&inp).unwrap();
+    let out = dir.path().join("out.tif");
+    ok(&trimorph(&["warp", s(&id), "--image", s(&inp), "-o", s(&out)]));
+    let back = image::open(&out).unwrap();
+    assert_eq!(back.color(), image::ColorType::L16);
+    assert_eq!(back.to_luma16(), img);
+
+    // Edit, then warp points forward and back.
+    let script = dir.path().join("e.json");
+    std::fs::write(
+        &script,
+        r#"[{"anchors": {"near": [[15.67, 10.33]]}, "op": "translate", "by": [2, 1]}]"#,
+    )
+    .unwrap();
+    let ed = dir.path().join("ed.json");
+    ok(&trimorph(&["edit", s(&id), "--script", s(&script), "-o", s(&ed)]));
+    let pts = dir.path().join("p.csv");
+    std::fs::write(&pts, "x,y\n15.67,10.33\n30,20\n-3,4\n").unwrap();
+    let q = dir.path().join("q.csv");
+    ok(&trimorph(&["warp", s(&ed), "--points", s(&pts), "-o", s(&q)]));
+    let qt = std::fs::read_to_string(&q).unwrap();
+    assert_eq!(qt.lines().count(), 4);
+    assert!(qt.lines().last().unwrap() == ",", "outside point written empty: {qt}");
+    let b = dir.path().join("b.csv");
+    ok(&trimorph(&["warp", s(&ed), "--points", s(&q), "--inverse", "-o", s(&b)]));
+    let rows: Vec<Vec<f64>> = std::fs::read_to_string(&b)
+        .unwrap()
+        .lines()
+        .skip(1)
+        .filter(|l| *l != ",")
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect();
+    assert!((rows[0][0] - 15.67).abs() < 0.01 && (rows[0][1] - 10.33).abs() < 0.01, "{rows:?}");
+    assert!((rows[1][0] - 30.0).abs() < 0.01 && (rows[1][1] - 20.0).abs() < 0.01);
+}
+
+#[test]
+fn bad_warp_inputs_exit_1_and_write_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let id = dir.path().join("id.json");
+    ok(&trimorph(&["mesh", "--grid", "2x2", "--size", "20,20", "-o", s(&id)]));
+    let txt = dir.path().join("not_an_image.png");
+    std::fs::write(&txt, "hello").unwrap();
+    let out = dir.path().join("o.png");
+    for args in [
+        vec!["warp", s(&id), "--image", s(&txt), "-o", s(&out)],
+        vec!["warp", s(&id), "-o", s(&out)],
+        vec!["warp", s(&id), "--image", s(&txt), "--interp", "sinc", "-o", s(&out)],
+    ] {
+        let r = trimorph(&args);
+        assert_eq!(r.status.code(), Some(1), "{args:?}");
+        assert!(!out.exists());
+    }
+}
