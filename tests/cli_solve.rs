@@ -1,14 +1,13 @@
 //! `trimorph solve`, `demo` and `bench bitgrowth` from outside, through the binary.
 
+mod common;
+use common::*;
+
 use num_bigint::BigInt;
 use num_rational::BigRational;
 use serde_json::Value;
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn trimorph(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_trimorph")).args(args).output().expect("runs")
-}
+use std::process::Command;
 
 fn example(name: &str) -> String {
     format!("{}/examples/{name}", env!("CARGO_MANIFEST_DIR"))

@@ -1,21 +1,10 @@
 //! `trimorph mesh`, `edit` and `check` from outside, through the binary.
 
+mod common;
+use common::*;
+
 use serde_json::{json, Value};
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn trimorph(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_trimorph")).args(args).output().expect("runs")
-}
-
-fn ok(o: &Output) {
-    assert!(
-        o.status.success(),
-        "stdout: {}\nstderr: {}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    );
-}
 
 fn read(p: &Path) -> Value {
     serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()

@@ -1,24 +1,7 @@
 //! `trimorph warp` from outside: images keep size, type and bit depth; points go both ways.
 
-use std::path::Path;
-use std::process::{Command, Output};
-
-fn trimorph(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_trimorph")).args(args).output().expect("runs")
-}
-
-fn ok(o: &Output) {
-    assert!(
-        o.status.success(),
-        "stdout: {}\nstderr: {}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    );
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
+mod common;
+use common::*;
 
 #[test]
 fn identity_warp_keeps_16_bit_tiff_and_points_round_trip() {
