@@ -173,6 +173,7 @@ fn demo_runs_on_bundled_data() {
     assert!(text.contains("every constraint holds exactly: true"));
     assert!(!text.contains("holds exactly: false"));
     assert!(text.contains("nonzero residuals: 0"), "{text}");
+    assert!(text.contains("trimorph warp"), "{text}");
     for f in [
         "pump.solution.json",
         "identity.json",

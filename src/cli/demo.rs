@@ -130,5 +130,12 @@ pub fn run(dir: &Path) -> Result<()> {
         img.display(),
         after.display()
     )?;
+    writeln!(
+        o,
+        "  trimorph warp {} --image {} --interp bicubic -o {}",
+        edited.display(),
+        img.display(),
+        warped.display()
+    )?;
     Ok(())
 }
