@@ -65,3 +65,36 @@ fn bad_warp_inputs_exit_1_and_write_nothing() {
         assert!(!out.exists());
     }
 }
+
+#[test]
+fn field_and_jacobian_maps() {
+    let dir = tempfile::tempdir().unwrap();
+    let id = dir.path().join("id.json");
+    ok(&trimorph(&["mesh", "--grid", "2x2", "--size", "20,10", "-o", s(&id)]));
+    let npy = dir.path().join("f.npy");
+    let jac = dir.path().join("j.png");
+    let o = trimorph(&["field", s(&id), "-o", s(&npy), "--jacobian", s(&jac)]);
+    ok(&o);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(text.contains("0 of 231 samples fold"), "{text}");
+    let b = std::fs::read(&npy).unwrap();
+    assert_eq!(&b[..6], b"\x93NUMPY");
+    let hl = u16::from_le_bytes([b[8], b[9]]) as usize;
+    assert!(std::str::from_utf8(&b[10..10 + hl]).unwrap().contains("(11, 21, 2)"));
+    // The identity has zero displacement everywhere (up to f64 evaluation rounding).
+    assert!(b[10 + hl..]
+        .chunks(4)
+        .all(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]).abs() < 1e-9));
+    let j = image::open(&jac).unwrap().to_rgba8();
+    assert_eq!(j.get_pixel(5, 5).0, [255, 255, 255, 255], "det J = 1 is white");
+    let tif = dir.path().join("f.tif");
+    ok(&trimorph(&["field", s(&id), "--inverse", "-o", s(&tif), "--size", "25,12"]));
+    let t = image::open(&tif).unwrap();
+    assert_eq!((t.width(), t.height(), t.color()), (25, 12, image::ColorType::Rgb32F));
+    let px = t.to_rgb32f();
+    let v = px.get_pixel(3, 3).0;
+    assert!(v[0].abs() < 1e-9 && v[1].abs() < 1e-9 && v[2] == 1.0, "{v:?}");
+    assert_eq!(px.get_pixel(24, 11).0[2], 0.0, "outside the mesh is marked invalid");
+    let bad = trimorph(&["field", s(&id), "-o", s(&dir.path().join("f.txt"))]);
+    assert_eq!(bad.status.code(), Some(1));
+}

@@ -143,6 +143,25 @@ enum Command {
         #[arg(long, default_value_t = 0.01)]
         tolerance: f64,
     },
+    /// Dense displacement field (forward phi(p) - p, or --inverse phi^-1(q) - q) as float
+    /// TIFF or .npy, and optionally a Jacobian-determinant map (PNG) with a fold report.
+    Field {
+        /// The deformation.
+        deformation: PathBuf,
+        /// Output field (.tif: RGB float32 dx, dy, valid; .npy: float32 (H, W, 2), NaN outside).
+        #[arg(short, long)]
+        output: PathBuf,
+        /// The inverse field instead of the forward one.
+        #[arg(long)]
+        inverse: bool,
+        /// Also write the Jacobian determinant as a colour map (PNG): blue compression, white
+        /// 1, orange expansion, red folds.
+        #[arg(long)]
+        jacobian: Option<PathBuf>,
+        /// Grid size W,H in pixels (default: the mesh's extent from 0).
+        #[arg(long)]
+        size: Option<String>,
+    },
     /// Measurements and experiments.
     Bench {
         #[command(subcommand)]
@@ -230,6 +249,9 @@ pub fn run() -> i32 {
             background,
             tolerance,
         }),
+        Command::Field { deformation, output, inverse, jacobian, size } => {
+            warp_cmd::field(&deformation, &output, inverse, jacobian.as_deref(), size.as_deref())
+        }
         Command::Bench { which: BenchCommand::Bitgrowth { output, trials, quick, seed, only } } => {
             bench::bitgrowth(&output, trials, quick, seed, only.as_deref())
         }

@@ -128,3 +128,81 @@ pub fn run(a: WarpArgs) -> Result<()> {
     }
     Ok(())
 }
+
+/// `trimorph field DEF -o FIELD.(tif|npy) [--inverse] [--jacobian JAC.png] [--size W,H]`.
+pub fn field(
+    def: &Path,
+    output: &Path,
+    inverse_field: bool,
+    jacobian: Option<&Path>,
+    size: Option<&str>,
+) -> Result<()> {
+    use crate::warp::field as wf;
+    let text = read_text(def)?;
+    let (s, _) = crate::io::deformation::from_str(&text)
+        .with_context(|| format!("cannot read deformation {}", def.display()))?;
+    let (w, h) = match size {
+        Some(sz) => {
+            let (a, b) = sz.split_once(',').ok_or_else(|| anyhow!("--size: expected W,H"))?;
+            let (w, h): (u32, u32) = (
+                a.trim().parse().map_err(|_| anyhow!("--size: `{a}` is not a whole number"))?,
+                b.trim().parse().map_err(|_| anyhow!("--size: `{b}` is not a whole number"))?,
+            );
+            (w, h)
+        }
+        None => {
+            let (_, hi) = s.mesh().bbox();
+            (hi[0].max(0.0).floor() as u32 + 1, hi[1].max(0.0).floor() as u32 + 1)
+        }
+    };
+    if w == 0 || h == 0 || (w as u64) * (h as u64) > 100_000_000 {
+        bail!("field size {w}x{h} is empty or too large (at most 10^8 pixels)");
+    }
+    let f = if inverse_field {
+        wf::inverse_field(&s, w, h, InverseOptions::default())
+    } else {
+        wf::forward_field(&s, w, h)
+    };
+    let ext = output.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+    let bytes = match ext.as_str() {
+        "npy" => wf::to_npy(&f),
+        "tif" | "tiff" => {
+            let mut c = std::io::Cursor::new(Vec::new());
+            image::DynamicImage::ImageRgb32F(wf::to_rgb32f(&f))
+                .write_to(&mut c, image::ImageFormat::Tiff)
+                .context("cannot encode the float TIFF")?;
+            c.into_inner()
+        }
+        _ => bail!("{}: use a .npy or .tif output", output.display()),
+    };
+    write_atomic(output, &bytes)?;
+    let undefined = f.data.iter().filter(|v| v[0].is_nan()).count();
+    let mut out = std::io::stdout().lock();
+    writeln!(
+        out,
+        "{} displacement field {w}x{h} -> {} ({undefined} pixels undefined)",
+        if inverse_field { "inverse (phi^-1(q) - q)" } else { "forward (phi(p) - p)" },
+        output.display()
+    )?;
+    if let Some(jp) = jacobian {
+        let (dets, rep) = wf::jacobian_det(&s, w, h);
+        let img = image::RgbaImage::from_fn(w, h, |x, y| {
+            image::Rgba(wf::det_color(dets[(y * w + x) as usize]))
+        });
+        let mut c = std::io::Cursor::new(Vec::new());
+        img.write_to(&mut c, image::ImageFormat::Png).context("cannot encode the Jacobian map")?;
+        write_atomic(jp, &c.into_inner())?;
+        writeln!(
+            out,
+            "Jacobian determinant map -> {} (min det J {:.4}; {} of {} samples fold{})",
+            jp.display(),
+            rep.min_det,
+            rep.folds,
+            rep.samples,
+            rep.fold_bbox
+                .map(|b| format!(", in x {}..{}, y {}..{}", b[0], b[2], b[1], b[3]))
+                .unwrap_or_default()
+        )?;
+    }
+    Ok(())
+}
