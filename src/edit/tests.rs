@@ -38,15 +38,7 @@ fn thesis_example_14_4() {
 }
 
 fn random_mesh(seed: u64, n: usize) -> Mesh {
-    let mut x = seed.wrapping_mul(0x9E3779B97F4A7C15).wrapping_add(1);
-    let mut next = || {
-        x ^= x << 13;
-        x ^= x >> 7;
-        x ^= x << 17;
-        (x % 6400) as f64 / 64.0
-    };
-    let pts: Vec<[f64; 2]> = (0..n).map(|_| [next(), next()]).collect();
-    Mesh::delaunay(&pts, MeshOptions::default()).unwrap()
+    crate::mesh::xorshift_mesh(seed.wrapping_mul(0x9E3779B97F4A7C15).wrapping_add(1), n, 6400, 64.0)
 }
 
 /// Checks the invariants after an operation: exact C1, untouched points bit-for-bit, and

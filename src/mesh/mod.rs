@@ -403,3 +403,17 @@ impl Mesh {
         self.locator.locate(&self.tri_nbrs, p, hint)
     }
 }
+
+/// Test helper: a Delaunay mesh of `n` pseudo-random points (xorshift from `state`), with
+/// coordinates `(x % modulus) / divisor`.
+#[cfg(test)]
+pub(crate) fn xorshift_mesh(mut state: u64, n: usize, modulus: u64, divisor: f64) -> Mesh {
+    let mut next = || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state % modulus) as f64 / divisor
+    };
+    let pts: Vec<[f64; 2]> = (0..n).map(|_| [next(), next()]).collect();
+    Mesh::delaunay(&pts, MeshOptions::default()).unwrap()
+}

@@ -83,22 +83,17 @@ pub fn quads(mesh: &Mesh, layout: &Layout) -> Vec<Quad> {
         let g = gcd(gcd(area, bw), gcd(ba, bb));
         let coef = [area / g, -bw / g, -ba / g, -bb / g]
             .map(|c| i64::try_from(c).expect("coefficient fits in i64"));
-        // Local multi-index helpers: weight `x` on w-side vertex, `y` on a, `z` on b.
-        let idx_u = |x: usize, y: usize, z: usize| {
+        // Point of triangle `t` with weights `x` on its opposite vertex `o`, `y` on a, `z` on b.
+        let idx = |t: usize, o: usize, x: usize, y: usize, z: usize| {
+            let tri = mesh.triangle(t);
             let mut m = [0; 3];
-            m[pos(w)] = x;
-            m[pos(a)] = y;
-            m[pos(b)] = z;
-            layout.point(u, m)
+            for (vert, wgt) in [(o, x), (a, y), (b, z)] {
+                m[tri.iter().position(|&q| q == vert).expect("vertex of triangle")] = wgt;
+            }
+            layout.point(t, m)
         };
-        let posv = |x: usize| tv.iter().position(|&y| y == x).expect("vertex of v");
-        let idx_v = |x: usize, y: usize, z: usize| {
-            let mut m = [0; 3];
-            m[posv(w2)] = x;
-            m[posv(a)] = y;
-            m[posv(b)] = z;
-            layout.point(v, m)
-        };
+        let idx_u = |x, y, z| idx(u, w, x, y, z);
+        let idx_v = |x, y, z| idx(v, w2, x, y, z);
         for j in 0..d {
             // Weight on a: counted so that index 0 is nearest a.
             let ja = d - 1 - j;

@@ -44,15 +44,7 @@ fn counts_for_every_degree() {
 }
 
 fn random_mesh(seed: u64, n: usize) -> Mesh {
-    let mut x = seed.wrapping_mul(2654435761).wrapping_add(17);
-    let mut next = || {
-        x ^= x << 13;
-        x ^= x >> 7;
-        x ^= x << 17;
-        (x % 10_000) as f64 / 100.0
-    };
-    let pts: Vec<[f64; 2]> = (0..n).map(|_| [next(), next()]).collect();
-    Mesh::delaunay(&pts, MeshOptions::default()).unwrap()
+    crate::mesh::xorshift_mesh(seed.wrapping_mul(2654435761).wrapping_add(17), n, 10_000, 100.0)
 }
 
 #[test]

@@ -213,39 +213,26 @@ pub fn warp_image(
         outside: pre.iter().filter(|p| p.is_none()).count(),
         max_error_bound: pre.iter().flatten().map(|p| p.error_bound).fold(0.0, f64::max),
     };
-    let out = match img {
-        DynamicImage::ImageLuma8(b) => {
-            DynamicImage::ImageLuma8(warp_buffer(b, &pre, interp, background))
-        }
-        DynamicImage::ImageLumaA8(b) => {
-            DynamicImage::ImageLumaA8(warp_buffer(b, &pre, interp, background))
-        }
-        DynamicImage::ImageRgb8(b) => {
-            DynamicImage::ImageRgb8(warp_buffer(b, &pre, interp, background))
-        }
-        DynamicImage::ImageRgba8(b) => {
-            DynamicImage::ImageRgba8(warp_buffer(b, &pre, interp, background))
-        }
-        DynamicImage::ImageLuma16(b) => {
-            DynamicImage::ImageLuma16(warp_buffer(b, &pre, interp, background))
-        }
-        DynamicImage::ImageLumaA16(b) => {
-            DynamicImage::ImageLumaA16(warp_buffer(b, &pre, interp, background))
-        }
-        DynamicImage::ImageRgb16(b) => {
-            DynamicImage::ImageRgb16(warp_buffer(b, &pre, interp, background))
-        }
-        DynamicImage::ImageRgba16(b) => {
-            DynamicImage::ImageRgba16(warp_buffer(b, &pre, interp, background))
-        }
-        DynamicImage::ImageRgb32F(b) => {
-            DynamicImage::ImageRgb32F(warp_buffer(b, &pre, interp, background))
-        }
-        DynamicImage::ImageRgba32F(b) => {
-            DynamicImage::ImageRgba32F(warp_buffer(b, &pre, interp, background))
-        }
-        other => return Err(WarpError::Unsupported(other.color())),
-    };
+    macro_rules! same_type {
+        ($($v:ident),*) => {
+            match img {
+                $(DynamicImage::$v(b) => DynamicImage::$v(warp_buffer(b, &pre, interp, background)),)*
+                other => return Err(WarpError::Unsupported(other.color())),
+            }
+        };
+    }
+    let out = same_type!(
+        ImageLuma8,
+        ImageLumaA8,
+        ImageRgb8,
+        ImageRgba8,
+        ImageLuma16,
+        ImageLumaA16,
+        ImageRgb16,
+        ImageRgba16,
+        ImageRgb32F,
+        ImageRgba32F
+    );
     Ok((out, report))
 }
 
