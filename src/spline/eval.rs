@@ -62,6 +62,49 @@ impl Frame {
     }
 }
 
+/// The inverse of the collocation matrix `C[p][m] = B_m(x_p)` of the degree-`k` Bernstein
+/// basis at the uniform domain points `x_p = p / k` (both in [`multi_indices`] order), by
+/// Gauss-Jordan elimination with partial pivoting (the matrix is small and well conditioned).
+fn collocation_inverse(
+    k: usize,
+    mi: &[[usize; 3]],
+    basis: &dyn Fn([f64; 3]) -> Vec<f64>,
+) -> Vec<Vec<f64>> {
+    let n = mi.len();
+    if k == 0 {
+        return vec![vec![1.0]];
+    }
+    let mut a: Vec<Vec<f64>> = mi
+        .iter()
+        .map(|p| basis([p[0] as f64 / k as f64, p[1] as f64 / k as f64, p[2] as f64 / k as f64]))
+        .collect();
+    let mut inv: Vec<Vec<f64>> =
+        (0..n).map(|i| (0..n).map(|j| if i == j { 1.0 } else { 0.0 }).collect()).collect();
+    for c in 0..n {
+        let piv = (c..n).max_by(|&x, &y| a[x][c].abs().total_cmp(&a[y][c].abs())).unwrap_or(c);
+        a.swap(c, piv);
+        inv.swap(c, piv);
+        let d = a[c][c];
+        for j in 0..n {
+            a[c][j] /= d;
+            inv[c][j] /= d;
+        }
+        for r in 0..n {
+            if r != c {
+                let f = a[r][c];
+                if f != 0.0 {
+                    for j in 0..n {
+                        a[r][j] -= f * a[c][j];
+                        inv[r][j] -= f * inv[c][j];
+                    }
+                }
+            }
+        }
+    }
+    // inv maps values at domain points (rows of C indexed by p) to coefficients: c = C^-1 v.
+    inv
+}
+
 fn multinomials(d: usize, mi: &[[usize; 3]]) -> Vec<f64> {
     let fact = |n: usize| (1..=n).map(|x| x as f64).product::<f64>();
     mi.iter().map(|m| fact(d) / (fact(m[0]) * fact(m[1]) * fact(m[2]))).collect()
@@ -152,6 +195,178 @@ impl EvalCache {
             y += w * p[1];
         }
         [x, y]
+    }
+
+    /// A bound `M` with `|D^2 phi(p)[u, u]| <= M |u|^2` for every `p` in triangle `t` and
+    /// every direction `u` (mesh units).
+    ///
+    /// The second directional derivative is a Bernstein polynomial of degree `d - 2`:
+    /// `D_u^2 phi = d (d-1) sum_{|m|=d-2} B_m(b) u^T H_m u` with
+    /// `H_m = sum_{k,l} g_k g_l^T q_(m+e_k+e_l)` (per output coordinate, `g_k = grad b_k`).
+    /// Bernstein weights are non-negative and sum to one, so
+    /// `|u^T H u| <= max_m rho(H_m) |u|^2` per coordinate (`rho`: spectral radius of the
+    /// symmetric 2x2 matrix); the two coordinates combine in the Euclidean norm.
+    pub fn second_derivative_bound(&self, t: usize) -> f64 {
+        let d = self.degree;
+        if d < 2 {
+            return 0.0;
+        }
+        let n = self.mi.len();
+        let q = &self.pts[t * n..(t + 1) * n];
+        let g = self.frames[t].gradients();
+        let mut worst = [0.0f64; 2];
+        for m in multi_indices(d - 2) {
+            let mut h = [[0.0f64; 3]; 2];
+            for k in 0..3 {
+                for l in 0..3 {
+                    let mut idx = m;
+                    idx[k] += 1;
+                    idx[l] += 1;
+                    let v = q[super::layout::local_index(d, idx[0], idx[1])];
+                    for r in 0..2 {
+                        h[r][0] += g[k][0] * g[l][0] * v[r];
+                        h[r][1] += g[k][1] * g[l][1] * v[r];
+                        h[r][2] += 0.5 * (g[k][0] * g[l][1] + g[k][1] * g[l][0]) * v[r];
+                    }
+                }
+            }
+            for r in 0..2 {
+                let [p, s, c] = h[r];
+                let rho = ((p + s) / 2.0).abs() + (((p - s) / 2.0).powi(2) + c * c).sqrt();
+                worst[r] = worst[r].max(rho);
+            }
+        }
+        (d * (d - 1)) as f64 * worst[0].hypot(worst[1]) * (1.0 + 1e-9)
+    }
+
+    /// The Hessian coefficients of triangle `t`: for each multi-index `m` of degree `d - 2`
+    /// (in [`multi_indices`] order), `H_m = sum_{k,l} g_k g_l^T q_(m+e_k+e_l)` as
+    /// `[h00, h11, h01]` for x then for y; `D^2 phi = d(d-1) sum_m B_m(b) H_m`.
+    fn hessian_coefficients(&self, t: usize) -> Vec<[f64; 6]> {
+        let d = self.degree;
+        let n = self.mi.len();
+        let q = &self.pts[t * n..(t + 1) * n];
+        let g = self.frames[t].gradients();
+        multi_indices(d - 2)
+            .iter()
+            .map(|m| {
+                let mut h = [0.0f64; 6];
+                for k in 0..3 {
+                    for l in 0..3 {
+                        let mut idx = *m;
+                        idx[k] += 1;
+                        idx[l] += 1;
+                        let v = q[super::layout::local_index(d, idx[0], idx[1])];
+                        for r in 0..2 {
+                            h[3 * r] += g[k][0] * g[l][0] * v[r];
+                            h[3 * r + 1] += g[k][1] * g[l][1] * v[r];
+                            h[3 * r + 2] += 0.5 * (g[k][0] * g[l][1] + g[k][1] * g[l][0]) * v[r];
+                        }
+                    }
+                }
+                h
+            })
+            .collect()
+    }
+
+    /// Bounds on `|D^2 phi|` (as in [`second_derivative_bound`](Self::second_derivative_bound))
+    /// over the `n^2` sub-triangles of the uniform `n`-subdivision of triangle `t`, each with
+    /// its vertices (barycentric).
+    ///
+    /// Each sub-triangle's Bernstein coefficients of the Hessian are obtained exactly (up to
+    /// rounding) from the Hessian's values at its domain points: a fixed linear map (the
+    /// inverse of the Bernstein collocation matrix at the uniform domain points), the same for
+    /// every sub-triangle in its own barycentric coordinates. The convex-hull bound of
+    /// [`second_derivative_bound`](Self::second_derivative_bound) is then applied per
+    /// sub-triangle, so the bounds approach the true local maximum as `n` grows.
+    pub fn second_derivative_bounds_uniform(
+        &self,
+        t: usize,
+        n: usize,
+    ) -> Vec<([[f64; 3]; 3], f64)> {
+        let d = self.degree;
+        let n = n.max(1);
+        if d < 2 {
+            return Vec::new();
+        }
+        let k = d - 2;
+        let coef = self.hessian_coefficients(t);
+        let mi = multi_indices(k);
+        let fact = |n: usize| (1..=n).map(|x| x as f64).product::<f64>();
+        let multi: Vec<f64> =
+            mi.iter().map(|m| fact(k) / (fact(m[0]) * fact(m[1]) * fact(m[2]))).collect();
+        let basis = |b: [f64; 3]| -> Vec<f64> {
+            mi.iter()
+                .zip(&multi)
+                .map(|(m, c)| {
+                    c * b[0].powi(m[0] as i32) * b[1].powi(m[1] as i32) * b[2].powi(m[2] as i32)
+                })
+                .collect()
+        };
+        // Values of the Hessian on the refined lattice (resolution n*k), indexed (i, j) with
+        // barycentrics (1 - (i+j)/N, i/N, j/N).
+        let big = n * k.max(1);
+        let stride = big + 1;
+        let mut vals = vec![[0.0f64; 6]; stride * stride];
+        for i in 0..=big {
+            for j in 0..=big - i {
+                let b = [
+                    1.0 - (i + j) as f64 / big as f64,
+                    i as f64 / big as f64,
+                    j as f64 / big as f64,
+                ];
+                let w = basis(b);
+                let mut h = [0.0f64; 6];
+                for (wm, cm) in w.iter().zip(&coef) {
+                    for e in 0..6 {
+                        h[e] += wm * cm[e];
+                    }
+                }
+                vals[i * stride + j] = h;
+            }
+        }
+        let minv = collocation_inverse(k, &mi, &basis);
+        let bary = |i: usize, j: usize| {
+            let (a, b) = (i as f64 / n as f64, j as f64 / n as f64);
+            [1.0 - a - b, a, b]
+        };
+        let scale = (d * (d - 1)) as f64;
+        let mut out = Vec::with_capacity(n * n);
+        let mut local = vec![[0.0f64; 6]; mi.len()];
+        for i in 0..n {
+            for j in 0..n - i {
+                let mut subs = vec![[(i, j), (i + 1, j), (i, j + 1)]];
+                if i + j + 1 < n {
+                    subs.push([(i + 1, j), (i + 1, j + 1), (i, j + 1)]);
+                }
+                for sub in subs {
+                    // Domain point alpha of the sub-triangle, on the refined lattice.
+                    for (slot, a) in local.iter_mut().zip(&mi) {
+                        let li = a[0] * sub[0].0 + a[1] * sub[1].0 + a[2] * sub[2].0;
+                        let lj = a[0] * sub[0].1 + a[1] * sub[1].1 + a[2] * sub[2].1;
+                        *slot = vals[li * stride + lj];
+                    }
+                    let mut worst = [0.0f64; 2];
+                    for row in &minv {
+                        let mut h = [0.0f64; 6];
+                        for (w, v) in row.iter().zip(&local) {
+                            for e in 0..6 {
+                                h[e] += w * v[e];
+                            }
+                        }
+                        for r in 0..2 {
+                            let (p, s, c) = (h[3 * r], h[3 * r + 1], h[3 * r + 2]);
+                            let rho =
+                                ((p + s) / 2.0).abs() + (((p - s) / 2.0).powi(2) + c * c).sqrt();
+                            worst[r] = worst[r].max(rho);
+                        }
+                    }
+                    let b = sub.map(|(a, c)| bary(a, c));
+                    out.push((b, scale * worst[0].hypot(worst[1]) * (1.0 + 1e-6) + 1e-300));
+                }
+            }
+        }
+        out
     }
 
     /// Jacobian `[[dphi_x/dx, dphi_x/dy], [dphi_y/dx, dphi_y/dy]]` on triangle `t`.

@@ -282,3 +282,87 @@ mod determining_set {
         assert!(Mds::new(&s4).is_err());
     }
 }
+
+#[test]
+fn second_derivative_bound_holds_and_vanishes_for_affine_maps() {
+    let id = Spline::identity(strip(), 5).unwrap();
+    for t in 0..id.mesh().num_triangles() {
+        assert!(id.eval_cache().second_derivative_bound(t) < 1e-9);
+    }
+    // Perturb every control point (C1 does not matter for the bound).
+    let mut state = 7u64;
+    let mut next = || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state % 2001) as i64 - 1000
+    };
+    let pts: Vec<Vec<Rat>> = id
+        .points()
+        .iter()
+        .map(|p| {
+            vec![&p[0] + rat_int(next()) / rat_int(1000), &p[1] + rat_int(next()) / rat_int(1000)]
+        })
+        .collect();
+    let s = Spline::from_points_unchecked(strip(), 5, pts, None).unwrap();
+    let c = s.eval_cache();
+    let h = 1e-3;
+    for t in 0..s.mesh().num_triangles() {
+        let m2 = c.second_derivative_bound(t);
+        assert!(m2 > 0.0);
+        let v = s.mesh().triangle(t).map(|i| s.mesh().vertex(i));
+        let f = c.frame(t);
+        for (k, ang) in [0.0f64, 0.7, 1.9, 2.6].iter().enumerate() {
+            let u = [ang.cos(), ang.sin()];
+            let b = [0.2 + 0.1 * k as f64, 0.3, 0.5 - 0.1 * k as f64];
+            let p = [0, 1].map(|a| b[0] * v[0][a] + b[1] * v[1][a] + b[2] * v[2][a]);
+            let at = |s: f64| c.value(t, f.bary([p[0] + s * u[0], p[1] + s * u[1]]));
+            let (a, m, z) = (at(-h), at(0.0), at(h));
+            let d2 = [0, 1].map(|r| (a[r] - 2.0 * m[r] + z[r]) / (h * h));
+            assert!(d2[0].hypot(d2[1]) <= m2 * 1.001 + 1e-6, "t={t}: {d2:?} vs {m2}");
+        }
+    }
+}
+
+#[test]
+fn uniform_second_derivative_bounds_hold_on_each_sub_triangle() {
+    let id = Spline::identity(strip(), 5).unwrap();
+    let pts: Vec<Vec<Rat>> = id
+        .points()
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let k = (i * 37 % 23) as i64 - 11;
+            vec![&p[0] + rat_int(k) / rat_int(40), &p[1] + rat_int(k * k % 7) / rat_int(30)]
+        })
+        .collect();
+    let s = Spline::from_points_unchecked(strip(), 5, pts, None).unwrap();
+    let c = s.eval_cache();
+    let t = 2;
+    let v = s.mesh().triangle(t).map(|i| s.mesh().vertex(i));
+    let whole = c.second_derivative_bound(t);
+    let subs = c.second_derivative_bounds_uniform(t, 4);
+    assert_eq!(subs.len(), 16);
+    let f = c.frame(t);
+    let h = 1e-3;
+    let mut tighter = false;
+    for (b, bound) in &subs {
+        tighter |= *bound < whole;
+        // Finite differences at the centroid and near each vertex of the sub-triangle.
+        for w in [[1.0, 1.0, 1.0], [4.0, 1.0, 1.0], [1.0, 4.0, 1.0], [1.0, 1.0, 4.0]] {
+            let sw = w[0] + w[1] + w[2];
+            let bc = [0, 1, 2].map(|k| (0..3).map(|j| w[j] / sw * b[j][k]).sum::<f64>());
+            let p = [0, 1].map(|a| bc[0] * v[0][a] + bc[1] * v[1][a] + bc[2] * v[2][a]);
+            for ang in [0.3f64, 1.2, 2.5] {
+                let u = [ang.cos(), ang.sin()];
+                let at = |x: f64| c.value(t, f.bary([p[0] + x * u[0], p[1] + x * u[1]]));
+                let (l, m, r) = (at(-h), at(0.0), at(h));
+                let d2 = [0, 1].map(|k| (l[k] - 2.0 * m[k] + r[k]) / (h * h));
+                assert!(d2[0].hypot(d2[1]) <= bound * 1.001 + 1e-6, "{d2:?} > {bound}");
+            }
+        }
+    }
+    assert!(tighter, "some sub-triangle bound is below the whole-triangle bound");
+    // The sub-triangle bounds never exceed the whole triangle's (same hull argument, finer).
+    assert!(subs.iter().all(|(_, b)| *b <= whole * (1.0 + 1e-6) + 1e-12));
+}

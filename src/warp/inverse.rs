@@ -44,6 +44,9 @@ pub struct InverseMap<'a> {
     spline: &'a Spline,
     opts: InverseOptions,
     lo: [f64; 2],
+    hi: [f64; 2],
+    /// Twice the largest gap between neighbouring forward samples, plus one unit.
+    margin: f64,
     cell: f64,
     nx: usize,
     ny: usize,
@@ -58,8 +61,10 @@ impl<'a> InverseMap<'a> {
         let cache = spline.eval_cache();
         let k = opts.samples.max(1);
         let mut samples = Vec::new();
+        let mut gap = 0.0f64;
         for t in 0..m.num_triangles() {
             let v = m.triangle(t).map(|x| m.vertex(x));
+            let first = samples.len();
             for i in 0..=k {
                 for j in 0..=k - i {
                     let b =
@@ -68,6 +73,14 @@ impl<'a> InverseMap<'a> {
                     samples.push((cache.value(t, b), p, t));
                 }
             }
+            let (mut tlo, mut thi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+            for (q, _, _) in &samples[first..] {
+                for a in 0..2 {
+                    tlo[a] = tlo[a].min(q[a]);
+                    thi[a] = thi[a].max(q[a]);
+                }
+            }
+            gap = gap.max((thi[0] - tlo[0]).hypot(thi[1] - tlo[1]) / k as f64);
         }
         let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
         for (q, _, _) in &samples {
@@ -81,7 +94,8 @@ impl<'a> InverseMap<'a> {
         let nx = (((hi[0] - lo[0]) / cell) as usize + 1).min(4096);
         let ny = (((hi[1] - lo[1]) / cell) as usize + 1).min(4096);
         let mut buckets = vec![Vec::new(); nx * ny];
-        let map = InverseMap { spline, opts, lo, cell, nx, ny, buckets: Vec::new() };
+        let margin = 2.0 * gap + 1.0;
+        let map = InverseMap { spline, opts, lo, hi, margin, cell, nx, ny, buckets: Vec::new() };
         for (q, p, t) in samples {
             let (bx, by) = map.bucket(q);
             buckets[by * nx + bx].push((p, t));
@@ -150,6 +164,19 @@ impl<'a> InverseMap<'a> {
             }
         }
         seeds.into_iter().take(12).find_map(|(p, t)| self.newton(q, p, Some(t)))
+    }
+
+    /// A box `(lo, hi)` that contains `phi(mesh)`: the bounding box of the forward samples,
+    /// grown by twice the largest gap between neighbouring samples (plus one unit). Points
+    /// outside it have no preimage.
+    pub fn deformed_bbox(&self) -> ([f64; 2], [f64; 2]) {
+        let m = self.margin;
+        ([self.lo[0] - m, self.lo[1] - m], [self.hi[0] + m, self.hi[1] + m])
+    }
+
+    /// The spline being inverted.
+    pub fn spline(&self) -> &'a Spline {
+        self.spline
     }
 
     /// The options used.

@@ -6,21 +6,31 @@
 //!
 //! * points: [`forward`] is `p -> phi(p)`; [`inverse`] is `q -> phi^-1(q)`;
 //! * images: the output is `O(q) = I(phi^-1(q))`, so a feature at `p` in the input appears
-//!   at `phi(p)` in the output. The inverse is computed by Newton's method (not
-//!   approximated), with a per-pixel error bound (0.01 px by default, see [`inverse`]);
-//!   pixels whose preimage is outside the mesh get the background value (and alpha 0).
+//!   at `phi(p)` in the output. The inverse is solved by Newton's method on a coarse grid
+//!   of output nodes and interpolated inside a cell only where a bound on the second
+//!   derivatives of `phi` proves the error is below the tolerance (0.01 px by default);
+//!   other cells are split down to single pixels, each solved by Newton (see [`remap`] and
+//!   [`inverse`]). Pixels whose preimage is outside the mesh get the background value (and
+//!   alpha 0).
+//! * folds: where `phi` is not injective a pixel has several preimages; cells whose
+//!   corners disagree in the sign of `det J` are split to single pixels, and each pixel
+//!   gets the preimage Newton finds first, starting from its left neighbour's (so a fold
+//!   shows one of its layers, not a blend). [`field::fold_report`] says where folds are.
 //!
 //! Images keep their type: 8- and 16-bit gray, gray+alpha, RGB, RGBA and 32-bit float RGB
 //! and RGBA; every channel is resampled with the same map (nearest, bilinear or bicubic).
 
 pub mod field;
 pub mod inverse;
+pub mod remap;
+pub mod sample;
 
 use crate::spline::Spline;
-use image::{DynamicImage, ImageBuffer, Pixel, Primitive};
+use image::{DynamicImage, ImageBuffer};
 use inverse::{InverseMap, InverseOptions, Preimage};
-use num_traits::{NumCast, ToPrimitive};
 use rayon::prelude::*;
+use remap::{RemapOptions, RemapPlan, RemapStats};
+use sample::{Source, Texel};
 
 /// Resampling of the input image.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -52,6 +62,17 @@ pub enum WarpError {
     /// The image type is not supported.
     #[error("unsupported image type {0:?} (use 8/16-bit gray, gray+alpha, RGB, RGBA or 32-bit float RGB/RGBA)")]
     Unsupported(image::ColorType),
+    /// The image has no pixels.
+    #[error("the image is empty (0 pixels)")]
+    Empty,
+    /// Pages of a stack differ in size.
+    #[error("all pages must have one size: expected {expected:?}, found {found:?}")]
+    PageSize {
+        /// The first page's size.
+        expected: (u32, u32),
+        /// The differing page's size.
+        found: (u32, u32),
+    },
 }
 
 /// What happened while warping an image.
@@ -63,6 +84,12 @@ pub struct WarpReport {
     pub outside: usize,
     /// Largest error bound of an accepted preimage (pixels).
     pub max_error_bound: f64,
+    /// Newton solves done (coarse nodes and split cells; see [`remap`]).
+    pub newton_solves: usize,
+    /// Pixels whose preimage was interpolated under a proven bound (see [`remap`]).
+    pub interpolated: usize,
+    /// Pixels drawn from pieces where `phi` folds (see [`remap`]).
+    pub folded: usize,
 }
 
 /// `phi(p)` for each point (`None` outside the mesh).
@@ -106,96 +133,193 @@ pub fn preimages(s: &Spline, w: u32, h: u32, opts: InverseOptions) -> Vec<Option
         .collect()
 }
 
-fn keys(t: f64) -> f64 {
-    let t = t.abs();
-    if t < 1.0 {
-        1.5 * t * t * t - 2.5 * t * t + 1.0
-    } else if t < 2.0 {
-        -0.5 * t * t * t + 2.5 * t * t - 4.0 * t + 2.0
-    } else {
-        0.0
+/// Options of [`warp_pages`].
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct WarpOptions {
+    /// Resampling of the input.
+    pub interp: Interp,
+    /// Value of every colour channel where the preimage is outside the mesh (alpha is 0 there).
+    pub background: f64,
+    /// Preimage computation: tolerance (0.01 px by default) and coarse cell size.
+    pub remap: RemapOptions,
+}
+
+/// A page's samples, borrowed, by sample type.
+enum Src<'a> {
+    U8(Source<'a, u8>),
+    U16(Source<'a, u16>),
+    F32(Source<'a, f32>),
+}
+
+/// One band of a page's output, by sample type.
+enum Dst<'a> {
+    U8(&'a mut [u8]),
+    U16(&'a mut [u16]),
+    F32(&'a mut [f32]),
+}
+
+/// A page's output buffer, by sample type.
+enum Buf {
+    U8(Vec<u8>),
+    U16(Vec<u16>),
+    F32(Vec<f32>),
+}
+
+fn source(img: &DynamicImage) -> Result<Src<'_>, WarpError> {
+    let (w, h) = (img.width() as usize, img.height() as usize);
+    let nc = img.color().channel_count() as usize;
+    Ok(match img {
+        DynamicImage::ImageLuma8(b) => Src::U8(Source { data: b.as_raw(), w, h, nc }),
+        DynamicImage::ImageLumaA8(b) => Src::U8(Source { data: b.as_raw(), w, h, nc }),
+        DynamicImage::ImageRgb8(b) => Src::U8(Source { data: b.as_raw(), w, h, nc }),
+        DynamicImage::ImageRgba8(b) => Src::U8(Source { data: b.as_raw(), w, h, nc }),
+        DynamicImage::ImageLuma16(b) => Src::U16(Source { data: b.as_raw(), w, h, nc }),
+        DynamicImage::ImageLumaA16(b) => Src::U16(Source { data: b.as_raw(), w, h, nc }),
+        DynamicImage::ImageRgb16(b) => Src::U16(Source { data: b.as_raw(), w, h, nc }),
+        DynamicImage::ImageRgba16(b) => Src::U16(Source { data: b.as_raw(), w, h, nc }),
+        DynamicImage::ImageRgb32F(b) => Src::F32(Source { data: b.as_raw(), w, h, nc }),
+        DynamicImage::ImageRgba32F(b) => Src::F32(Source { data: b.as_raw(), w, h, nc }),
+        other => return Err(WarpError::Unsupported(other.color())),
+    })
+}
+
+fn rebuild(like: &DynamicImage, buf: Buf) -> DynamicImage {
+    let (w, h) = (like.width(), like.height());
+    macro_rules! back {
+        ($v:ident, $data:expr) => {
+            DynamicImage::$v(ImageBuffer::from_raw(w, h, $data).expect("sizes match"))
+        };
+    }
+    match (like, buf) {
+        (DynamicImage::ImageLuma8(_), Buf::U8(d)) => back!(ImageLuma8, d),
+        (DynamicImage::ImageLumaA8(_), Buf::U8(d)) => back!(ImageLumaA8, d),
+        (DynamicImage::ImageRgb8(_), Buf::U8(d)) => back!(ImageRgb8, d),
+        (DynamicImage::ImageRgba8(_), Buf::U8(d)) => back!(ImageRgba8, d),
+        (DynamicImage::ImageLuma16(_), Buf::U16(d)) => back!(ImageLuma16, d),
+        (DynamicImage::ImageLumaA16(_), Buf::U16(d)) => back!(ImageLumaA16, d),
+        (DynamicImage::ImageRgb16(_), Buf::U16(d)) => back!(ImageRgb16, d),
+        (DynamicImage::ImageRgba16(_), Buf::U16(d)) => back!(ImageRgba16, d),
+        (DynamicImage::ImageRgb32F(_), Buf::F32(d)) => back!(ImageRgb32F, d),
+        (_, Buf::F32(d)) => back!(ImageRgba32F, d),
+        _ => unreachable!("buffers are made from the page's own type"),
     }
 }
 
-/// Samples channel `c` of `img` at `p` (pixel coordinates, edge-clamped).
-fn sample<P>(img: &ImageBuffer<P, Vec<P::Subpixel>>, p: [f64; 2], c: usize, interp: Interp) -> f64
-where
-    P: Pixel,
-    P::Subpixel: ToPrimitive,
-{
-    let (w, h) = (img.width() as i64, img.height() as i64);
-    let at = |x: i64, y: i64| -> f64 {
-        let px = img.get_pixel(x.clamp(0, w - 1) as u32, y.clamp(0, h - 1) as u32);
-        px.channels()[c].to_f64().unwrap_or(0.0)
-    };
-    match interp {
-        Interp::Nearest => at(p[0].round() as i64, p[1].round() as i64),
-        Interp::Bilinear => {
-            let (x0, y0) = (p[0].floor(), p[1].floor());
-            let (fx, fy) = (p[0] - x0, p[1] - y0);
-            let (x0, y0) = (x0 as i64, y0 as i64);
-            let top = at(x0, y0) * (1.0 - fx) + at(x0 + 1, y0) * fx;
-            let bot = at(x0, y0 + 1) * (1.0 - fx) + at(x0 + 1, y0 + 1) * fx;
-            top * (1.0 - fy) + bot * fy
-        }
-        Interp::Bicubic => {
-            let (x0, y0) = (p[0].floor(), p[1].floor());
-            let (fx, fy) = (p[0] - x0, p[1] - y0);
-            let (x0, y0) = (x0 as i64, y0 as i64);
-            let (mut acc, mut lo, mut hi) = (0.0, f64::INFINITY, f64::NEG_INFINITY);
-            for j in -1..=2 {
-                let wy = keys(fy - j as f64);
-                for i in -1..=2 {
-                    let v = at(x0 + i, y0 + j);
-                    if (0..=1).contains(&i) && (0..=1).contains(&j) {
-                        lo = lo.min(v);
-                        hi = hi.max(v);
-                    }
-                    acc += keys(fx - i as f64) * wy * v;
-                }
-            }
-            // Clamp overshoot to the 2x2 neighbourhood (no ringing beyond the data).
-            acc.clamp(lo, hi)
-        }
-    }
-}
-
-fn warp_buffer<P>(
-    img: &ImageBuffer<P, Vec<P::Subpixel>>,
-    pre: &[Option<Preimage>],
+fn fill<T: Texel>(
+    src: &Source<'_, T>,
+    pos: &[[f64; 2]],
+    out: &mut [T],
     interp: Interp,
     background: f64,
-) -> ImageBuffer<P, Vec<P::Subpixel>>
-where
-    P: Pixel + Send + Sync,
-    P::Subpixel: Primitive + ToPrimitive + NumCast + Send + Sync,
-{
-    let (w, h) = img.dimensions();
-    let nc = P::CHANNEL_COUNT as usize;
+) {
+    let nc = src.nc;
     let has_alpha = nc == 2 || nc == 4;
-    let (lo, hi) = (
-        <P::Subpixel as Primitive>::DEFAULT_MIN_VALUE.to_f64().unwrap_or(0.0),
-        <P::Subpixel as Primitive>::DEFAULT_MAX_VALUE.to_f64().unwrap_or(1.0),
-    );
-    let is_float = hi <= 1.0;
-    let conv = |v: f64| -> P::Subpixel {
-        let v = if is_float { v } else { v.round() };
-        NumCast::from(v.clamp(lo, hi)).unwrap_or(<P::Subpixel as Primitive>::DEFAULT_MIN_VALUE)
+    let bg = T::from_f32(background as f32);
+    let zero = T::from_f32(0.0);
+    for (px, p) in out.chunks_exact_mut(nc).zip(pos) {
+        if p[0].is_nan() {
+            px.fill(bg);
+            if has_alpha {
+                px[nc - 1] = zero;
+            }
+        } else {
+            src.sample_into(*p, interp, px);
+        }
+    }
+}
+
+/// Warps pages of one size the same way: `O(q) = I(phi^-1(q))`, each output the size and
+/// type of its input. The preimages are computed once per band of rows and shared by all
+/// pages; `progress` is called with the number of output rows finished (from any thread).
+pub fn warp_pages(
+    s: &Spline,
+    pages: &[DynamicImage],
+    opts: &WarpOptions,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<(Vec<DynamicImage>, WarpReport), WarpError> {
+    let Some(first) = pages.first() else { return Ok((Vec::new(), WarpReport::default())) };
+    let (w, h) = (first.width(), first.height());
+    if let Some(p) = pages.iter().find(|p| (p.width(), p.height()) != (w, h)) {
+        return Err(WarpError::PageSize { expected: (w, h), found: (p.width(), p.height()) });
+    }
+    let srcs = pages.iter().map(source).collect::<Result<Vec<_>, _>>()?;
+    let plan = RemapPlan::new(s, w, h, opts.remap);
+    let band_px = plan.band_rows() as usize * w as usize;
+    if plan.num_bands() == 0 {
+        return Err(WarpError::Empty);
+    }
+    let mut bufs: Vec<Buf> = srcs
+        .iter()
+        .map(|src| match src {
+            Src::U8(s) => Buf::U8(vec![0; s.data.len()]),
+            Src::U16(s) => Buf::U16(vec![0; s.data.len()]),
+            Src::F32(s) => Buf::F32(vec![0.0; s.data.len()]),
+        })
+        .collect();
+    // Transpose: for each band, the band's slice of every page.
+    let mut bands: Vec<Vec<Dst<'_>>> = (0..plan.num_bands()).map(|_| Vec::new()).collect();
+    for (buf, src) in bufs.iter_mut().zip(&srcs) {
+        let nc = match src {
+            Src::U8(s) => s.nc,
+            Src::U16(s) => s.nc,
+            Src::F32(s) => s.nc,
+        };
+        let chunk = (band_px * nc).max(1);
+        match buf {
+            Buf::U8(d) => d.chunks_mut(chunk).zip(&mut bands).for_each(|(c, b)| b.push(Dst::U8(c))),
+            Buf::U16(d) => {
+                d.chunks_mut(chunk).zip(&mut bands).for_each(|(c, b)| b.push(Dst::U16(c)))
+            }
+            Buf::F32(d) => {
+                d.chunks_mut(chunk).zip(&mut bands).for_each(|(c, b)| b.push(Dst::F32(c)))
+            }
+        }
+    }
+    let (interp, bg) = (opts.interp, opts.background);
+    let stats = bands
+        .into_par_iter()
+        .enumerate()
+        .map_init(
+            || vec![[0.0f64; 2]; band_px],
+            |pos, (b, dsts)| {
+                let st = plan.fill_band(b, pos);
+                for (dst, src) in dsts.into_iter().zip(&srcs) {
+                    let n = match &dst {
+                        Dst::U8(d) => d.len(),
+                        Dst::U16(d) => d.len(),
+                        Dst::F32(d) => d.len(),
+                    };
+                    let nc = match src {
+                        Src::U8(s) => s.nc,
+                        Src::U16(s) => s.nc,
+                        Src::F32(s) => s.nc,
+                    };
+                    let pos = &pos[..n / nc];
+                    match (dst, src) {
+                        (Dst::U8(d), Src::U8(s)) => fill(s, pos, d, interp, bg),
+                        (Dst::U16(d), Src::U16(s)) => fill(s, pos, d, interp, bg),
+                        (Dst::F32(d), Src::F32(s)) => fill(s, pos, d, interp, bg),
+                        _ => unreachable!("buffers are made from the page's own type"),
+                    }
+                }
+                progress(plan.band_rows().min(h - b as u32 * plan.band_rows()) as u64);
+                st
+            },
+        )
+        .reduce(RemapStats::default, |mut a, b| {
+            a.merge(&b);
+            a
+        });
+    let out = pages.iter().zip(bufs).map(|(p, b)| rebuild(p, b)).collect();
+    let report = WarpReport {
+        pixels: w as usize * h as usize,
+        outside: stats.outside,
+        max_error_bound: stats.max_error_bound,
+        newton_solves: stats.newton_solves,
+        interpolated: stats.interpolated,
+        folded: stats.folded,
     };
-    let mut data: Vec<P::Subpixel> = vec![conv(0.0); (w * h) as usize * nc];
-    data.par_chunks_mut(nc).zip(pre.par_iter()).for_each(|(px, pre)| match pre {
-        Some(pm) => {
-            for (c, out) in px.iter_mut().enumerate() {
-                *out = conv(sample(img, pm.p, c, interp));
-            }
-        }
-        None => {
-            for (c, out) in px.iter_mut().enumerate() {
-                *out = if has_alpha && c + 1 == nc { conv(lo) } else { conv(background) };
-            }
-        }
-    });
-    ImageBuffer::from_raw(w, h, data).expect("sizes match")
+    Ok((out, report))
 }
 
 /// Warps an image: `O(q) = I(phi^-1(q))`, same size and type as the input.
@@ -206,34 +330,13 @@ pub fn warp_image(
     background: f64,
     opts: InverseOptions,
 ) -> Result<(DynamicImage, WarpReport), WarpError> {
-    let (w, h) = (img.width(), img.height());
-    let pre = preimages(s, w, h, opts);
-    let report = WarpReport {
-        pixels: pre.len(),
-        outside: pre.iter().filter(|p| p.is_none()).count(),
-        max_error_bound: pre.iter().flatten().map(|p| p.error_bound).fold(0.0, f64::max),
+    let wo = WarpOptions {
+        interp,
+        background,
+        remap: RemapOptions { inverse: opts, ..Default::default() },
     };
-    macro_rules! same_type {
-        ($($v:ident),*) => {
-            match img {
-                $(DynamicImage::$v(b) => DynamicImage::$v(warp_buffer(b, &pre, interp, background)),)*
-                other => return Err(WarpError::Unsupported(other.color())),
-            }
-        };
-    }
-    let out = same_type!(
-        ImageLuma8,
-        ImageLumaA8,
-        ImageRgb8,
-        ImageRgba8,
-        ImageLuma16,
-        ImageLumaA16,
-        ImageRgb16,
-        ImageRgba16,
-        ImageRgb32F,
-        ImageRgba32F
-    );
-    Ok((out, report))
+    let (mut out, rep) = warp_pages(s, std::slice::from_ref(img), &wo, &|_| {})?;
+    Ok((out.pop().expect("one page in, one page out"), rep))
 }
 
 #[cfg(test)]
