@@ -1,11 +1,29 @@
 //! `trimorph warp DEF (--image IN | --points IN.csv) -o OUT`.
 
+use crate::io::raster::Stack;
 use crate::io::{read_text, write_atomic};
 use crate::warp::inverse::InverseOptions;
-use crate::warp::{forward, inverse, warp_image, Interp};
+use crate::warp::remap::RemapOptions;
+use crate::warp::{forward, inverse, warp_pages, Interp, WarpOptions};
 use anyhow::{anyhow, bail, Context, Result};
 use std::io::Write;
 use std::path::Path;
+
+/// A progress bar on stderr for `len` units of work, drawn only when `show` and stderr is a
+/// terminal (indicatif hides it otherwise).
+pub fn progress_bar(len: u64, show: bool, what: &str) -> indicatif::ProgressBar {
+    if !show {
+        return indicatif::ProgressBar::hidden();
+    }
+    let bar = indicatif::ProgressBar::new(len);
+    if let Ok(style) =
+        indicatif::ProgressStyle::with_template("{msg} [{bar:40}] {percent}% ({eta} left)")
+    {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    bar.set_message(what.to_string());
+    bar
+}
 
 /// Options of `trimorph warp`.
 pub struct WarpArgs<'a> {
@@ -63,34 +81,46 @@ pub fn run(a: WarpArgs) -> Result<()> {
             if !a.background.is_finite() {
                 bail!("--background must be a finite number");
             }
-            let img = image::ImageReader::open(img_path)
-                .with_context(|| format!("cannot open {}", img_path.display()))?
-                .with_guessed_format()?
-                .decode()
-                .with_context(|| format!("cannot decode image {}", img_path.display()))?;
-            if img.width() == 0 || img.height() == 0 {
-                bail!("{}: empty image", img_path.display());
-            }
-            let (warped, rep) = warp_image(&s, &img, interp, a.background, opts)?;
-            // Encode in memory in the output's format, then write atomically.
-            let fmt = image::ImageFormat::from_path(a.output).with_context(|| {
-                format!("{}: unknown image extension (use .png, .tif or .jpg)", a.output.display())
-            })?;
-            let mut bytes = std::io::Cursor::new(Vec::new());
-            warped
-                .write_to(&mut bytes, fmt)
-                .with_context(|| format!("cannot encode {}", a.output.display()))?;
-            write_atomic(a.output, &bytes.into_inner())?;
+            let stack = crate::io::raster::read_stack(img_path)?;
+            let first = &stack.pages[0];
+            let (w, h) = (first.width(), first.height());
+            let wo = WarpOptions {
+                interp,
+                background: a.background,
+                remap: RemapOptions { inverse: opts, ..Default::default() },
+            };
+            let rows = h as u64 * stack.pages.len().max(1) as u64;
+            let bar = progress_bar(rows, w as u64 * rows >= 4 << 20, "warping");
+            let (warped, rep) =
+                warp_pages(&s, &stack.pages, &wo, &|n| bar.inc(n * stack.pages.len() as u64))?;
+            bar.finish_and_clear();
+            let out_stack = Stack { pages: warped, gray_float: stack.gray_float };
+            crate::io::raster::write_stack(a.output, &out_stack)?;
             writeln!(
                 out,
-                "{}x{} {:?} -> {}: {} pixels outside the deformed mesh (background), max inverse error bound {:.2e} px",
-                img.width(),
-                img.height(),
-                img.color(),
+                "{w}x{h} {:?}{} -> {}: {} pixels outside the deformed mesh (background), max inverse error bound {:.2e} px",
+                first.color(),
+                if stack.pages.len() > 1 { format!(", {} pages", stack.pages.len()) } else { String::new() },
                 a.output.display(),
                 rep.outside,
                 rep.max_error_bound
             )?;
+            match rep.fold_box {
+                None => writeln!(
+                    out,
+                    "folds: none in the output (certified: every interpolated piece keeps det J > 0)"
+                )?,
+                Some(b) => eprintln!(
+                    "warning: phi folds over the output: {} pixels in [{}, {}] - [{}, {}] come from pieces with det J <= 0; each shows the layer drawn last (see `trimorph field --jacobian`)",
+                    rep.folded, b[0], b[1], b[2], b[3]
+                ),
+            }
+            if rep.max_error_bound > opts.tolerance {
+                eprintln!(
+                    "warning: the inverse error bound {:.2e} px exceeds --tolerance {} somewhere",
+                    rep.max_error_bound, opts.tolerance
+                );
+            }
         }
         (None, Some(p)) => {
             let rows = read_optional_points(&read_text(p)?, &p.display().to_string())?;

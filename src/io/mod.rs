@@ -5,6 +5,7 @@
 //! never destroys an earlier output.
 
 pub mod deformation;
+pub mod raster;
 
 use std::fs;
 use std::io::Write;

@@ -11,7 +11,7 @@
 //! `dx`, `dy` and a validity channel 1/0).
 
 use super::inverse::InverseOptions;
-use super::preimages;
+use super::remap::{preimage_grid, RemapOptions};
 use crate::spline::Spline;
 use rayon::prelude::*;
 
@@ -56,17 +56,19 @@ pub fn forward_field(s: &Spline, w: u32, h: u32) -> Field {
     Field { width: w, height: h, data }
 }
 
-/// The inverse displacement field `phi^-1(q) - q` on a `w x h` pixel grid.
+/// The inverse displacement field `phi^-1(q) - q` on a `w x h` pixel grid, from the same
+/// certified preimages as the image warp ([`super::remap`]).
 pub fn inverse_field(s: &Spline, w: u32, h: u32, opts: InverseOptions) -> Field {
-    let pre = preimages(s, w, h, opts);
+    let (pre, _) = preimage_grid(s, w, h, RemapOptions { inverse: opts, ..Default::default() });
     let data = pre
         .iter()
         .enumerate()
         .map(|(i, p)| {
             let q = [(i % w as usize) as f64, (i / w as usize) as f64];
-            match p {
-                Some(p) => [(p.p[0] - q[0]) as f32, (p.p[1] - q[1]) as f32],
-                None => [f32::NAN; 2],
+            if p[0].is_nan() {
+                [f32::NAN; 2]
+            } else {
+                [(p[0] - q[0]) as f32, (p[1] - q[1]) as f32]
             }
         })
         .collect();

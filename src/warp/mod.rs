@@ -90,6 +90,8 @@ pub struct WarpReport {
     pub interpolated: usize,
     /// Pixels drawn from pieces where `phi` folds (see [`remap`]).
     pub folded: usize,
+    /// Output box `[x0, y0, x1, y1]` (inclusive) of those pixels.
+    pub fold_box: Option<[u32; 4]>,
 }
 
 /// `phi(p)` for each point (`None` outside the mesh).
@@ -318,6 +320,7 @@ pub fn warp_pages(
         newton_solves: stats.newton_solves,
         interpolated: stats.interpolated,
         folded: stats.folded,
+        fold_box: stats.fold_box,
     };
     Ok((out, report))
 }

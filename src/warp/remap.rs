@@ -25,11 +25,17 @@
 //! [`EvalCache::second_derivative_bounds_uniform`](crate::spline::eval::EvalCache::second_derivative_bounds_uniform)
 //! over small sub-triangles, kept in a grid of buckets over the reference domain.
 //!
+//! The bound also certifies `det J != 0` on the piece (`|J - A| < |A^-1|^-1`), so a piece
+//! keeps one orientation throughout: pieces with `det J > 0` everywhere in the output mean
+//! `phi` does not fold there.
+//!
 //! **Borders and folds.** Squares with a corner outside the mesh are split to the smallest
 //! size; the output pixels around such pieces are then solved by Newton ([`InverseMap`])
-//! one by one. A triangle whose image has the opposite orientation (a fold) is also split
-//! to the smallest size and drawn as is: where `phi` is not injective, a pixel shows the
-//! layer rasterized last (lattice order, row by row), never a blend.
+//! one by one, as are smallest pieces that still miss the bound. Pieces with reversed
+//! orientation (`det J < 0`) and smallest pieces across a crease (`det J = 0`) are drawn and
+//! counted as folded ([`RemapStats::folded`], [`RemapStats::fold_box`]). Where `phi` is not
+//! injective a pixel has several preimages and shows the layer rasterized last (lattice
+//! order, row by row), never a blend.
 //!
 //! Coordinates: output pixel `(i, j)` is the point `q = (i, j)` of the deformed plane;
 //! preimages are in mesh (input pixel) units.
@@ -72,6 +78,8 @@ pub struct RemapStats {
     /// Pixels filled from pieces where `phi` folds (orientation reversed); they are not
     /// counted in `max_error_bound`.
     pub folded: usize,
+    /// Output box `[x0, y0, x1, y1]` (pixels, inclusive) of the folded pieces drawn.
+    pub fold_box: Option<[u32; 4]>,
 }
 
 impl RemapStats {
@@ -82,6 +90,12 @@ impl RemapStats {
         self.newton_solves += o.newton_solves;
         self.interpolated += o.interpolated;
         self.folded += o.folded;
+        self.fold_box = match (self.fold_box, o.fold_box) {
+            (Some(a), Some(b)) => {
+                Some([a[0].min(b[0]), a[1].min(b[1]), a[2].max(b[2]), a[3].max(b[3])])
+            }
+            (a, b) => a.or(b),
+        };
     }
 }
 
@@ -233,10 +247,10 @@ fn segment_meets_open_box(s: [[f64; 2]; 2], lo: [f64; 2], hi: [f64; 2]) -> bool 
 }
 
 /// `|A^-1|_2` for the affine map taking triangle `p` to triangle `q`, or `None` if the
-/// image is degenerate or reversed.
+/// image is degenerate.
 fn affine_inverse_norm(p: [[f64; 2]; 3], q: [[f64; 2]; 3]) -> Option<f64> {
     let (sp, sq) = (signed_area(p), signed_area(q));
-    if sp * sq <= 0.0 {
+    if sp * sq == 0.0 || !(sp * sq).is_finite() {
         return None;
     }
     let pe = [[p[1][0] - p[0][0], p[2][0] - p[0][0]], [p[1][1] - p[0][1], p[2][1] - p[0][1]]];
@@ -247,6 +261,12 @@ fn affine_inverse_norm(p: [[f64; 2]; 3], q: [[f64; 2]; 3]) -> Option<f64> {
     let fro2 = a[0][0].powi(2) + a[0][1].powi(2) + a[1][0].powi(2) + a[1][1].powi(2);
     let smax = ((fro2 + ((fro2 * fro2 - 4.0 * det * det).max(0.0)).sqrt()) / 2.0).sqrt();
     Some(smax / det.abs())
+}
+
+/// A box of the deformed plane clipped to a `w x h` output, as inclusive pixel bounds.
+fn clip_box(lo: [f64; 2], hi: [f64; 2], w: usize, h: usize) -> [u32; 4] {
+    let c = |v: f64, n: usize| v.round().clamp(0.0, n.saturating_sub(1) as f64) as u32;
+    [c(lo[0], w), c(lo[1], h), c(hi[0], w), c(hi[1], h)]
 }
 
 fn signed_area(v: [[f64; 2]; 3]) -> f64 {
@@ -320,6 +340,8 @@ struct Block {
     off: usize,
     y: [f64; 2],
     bound: f64,
+    /// The image is reversed (det J < 0 on the whole block).
+    folded: bool,
 }
 
 /// Rasterizes the image `q` of the reference triangle `p` into the band `out` (rows
@@ -499,6 +521,7 @@ impl Refiner<'_> {
             }
         }
         let mut worst = 0.0f64;
+        let mut sign = 0.0f64;
         let n = k + 1;
         for j in 0..k {
             for i in 0..k {
@@ -512,8 +535,13 @@ impl Refiner<'_> {
                 let b = off + j * n + i;
                 let qq = [out.pool[b], out.pool[b + 1], out.pool[b + n], out.pool[b + n + 1]];
                 for h in [[0, 1, 3], [0, 3, 2]] {
-                    match self.tri_bound(h.map(|c| pp[c]), h.map(|c| qq[c]), m2) {
-                        Some(bd) if bd <= self.tol => worst = worst.max(bd),
+                    let (pt, qt) = (h.map(|c| pp[c]), h.map(|c| qq[c]));
+                    let sg = (signed_area(pt) * signed_area(qt)).signum();
+                    if sign == 0.0 {
+                        sign = sg;
+                    }
+                    match self.tri_bound(pt, qt, m2) {
+                        Some(bd) if bd <= self.tol && sg == sign => worst = worst.max(bd),
                         _ => {
                             out.pool.truncate(off);
                             return false;
@@ -523,7 +551,15 @@ impl Refiner<'_> {
             }
         }
         let (lo, hi) = bbox(&out.pool[off..]);
-        out.blocks.push(Block { p0: p[0], step, k, off, y: [lo[1], hi[1]], bound: worst });
+        out.blocks.push(Block {
+            p0: p[0],
+            step,
+            k,
+            off,
+            y: [lo[1], hi[1]],
+            bound: worst,
+            folded: sign < 0.0,
+        });
         true
     }
 
@@ -690,6 +726,7 @@ impl<'a> RemapPlan<'a> {
     /// `out` (row-major, `w` per row; `[NaN, NaN]` where there is none).
     pub fn fill_band(&self, band: usize, out: &mut [[f64; 2]]) -> RemapStats {
         let w = self.w as usize;
+        let rows_total = self.h as usize;
         let y0 = band * self.opts.band_rows as usize;
         let rows = (self.opts.band_rows as usize).min(self.h as usize - y0);
         let out = &mut out[..rows * w];
@@ -729,7 +766,16 @@ impl<'a> RemapPlan<'a> {
                         }
                     }
                 }
-                if written > 0 {
+                if b.folded {
+                    st.folded += written;
+                    if written > 0 {
+                        let (lo, hi) = bbox(&r.pool[b.off..b.off + n * n]);
+                        st.merge(&RemapStats {
+                            fold_box: Some(clip_box(lo, hi, w, rows_total)),
+                            ..Default::default()
+                        });
+                    }
+                } else if written > 0 {
                     st.max_error_bound = st.max_error_bound.max(b.bound);
                 }
             }
@@ -740,6 +786,13 @@ impl<'a> RemapPlan<'a> {
                 let written = raster(&t.p, &t.q, out, y0, w);
                 if t.folded {
                     st.folded += written;
+                    if written > 0 {
+                        let (lo, hi) = bbox(&t.q);
+                        st.merge(&RemapStats {
+                            fold_box: Some(clip_box(lo, hi, w, rows_total)),
+                            ..Default::default()
+                        });
+                    }
                 } else if written > 0 {
                     st.max_error_bound = st.max_error_bound.max(t.bound);
                 }

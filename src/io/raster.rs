@@ -1,0 +1,331 @@
+//! Reading and writing images, including multi-page TIFF stacks.
+//!
+//! A [`Stack`] is one or more pages of one size and type. PNG and JPEG files hold one page;
+//! TIFF files hold any number, read and written page by page with the `tiff` crate. Types
+//! kept exactly: 8- and 16-bit gray, gray+alpha, RGB and RGBA, and 32-bit float gray, RGB
+//! and RGBA. Float gray pages are held as RGB float with three equal channels (the `image`
+//! crate has no float gray type) and written back as float gray. Decoding is bounded: a
+//! declared size above [`MAX_PIXELS`] per page is refused before anything is allocated.
+
+use super::{write_atomic, IoError};
+use image::{DynamicImage, ImageBuffer, ImageFormat};
+use std::io::Cursor;
+use std::path::{Path, PathBuf};
+
+/// Largest number of pixels per page accepted when decoding (2^30, e.g. 32768 x 32768).
+pub const MAX_PIXELS: u64 = 1 << 30;
+
+/// Errors of image input and output.
+#[derive(Debug, thiserror::Error)]
+pub enum RasterError {
+    /// File-system error.
+    #[error(transparent)]
+    Io(#[from] IoError),
+    /// The file could not be decoded.
+    #[error("{path}: cannot decode image: {reason}")]
+    Decode {
+        /// The file.
+        path: PathBuf,
+        /// What went wrong.
+        reason: String,
+    },
+    /// A page's pixel type is not supported.
+    #[error("{path}, page {page}: unsupported pixel type {kind} (use 8/16-bit gray, gray+alpha, RGB, RGBA or 32-bit float gray/RGB/RGBA)")]
+    Unsupported {
+        /// The file.
+        path: PathBuf,
+        /// Page number (0-based).
+        page: usize,
+        /// The type found.
+        kind: String,
+    },
+    /// A page is larger than [`MAX_PIXELS`] or empty.
+    #[error("{path}, page {page}: size {width} x {height} is outside 1 .. 2^30 pixels")]
+    Size {
+        /// The file.
+        path: PathBuf,
+        /// Page number (0-based).
+        page: usize,
+        /// Declared width.
+        width: u32,
+        /// Declared height.
+        height: u32,
+    },
+    /// Pages differ in size or type.
+    #[error("{path}, page {page}: all pages of a stack must have the size and type of page 0")]
+    Mixed {
+        /// The file.
+        path: PathBuf,
+        /// Page number (0-based).
+        page: usize,
+    },
+    /// The output cannot hold what is being written.
+    #[error("{path}: {reason}")]
+    Encode {
+        /// The file.
+        path: PathBuf,
+        /// What went wrong.
+        reason: String,
+    },
+}
+
+/// Pages of one size and type.
+#[derive(Clone, Debug)]
+pub struct Stack {
+    /// The pages.
+    pub pages: Vec<DynamicImage>,
+    /// The pages are float gray held as RGB float (written back as float gray).
+    pub gray_float: bool,
+}
+
+fn is_tiff(path: &Path) -> bool {
+    matches!(
+        path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref(),
+        Some("tif" | "tiff")
+    )
+}
+
+/// Reads an image file: every page of a TIFF, the single page of other formats.
+pub fn read_stack(path: &Path) -> Result<Stack, RasterError> {
+    let bytes =
+        std::fs::read(path).map_err(|source| IoError::Read { path: path.to_path_buf(), source })?;
+    let derr = |reason: String| RasterError::Decode { path: path.to_path_buf(), reason };
+    if bytes.starts_with(b"II*\0") || bytes.starts_with(b"MM\0*") {
+        return read_tiff(path, &bytes);
+    }
+    let mut reader = image::ImageReader::new(Cursor::new(&bytes))
+        .with_guessed_format()
+        .map_err(|e| derr(e.to_string()))?;
+    if reader.format().is_none() {
+        return Err(derr("unknown image format (use PNG, TIFF or JPEG)".into()));
+    }
+    let (w, h) = reader.into_dimensions().map_err(|e| derr(e.to_string()))?;
+    check_size(path, 0, w, h)?;
+    reader = image::ImageReader::new(Cursor::new(&bytes))
+        .with_guessed_format()
+        .map_err(|e| derr(e.to_string()))?;
+    let img = reader.decode().map_err(|e| derr(e.to_string()))?;
+    check_type(path, 0, &img)?;
+    Ok(Stack { pages: vec![img], gray_float: false })
+}
+
+fn check_size(path: &Path, page: usize, width: u32, height: u32) -> Result<(), RasterError> {
+    let n = width as u64 * height as u64;
+    if n == 0 || n > MAX_PIXELS {
+        return Err(RasterError::Size { path: path.to_path_buf(), page, width, height });
+    }
+    Ok(())
+}
+
+fn check_type(path: &Path, page: usize, img: &DynamicImage) -> Result<(), RasterError> {
+    match img {
+        DynamicImage::ImageLuma8(_)
+        | DynamicImage::ImageLumaA8(_)
+        | DynamicImage::ImageRgb8(_)
+        | DynamicImage::ImageRgba8(_)
+        | DynamicImage::ImageLuma16(_)
+        | DynamicImage::ImageLumaA16(_)
+        | DynamicImage::ImageRgb16(_)
+        | DynamicImage::ImageRgba16(_)
+        | DynamicImage::ImageRgb32F(_)
+        | DynamicImage::ImageRgba32F(_) => Ok(()),
+        other => Err(RasterError::Unsupported {
+            path: path.to_path_buf(),
+            page,
+            kind: format!("{:?}", other.color()),
+        }),
+    }
+}
+
+fn read_tiff(path: &Path, bytes: &[u8]) -> Result<Stack, RasterError> {
+    use tiff::decoder::{Decoder, DecodingResult, Limits};
+    use tiff::ColorType as C;
+    let derr = |e: tiff::TiffError| RasterError::Decode {
+        path: path.to_path_buf(),
+        reason: e.to_string(),
+    };
+    let mut limits = Limits::default();
+    limits.decoding_buffer_size = (MAX_PIXELS * 16) as usize;
+    let mut dec = Decoder::new(Cursor::new(bytes)).map_err(derr)?.with_limits(limits);
+    let mut pages = Vec::new();
+    let mut gray_float = false;
+    loop {
+        let page = pages.len();
+        let (w, h) = dec.dimensions().map_err(derr)?;
+        check_size(path, page, w, h)?;
+        let ct = dec.colortype().map_err(derr)?;
+        let unsupported =
+            |kind: String| RasterError::Unsupported { path: path.to_path_buf(), page, kind };
+        let data = dec.read_image().map_err(derr)?;
+        let bad = || RasterError::Decode {
+            path: path.to_path_buf(),
+            reason: format!("page {page}: sample count does not match {w} x {h} {ct:?}"),
+        };
+        macro_rules! buf {
+            ($v:ident, $d:expr) => {
+                DynamicImage::$v(ImageBuffer::from_raw(w, h, $d).ok_or_else(bad)?)
+            };
+        }
+        let img = match (ct, data) {
+            (C::Gray(8), DecodingResult::U8(d)) => buf!(ImageLuma8, d),
+            (C::GrayA(8), DecodingResult::U8(d)) => buf!(ImageLumaA8, d),
+            (C::RGB(8), DecodingResult::U8(d)) => buf!(ImageRgb8, d),
+            (C::RGBA(8), DecodingResult::U8(d)) => buf!(ImageRgba8, d),
+            (C::Gray(16), DecodingResult::U16(d)) => buf!(ImageLuma16, d),
+            (C::GrayA(16), DecodingResult::U16(d)) => buf!(ImageLumaA16, d),
+            (C::RGB(16), DecodingResult::U16(d)) => buf!(ImageRgb16, d),
+            (C::RGBA(16), DecodingResult::U16(d)) => buf!(ImageRgba16, d),
+            (C::RGB(32), DecodingResult::F32(d)) => buf!(ImageRgb32F, d),
+            (C::RGBA(32), DecodingResult::F32(d)) => buf!(ImageRgba32F, d),
+            (C::Gray(32), DecodingResult::F32(d)) => {
+                gray_float = true;
+                let rgb: Vec<f32> = d.iter().flat_map(|&v| [v, v, v]).collect();
+                buf!(ImageRgb32F, rgb)
+            }
+            (ct, _) => return Err(unsupported(format!("{ct:?}"))),
+        };
+        if let Some(first) = pages.first() {
+            let first: &DynamicImage = first;
+            if (first.width(), first.height(), first.color()) != (w, h, img.color())
+                || (gray_float != matches!(ct, C::Gray(32)))
+            {
+                return Err(RasterError::Mixed { path: path.to_path_buf(), page });
+            }
+        }
+        pages.push(img);
+        if !dec.more_images() {
+            break;
+        }
+        dec.next_image().map_err(derr)?;
+    }
+    Ok(Stack { pages, gray_float })
+}
+
+/// Writes a stack atomically: TIFF (any number of pages, types kept), or PNG / JPEG (one
+/// page; JPEG holds 8-bit gray and RGB only).
+pub fn write_stack(path: &Path, stack: &Stack) -> Result<(), RasterError> {
+    let eerr = |reason: String| RasterError::Encode { path: path.to_path_buf(), reason };
+    let bytes = if is_tiff(path) {
+        encode_tiff(stack).map_err(|e| eerr(e.to_string()))?
+    } else {
+        if stack.pages.len() != 1 {
+            return Err(eerr(format!(
+                "{} pages: only TIFF (.tif) holds a stack of pages",
+                stack.pages.len()
+            )));
+        }
+        let fmt = ImageFormat::from_path(path)
+            .map_err(|_| eerr("unknown image extension (use .png, .tif or .jpg)".into()))?;
+        let page = &stack.pages[0];
+        let mut out = Cursor::new(Vec::new());
+        page.write_to(&mut out, fmt).map_err(|e| eerr(e.to_string()))?;
+        out.into_inner()
+    };
+    write_atomic(path, &bytes)?;
+    Ok(())
+}
+
+fn encode_tiff(stack: &Stack) -> Result<Vec<u8>, tiff::TiffError> {
+    use tiff::encoder::{colortype as ct, TiffEncoder};
+    let mut out = Cursor::new(Vec::new());
+    {
+        let mut enc = TiffEncoder::new(&mut out)?;
+        for page in &stack.pages {
+            let (w, h) = (page.width(), page.height());
+            match page {
+                DynamicImage::ImageLuma8(b) => enc.write_image::<ct::Gray8>(w, h, b.as_raw())?,
+                DynamicImage::ImageLumaA8(b) => {
+                    // TIFF gray+alpha is not in the encoder: store as RGBA with equal colours.
+                    let d: Vec<u8> =
+                        b.as_raw().chunks(2).flat_map(|p| [p[0], p[0], p[0], p[1]]).collect();
+                    enc.write_image::<ct::RGBA8>(w, h, &d)?
+                }
+                DynamicImage::ImageRgb8(b) => enc.write_image::<ct::RGB8>(w, h, b.as_raw())?,
+                DynamicImage::ImageRgba8(b) => enc.write_image::<ct::RGBA8>(w, h, b.as_raw())?,
+                DynamicImage::ImageLuma16(b) => enc.write_image::<ct::Gray16>(w, h, b.as_raw())?,
+                DynamicImage::ImageLumaA16(b) => {
+                    let d: Vec<u16> =
+                        b.as_raw().chunks(2).flat_map(|p| [p[0], p[0], p[0], p[1]]).collect();
+                    enc.write_image::<ct::RGBA16>(w, h, &d)?
+                }
+                DynamicImage::ImageRgb16(b) => enc.write_image::<ct::RGB16>(w, h, b.as_raw())?,
+                DynamicImage::ImageRgba16(b) => enc.write_image::<ct::RGBA16>(w, h, b.as_raw())?,
+                DynamicImage::ImageRgb32F(b) if stack.gray_float => {
+                    let d: Vec<f32> = b.as_raw().chunks(3).map(|p| p[0]).collect();
+                    enc.write_image::<ct::Gray32Float>(w, h, &d)?
+                }
+                DynamicImage::ImageRgb32F(b) => {
+                    enc.write_image::<ct::RGB32Float>(w, h, b.as_raw())?
+                }
+                DynamicImage::ImageRgba32F(b) => {
+                    enc.write_image::<ct::RGBA32Float>(w, h, b.as_raw())?
+                }
+                _ => {
+                    return Err(tiff::TiffError::UnsupportedError(
+                        tiff::TiffUnsupportedError::UnknownInterpretation,
+                    ))
+                }
+            }
+        }
+    }
+    Ok(out.into_inner())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use image::{Luma, Rgb};
+
+    #[test]
+    fn tiff_stacks_round_trip_every_type() {
+        let dir = tempfile::tempdir().unwrap();
+        let g16: Vec<DynamicImage> = (0..3)
+            .map(|k| {
+                DynamicImage::ImageLuma16(ImageBuffer::from_fn(7, 5, |x, y| {
+                    Luma([(x * 1000 + y * 7 + k * 30000) as u16])
+                }))
+            })
+            .collect();
+        let rgb8 = vec![DynamicImage::ImageRgb8(ImageBuffer::from_fn(4, 3, |x, y| {
+            Rgb([x as u8, y as u8, 200])
+        }))];
+        let f32g: Vec<DynamicImage> = (0..2)
+            .map(|k| {
+                DynamicImage::ImageRgb32F(ImageBuffer::from_fn(3, 2, |x, _| {
+                    let v = x as f32 * 0.25 - k as f32;
+                    Rgb([v, v, v])
+                }))
+            })
+            .collect();
+        for (pages, gray_float) in [(g16, false), (rgb8, false), (f32g, true)] {
+            let p = dir.path().join("s.tif");
+            let st = Stack { pages: pages.clone(), gray_float };
+            write_stack(&p, &st).unwrap();
+            let back = read_stack(&p).unwrap();
+            assert_eq!(back.gray_float, gray_float);
+            assert_eq!(back.pages.len(), pages.len());
+            for (a, b) in back.pages.iter().zip(&pages) {
+                assert_eq!(a.color(), b.color());
+                assert_eq!(a.as_bytes(), b.as_bytes());
+            }
+        }
+    }
+
+    #[test]
+    fn bad_files_are_named_errors() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("x.png");
+        std::fs::write(&p, b"not an image").unwrap();
+        let e = read_stack(&p).unwrap_err().to_string();
+        assert!(e.contains("x.png"), "{e}");
+        let t = dir.path().join("t.tif");
+        std::fs::write(&t, b"II*\0\x08\0\0\0\xff\xff").unwrap();
+        assert!(read_stack(&t).is_err());
+        // Two pages cannot go to a PNG.
+        let img = DynamicImage::ImageLuma8(ImageBuffer::from_pixel(2, 2, Luma([1u8])));
+        let st = Stack { pages: vec![img.clone(), img], gray_float: false };
+        let e = write_stack(&dir.path().join("o.png"), &st).unwrap_err().to_string();
+        assert!(e.contains("only TIFF"), "{e}");
+        assert!(!dir.path().join("o.png").exists());
+    }
+}
