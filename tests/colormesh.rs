@@ -97,7 +97,19 @@ fn obj_round_trips_keep_triangles_colors_and_look() {
         }
         let a = rasterize(&m, 23, 17, None).unwrap();
         let b = rasterize(&back, 23, 17, None).unwrap();
-        assert!(a.data() == b.data(), "{mode:?}: same picture");
+        // The same picture: identical where fully covered; along the mesh border the
+        // antialiased coverage may differ by 1/255 (a flat mesh read back has separate
+        // vertices per triangle, so its fill path is made differently).
+        for (x, y) in a.pixels().iter().zip(b.pixels()) {
+            if x.alpha() == 255 || y.alpha() == 255 {
+                assert_eq!(x, y, "{mode:?}");
+            }
+            let (x, y) = (
+                [x.red(), x.green(), x.blue(), x.alpha()],
+                [y.red(), y.green(), y.blue(), y.alpha()],
+            );
+            assert!(x.iter().zip(y).all(|(p, q)| p.abs_diff(q) <= 1), "{mode:?}: {x:?} {y:?}");
+        }
     }
 }
 
