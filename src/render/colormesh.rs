@@ -233,7 +233,8 @@ impl Shade {
                         *a += lk * cv;
                     }
                 }
-                let q = acc.map(|v| v.round().clamp(0.0, 255.0) as u8);
+                // Round half up (no libm call): the values are non-negative.
+                let q = acc.map(|v| (v.clamp(0.0, 255.0) + 0.5) as u8);
                 let a = q[3];
                 PremultipliedColorU8::from_rgba(q[0].min(a), q[1].min(a), q[2].min(a), a)
                     .unwrap_or(PremultipliedColorU8::TRANSPARENT)
@@ -285,16 +286,20 @@ fn fill_band(
     rows: &mut [PremultipliedColorU8],
 ) {
     let nrows = rows.len() / w;
-    // Pixels of `p`'s bounding box grown by `margin`, in band coordinates.
+    // Pixel columns and band rows of `p`'s bounding box grown by `margin`. (Truncating
+    // casts after clamping stand in for ceil / floor, which are library calls.)
     let pixels = |p: &[[f64; 2]; 3], margin: f64| {
         let span = |a: usize, n: usize, off: usize| {
-            let lo = p.iter().map(|q| q[a]).fold(f64::INFINITY, f64::min) - margin;
-            let hi = p.iter().map(|q| q[a]).fold(f64::NEG_INFINITY, f64::max) + margin;
-            let lo = (lo.ceil() - off as f64).max(0.0) as usize;
-            lo..(hi.floor() - off as f64 + 1.0).clamp(0.0, n as f64) as usize
+            let lo = p.iter().map(|q| q[a]).fold(f64::INFINITY, f64::min) - margin - off as f64;
+            let hi = p.iter().map(|q| q[a]).fold(f64::NEG_INFINITY, f64::max) + margin - off as f64;
+            // For x >= 0: ceil(x) is trunc(x), plus 1 if x has a fraction; floor(x) + 1 is
+            // trunc(x) + 1.
+            let lo = lo.clamp(0.0, n as f64);
+            let lo = lo as usize + usize::from((lo as usize as f64) < lo);
+            let hi = if hi < 0.0 { 0 } else { (hi.min(n as f64 - 1.0) as usize) + 1 };
+            lo..hi.max(lo)
         };
-        let xs = span(0, w, 0);
-        span(1, nrows, y0).flat_map(move |y| xs.clone().map(move |x| (x, y)))
+        (span(0, w, 0), span(1, nrows, y0))
     };
     let triangle = |t: u32| {
         let tri = mesh.triangles[t as usize];
@@ -303,7 +308,8 @@ fn fill_band(
     let mut inside = vec![false; rows.len()];
     for (t, tri, p) in tris.iter().map(|&t| triangle(t)) {
         let inv = 1.0 / edge(p[0], p[1], p[2]);
-        for (x, y) in pixels(&p, 0.0) {
+        let (xs, ys) = pixels(&p, 0.0);
+        for (y, x) in ys.flat_map(|y| xs.clone().map(move |x| (y, x))) {
             let q = [x as f64, (y0 + y) as f64];
             let l =
                 [edge(p[1], p[2], q), edge(p[2], p[0], q), edge(p[0], p[1], q)].map(|e| e * inv);
@@ -313,10 +319,14 @@ fn fill_band(
             }
         }
     }
+    if inside.iter().all(|&b| b) {
+        return; // no border pixel in this band (the mesh covers it)
+    }
     // Squared distance of the border color stored so far.
     let mut dist2 = vec![f64::INFINITY; rows.len()];
     for (t, tri, p) in tris.iter().map(|&t| triangle(t)) {
-        for (x, y) in pixels(&p, BORDER) {
+        let (xs, ys) = pixels(&p, BORDER);
+        for (y, x) in ys.flat_map(|y| xs.clone().map(move |x| (y, x))) {
             let i = y * w + x;
             if inside[i] {
                 continue;
