@@ -1,4 +1,5 @@
 //! Rendering.
+pub mod colormesh;
 pub mod deformation;
 pub mod font;
 pub mod plot;

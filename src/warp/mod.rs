@@ -20,6 +20,7 @@
 //! Images keep their type: 8- and 16-bit gray, gray+alpha, RGB, RGBA and 32-bit float RGB
 //! and RGBA; every channel is resampled with the same map (nearest, bilinear or bicubic).
 
+pub mod colormesh;
 pub mod field;
 pub mod inverse;
 pub mod remap;
