@@ -98,10 +98,28 @@ pub fn run(dir: &Path) -> Result<()> {
         deformation: &edited,
         image: Some(&img),
         points: None,
+        mesh: None,
         output: &warped,
+        size: None,
         inverse: false,
         interp: "bicubic",
-        background: 0.0,
+        background: Some(0.0),
+        tolerance: 0.01,
+    })?;
+    // The same edit on a colored triangle mesh of the image (the fast preview path).
+    let cmesh = dir.join("cell_mesh.ply");
+    super::warp_cmd::colormesh(&img, &cmesh, 2, false)?;
+    let warped_mesh = dir.join("warped_mesh.png");
+    super::warp_cmd::run(super::warp_cmd::WarpArgs {
+        deformation: &edited,
+        image: None,
+        points: None,
+        mesh: Some(&cmesh),
+        output: &warped_mesh,
+        size: None,
+        inverse: false,
+        interp: "bilinear",
+        background: None,
         tolerance: 0.01,
     })?;
     let mut o = std::io::stdout().lock();

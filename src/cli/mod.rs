@@ -127,21 +127,43 @@ enum Command {
         /// Input points (CSV `x,y`).
         #[arg(long)]
         points: Option<PathBuf>,
-        /// Output image or CSV.
+        /// Input colored triangle mesh (OBJ with vertex colours, or PLY).
+        #[arg(long)]
+        mesh: Option<PathBuf>,
+        /// Output image, CSV, or (for --mesh) .png / .obj / .ply.
         #[arg(short, long)]
         output: PathBuf,
+        /// Size W,H of the picture drawn from --mesh (default: the undeformed mesh's extent).
+        #[arg(long)]
+        size: Option<String>,
         /// Points: map q -> phi^-1(q) instead of p -> phi(p).
         #[arg(long)]
         inverse: bool,
         /// Image resampling: nearest, bilinear or bicubic.
         #[arg(long, default_value = "bilinear")]
         interp: String,
-        /// Value of pixels whose preimage is outside the mesh.
-        #[arg(long, default_value_t = 0.0)]
-        background: f64,
+        /// Value of pixels whose preimage is outside the mesh (images: default 0; meshes:
+        /// a gray level 0..255, default transparent).
+        #[arg(long)]
+        background: Option<f64>,
         /// Largest accepted error of an inverse point (pixels).
         #[arg(long, default_value_t = 0.01)]
         tolerance: f64,
+    },
+    /// Converts an image into a fine mesh of colored triangles (two per `step` x `step`
+    /// cell, vertices at pixel centres), saved as PLY or OBJ with vertex colours.
+    Colormesh {
+        /// Input image (PNG, TIFF, JPEG; the first page of a stack).
+        image: PathBuf,
+        /// Output mesh (.ply or .obj).
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Lattice step in pixels.
+        #[arg(long, default_value_t = 2)]
+        step: u32,
+        /// One colour per triangle (the mean of its pixels) instead of per vertex.
+        #[arg(long)]
+        flat: bool,
     },
     /// Dense displacement field (forward phi(p) - p, or --inverse phi^-1(q) - q) as float
     /// TIFF or .npy, and optionally a Jacobian-determinant map (PNG) with a fold report.
@@ -230,11 +252,16 @@ pub fn run() -> i32 {
         Command::Render { deformation, output, background, show, size } => {
             spline_cmds::render(&deformation, &output, background.as_deref(), &show, &size)
         }
+        Command::Colormesh { image, output, step, flat } => {
+            warp_cmd::colormesh(&image, &output, step, flat)
+        }
         Command::Warp {
             deformation,
             image,
             points,
+            mesh,
             output,
+            size,
             inverse,
             interp,
             background,
@@ -243,7 +270,9 @@ pub fn run() -> i32 {
             deformation: &deformation,
             image: image.as_deref(),
             points: points.as_deref(),
+            mesh: mesh.as_deref(),
             output: &output,
+            size: size.as_deref(),
             inverse,
             interp: &interp,
             background,

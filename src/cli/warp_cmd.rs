@@ -30,11 +30,114 @@ pub struct WarpArgs<'a> {
     pub deformation: &'a Path,
     pub image: Option<&'a Path>,
     pub points: Option<&'a Path>,
+    pub mesh: Option<&'a Path>,
     pub output: &'a Path,
+    pub size: Option<&'a str>,
     pub inverse: bool,
     pub interp: &'a str,
-    pub background: f64,
+    pub background: Option<f64>,
     pub tolerance: f64,
+}
+
+/// `trimorph warp DEF --mesh IN.(obj|ply) -o OUT.(png|obj|ply)`: moves the vertices of a
+/// colored triangle mesh through phi, then saves the mesh or rasterizes it (antialiased).
+fn warp_mesh(
+    s: &crate::spline::Spline,
+    input: &Path,
+    output: &Path,
+    size: Option<&str>,
+    background: Option<f64>,
+    out: &mut impl Write,
+) -> Result<()> {
+    let mesh = crate::io::colormesh::load(input)?;
+    let (moved, dropped) = mesh.deform(s);
+    if dropped > 0 {
+        eprintln!(
+            "warning: {dropped} triangles of {} have a vertex outside the deformation's mesh and were dropped",
+            input.display()
+        );
+    }
+    let ext = output.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+    match ext.as_deref() {
+        Some("png") => {
+            let (w, h) = match size {
+                Some(sz) => parse_size(sz)?,
+                None => {
+                    // The undeformed mesh's extent (vertices at pixel centres 0 .. w-1).
+                    let mx = mesh
+                        .vertices
+                        .iter()
+                        .fold([0.0f64; 2], |m, v| [m[0].max(v[0]), m[1].max(v[1])]);
+                    ((mx[0].ceil() as u32 + 1).max(1), (mx[1].ceil() as u32 + 1).max(1))
+                }
+            };
+            let bg = match background {
+                None => None,
+                Some(v) if (0.0..=255.0).contains(&v) => {
+                    let g = v.round() as u8;
+                    Some([g, g, g, 255])
+                }
+                Some(v) => bail!("--background for a mesh picture is a gray level 0..255, not {v}"),
+            };
+            let pix = crate::render::colormesh::rasterize(&moved, w, h, bg)?;
+            crate::render::deformation::save_png(&pix, output)?;
+            writeln!(
+                out,
+                "{} triangles through phi -> {} ({w}x{h}, antialiased)",
+                moved.triangles.len(),
+                output.display()
+            )?;
+        }
+        Some("obj" | "ply") => {
+            crate::io::colormesh::save(&moved, output)?;
+            writeln!(
+                out,
+                "{} triangles through phi -> {}",
+                moved.triangles.len(),
+                output.display()
+            )?;
+        }
+        _ => {
+            bail!("{}: a warped mesh is saved as .obj or .ply, or drawn as .png", output.display())
+        }
+    }
+    Ok(())
+}
+
+fn parse_size(sz: &str) -> Result<(u32, u32)> {
+    let parts: Vec<&str> = sz.split(',').map(str::trim).collect();
+    match parts.as_slice() {
+        [w, h] => {
+            let (w, h): (u32, u32) = (
+                w.parse().with_context(|| format!("--size: bad width `{w}`"))?,
+                h.parse().with_context(|| format!("--size: bad height `{h}`"))?,
+            );
+            if w == 0 || h == 0 || w as u64 * h as u64 > 1 << 28 {
+                bail!(
+                    "--size {w},{h}: each side must be positive and the area at most 2^28 pixels"
+                );
+            }
+            Ok((w, h))
+        }
+        _ => bail!("--size takes W,H, e.g. --size 512,384"),
+    }
+}
+
+/// `trimorph colormesh IMAGE -o MESH.(ply|obj) [--step N] [--flat]`.
+pub fn colormesh(image: &Path, output: &Path, step: u32, flat: bool) -> Result<()> {
+    use crate::warp::colormesh::{ColorMesh, ColorMode};
+    let stack = crate::io::raster::read_stack(image)?;
+    let mode = if flat { ColorMode::Flat } else { ColorMode::PerVertex };
+    let mesh = ColorMesh::from_image(&stack.pages[0], step, mode)?;
+    crate::io::colormesh::save(&mesh, output)?;
+    println!(
+        "{} vertices, {} triangles ({}) -> {}",
+        mesh.vertices.len(),
+        mesh.triangles.len(),
+        if flat { "flat colours" } else { "per-vertex colours" },
+        output.display()
+    );
+    Ok(())
 }
 
 /// Reads `x,y` rows; a row with empty fields (as `warp` writes for missing points) is `None`,
@@ -72,13 +175,14 @@ pub fn run(a: WarpArgs) -> Result<()> {
     }
     let opts = InverseOptions { tolerance: a.tolerance, ..Default::default() };
     let mut out = std::io::stdout().lock();
-    match (a.image, a.points) {
-        (Some(img_path), None) => {
+    let background = a.background.unwrap_or(0.0);
+    match (a.image, a.points, a.mesh) {
+        (Some(img_path), None, None) => {
             if a.inverse {
                 bail!("--inverse applies to --points; images are always warped as O(q) = I(phi^-1(q))");
             }
             let interp: Interp = a.interp.parse().map_err(|e: String| anyhow!(e))?;
-            if !a.background.is_finite() {
+            if !background.is_finite() {
                 bail!("--background must be a finite number");
             }
             let stack = crate::io::raster::read_stack(img_path)?;
@@ -86,7 +190,7 @@ pub fn run(a: WarpArgs) -> Result<()> {
             let (w, h) = (first.width(), first.height());
             let wo = WarpOptions {
                 interp,
-                background: a.background,
+                background,
                 remap: RemapOptions { inverse: opts, ..Default::default() },
             };
             let rows = h as u64 * stack.pages.len().max(1) as u64;
@@ -122,7 +226,8 @@ pub fn run(a: WarpArgs) -> Result<()> {
                 );
             }
         }
-        (None, Some(p)) => {
+        (None, None, Some(m)) => warp_mesh(&s, m, a.output, a.size, a.background, &mut out)?,
+        (None, Some(p), None) => {
             let rows = read_optional_points(&read_text(p)?, &p.display().to_string())?;
             let pts: Vec<[f64; 2]> = rows.iter().flatten().copied().collect();
             let mapped: Vec<Option<[f64; 2]>> = if a.inverse {
@@ -154,7 +259,7 @@ pub fn run(a: WarpArgs) -> Result<()> {
                 );
             }
         }
-        _ => bail!("give exactly one of --image or --points"),
+        _ => bail!("give exactly one of --image, --points or --mesh"),
     }
     Ok(())
 }
