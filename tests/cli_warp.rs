@@ -98,3 +98,147 @@ fn field_and_jacobian_maps() {
     let bad = trimorph(&["field", s(&id), "-o", s(&dir.path().join("f.txt"))]);
     assert_eq!(bad.status.code(), Some(1));
 }
+
+/// A deformation file whose map is `phi(p) = A p + b` with integer `A` and `b` (C1 and
+/// exact), on a `cols x rows` grid over `[0, w] x [0, h]`.
+fn affine_file(
+    dir: &std::path::Path,
+    name: &str,
+    w: f64,
+    h: f64,
+    a: [[i64; 2]; 2],
+    b: [i64; 2],
+) -> std::path::PathBuf {
+    use trimorph::exact::{rat_int, Rat};
+    let mesh =
+        trimorph::mesh::Mesh::grid(3, 3, w, h, trimorph::mesh::MeshOptions::default()).unwrap();
+    let id = trimorph::spline::Spline::identity(mesh.clone(), 5).unwrap();
+    let pts: Vec<Vec<Rat>> = id
+        .points()
+        .iter()
+        .map(|p| {
+            (0..2)
+                .map(|r| &p[0] * rat_int(a[r][0]) + &p[1] * rat_int(a[r][1]) + rat_int(b[r]))
+                .collect()
+        })
+        .collect();
+    let s = trimorph::spline::Spline::from_points(mesh, 5, pts, None).unwrap();
+    let path = dir.join(name);
+    std::fs::write(&path, trimorph::io::deformation::to_string(&s, None)).unwrap();
+    path
+}
+
+#[test]
+fn every_page_of_a_tiff_stack_is_warped_the_same_way() {
+    let dir = tempfile::tempdir().unwrap();
+    let def = affine_file(dir.path(), "shift.json", 39.0, 29.0, [[1, 0], [0, 1]], [3, 2]);
+    let pages: Vec<image::ImageBuffer<image::Luma<u16>, Vec<u16>>> = (0..3)
+        .map(|k| {
+            image::ImageBuffer::from_fn(40, 30, |x, y| {
+                image::Luma([(x * 1000 + y * 17 + k * 7) as u16])
+            })
+        })
+        .collect();
+    let stack = trimorph::io::raster::Stack {
+        pages: pages.iter().cloned().map(image::DynamicImage::ImageLuma16).collect(),
+        gray_float: false,
+    };
+    let inp = dir.path().join("stack.tif");
+    trimorph::io::raster::write_stack(&inp, &stack).unwrap();
+    let out = dir.path().join("out.tif");
+    let o = trimorph(&["warp", s(&def), "--image", s(&inp), "-o", s(&out), "--background", "9"]);
+    ok(&o);
+    assert!(String::from_utf8_lossy(&o.stdout).contains("3 pages"));
+    let back = trimorph::io::raster::read_stack(&out).unwrap();
+    assert_eq!(back.pages.len(), 3);
+    for (k, (page, src)) in back.pages.iter().zip(&pages).enumerate() {
+        let g = page.as_luma16().expect("16-bit gray kept");
+        for (x, y, v) in g.enumerate_pixels() {
+            let expect = if x >= 3 && y >= 2 { src.get_pixel(x - 3, y - 2)[0] } else { 9 };
+            assert_eq!(v[0], expect, "page {k} at ({x}, {y})");
+        }
+    }
+    // A stack cannot be written to a PNG: exit 1, nothing written.
+    let png = dir.path().join("out.png");
+    let r = trimorph(&["warp", s(&def), "--image", s(&inp), "-o", s(&png)]);
+    assert_eq!(r.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&r.stderr).contains("only TIFF"));
+    assert!(!png.exists());
+}
+
+#[test]
+fn jpeg_input_and_identity_keep_every_pixel() {
+    let dir = tempfile::tempdir().unwrap();
+    let def = affine_file(dir.path(), "id.json", 31.0, 23.0, [[1, 0], [0, 1]], [0, 0]);
+    let img =
+        image::RgbImage::from_fn(32, 24, |x, y| image::Rgb([(x * 8) as u8, (y * 10) as u8, 128]));
+    let jpg = dir.path().join("in.jpg");
+    img.save(&jpg).unwrap();
+    let decoded = image::open(&jpg).unwrap().to_rgb8();
+    for interp in ["nearest", "bilinear", "bicubic"] {
+        let out = dir.path().join(format!("out_{interp}.png"));
+        ok(&trimorph(&["warp", s(&def), "--image", s(&jpg), "--interp", interp, "-o", s(&out)]));
+        let back = image::open(&out).unwrap();
+        assert_eq!(back.color(), image::ColorType::Rgb8);
+        assert_eq!(back.to_rgb8(), decoded, "{interp}");
+    }
+}
+
+#[test]
+fn folds_are_reported_by_warp() {
+    let dir = tempfile::tempdir().unwrap();
+    // A mirror: phi(x, y) = (39 - x, y) reverses orientation everywhere (det J = -1).
+    let def = affine_file(dir.path(), "mirror.json", 39.0, 29.0, [[-1, 0], [0, 1]], [39, 0]);
+    let img = image::GrayImage::from_fn(40, 30, |x, y| image::Luma([(x * 6 + y) as u8]));
+    let inp = dir.path().join("in.png");
+    img.save(&inp).unwrap();
+    let out = dir.path().join("out.png");
+    let o = trimorph(&["warp", s(&def), "--image", s(&inp), "--interp", "nearest", "-o", s(&out)]);
+    ok(&o);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("phi folds over the output: 1200 pixels"), "{err}");
+    // The mirror is still injective, so the picture is the mirrored input.
+    let back = image::open(&out).unwrap().to_luma8();
+    for (x, y, v) in back.enumerate_pixels() {
+        assert_eq!(v[0], img.get_pixel(39 - x, y)[0]);
+    }
+    // The identity is certified fold-free.
+    let id = affine_file(dir.path(), "id.json", 39.0, 29.0, [[1, 0], [0, 1]], [0, 0]);
+    let o = trimorph(&["warp", s(&id), "--image", s(&inp), "-o", s(&out)]);
+    assert!(String::from_utf8_lossy(&o.stdout).contains("folds: none"));
+}
+
+#[test]
+fn colored_meshes_through_the_cli() {
+    let dir = tempfile::tempdir().unwrap();
+    let img = image::RgbaImage::from_fn(40, 30, |x, y| {
+        image::Rgba([(x * 6) as u8, (y * 8) as u8, 77, 255])
+    });
+    let inp = dir.path().join("in.png");
+    img.save(&inp).unwrap();
+    let ply = dir.path().join("m.ply");
+    ok(&trimorph(&["colormesh", s(&inp), "-o", s(&ply), "--step", "1"]));
+    // Shift by (3, 2): the picture moves by exactly (3, 2) at fully covered pixels.
+    let def = affine_file(dir.path(), "shift.json", 39.0, 29.0, [[1, 0], [0, 1]], [3, 2]);
+    let png = dir.path().join("m.png");
+    ok(&trimorph(&["warp", s(&def), "--mesh", s(&ply), "-o", s(&png), "--size", "44,33"]));
+    let pic = image::open(&png).unwrap().to_rgba8();
+    assert_eq!(pic.dimensions(), (44, 33));
+    for y in 3..31 {
+        for x in 4..42 {
+            assert_eq!(pic.get_pixel(x, y).0, img.get_pixel(x - 3, y - 2).0, "({x}, {y})");
+        }
+    }
+    assert_eq!(pic.get_pixel(0, 0).0[3], 0, "transparent where nothing is drawn");
+    // The moved mesh can be saved too, and read back.
+    let obj = dir.path().join("moved.obj");
+    ok(&trimorph(&["warp", s(&def), "--mesh", s(&ply), "-o", s(&obj)]));
+    let moved = trimorph::io::colormesh::load(&obj).unwrap();
+    let (lo, _) = moved.vertices.iter().fold(([f64::MAX; 2], [f64::MIN; 2]), |(l, h), v| {
+        ([l[0].min(v[0]), l[1].min(v[1])], [h[0].max(v[0]), h[1].max(v[1])])
+    });
+    assert!((lo[0] - 3.0).abs() < 1e-6 && (lo[1] - 2.0).abs() < 1e-6, "{lo:?}");
+    // Wrong output kind: exit 1.
+    let bad = trimorph(&["warp", s(&def), "--mesh", s(&ply), "-o", s(&dir.path().join("m.txt"))]);
+    assert_eq!(bad.status.code(), Some(1));
+}

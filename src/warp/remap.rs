@@ -354,6 +354,7 @@ fn raster(
     out: &mut [[f64; 2]],
     y0: usize,
     w: usize,
+    mut fold_mask: Option<(&mut [bool], bool)>,
 ) -> usize {
     let rows = out.len() / w;
     let (e1, e2) = ([q[1][0] - q[0][0], q[1][1] - q[0][1]], [q[2][0] - q[0][0], q[2][1] - q[0][1]]);
@@ -409,6 +410,9 @@ fn raster(
             *o = [start[0] + kf * step[0], start[1] + kf * step[1]];
         }
         written += x1 + 1 - x0;
+        if let Some((mask, folded)) = fold_mask.as_mut() {
+            mask[(y - y0) * w + x0..=(y - y0) * w + x1].fill(*folded);
+        }
     }
     written
 }
@@ -735,6 +739,11 @@ impl<'a> RemapPlan<'a> {
         let (ylo, yhi) = (y0 as f64 - 1.0, (y0 + rows) as f64 + 1.0);
         let near: Vec<&Pieces> =
             self.rows.iter().filter(|r| r.y[1] >= ylo && r.y[0] <= yhi).collect();
+        // Which pixels the last piece drawn there is folded (only when there are folds).
+        let any_fold = near
+            .iter()
+            .any(|r| r.blocks.iter().any(|b| b.folded) || r.tris.iter().any(|t| t.folded));
+        let mut mask = any_fold.then(|| vec![false; rows * w]);
         for r in &near {
             for b in &r.blocks {
                 if b.y[1] < ylo || b.y[0] > yhi {
@@ -762,12 +771,18 @@ impl<'a> RemapPlan<'a> {
                             [px + b.step[0], py + b.step[1]],
                         ];
                         for h in [[0, 1, 3], [0, 3, 2]] {
-                            written += raster(&h.map(|c| pp[c]), &h.map(|c| qq[c]), out, y0, w);
+                            written += raster(
+                                &h.map(|c| pp[c]),
+                                &h.map(|c| qq[c]),
+                                out,
+                                y0,
+                                w,
+                                mask.as_deref_mut().map(|m| (m, b.folded)),
+                            );
                         }
                     }
                 }
                 if b.folded {
-                    st.folded += written;
                     if written > 0 {
                         let (lo, hi) = bbox(&r.pool[b.off..b.off + n * n]);
                         st.merge(&RemapStats {
@@ -783,9 +798,9 @@ impl<'a> RemapPlan<'a> {
                 if t.y[1] < ylo || t.y[0] > yhi {
                     continue;
                 }
-                let written = raster(&t.p, &t.q, out, y0, w);
+                let written =
+                    raster(&t.p, &t.q, out, y0, w, mask.as_deref_mut().map(|m| (m, t.folded)));
                 if t.folded {
-                    st.folded += written;
                     if written > 0 {
                         let (lo, hi) = bbox(&t.q);
                         st.merge(&RemapStats {
@@ -798,6 +813,7 @@ impl<'a> RemapPlan<'a> {
                 }
             }
         }
+        st.folded = mask.as_ref().map_or(0, |m| m.iter().filter(|&&f| f).count());
         // Newton for the unfilled pixels near border pieces (each pixel tried once).
         let boxes: Vec<&[f64; 4]> =
             near.iter().flat_map(|r| &r.newton).filter(|r| r[3] >= ylo && r[1] <= yhi).collect();
