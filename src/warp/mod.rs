@@ -215,19 +215,11 @@ fn fill<T: Texel>(
     interp: Interp,
     background: f64,
 ) {
-    let nc = src.nc;
-    let has_alpha = nc == 2 || nc == 4;
-    let bg = T::from_f32(background as f32);
-    let zero = T::from_f32(0.0);
-    for (px, p) in out.chunks_exact_mut(nc).zip(pos) {
-        if p[0].is_nan() {
-            px.fill(bg);
-            if has_alpha {
-                px[nc - 1] = zero;
-            }
-        } else {
-            src.sample_into(*p, interp, px);
-        }
+    match src.nc {
+        1 => sample::fill_pixels::<T, 1>(src, pos, out, interp, background),
+        2 => sample::fill_pixels::<T, 2>(src, pos, out, interp, background),
+        3 => sample::fill_pixels::<T, 3>(src, pos, out, interp, background),
+        _ => sample::fill_pixels::<T, 4>(src, pos, out, interp, background),
     }
 }
 

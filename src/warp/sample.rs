@@ -62,6 +62,17 @@ pub struct Source<'a, T> {
     pub nc: usize,
 }
 
+/// `floor` without a libm call (`x` well inside the `i64` range, as pixel positions are).
+#[inline(always)]
+pub fn fast_floor(x: f64) -> f64 {
+    let t = x as i64 as f64;
+    if t > x {
+        t - 1.0
+    } else {
+        t
+    }
+}
+
 #[inline]
 fn keys(t: f32) -> f32 {
     let t = t.abs();
@@ -94,7 +105,7 @@ impl<T: Texel> Source<'_, T> {
                 out.copy_from_slice(&self.data[k..k + nc]);
             }
             Interp::Bilinear => {
-                let (fx0, fy0) = (p[0].floor(), p[1].floor());
+                let (fx0, fy0) = (fast_floor(p[0]), fast_floor(p[1]));
                 let (fx, fy) = ((p[0] - fx0) as f32, (p[1] - fy0) as f32);
                 let (x0, y0) = (fx0 as isize, fy0 as isize);
                 if x0 >= 0 && y0 >= 0 && (x0 as usize) + 1 < self.w && (y0 as usize) + 1 < self.h {
@@ -118,7 +129,7 @@ impl<T: Texel> Source<'_, T> {
                 }
             }
             Interp::Bicubic => {
-                let (fx0, fy0) = (p[0].floor(), p[1].floor());
+                let (fx0, fy0) = (fast_floor(p[0]), fast_floor(p[1]));
                 let (fx, fy) = ((p[0] - fx0) as f32, (p[1] - fy0) as f32);
                 let (x0, y0) = (fx0 as isize, fy0 as isize);
                 let wx = [keys(fx + 1.0), keys(fx), keys(fx - 1.0), keys(fx - 2.0)];
@@ -138,6 +149,65 @@ impl<T: Texel> Source<'_, T> {
                         acc += wyj * row;
                     }
                     *o = T::from_f32(acc.clamp(lo, hi));
+                }
+            }
+        }
+    }
+}
+
+/// Fills `out` (`NC` channels per pixel) by sampling `src` at `pos` (`NaN`: background,
+/// alpha 0). Monomorphized on the channel count, with the interpolation chosen once.
+pub fn fill_pixels<T: Texel, const NC: usize>(
+    src: &Source<'_, T>,
+    pos: &[[f64; 2]],
+    out: &mut [T],
+    interp: Interp,
+    background: f64,
+) {
+    debug_assert_eq!(src.nc, NC);
+    let bg = T::from_f32(background as f32);
+    let zero = T::from_f32(0.0);
+    let has_alpha = NC == 2 || NC == 4;
+    let outside = |px: &mut [T]| {
+        px.fill(bg);
+        if has_alpha {
+            px[NC - 1] = zero;
+        }
+    };
+    let (w, h) = (src.w, src.h);
+    let d = src.data;
+    match interp {
+        Interp::Bilinear => {
+            for (px, p) in out.chunks_exact_mut(NC).zip(pos) {
+                if p[0].is_nan() {
+                    outside(px);
+                    continue;
+                }
+                let (fx0, fy0) = (fast_floor(p[0]), fast_floor(p[1]));
+                let (x0, y0) = (fx0 as isize, fy0 as isize);
+                if x0 >= 0 && y0 >= 0 && (x0 as usize) + 1 < w && (y0 as usize) + 1 < h {
+                    let (fx, fy) = ((p[0] - fx0) as f32, (p[1] - fy0) as f32);
+                    let k = (y0 as usize * w + x0 as usize) * NC;
+                    let kd = k + w * NC;
+                    let (top, bot) = (&d[k..k + 2 * NC], &d[kd..kd + 2 * NC]);
+                    for c in 0..NC {
+                        let (a, b) = (top[c].to_f32(), top[NC + c].to_f32());
+                        let (e, f) = (bot[c].to_f32(), bot[NC + c].to_f32());
+                        let t = a + (b - a) * fx;
+                        let u = e + (f - e) * fx;
+                        px[c] = T::from_f32(t + (u - t) * fy);
+                    }
+                } else {
+                    src.sample_into(*p, Interp::Bilinear, px);
+                }
+            }
+        }
+        other => {
+            for (px, p) in out.chunks_exact_mut(NC).zip(pos) {
+                if p[0].is_nan() {
+                    outside(px);
+                } else {
+                    src.sample_into(*p, other, px);
                 }
             }
         }
