@@ -155,5 +155,13 @@ pub fn run(dir: &Path) -> Result<()> {
         img.display(),
         warped.display()
     )?;
+    writeln!(o, "  trimorph colormesh {} -o {} --step 2", img.display(), cmesh.display())?;
+    writeln!(
+        o,
+        "  trimorph warp {} --mesh {} -o {}",
+        edited.display(),
+        cmesh.display(),
+        warped_mesh.display()
+    )?;
     Ok(())
 }
