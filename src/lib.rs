@@ -27,6 +27,7 @@ pub mod edit;
 pub mod exact;
 pub mod io;
 pub mod mesh;
+pub mod prism;
 pub mod render;
 pub mod spline;
 pub mod warp;

@@ -83,6 +83,8 @@ pub struct Spline {
     points: Vec<Vec<Rat>>,
     z: Option<ZLayers>,
     cache: EvalCache,
+    /// `(sigma0, sigma1)` coefficients of the 2.5D layers, in the cache's patch layout.
+    z_cache: Option<EvalCache>,
     /// For each control point, its slots in the flattened patch array of the cache.
     slots: Vec<Vec<u32>>,
 }
@@ -141,7 +143,7 @@ impl Spline {
         for (k, &p) in layout.patches().iter().flatten().enumerate() {
             slots[p].push(k as u32);
         }
-        let mut s = Spline { mesh, layout, quads, system, points, z, cache, slots };
+        let mut s = Spline { mesh, layout, quads, system, points, z, cache, z_cache: None, slots };
         s.refresh_cache();
         s
     }
@@ -157,6 +159,30 @@ impl Spline {
         let tris: Vec<[[f64; 2]; 3]> =
             self.mesh.triangles().iter().map(|t| t.map(|v| self.mesh.vertex(v))).collect();
         self.cache = EvalCache::new(self.layout.degree(), &tris, pts);
+        self.refresh_z_cache();
+    }
+
+    fn refresh_z_cache(&mut self) {
+        self.z_cache = self.z.as_ref().map(|z| {
+            let pts: Vec<[f64; 2]> = self
+                .layout
+                .patches()
+                .iter()
+                .flatten()
+                .map(|&p| [rat_to_f64(&z.z0[p]), rat_to_f64(&z.z1[p])])
+                .collect();
+            let tris: Vec<[[f64; 2]; 3]> =
+                self.mesh.triangles().iter().map(|t| t.map(|v| self.mesh.vertex(v))).collect();
+            EvalCache::new(self.layout.degree(), &tris, pts)
+        });
+    }
+
+    /// `(sigma0, sigma1)` on triangle `t` at barycentric coordinates `b`, or `None` for a
+    /// spline without 2.5D layers (thesis eq. 17.1: the bottom and top of the deformed
+    /// prism over the point).
+    #[inline]
+    pub fn eval_z(&self, t: usize, b: [f64; 3]) -> Option<[f64; 2]> {
+        self.z_cache.as_ref().map(|c| c.value(t, b))
     }
 
     /// The reference mesh.
@@ -202,6 +228,7 @@ impl Spline {
     /// Sets or removes the 2.5D layers.
     pub fn set_z_layers(&mut self, z: Option<ZLayers>) {
         self.z = z;
+        self.refresh_z_cache();
     }
 
     /// Nominal position of every control point, exactly.
