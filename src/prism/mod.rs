@@ -181,12 +181,15 @@ pub fn auto_mesh(
     Ok((mesh, [lo[2] - zm, hi[2] + zm]))
 }
 
+/// A bound vertex: its triangle of `T`, the barycentric coordinates of its `(x, y)`, and
+/// `(alpha0, alpha1)`.
+pub type BoundVertex = (u32, [f64; 3], [f64; 2]);
+
 /// Where each model vertex sits in the reference prism mesh.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Binding {
-    /// Per vertex: triangle of `T`, barycentric coordinates of `(x, y)`, and
-    /// `(alpha0, alpha1)`; `None` for vertices outside `P`.
-    pub at: Vec<Option<(u32, [f64; 3], [f64; 2])>>,
+    /// Per vertex, where it is bound; `None` for vertices outside `P`.
+    pub at: Vec<Option<BoundVertex>>,
     /// Indices of the vertices outside `P` (xy outside `T`, or z outside `[a, b]`).
     pub outside: Vec<usize>,
 }
@@ -199,7 +202,7 @@ pub fn bind(model: &Model, s: &Spline) -> Result<Binding, PrismError> {
     let z = s.z_layers().ok_or(PrismError::NotPrism)?;
     let (a, b) = (rat_to_f64(&z.range[0]), rat_to_f64(&z.range[1]));
     let tol = 1e-12 * (b - a).abs().max(1.0);
-    let at: Vec<Option<(u32, [f64; 3], [f64; 2])>> = model
+    let at: Vec<Option<BoundVertex>> = model
         .vertices
         .par_chunks(4096)
         .flat_map_iter(|chunk| {
