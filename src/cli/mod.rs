@@ -5,12 +5,13 @@
 
 mod bench;
 mod demo;
+mod model_cmd;
 mod solve;
 pub mod spline_cmds;
 mod warp_cmd;
 
 use clap::{Parser, Subcommand};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Exit code for bad input and I/O errors.
 pub const EXIT_INPUT: i32 = 1;
@@ -130,6 +131,9 @@ enum Command {
         /// Input colored triangle mesh (OBJ with vertex colours, or PLY).
         #[arg(long)]
         mesh: Option<PathBuf>,
+        /// Input 3D model (OBJ, PLY or XYZ) to move through the 2.5D deformation psi.
+        #[arg(long)]
+        model: Option<PathBuf>,
         /// Output image, CSV, or (for --mesh) .png / .obj / .ply.
         #[arg(short, long)]
         output: PathBuf,
@@ -150,6 +154,9 @@ enum Command {
         #[arg(long, default_value_t = 0.01)]
         tolerance: f64,
     },
+    /// 2.5D models: bind a 3D model to a prism mesh, or write the bundled organism.
+    #[command(subcommand)]
+    Model(ModelCommand),
     /// Converts an image into a fine mesh of colored triangles (two per `step` x `step`
     /// cell, vertices at pixel centres), saved as PLY or OBJ with vertex colours.
     Colormesh {
@@ -188,6 +195,44 @@ enum Command {
     Bench {
         #[command(subcommand)]
         which: BenchCommand,
+    },
+}
+
+#[derive(Subcommand, Debug)]
+enum ModelCommand {
+    /// Writes an identity 2.5D deformation (format v1 with z_range, z0, z1) around a model.
+    Bind {
+        /// The 3D model (OBJ, PLY or XYZ).
+        #[arg(long)]
+        model: PathBuf,
+        /// Reference mesh: a 2D OBJ whose vertices have z = b (prisms over [-b, b]).
+        #[arg(long)]
+        mesh: Option<PathBuf>,
+        /// Fit a grid around the model's bounding box instead.
+        #[arg(long)]
+        auto: bool,
+        /// Grid of the automatic mesh, COLSxROWS.
+        #[arg(long, default_value = "4x2")]
+        grid: String,
+        /// Margin of the automatic mesh, as a fraction of the model's largest side.
+        #[arg(long, default_value_t = 0.05)]
+        margin: f64,
+        /// Prism range A,B (exact decimals or fractions; default from the mesh or model).
+        #[arg(long)]
+        range: Option<String>,
+        /// Spline degree.
+        #[arg(long, default_value_t = 5)]
+        degree: usize,
+        /// Output deformation file.
+        #[arg(short, long)]
+        output: PathBuf,
+    },
+    /// Writes the bundled C. elegans-like model (20,000 triangles), its landmarks and a
+    /// reference prism mesh into a folder.
+    Worm {
+        /// Output folder.
+        #[arg(short, long)]
+        output: PathBuf,
     },
 }
 
@@ -252,6 +297,26 @@ pub fn run() -> i32 {
         Command::Render { deformation, output, background, show, size } => {
             spline_cmds::render(&deformation, &output, background.as_deref(), &show, &size)
         }
+        Command::Model(ModelCommand::Bind {
+            model,
+            mesh,
+            auto,
+            grid,
+            margin,
+            range,
+            degree,
+            output,
+        }) => model_cmd::bind_cmd(model_cmd::BindArgs {
+            model: &model,
+            mesh: mesh.as_deref(),
+            auto,
+            grid: &grid,
+            margin,
+            range: range.as_deref(),
+            degree,
+            output: &output,
+        }),
+        Command::Model(ModelCommand::Worm { output }) => model_cmd::worm_cmd(&output),
         Command::Colormesh { image, output, step, flat } => {
             warp_cmd::colormesh(&image, &output, step, flat)
         }
@@ -260,6 +325,31 @@ pub fn run() -> i32 {
             image,
             points,
             mesh,
+            model,
+            output,
+            size,
+            inverse,
+            interp,
+            background,
+            tolerance,
+        } if model.is_some() => {
+            if image.is_some() || points.is_some() || mesh.is_some() {
+                Err(anyhow::anyhow!("give exactly one of --image, --points, --mesh or --model"))
+            } else {
+                let _ = (size, inverse, interp, background, tolerance);
+                model_cmd::warp_model(
+                    &deformation,
+                    model.as_deref().unwrap_or(Path::new("")),
+                    &output,
+                )
+            }
+        }
+        Command::Warp {
+            deformation,
+            image,
+            points,
+            mesh,
+            model: _,
             output,
             size,
             inverse,

@@ -524,6 +524,37 @@ fn color(e: &Element, idx: &[Option<usize>; 4], vals: &[f64]) -> Result<[u8; 4],
 
 /// Reads PLY bytes (`path` only names the file in errors; see the module docs).
 pub fn read_ply(bytes: &[u8], path: &Path) -> Result<ColorMesh, ColorMeshError> {
+    let raw = read_ply_raw(bytes, path, true)?;
+    let vertices = raw.vertices.iter().map(|v| [v[0], v[1]]).collect();
+    let colors = match (raw.face_colors, raw.vertex_colors) {
+        (Some(f), _) => Colors::PerTriangle(f),
+        (None, Some(v)) => Colors::PerVertex(v),
+        (None, None) => unreachable!("colors are required"),
+    };
+    Ok(ColorMesh { vertices, triangles: raw.triangles, colors })
+}
+
+/// A PLY file's geometry: 3D vertices, triangles (polygons fan-triangulated) and colours.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RawPly {
+    /// Vertex positions (`z = 0` when the file has no `z`).
+    pub vertices: Vec<[f64; 3]>,
+    /// Triangles.
+    pub triangles: Vec<[u32; 3]>,
+    /// Vertex colours, if the file has them.
+    pub vertex_colors: Option<Vec<[u8; 4]>>,
+    /// Face colours (one per triangle), if the file has them.
+    pub face_colors: Option<Vec<[u8; 4]>>,
+}
+
+/// Reads a PLY file (ascii, binary little or big endian). With `need_colors`, a file
+/// without vertex or face colours is an error; without it, the `face` element is optional
+/// (a point cloud).
+pub fn read_ply_raw(
+    bytes: &[u8],
+    path: &Path,
+    need_colors: bool,
+) -> Result<RawPly, ColorMeshError> {
     let (enc, elems, start, line) = header(bytes, path)?;
     let body_len = (bytes.len() - start) as u128;
     let mut need = 0u128;
@@ -545,8 +576,11 @@ pub fn read_ply(bytes: &[u8], path: &Path) -> Result<ColorMesh, ColorMeshError> 
         }
     }
     let find = |name: &str| elems.iter().find(|e| e.name == name);
-    let (Some(ve), Some(fe)) = (find("vertex"), find("face")) else {
-        return Err(fail(path, Location::Header, "needs a `vertex` and a `face` element"));
+    let no_face = Element { name: "face".into(), count: 0, props: Vec::new() };
+    let (ve, fe) = match (find("vertex"), find("face")) {
+        (Some(v), Some(f)) => (v, f),
+        (Some(v), None) if !need_colors => (v, &no_face),
+        _ => return Err(fail(path, Location::Header, "needs a `vertex` and a `face` element")),
     };
     let hfail = |m: &str| fail(path, Location::Header, m);
     let prop = |e: &Element, n: &str| e.props.iter().position(|p| p.name == n && p.list.is_none());
@@ -554,15 +588,18 @@ pub fn read_ply(bytes: &[u8], path: &Path) -> Result<ColorMesh, ColorMeshError> 
         return Err(hfail("vertex needs scalar `x` and `y` properties"));
     };
     let pz = prop(ve, "z");
-    let Some(pi) = fe.props.iter().position(|p| {
+    let pi = fe.props.iter().position(|p| {
         matches!(p.name.as_str(), "vertex_indices" | "vertex_index")
             && p.list.is_some()
             && p.ty.is_int()
-    }) else {
-        return Err(hfail("face needs an integer list `vertex_indices`"));
+    });
+    let pi = match pi {
+        Some(pi) => pi,
+        None if fe.count == 0 && !need_colors => usize::MAX,
+        None => return Err(hfail("face needs an integer list `vertex_indices`")),
     };
     let (vcol, fcol) = (color_props(ve, path)?, color_props(fe, path)?);
-    if vcol.is_none() && fcol.is_none() {
+    if need_colors && vcol.is_none() && fcol.is_none() {
         return Err(hfail("no colors: vertex or face needs `red`, `green` and `blue` properties"));
     }
     let nv = usize::try_from(ve.count)
@@ -605,7 +642,7 @@ pub fn read_ply(bytes: &[u8], path: &Path) -> Result<ColorMesh, ColorMeshError> 
                             "vertex {index}: coordinates ({x}, {y}, {z}) are not finite"
                         ));
                     }
-                    vertices.push([x, y]);
+                    vertices.push([x, y, z]);
                     if let Some(c) = &vcol {
                         vcolors.push(color(e, c, &vals)?);
                     }
@@ -632,7 +669,10 @@ pub fn read_ply(bytes: &[u8], path: &Path) -> Result<ColorMesh, ColorMeshError> 
             item().map_err(|m| fail(path, at(&body), m))?;
         }
     }
-    let colors =
-        if fcol.is_some() { Colors::PerTriangle(fcolors) } else { Colors::PerVertex(vcolors) };
-    Ok(ColorMesh { vertices, triangles, colors })
+    Ok(RawPly {
+        vertices,
+        triangles,
+        vertex_colors: vcol.is_some().then_some(vcolors),
+        face_colors: fcol.is_some().then_some(fcolors),
+    })
 }

@@ -1,0 +1,334 @@
+//! 3D models for 2.5D deformation: OBJ, PLY and XYZ point clouds, with
+//! named landmarks in a JSON sidecar.
+//!
+//! * OBJ: `v x y z` and `f` lines (`a`, `a/t`, `a/t/n`, `a//n`; negative indices; polygons
+//!   as fans). An OBJ without faces is a point cloud. Read directly rather than with `tobj`,
+//!   which renumbers vertices in order of first use: a model keeps its file's vertex order
+//!   (landmarks and correspondences across frames depend on it).
+//! * PLY: ascii or binary, `vertex` with `x y z`, optional `face` (a point cloud without it).
+//! * XYZ: one point per line, `x y z` separated by spaces or commas; `#` starts a comment.
+//! * Landmarks: `M.landmarks.json` beside `M.obj` (or `.ply`, `.xyz`), an object
+//!   `{"name": [x, y, z], ...}`; each name is bound to the model vertex nearest that
+//!   position (so the file survives re-indexing by other tools).
+//!
+//! Writing: OBJ with `v`, recomputed unit normals `vn` and `f a//a b//b c//c`; binary
+//! little-endian PLY with `x y z nx ny nz` and faces; XYZ for point clouds. Every file is
+//! written atomically.
+
+use super::{write_atomic, IoError};
+use crate::prism::{vertex_normals, Model};
+use std::path::{Path, PathBuf};
+
+/// Errors of model input and output.
+#[derive(Debug, thiserror::Error)]
+pub enum ModelIoError {
+    /// File-system error.
+    #[error(transparent)]
+    Io(#[from] IoError),
+    /// The file is malformed.
+    #[error("{path}{}: {message}", line.map(|l| format!(", line {l}")).unwrap_or_default())]
+    Format {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line, when known.
+        line: Option<usize>,
+        /// What is wrong.
+        message: String,
+    },
+    /// A PLY error from the shared reader.
+    #[error(transparent)]
+    Ply(#[from] crate::warp::colormesh::ColorMeshError),
+    /// Unknown extension.
+    #[error("{0}: unknown model format (use .obj, .ply or .xyz)")]
+    Extension(PathBuf),
+}
+
+fn fmt_err(path: &Path, line: Option<usize>, message: impl Into<String>) -> ModelIoError {
+    ModelIoError::Format { path: path.to_path_buf(), line, message: message.into() }
+}
+
+fn ext(path: &Path) -> Option<String> {
+    path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase)
+}
+
+/// The landmark sidecar of a model file: `M.landmarks.json` for `M.obj`.
+pub fn landmarks_path(model: &Path) -> PathBuf {
+    model.with_extension("landmarks.json")
+}
+
+/// Loads a model (and its landmark sidecar, when present).
+pub fn load_model(path: &Path) -> Result<Model, ModelIoError> {
+    let bytes =
+        std::fs::read(path).map_err(|source| IoError::Read { path: path.to_path_buf(), source })?;
+    let mut model = match ext(path).as_deref() {
+        Some("obj") => read_obj(&bytes, path)?,
+        Some("ply") => {
+            let raw = crate::io::colormesh::read_ply_raw(&bytes, path, false)?;
+            Model { vertices: raw.vertices, triangles: raw.triangles, landmarks: Vec::new() }
+        }
+        Some("xyz" | "txt" | "csv") => read_xyz(&bytes, path)?,
+        _ => return Err(ModelIoError::Extension(path.to_path_buf())),
+    };
+    if model.vertices.is_empty() {
+        return Err(fmt_err(path, None, "no vertices"));
+    }
+    let side = landmarks_path(path);
+    if side.exists() {
+        model.landmarks = read_landmarks(&side, &model.vertices)?;
+    }
+    model.validate().map_err(|e| fmt_err(path, None, e.to_string()))?;
+    Ok(model)
+}
+
+fn read_obj(bytes: &[u8], path: &Path) -> Result<Model, ModelIoError> {
+    let text = std::str::from_utf8(bytes).map_err(|_| fmt_err(path, None, "not UTF-8 text"))?;
+    let mut model = Model::default();
+    let mut faces: Vec<(usize, Vec<i64>)> = Vec::new();
+    for (n, line) in text.lines().enumerate() {
+        let line = line.split('#').next().unwrap_or("");
+        let mut w = line.split_whitespace();
+        match w.next() {
+            Some("v") => {
+                let vals: Vec<f64> = w
+                    .map(|t| {
+                        t.parse::<f64>().map_err(|_| {
+                            fmt_err(path, Some(n + 1), format!("`{t}` is not a number"))
+                        })
+                    })
+                    .collect::<Result<_, _>>()?;
+                if vals.len() < 3 || vals[..3].iter().any(|v| !v.is_finite()) {
+                    return Err(fmt_err(
+                        path,
+                        Some(n + 1),
+                        "expected `v x y z` with finite numbers",
+                    ));
+                }
+                model.vertices.push([vals[0], vals[1], vals[2]]);
+            }
+            Some("f") => {
+                // `a`, `a/t`, `a/t/n` or `a//n`: the position index is the first field.
+                let idx: Vec<i64> = w
+                    .map(|t| t.split('/').next().unwrap_or("").parse::<i64>())
+                    .collect::<Result<_, _>>()
+                    .map_err(|_| {
+                        fmt_err(path, Some(n + 1), "expected `f a b c ...` with vertex indices")
+                    })?;
+                if idx.len() < 3 {
+                    return Err(fmt_err(path, Some(n + 1), "a face needs at least 3 vertices"));
+                }
+                faces.push((n + 1, idx));
+            }
+            _ => {}
+        }
+    }
+    // Indices are 1-based, or negative (relative to the end); polygons become fans.
+    let nv = model.vertices.len() as i64;
+    for (line, idx) in faces {
+        let abs: Vec<u32> = idx
+            .iter()
+            .map(|&i| {
+                let k = if i > 0 { i - 1 } else { nv + i };
+                (i != 0 && (0..nv).contains(&k)).then_some(k as u32).ok_or_else(|| {
+                    fmt_err(
+                        path,
+                        Some(line),
+                        format!("vertex index {i} out of range ({nv} vertices)"),
+                    )
+                })
+            })
+            .collect::<Result<_, _>>()?;
+        for j in 1..abs.len() - 1 {
+            model.triangles.push([abs[0], abs[j], abs[j + 1]]);
+        }
+    }
+    Ok(model)
+}
+
+fn read_xyz(bytes: &[u8], path: &Path) -> Result<Model, ModelIoError> {
+    let text = std::str::from_utf8(bytes).map_err(|_| fmt_err(path, None, "not UTF-8 text"))?;
+    let mut vertices = Vec::new();
+    for (n, line) in text.lines().enumerate() {
+        let line = line.split('#').next().unwrap_or("").trim();
+        if line.is_empty() {
+            continue;
+        }
+        let vals: Vec<f64> = line
+            .split(|c: char| c == ',' || c.is_whitespace())
+            .filter(|t| !t.is_empty())
+            .map(|t| t.parse::<f64>())
+            .collect::<Result<_, _>>()
+            .map_err(|_| fmt_err(path, Some(n + 1), format!("expected `x y z`, found `{line}`")))?;
+        if vals.len() < 3 || vals[..3].iter().any(|v| !v.is_finite()) {
+            if vertices.is_empty() && n == 0 {
+                continue; // a header line
+            }
+            return Err(fmt_err(path, Some(n + 1), format!("expected `x y z`, found `{line}`")));
+        }
+        vertices.push([vals[0], vals[1], vals[2]]);
+    }
+    Ok(Model { vertices, ..Default::default() })
+}
+
+fn read_landmarks(path: &Path, vertices: &[[f64; 3]]) -> Result<Vec<(String, u32)>, ModelIoError> {
+    let text = super::read_text(path)?;
+    let v: serde_json::Value =
+        serde_json::from_str(&text).map_err(|e| fmt_err(path, Some(e.line()), e.to_string()))?;
+    let obj =
+        v.as_object().ok_or_else(|| fmt_err(path, None, "expected {\"name\": [x, y, z], ...}"))?;
+    let mut out = Vec::new();
+    for (name, p) in obj {
+        let p: Vec<f64> = p
+            .as_array()
+            .map(|a| a.iter().filter_map(|x| x.as_f64()).collect())
+            .filter(|a: &Vec<f64>| a.len() == 3)
+            .ok_or_else(|| fmt_err(path, None, format!("landmark `{name}`: expected [x, y, z]")))?;
+        let (mut best, mut dist) = (0u32, f64::INFINITY);
+        for (i, q) in vertices.iter().enumerate() {
+            let d = (q[0] - p[0]).powi(2) + (q[1] - p[1]).powi(2) + (q[2] - p[2]).powi(2);
+            if d < dist {
+                (best, dist) = (i as u32, d);
+            }
+        }
+        out.push((name.clone(), best));
+    }
+    Ok(out)
+}
+
+/// Writes the landmark sidecar of `model` (positions of its landmark vertices) next to
+/// `path`.
+pub fn save_landmarks(
+    model: &Model,
+    vertices: &[[f64; 3]],
+    path: &Path,
+) -> Result<(), ModelIoError> {
+    let mut m = serde_json::Map::new();
+    for (name, i) in &model.landmarks {
+        m.insert(name.clone(), serde_json::json!(vertices[*i as usize]));
+    }
+    let text = serde_json::to_string_pretty(&serde_json::Value::Object(m)).unwrap_or_default();
+    write_atomic(&landmarks_path(path), text.as_bytes())?;
+    Ok(())
+}
+
+/// Saves `model`'s topology with the given vertex positions (e.g. deformed), with
+/// recomputed normals; the format follows the extension (`.obj`, `.ply`, `.xyz`).
+pub fn save_model(model: &Model, vertices: &[[f64; 3]], path: &Path) -> Result<(), ModelIoError> {
+    use std::fmt::Write as _;
+    let normals = vertex_normals(vertices, &model.triangles);
+    let bytes = match ext(path).as_deref() {
+        Some("obj") => {
+            let mut s = String::with_capacity(vertices.len() * 80 + model.triangles.len() * 30);
+            s.push_str("# written by trimorph\n");
+            for v in vertices {
+                let _ = writeln!(s, "v {} {} {}", v[0], v[1], v[2]);
+            }
+            if !model.triangles.is_empty() {
+                for n in &normals {
+                    let _ = writeln!(s, "vn {:.6} {:.6} {:.6}", n[0], n[1], n[2]);
+                }
+            }
+            for t in &model.triangles {
+                let [a, b, c] = t.map(|i| i + 1);
+                let _ = writeln!(s, "f {a}//{a} {b}//{b} {c}//{c}");
+            }
+            s.into_bytes()
+        }
+        Some("ply") => {
+            let mut out = format!(
+                "ply\nformat binary_little_endian 1.0\ncomment written by trimorph\nelement vertex {}\nproperty double x\nproperty double y\nproperty double z\nproperty float nx\nproperty float ny\nproperty float nz\nelement face {}\nproperty list uchar uint vertex_indices\nend_header\n",
+                vertices.len(),
+                model.triangles.len()
+            )
+            .into_bytes();
+            for (v, n) in vertices.iter().zip(&normals) {
+                for c in v {
+                    out.extend_from_slice(&c.to_le_bytes());
+                }
+                for c in n {
+                    out.extend_from_slice(&(*c as f32).to_le_bytes());
+                }
+            }
+            for t in &model.triangles {
+                out.push(3);
+                for i in t {
+                    out.extend_from_slice(&i.to_le_bytes());
+                }
+            }
+            out
+        }
+        Some("xyz") => {
+            let mut s = String::new();
+            for v in vertices {
+                let _ = writeln!(s, "{} {} {}", v[0], v[1], v[2]);
+            }
+            s.into_bytes()
+        }
+        _ => return Err(ModelIoError::Extension(path.to_path_buf())),
+    };
+    write_atomic(path, &bytes)?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::prism::organism::{worm, WormOptions};
+
+    #[test]
+    fn models_round_trip_through_obj_ply_and_xyz_with_landmarks() {
+        let dir = tempfile::tempdir().unwrap();
+        let w = worm(&WormOptions { rings: 12, around: 8, ..Default::default() });
+        for name in ["w.obj", "w.ply"] {
+            let p = dir.path().join(name);
+            save_model(&w, &w.vertices, &p).unwrap();
+            save_landmarks(&w, &w.vertices, &p).unwrap();
+            let back = load_model(&p).unwrap();
+            assert_eq!(back.triangles.len(), w.triangles.len(), "{name}");
+            assert_eq!(back.vertices.len(), w.vertices.len(), "{name}");
+            // Vertex order and positions are kept exactly (landmarks depend on them).
+            assert_eq!(back.vertices, w.vertices, "{name}");
+            assert_eq!(back.triangles, w.triangles, "{name}");
+            // Same surface: every triangle's corners match some triangle of the original.
+            let key = |m: &Model, t: &[u32; 3]| {
+                let mut c: Vec<[i64; 3]> = t
+                    .iter()
+                    .map(|&i| m.vertices[i as usize].map(|x| (x * 1e6).round() as i64))
+                    .collect();
+                c.sort();
+                c
+            };
+            let mut a: Vec<_> = w.triangles.iter().map(|t| key(&w, t)).collect();
+            let mut b: Vec<_> = back.triangles.iter().map(|t| key(&back, t)).collect();
+            a.sort();
+            b.sort();
+            assert_eq!(a, b, "{name}");
+            let mut la = back.landmarks.clone();
+            la.sort();
+            for (n, i) in &la {
+                let orig = w.landmarks.iter().find(|(m, _)| m == n).unwrap().1;
+                assert_eq!(back.vertices[*i as usize], w.vertices[orig as usize], "{name} {n}");
+            }
+        }
+        let p = dir.path().join("c.xyz");
+        save_model(&Model { vertices: w.vertices.clone(), ..Default::default() }, &w.vertices, &p)
+            .unwrap();
+        assert_eq!(load_model(&p).unwrap().vertices, w.vertices);
+    }
+
+    #[test]
+    fn malformed_models_name_the_problem() {
+        let dir = tempfile::tempdir().unwrap();
+        for (name, text, want) in [
+            ("a.obj", "v 0 0 0\nv 1 x 0\n", "line 2"),
+            ("b.obj", "v 0 0 nan\n", "finite"),
+            ("c.xyz", "1 2 3\n4 5\n", "line 2"),
+            ("d.obj", "", "no vertices"),
+            ("e.stl", "solid", "unknown model format"),
+        ] {
+            let p = dir.path().join(name);
+            std::fs::write(&p, text).unwrap();
+            let e = load_model(&p).unwrap_err().to_string();
+            assert!(e.contains(want), "{name}: {e}");
+        }
+    }
+}

@@ -1,0 +1,107 @@
+//! 2.5D from outside: `trimorph model bind / worm`, `edit` in z modes, `warp --model`.
+
+mod common;
+use common::*;
+use std::path::Path;
+
+fn read_obj_vertices(p: &Path) -> Vec<[f64; 3]> {
+    std::fs::read_to_string(p)
+        .unwrap()
+        .lines()
+        .filter_map(|l| l.strip_prefix("v "))
+        .map(|l| {
+            let v: Vec<f64> = l.split_whitespace().map(|x| x.parse().unwrap()).collect();
+            [v[0], v[1], v[2]]
+        })
+        .collect()
+}
+
+#[test]
+fn bind_edit_and_warp_a_model_through_the_cli() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    ok(&trimorph(&["model", "worm", "-o", s(d)]));
+    let (worm, prisms) = (d.join("worm.obj"), d.join("worm_prisms.obj"));
+    assert!(d.join("worm.landmarks.json").exists());
+    let scene = d.join("scene.json");
+    let o =
+        trimorph(&["model", "bind", "--model", s(&worm), "--mesh", s(&prisms), "-o", s(&scene)]);
+    ok(&o);
+    assert!(String::from_utf8_lossy(&o.stdout).contains("0 outside"));
+    let text = std::fs::read_to_string(&scene).unwrap();
+    assert!(text.contains("\"z_range\"") && text.contains("\"z0\"") && text.contains("\"z1\""));
+
+    // The identity leaves every vertex in place.
+    let same = d.join("same.obj");
+    ok(&trimorph(&["warp", s(&scene), "--model", s(&worm), "-o", s(&same)]));
+    let (v0, v1) = (read_obj_vertices(&worm), read_obj_vertices(&same));
+    assert_eq!(v0.len(), v1.len());
+    for (a, b) in v0.iter().zip(&v1) {
+        for k in 0..3 {
+            assert!((a[k] - b[k]).abs() < 1e-9 * (1.0 + a[k].abs()), "{a:?} vs {b:?}");
+        }
+    }
+
+    // A z1 edit: only z moves; then an xy edit: z stays.
+    let script = d.join("z.json");
+    std::fs::write(
+        &script,
+        r#"[{"anchors": {"near": [[500, 0]]}, "mode": "z1", "op": "translate", "by": [40]}]"#,
+    )
+    .unwrap();
+    let zed = d.join("z_edit.json");
+    ok(&trimorph(&["edit", s(&scene), "--script", s(&script), "-o", s(&zed)]));
+    let zout = d.join("z.obj");
+    ok(&trimorph(&["warp", s(&zed), "--model", s(&worm), "-o", s(&zout)]));
+    let vz = read_obj_vertices(&zout);
+    let mut moved = 0;
+    for (a, b) in v1.iter().zip(&vz) {
+        assert_eq!((a[0], a[1]), (b[0], b[1]), "a z edit moved x or y");
+        moved += ((a[2] - b[2]).abs() > 1e-6) as usize;
+    }
+    assert!(moved > 100, "{moved}");
+    let script = d.join("xy.json");
+    std::fs::write(
+        &script,
+        r#"[{"anchors": {"near": [[250, 100]]}, "op": "translate", "by": [0, -40]}]"#,
+    )
+    .unwrap();
+    let xyed = d.join("xy_edit.json");
+    ok(&trimorph(&["edit", s(&zed), "--script", s(&script), "-o", s(&xyed)]));
+    let xyout = d.join("xy.ply");
+    ok(&trimorph(&["warp", s(&xyed), "--model", s(&worm), "-o", s(&xyout)]));
+    let back = trimorph::io::model::load_model(&xyout).unwrap();
+    assert_eq!(back.triangles.len(), 20_000);
+    for (a, b) in vz.iter().zip(&back.vertices) {
+        assert!((a[2] - b[2]).abs() < 1e-9, "an xy edit moved z");
+    }
+    // The deformed landmarks are written beside the output.
+    assert!(d.join("xy.landmarks.json").exists());
+    // The edited scene still has exact C1 (check exits 0).
+    ok(&trimorph(&["check", s(&xyed)]));
+}
+
+#[test]
+fn bad_model_inputs_exit_1() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let bad = d.join("bad.obj");
+    std::fs::write(&bad, "v 0 0 0\nv 1 nan 0\n").unwrap();
+    let out = d.join("o.json");
+    for args in [
+        vec!["model", "bind", "--model", s(&bad), "--auto", "-o", s(&out)],
+        vec!["model", "bind", "--model", s(&bad), "-o", s(&out)],
+    ] {
+        let r = trimorph(&args);
+        assert_eq!(r.status.code(), Some(1), "{args:?}");
+        assert!(!out.exists());
+    }
+    // A plain 2D deformation has no z layers: warp --model says so.
+    let id = d.join("id.json");
+    ok(&trimorph(&["mesh", "--grid", "2x2", "--size", "10,10", "-o", s(&id)]));
+    let good = d.join("p.xyz");
+    std::fs::write(&good, "1 1 0\n2 2 0\n").unwrap();
+    let r = trimorph(&["warp", s(&id), "--model", s(&good), "-o", s(&d.join("o.xyz"))]);
+    assert_eq!(r.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&r.stderr).contains("no z layers"));
+}
