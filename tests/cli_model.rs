@@ -105,3 +105,26 @@ fn bad_model_inputs_exit_1() {
     assert_eq!(r.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&r.stderr).contains("no z layers"));
 }
+
+#[test]
+fn the_bundled_real_models_bind_and_warp() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/models");
+    for (name, out) in [("bunny.obj", "b.obj"), ("ant.ply", "a.ply")] {
+        let m = data.join(name);
+        let scene = dir.path().join(format!("{name}.json"));
+        let o = trimorph(&["model", "bind", "--model", s(&m), "--auto", "-o", s(&scene)]);
+        ok(&o);
+        assert!(String::from_utf8_lossy(&o.stdout).contains("0 outside"), "{name}");
+        let moved = dir.path().join(out);
+        ok(&trimorph(&["warp", s(&scene), "--model", s(&m), "-o", s(&moved)]));
+        let (a, b) = (
+            trimorph::io::model::load_model(&m).unwrap(),
+            trimorph::io::model::load_model(&moved).unwrap(),
+        );
+        assert_eq!(a.triangles, b.triangles, "{name}: same topology");
+        for (p, q) in a.vertices.iter().zip(&b.vertices) {
+            assert!((0..3).all(|k| (p[k] - q[k]).abs() < 1e-6 * (1.0 + p[k].abs())), "{name}");
+        }
+    }
+}
