@@ -41,7 +41,7 @@ pub const MAX_SIZE: u32 = 16384;
 /// Fraction of the output size left empty on each side when fitting (no background).
 const MARGIN: f64 = 0.05;
 
-type Rgba = [u8; 4];
+pub(super) type Rgba = [u8; 4];
 const MESH: Rgba = [25, 25, 25, 255];
 const HALO: Rgba = [255, 255, 255, 120];
 const REFERENCE: Rgba = [150, 170, 215, 255];
@@ -158,6 +158,13 @@ pub enum RenderError {
     /// PNG encoding failed.
     #[error("PNG encoding failed: {0}")]
     Encode(String),
+    /// A view name given to [`crate::render::model::View`]'s `from_str` is unknown.
+    #[error("unknown view '{0}'; choose top or oblique")]
+    UnknownView(String),
+    /// The model, its deformed positions or the deformation cannot be drawn together (for
+    /// example a length mismatch, or an oblique view of a deformation without z layers).
+    #[error("cannot draw the model: {0}")]
+    Model(String),
 }
 
 /// Reads a PNG, JPEG or TIFF image (8- or 16-bit gray, gray + alpha, RGB or RGBA; 16-bit
@@ -202,15 +209,10 @@ pub fn render(
     let points: Vec<[f64; 2]> = (0..spline.num_points()).map(|i| spline.point_f64(i)).collect();
 
     let (mut pm, view) = match background {
-        Some(bg) => (bg.clone(), View { scale: 1.0, ox: 0.5, oy: 0.5 }),
+        Some(bg) => (bg.clone(), View::PIXELS),
         None => {
             let (width, height) = (opts.width, opts.height);
-            let sizes = MIN_SIZE..=MAX_SIZE;
-            if !sizes.contains(&width) || !sizes.contains(&height) {
-                return Err(RenderError::Size { width, height });
-            }
-            let mut pm = Pixmap::new(width, height).ok_or(RenderError::Size { width, height })?;
-            pm.fill(Color::WHITE);
+            let pm = blank(width, height)?;
             let reference = mesh.vertices().iter().filter(|_| opts.show_reference);
             let all = curves.iter().flat_map(|c| &c.0).chain(&points).chain(reference);
             (pm, View::fit(all.copied(), width, height))
@@ -284,6 +286,18 @@ pub fn render(
     Ok(pm)
 }
 
+/// A white `width x height` canvas; [`RenderError::Size`] unless both are in
+/// [`MIN_SIZE`]..=[`MAX_SIZE`].
+pub(super) fn blank(width: u32, height: u32) -> Result<Pixmap, RenderError> {
+    let sizes = MIN_SIZE..=MAX_SIZE;
+    if !sizes.contains(&width) || !sizes.contains(&height) {
+        return Err(RenderError::Size { width, height });
+    }
+    let mut pm = Pixmap::new(width, height).ok_or(RenderError::Size { width, height })?;
+    pm.fill(Color::WHITE);
+    Ok(pm)
+}
+
 /// Writes `pixmap` as a PNG file at `path`: encoded, written and synced to a uniquely named
 /// temporary file in the same directory, then renamed over `path`, so `path` never holds a
 /// half-written file. On failure the temporary file is removed.
@@ -311,7 +325,7 @@ pub fn save_png(pixmap: &Pixmap, path: &Path) -> Result<(), RenderError> {
 
 /// phi along mesh edge `e` at `n + 1` equally spaced parameters, evaluated exactly on the
 /// patch of one of its triangles.
-fn edge_curve(spline: &Spline, e: usize, n: usize) -> Vec<[f64; 2]> {
+pub(super) fn edge_curve(spline: &Spline, e: usize, n: usize) -> Vec<[f64; 2]> {
     let mesh = spline.mesh();
     let edge = mesh.edges()[e];
     let t = edge.tris[0].or(edge.tris[1]).expect("an edge has a triangle");
@@ -332,15 +346,18 @@ fn edge_curve(spline: &Spline, e: usize, n: usize) -> Vec<[f64; 2]> {
 
 /// Mesh coordinates to canvas coordinates: `(ox + scale x, oy + scale y)`.
 #[derive(Clone, Copy, Debug, PartialEq)]
-struct View {
+pub(super) struct View {
     scale: f64,
     ox: f64,
     oy: f64,
 }
 
 impl View {
+    /// Background-image coordinates: mesh point `(x, y)` at the centre of pixel `(x, y)`.
+    pub(super) const PIXELS: View = View { scale: 1.0, ox: 0.5, oy: 0.5 };
+
     /// Fits the finite `points` into `width x height` with [`MARGIN`], centred.
-    fn fit(points: impl Iterator<Item = [f64; 2]>, width: u32, height: u32) -> View {
+    pub(super) fn fit(points: impl Iterator<Item = [f64; 2]>, width: u32, height: u32) -> View {
         let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
         for p in points.filter(|p| p[0].is_finite() && p[1].is_finite()) {
             for a in 0..2 {
@@ -366,7 +383,7 @@ impl View {
     }
 
     /// Canvas position of mesh point `p` (clamped far off-canvas), `None` if not finite.
-    fn map(&self, p: [f64; 2]) -> Option<(f32, f32)> {
+    pub(super) fn map(&self, p: [f64; 2]) -> Option<(f32, f32)> {
         let (x, y) = (self.ox + self.scale * p[0], self.oy + self.scale * p[1]);
         let ok = x.is_finite() && y.is_finite();
         ok.then(|| (x.clamp(-1e7, 1e7) as f32, y.clamp(-1e7, 1e7) as f32))
@@ -374,7 +391,7 @@ impl View {
 }
 
 /// Appends the polyline through `pts` (broken at non-finite points) to `pb`.
-fn polyline(pb: &mut PathBuilder, view: &View, pts: &[[f64; 2]]) {
+pub(super) fn polyline(pb: &mut PathBuilder, view: &View, pts: &[[f64; 2]]) {
     let mut open = false;
     for p in pts {
         let m = view.map(*p);
@@ -387,7 +404,7 @@ fn polyline(pb: &mut PathBuilder, view: &View, pts: &[[f64; 2]]) {
     }
 }
 
-fn paint(rgba: Rgba) -> Paint<'static> {
+pub(super) fn paint(rgba: Rgba) -> Paint<'static> {
     let mut p = Paint::default();
     p.set_color_rgba8(rgba[0], rgba[1], rgba[2], rgba[3]);
     p.anti_alias = true;
@@ -395,7 +412,7 @@ fn paint(rgba: Rgba) -> Paint<'static> {
 }
 
 /// Strokes `pb` anti-aliased with round caps and joins.
-fn stroke(pm: &mut Pixmap, pb: PathBuilder, rgba: Rgba, width: f32) {
+pub(super) fn stroke(pm: &mut Pixmap, pb: PathBuilder, rgba: Rgba, width: f32) {
     let Some(path) = pb.finish() else { return };
     let stroke =
         Stroke { width, line_cap: LineCap::Round, line_join: LineJoin::Round, ..Stroke::default() };
@@ -410,7 +427,7 @@ fn fill(pm: &mut Pixmap, pb: PathBuilder, rgba: Rgba) {
 
 /// Fills anti-aliased discs of radius `r` around the canvas points `centres` (coverage from
 /// the distance of each pixel centre; much faster than a path for many tiny dots).
-fn dots(pm: &mut Pixmap, centres: &[(f32, f32)], r: f32, rgba: Rgba) {
+pub(super) fn dots(pm: &mut Pixmap, centres: &[(f32, f32)], r: f32, rgba: Rgba) {
     let (w, h) = (pm.width() as i64, pm.height() as i64);
     let alpha = f32::from(rgba[3]) / 255.0;
     let pixels = pm.pixels_mut();
@@ -442,7 +459,7 @@ fn dots(pm: &mut Pixmap, centres: &[(f32, f32)], r: f32, rgba: Rgba) {
 
 /// How a legend entry is pictured.
 #[derive(Clone, Copy, Debug)]
-enum Swatch {
+pub(super) enum Swatch {
     Line(Rgba, f32),
     Fill(Rgba),
     Dot(Rgba, f32),
@@ -450,7 +467,7 @@ enum Swatch {
 }
 
 /// Draws the legend in the image corner covering the fewest `samples` (canvas points).
-fn draw_legend(pm: &mut Pixmap, entries: &[(String, Swatch)], samples: &[(f32, f32)]) {
+pub(super) fn draw_legend(pm: &mut Pixmap, entries: &[(String, Swatch)], samples: &[(f32, f32)]) {
     let (w, h) = (pm.width() as i32, pm.height() as i32);
     let scale = (w.min(h) / 500).clamp(1, 4) as u32;
     let s = scale as i32;

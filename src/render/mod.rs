@@ -2,4 +2,5 @@
 pub mod colormesh;
 pub mod deformation;
 pub mod font;
+pub mod model;
 pub mod plot;
