@@ -128,3 +128,46 @@ fn the_bundled_real_models_bind_and_warp() {
         }
     }
 }
+
+#[test]
+fn render_a_model_from_the_top_and_obliquely() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/models");
+    let (worm, prisms) = (data.join("worm.obj"), data.join("worm_prisms.obj"));
+    let scene = d.join("scene.json");
+    ok(&trimorph(&["model", "bind", "--model", s(&worm), "--mesh", s(&prisms), "-o", s(&scene)]));
+    for view in ["top", "oblique"] {
+        let png = d.join(format!("{view}.png"));
+        ok(&trimorph(&[
+            "render",
+            s(&scene),
+            "--model",
+            s(&worm),
+            "--view",
+            view,
+            "--size",
+            "400,300",
+            "-o",
+            s(&png),
+        ]));
+        let img = image::open(&png).unwrap().to_rgba8();
+        assert_eq!(img.dimensions(), (400, 300));
+        // Something other than the white page is drawn near the centre.
+        let c = img.get_pixel(200, 150).0;
+        let drawn = (150..250).any(|x| img.get_pixel(x, 150).0 != [255, 255, 255, 255]);
+        assert!(drawn, "{view}: {c:?}");
+    }
+    let bad = trimorph(&[
+        "render",
+        s(&scene),
+        "--model",
+        s(&worm),
+        "--view",
+        "side",
+        "-o",
+        s(&d.join("x.png")),
+    ]);
+    assert_eq!(bad.status.code(), Some(1));
+    assert!(!d.join("x.png").exists());
+}

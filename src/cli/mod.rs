@@ -116,6 +116,13 @@ enum Command {
         /// Output size without a background, e.g. 800,600.
         #[arg(long, default_value = "800,600")]
         size: String,
+        /// A 3D model (OBJ, PLY, XYZ) to draw through a 2.5D deformation.
+        #[arg(long)]
+        model: Option<PathBuf>,
+        /// With --model: `top` (the xy projection, mesh and points) or `oblique` (both z
+        /// surfaces, the walls and the model, depth-sorted).
+        #[arg(long, default_value = "top")]
+        view: String,
     },
     /// Move an image or points through a deformation. Images: O(q) = I(phi^-1(q)), same
     /// size, type and bit depth. Points: forward p -> phi(p), or --inverse q -> phi^-1(q).
@@ -294,7 +301,10 @@ pub fn run() -> i32 {
             spline_cmds::edit(&deformation, &script, &output, bounded)
         }
         Command::Check { deformation, samples } => spline_cmds::check(&deformation, samples),
-        Command::Render { deformation, output, background, show, size } => {
+        Command::Render { deformation, output, background, size, model: Some(m), view, .. } => {
+            model_cmd::render_model(&deformation, &m, &output, background.as_deref(), &view, &size)
+        }
+        Command::Render { deformation, output, background, show, size, model: None, .. } => {
             spline_cmds::render(&deformation, &output, background.as_deref(), &show, &size)
         }
         Command::Model(ModelCommand::Bind {

@@ -176,3 +176,37 @@ pub fn worm_cmd(dir: &Path) -> Result<()> {
     );
     Ok(())
 }
+
+/// `trimorph render DEF --model M --view top|oblique -o OUT.png [--background IMG]`.
+pub fn render_model(
+    def: &Path,
+    model_path: &Path,
+    output: &Path,
+    background: Option<&Path>,
+    view: &str,
+    size: &str,
+) -> Result<()> {
+    use crate::render::deformation as rd;
+    use crate::render::model::{render_model as draw, ModelRenderOptions, View};
+    let (s, _) = deformation::from_str(&read_text(def)?)
+        .with_context(|| format!("cannot read deformation {}", def.display()))?;
+    let model = load_model(model_path)
+        .with_context(|| format!("cannot load model {}", model_path.display()))?;
+    let view: View = view.parse()?;
+    let (w, h) = size
+        .split_once(',')
+        .and_then(|(w, h)| Some((w.trim().parse::<u32>().ok()?, h.trim().parse::<u32>().ok()?)))
+        .filter(|&(w, h)| (16..=16384).contains(&w) && (16..=16384).contains(&h))
+        .ok_or_else(|| anyhow!("--size: expected W,H, whole numbers from 16 to 16384"))?;
+    let b = bind(&model, &s)?;
+    let moved = deform(&model, &b, &s);
+    let bg = background.map(rd::load_background).transpose()?;
+    let opts = ModelRenderOptions { width: w, height: h, view, ..Default::default() };
+    let pm = draw(&s, &model, &moved, bg.as_ref(), &opts)?;
+    rd::save_png(&pm, output)?;
+    writeln!(std::io::stdout(), "{}x{} -> {}", pm.width(), pm.height(), output.display())?;
+    if !b.outside.is_empty() {
+        warn_outside(&b.outside);
+    }
+    Ok(())
+}
