@@ -3,7 +3,10 @@
 //! 1. ECLES on the bundled constraint problems (`examples/*.json`).
 //! 2. 2DSD on the bundled microscope image `data/microscopy/cell.png`: a 6x6-cell reference
 //!    grid over the image, three local edits (translate, rotate, scale), an exact C1 check,
-//!    before/after pictures over the image, and the image warped through the deformation.
+//!    before/after pictures over the image, and the image warped through the deformation
+//!    (as an image and as a colored triangle mesh).
+//! 3. 2.5D on the generated worm model: a 16-prism layer, a z1 edit and an xy edit, the
+//!    model moved through psi, and the top and oblique views.
 
 use super::solve::{compact_pretty, solve_text, PARALLELOGRAM, PUMP, THESIS};
 use super::spline_cmds;
@@ -163,5 +166,45 @@ pub fn run(dir: &Path) -> Result<()> {
         cmesh.display(),
         warped_mesh.display()
     )?;
+    drop(o);
+    let models = dir.join("models");
+    println!("\n== 3. 2.5D: the worm model in a layer of prisms (thesis Part III)\n");
+    super::model_cmd::worm_cmd(&models)?;
+    let (worm, prisms) = (models.join("worm.obj"), models.join("worm_prisms.obj"));
+    let scene = models.join("scene.json");
+    super::model_cmd::bind_cmd(super::model_cmd::BindArgs {
+        model: &worm,
+        mesh: Some(&prisms),
+        auto: false,
+        grid: "4x2",
+        margin: 0.05,
+        range: None,
+        degree: 5,
+        output: &scene,
+    })?;
+    let zscript = models.join("edits.json");
+    let edits = json!([
+        {"anchors": {"near": [[500, 0]]}, "mode": "z1", "op": "translate", "by": [120], "neighborhood": 2},
+        {"anchors": {"near": [[250, 100]]}, "mode": "xy", "op": "translate", "by": [40, -30], "neighborhood": 2}
+    ]);
+    write_atomic(&zscript, serde_json::to_string_pretty(&edits)?.as_bytes())?;
+    let zedited = models.join("edited.json");
+    spline_cmds::edit(&scene, &zscript, &zedited, Some(24))?;
+    let moved = models.join("worm_moved.obj");
+    super::model_cmd::warp_model(&zedited, &worm, &moved)?;
+    for view in ["top", "oblique"] {
+        let png = models.join(format!("view_{view}.png"));
+        super::model_cmd::render_model(&zedited, &worm, &png, None, view, "800,600")?;
+    }
+    println!(
+        "\nthe same from the command line:\n  trimorph model worm -o {d}\n  trimorph model bind --model {w} --mesh {p} -o {sc}\n  trimorph edit {sc} --script {e} -o {ed}\n  trimorph warp {ed} --model {w} -o {m}\n  trimorph render {ed} --model {w} --view oblique -o {d}/view_oblique.png",
+        d = models.display(),
+        w = worm.display(),
+        p = prisms.display(),
+        sc = scene.display(),
+        e = zscript.display(),
+        ed = zedited.display(),
+        m = moved.display()
+    );
     Ok(())
 }
