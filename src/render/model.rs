@@ -722,22 +722,4 @@ mod tests {
         let small = render_model(&s, &m, &m.vertices, None, &o);
         assert!(matches!(small, Err(RenderError::Size { .. })));
     }
-
-    /// Writes docs/img/model_top.png and model_oblique.png (the worm after a z1 and an xy
-    /// edit) and prints the render times: `cargo test --lib render::model -- --ignored`.
-    #[test]
-    #[ignore]
-    fn example_pictures() {
-        let (m, s) = scene([0.0, 0.0]);
-        let s = edited(&edited(&s, Mode::Z1, &[120]), Mode::Xy, &[40, -30]);
-        let deformed = deform(&m, &bind(&m, &s).unwrap(), &s);
-        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/img");
-        for (view, name) in [(View::Top, "model_top.png"), (View::Oblique, "model_oblique.png")] {
-            let o = ModelRenderOptions { view, ..Default::default() };
-            let start = std::time::Instant::now();
-            let pm = render_model(&s, &m, &deformed, None, &o).unwrap();
-            println!("{view:?}: {:.1} ms", start.elapsed().as_secs_f64() * 1e3);
-            super::super::deformation::save_png(&pm, &dir.join(name)).unwrap();
-        }
-    }
 }

@@ -76,24 +76,9 @@ pub enum WarpError {
     },
 }
 
-/// What happened while warping an image.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct WarpReport {
-    /// Output pixels.
-    pub pixels: usize,
-    /// Pixels whose preimage is outside the mesh (or not found within the tolerance).
-    pub outside: usize,
-    /// Largest error bound of an accepted preimage (pixels).
-    pub max_error_bound: f64,
-    /// Newton solves done (coarse nodes and split cells; see [`remap`]).
-    pub newton_solves: usize,
-    /// Pixels whose preimage was interpolated under a proven bound (see [`remap`]).
-    pub interpolated: usize,
-    /// Pixels drawn from pieces where `phi` folds (see [`remap`]).
-    pub folded: usize,
-    /// Output box `[x0, y0, x1, y1]` (inclusive) of those pixels.
-    pub fold_box: Option<[u32; 4]>,
-}
+/// What happened while warping an image: the statistics of its preimages
+/// ([`RemapStats`]: pixels, outside, largest error bound, Newton solves, folds).
+pub type WarpReport = RemapStats;
 
 /// `phi(p)` for each point (`None` outside the mesh).
 pub fn forward(s: &Spline, pts: &[[f64; 2]]) -> Vec<Option<[f64; 2]>> {
@@ -306,16 +291,7 @@ pub fn warp_pages(
             a
         });
     let out = pages.iter().zip(bufs).map(|(p, b)| rebuild(p, b)).collect();
-    let report = WarpReport {
-        pixels: w as usize * h as usize,
-        outside: stats.outside,
-        max_error_bound: stats.max_error_bound,
-        newton_solves: stats.newton_solves,
-        interpolated: stats.interpolated,
-        folded: stats.folded,
-        fold_box: stats.fold_box,
-    };
-    Ok((out, report))
+    Ok((out, stats))
 }
 
 /// Warps an image: `O(q) = I(phi^-1(q))`, same size and type as the input.

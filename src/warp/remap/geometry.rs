@@ -1,0 +1,225 @@
+//! Geometry for the certified inverse: local bounds on `D^2 phi` over the reference domain,
+//! border tests, and small triangle helpers (see the parent module for the bound).
+
+use crate::spline::Spline;
+use rayon::prelude::*;
+
+/// A box of the reference domain `(lo, hi)` and a bound on `|D^2 phi|` in it.
+pub(super) type BoxBound = ([f64; 2], [f64; 2], f64);
+
+/// Local bounds on `D^2 phi` and border flags in a grid of buckets over the reference domain.
+pub(super) struct CurvatureGrid {
+    lo: [f64; 2],
+    cell: f64,
+    nx: usize,
+    ny: usize,
+    m2: Vec<f64>,
+    /// Per bucket, the border edges whose bounding boxes overlap it.
+    border: Vec<Vec<u32>>,
+    /// Border edge segments.
+    segs: Vec<[[f64; 2]; 2]>,
+    /// The mesh is not convex: a square with its corners inside may still leave it.
+    pub(super) concave: bool,
+}
+
+impl CurvatureGrid {
+    pub(super) fn new(s: &Spline, bucket: f64) -> CurvatureGrid {
+        let m = s.mesh();
+        let (lo, hi) = m.bbox();
+        let mut cell = bucket.max(1e-9);
+        while ((hi[0] - lo[0]) / cell) * ((hi[1] - lo[1]) / cell) > 1.0e6 {
+            cell *= 2.0;
+        }
+        let nx = ((hi[0] - lo[0]) / cell) as usize + 1;
+        let ny = ((hi[1] - lo[1]) / cell) as usize + 1;
+        let mut g = CurvatureGrid {
+            lo,
+            cell,
+            nx,
+            ny,
+            m2: vec![0.0; nx * ny],
+            border: vec![Vec::new(); nx * ny],
+            segs: Vec::new(),
+            concave: !is_convex(m),
+        };
+        let cache = s.eval_cache();
+        // Per triangle, bounds on an n x n subdivision (sub-triangles about a bucket wide).
+        let per_tri: Vec<Vec<BoxBound>> = (0..m.num_triangles())
+            .into_par_iter()
+            .map(|t| {
+                let v = m.triangle(t).map(|i| m.vertex(i));
+                let (tlo, thi) = bbox(&v);
+                let n =
+                    (((thi[0] - tlo[0]).max(thi[1] - tlo[1]) / cell).ceil() as usize).clamp(1, 64);
+                cache
+                    .second_derivative_bounds_uniform(t, n)
+                    .into_iter()
+                    .map(|(sub, bound)| {
+                        let pts = sub.map(|b| {
+                            [0, 1].map(|a| b[0] * v[0][a] + b[1] * v[1][a] + b[2] * v[2][a])
+                        });
+                        let (slo, shi) = bbox(&pts);
+                        (slo, shi, bound)
+                    })
+                    .collect()
+            })
+            .collect();
+        for (slo, shi, bound) in per_tri.into_iter().flatten() {
+            g.for_buckets(slo, shi, |k, m2, _| m2[k] = m2[k].max(bound));
+        }
+        for e in m.edges().iter().filter(|e| e.tris[0].is_none() || e.tris[1].is_none()) {
+            let seg = [m.vertex(e.v[0]), m.vertex(e.v[1])];
+            let (blo, bhi) = bbox(&seg);
+            let id = g.segs.len() as u32;
+            g.segs.push(seg);
+            g.for_buckets(blo, bhi, |k, _, b| b[k].push(id));
+        }
+        g
+    }
+
+    fn range(&self, lo: f64, hi: f64, axis: usize, n: usize) -> (usize, usize) {
+        let f = |v: f64| ((v - self.lo[axis]) / self.cell).floor().clamp(0.0, (n - 1) as f64);
+        (f(lo) as usize, f(hi) as usize)
+    }
+
+    fn for_buckets(
+        &mut self,
+        lo: [f64; 2],
+        hi: [f64; 2],
+        mut f: impl FnMut(usize, &mut [f64], &mut [Vec<u32>]),
+    ) {
+        let (x0, x1) = self.range(lo[0], hi[0], 0, self.nx);
+        let (y0, y1) = self.range(lo[1], hi[1], 1, self.ny);
+        for y in y0..=y1 {
+            for x in x0..=x1 {
+                f(y * self.nx + x, &mut self.m2, &mut self.border);
+            }
+        }
+    }
+
+    /// The largest bound over the buckets overlapping the box.
+    pub(super) fn bound(&self, lo: [f64; 2], hi: [f64; 2]) -> f64 {
+        let (x0, x1) = self.range(lo[0], hi[0], 0, self.nx);
+        let (y0, y1) = self.range(lo[1], hi[1], 1, self.ny);
+        let mut m = 0.0f64;
+        for y in y0..=y1 {
+            for x in x0..=x1 {
+                m = m.max(self.m2[y * self.nx + x]);
+            }
+        }
+        m
+    }
+
+    /// Whether a border edge of the mesh meets the open box `(lo, hi)`.
+    pub(super) fn crosses_border(&self, lo: [f64; 2], hi: [f64; 2]) -> bool {
+        let (x0, x1) = self.range(lo[0], hi[0], 0, self.nx);
+        let (y0, y1) = self.range(lo[1], hi[1], 1, self.ny);
+        for y in y0..=y1 {
+            for x in x0..=x1 {
+                for &e in &self.border[y * self.nx + x] {
+                    if segment_meets_open_box(self.segs[e as usize], lo, hi) {
+                        return true;
+                    }
+                }
+            }
+        }
+        false
+    }
+}
+
+/// Whether the segment has a point strictly inside the box (Liang-Barsky clipping, then the
+/// midpoint of the clipped piece; a segment along the box's side does not count).
+pub(super) fn segment_meets_open_box(s: [[f64; 2]; 2], lo: [f64; 2], hi: [f64; 2]) -> bool {
+    let (mut t0, mut t1) = (0.0f64, 1.0f64);
+    let d = [s[1][0] - s[0][0], s[1][1] - s[0][1]];
+    for a in 0..2 {
+        if d[a] == 0.0 {
+            if s[0][a] <= lo[a] || s[0][a] >= hi[a] {
+                return false;
+            }
+        } else {
+            let (ta, tb) = ((lo[a] - s[0][a]) / d[a], (hi[a] - s[0][a]) / d[a]);
+            t0 = t0.max(ta.min(tb));
+            t1 = t1.min(ta.max(tb));
+        }
+    }
+    if t0 > t1 {
+        return false;
+    }
+    let t = (t0 + t1) / 2.0;
+    let m = [s[0][0] + t * d[0], s[0][1] + t * d[1]];
+    (0..2).all(|a| m[a] > lo[a] && m[a] < hi[a])
+}
+
+/// `|A^-1|_2` for the affine map taking triangle `p` to triangle `q`, or `None` if the
+/// image is degenerate.
+pub(super) fn affine_inverse_norm(p: [[f64; 2]; 3], q: [[f64; 2]; 3]) -> Option<f64> {
+    let (sp, sq) = (signed_area(p), signed_area(q));
+    if sp * sq == 0.0 || !(sp * sq).is_finite() {
+        return None;
+    }
+    let pe = [[p[1][0] - p[0][0], p[2][0] - p[0][0]], [p[1][1] - p[0][1], p[2][1] - p[0][1]]];
+    let qe = [[q[1][0] - q[0][0], q[2][0] - q[0][0]], [q[1][1] - q[0][1], q[2][1] - q[0][1]]];
+    let pinv = [[pe[1][1] / sp, -pe[0][1] / sp], [-pe[1][0] / sp, pe[0][0] / sp]];
+    let a = [0, 1].map(|r| [0, 1].map(|c| qe[r][0] * pinv[0][c] + qe[r][1] * pinv[1][c]));
+    let det = a[0][0] * a[1][1] - a[0][1] * a[1][0];
+    let fro2 = a[0][0].powi(2) + a[0][1].powi(2) + a[1][0].powi(2) + a[1][1].powi(2);
+    let smax = ((fro2 + ((fro2 * fro2 - 4.0 * det * det).max(0.0)).sqrt()) / 2.0).sqrt();
+    Some(smax / det.abs())
+}
+
+/// A box of the deformed plane clipped to a `w x h` output, as inclusive pixel bounds.
+pub(super) fn clip_box(lo: [f64; 2], hi: [f64; 2], w: usize, h: usize) -> [u32; 4] {
+    let c = |v: f64, n: usize| v.round().clamp(0.0, n.saturating_sub(1) as f64) as u32;
+    [c(lo[0], w), c(lo[1], h), c(hi[0], w), c(hi[1], h)]
+}
+
+pub(super) fn signed_area(v: [[f64; 2]; 3]) -> f64 {
+    (v[1][0] - v[0][0]) * (v[2][1] - v[0][1]) - (v[2][0] - v[0][0]) * (v[1][1] - v[0][1])
+}
+
+pub(super) fn bbox(v: &[[f64; 2]]) -> ([f64; 2], [f64; 2]) {
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for p in v {
+        for a in 0..2 {
+            lo[a] = lo[a].min(p[a]);
+            hi[a] = hi[a].max(p[a]);
+        }
+    }
+    (lo, hi)
+}
+
+/// Whether the mesh covers its convex hull (total triangle area equals the hull's area).
+pub(super) fn is_convex(m: &crate::mesh::Mesh) -> bool {
+    let mut pts: Vec<[f64; 2]> = m.vertices().to_vec();
+    pts.sort_by(|a, b| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])));
+    let cross = |o: [f64; 2], a: [f64; 2], b: [f64; 2]| {
+        (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+    };
+    let mut hull: Vec<[f64; 2]> = Vec::new();
+    for pass in 0..2 {
+        let start = hull.len();
+        let ordered: Vec<[f64; 2]> =
+            if pass == 0 { pts.clone() } else { pts.iter().rev().copied().collect() };
+        for p in ordered {
+            while hull.len() >= start + 2
+                && cross(hull[hull.len() - 2], hull[hull.len() - 1], p) <= 0.0
+            {
+                hull.pop();
+            }
+            hull.push(p);
+        }
+        hull.pop();
+    }
+    let hull_area: f64 = (0..hull.len())
+        .map(|i| {
+            let (a, b) = (hull[i], hull[(i + 1) % hull.len()]);
+            a[0] * b[1] - a[1] * b[0]
+        })
+        .sum::<f64>()
+        .abs()
+        / 2.0;
+    let mesh_area: f64 = (0..m.num_triangles()).map(|t| m.twice_area_int(t) as f64).sum::<f64>()
+        / (2.0 * (m.grid_denominator() as f64).powi(2));
+    (hull_area - mesh_area).abs() <= 1e-9 * hull_area.max(1e-300)
+}

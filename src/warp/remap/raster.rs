@@ -1,0 +1,106 @@
+//! Rasterizing one lattice triangle's image into a band of output rows: every covered pixel
+//! centre gets the preimage under the triangle's affine map (see the parent module).
+
+use super::geometry::bbox;
+use crate::warp::sample::fast_floor;
+
+#[inline(always)]
+fn fast_ceil(x: f64) -> f64 {
+    -fast_floor(-x)
+}
+
+/// Rasterizes the image `q` of the reference triangle `p` into the band `out` (rows
+/// `y0 ..`, `w` per row): each covered pixel centre gets `L^-1(q)`. Returns the number of
+/// pixels written.
+#[inline]
+pub(super) fn raster(
+    p: &[[f64; 2]; 3],
+    q: &[[f64; 2]; 3],
+    out: &mut [[f64; 2]],
+    y0: usize,
+    w: usize,
+    mut fold_mask: Option<(&mut [bool], bool)>,
+) -> usize {
+    let rows = out.len() / w;
+    let (e1, e2) = ([q[1][0] - q[0][0], q[1][1] - q[0][1]], [q[2][0] - q[0][0], q[2][1] - q[0][1]]);
+    let det = e1[0] * e2[1] - e2[0] * e1[1];
+    if det == 0.0 || !det.is_finite() {
+        return 0;
+    }
+    let inv = [[e2[1] / det, -e2[0] / det], [-e1[1] / det, e1[0] / det]];
+    let (lo, hi) = bbox(q);
+    let ya = fast_ceil(lo[1] - 1e-7).max(y0 as f64) as usize;
+    let yb = (fast_floor(hi[1] + 1e-7) as isize).min((y0 + rows) as isize - 1);
+    let xa = fast_ceil(lo[0] - 1e-7).max(0.0) as usize;
+    let xb = (fast_floor(hi[0] + 1e-7) as isize).min(w as isize - 1);
+    if yb < ya as isize || xb < xa as isize {
+        return 0;
+    }
+    let (pe1, pe2) =
+        ([p[1][0] - p[0][0], p[1][1] - p[0][1]], [p[2][0] - p[0][0], p[2][1] - p[0][1]]);
+    // lambda_k(x, y) = c_k + bx_k x + by_k y (lambda_0 = 1 - lambda_1 - lambda_2). Where
+    // bx_k != 0, lambda_k >= -eps is the half-line x >= or <= alpha_k + beta_k y, so a row's
+    // span costs a few multiply-adds; p(x, y) is affine too.
+    let eps = 1e-9;
+    let c1 = -inv[0][0] * q[0][0] - inv[0][1] * q[0][1];
+    let c2 = -inv[1][0] * q[0][0] - inv[1][1] * q[0][1];
+    let c = [1.0 - c1 - c2, c1, c2];
+    let bx = [-inv[0][0] - inv[1][0], inv[0][0], inv[1][0]];
+    let by = [-inv[0][1] - inv[1][1], inv[0][1], inv[1][1]];
+    let (mut lower, mut upper, mut flat) = ([[0.0f64; 2]; 3], [[0.0f64; 2]; 3], [[0.0f64; 2]; 3]);
+    let (mut nl, mut nu, mut nf) = (0, 0, 0);
+    for k in 0..3 {
+        if bx[k] == 0.0 {
+            flat[nf] = [c[k], by[k]];
+            nf += 1;
+        } else {
+            let line = [(-eps - c[k]) / bx[k], -by[k] / bx[k]];
+            if bx[k] > 0.0 {
+                lower[nl] = line;
+                nl += 1;
+            } else {
+                upper[nu] = line;
+                nu += 1;
+            }
+        }
+    }
+    // p = p0 + lambda_1 pe1 + lambda_2 pe2 = pc + px x + py y.
+    let px = [bx[1] * pe1[0] + bx[2] * pe2[0], bx[1] * pe1[1] + bx[2] * pe2[1]];
+    let py = [by[1] * pe1[0] + by[2] * pe2[0], by[1] * pe1[1] + by[2] * pe2[1]];
+    let pc = [p[0][0] + c[1] * pe1[0] + c[2] * pe2[0], p[0][1] + c[1] * pe1[1] + c[2] * pe2[1]];
+    let mut written = 0;
+    for y in ya..=yb as usize {
+        let yf = y as f64;
+        if flat[..nf].iter().any(|f| f[0] + f[1] * yf < -eps) {
+            continue;
+        }
+        let mut lo_x = xa as f64;
+        for l in &lower[..nl] {
+            lo_x = lo_x.max(l[0] + l[1] * yf);
+        }
+        let mut hi_x = xb as f64;
+        for u in &upper[..nu] {
+            hi_x = hi_x.min(u[0] + u[1] * yf);
+        }
+        if hi_x < lo_x {
+            continue;
+        }
+        let (x0, x1) = (fast_ceil(lo_x), fast_floor(hi_x));
+        if x1 < x0 {
+            continue;
+        }
+        let (x0, x1) = (x0 as usize, x1 as usize);
+        let row = &mut out[(y - y0) * w..(y - y0 + 1) * w];
+        let start =
+            [pc[0] + py[0] * yf + px[0] * x0 as f64, pc[1] + py[1] * yf + px[1] * x0 as f64];
+        for (k, o) in row[x0..=x1].iter_mut().enumerate() {
+            let kf = k as f64;
+            *o = [start[0] + kf * px[0], start[1] + kf * px[1]];
+        }
+        written += x1 + 1 - x0;
+        if let Some((mask, folded)) = fold_mask.as_mut() {
+            mask[(y - y0) * w + x0..=(y - y0) * w + x1].fill(*folded);
+        }
+    }
+    written
+}
