@@ -11,7 +11,7 @@ pub mod spline_cmds;
 mod warp_cmd;
 
 use clap::{Parser, Subcommand};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// Exit code for bad input and I/O errors.
 pub const EXIT_INPUT: i32 = 1;
@@ -342,35 +342,12 @@ pub fn run() -> i32 {
             interp,
             background,
             tolerance,
-        } if model.is_some() => {
-            if image.is_some() || points.is_some() || mesh.is_some() {
-                Err(anyhow::anyhow!("give exactly one of --image, --points, --mesh or --model"))
-            } else {
-                let _ = (size, inverse, interp, background, tolerance);
-                model_cmd::warp_model(
-                    &deformation,
-                    model.as_deref().unwrap_or(Path::new("")),
-                    &output,
-                )
-            }
-        }
-        Command::Warp {
-            deformation,
-            image,
-            points,
-            mesh,
-            model: _,
-            output,
-            size,
-            inverse,
-            interp,
-            background,
-            tolerance,
         } => warp_cmd::run(warp_cmd::WarpArgs {
             deformation: &deformation,
             image: image.as_deref(),
             points: points.as_deref(),
             mesh: mesh.as_deref(),
+            model: model.as_deref(),
             output: &output,
             size: size.as_deref(),
             inverse,

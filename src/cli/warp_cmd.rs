@@ -31,6 +31,7 @@ pub struct WarpArgs<'a> {
     pub image: Option<&'a Path>,
     pub points: Option<&'a Path>,
     pub mesh: Option<&'a Path>,
+    pub model: Option<&'a Path>,
     pub output: &'a Path,
     pub size: Option<&'a str>,
     pub inverse: bool,
@@ -167,6 +168,12 @@ fn read_optional_points(text: &str, source: &str) -> Result<Vec<Option<[f64; 2]>
 
 /// Runs `trimorph warp`.
 pub fn run(a: WarpArgs) -> Result<()> {
+    if let Some(m) = a.model {
+        if a.image.is_some() || a.points.is_some() || a.mesh.is_some() {
+            bail!("give exactly one of --image, --points, --mesh or --model");
+        }
+        return super::model_cmd::warp_model(a.deformation, m, a.output);
+    }
     let text = read_text(a.deformation)?;
     let (s, _) = crate::io::deformation::from_str(&text)
         .with_context(|| format!("cannot read deformation {}", a.deformation.display()))?;
@@ -259,7 +266,7 @@ pub fn run(a: WarpArgs) -> Result<()> {
                 );
             }
         }
-        _ => bail!("give exactly one of --image, --points or --mesh"),
+        _ => bail!("give exactly one of --image, --points, --mesh or --model"),
     }
     Ok(())
 }
