@@ -11,6 +11,7 @@
 //! * [`mesh`], [`spline`], [`edit`]: 2DSD spline deformations and their editing -- thesis
 //!   Part II;
 //! * [`warp`]: points and images through a deformation (forward and inverse);
+//! * [`fit`]: deformations fitted to matched landmarks (argmin over ECLES);
 //! * [`render`]: pictures (plots, deformations);
 //! * [`io`]: atomic file output;
 //! * [`cli`]: the `trimorph` command line.
@@ -25,6 +26,7 @@ pub mod cli;
 pub mod ecles;
 pub mod edit;
 pub mod exact;
+pub mod fit;
 pub mod io;
 pub mod mesh;
 pub mod prism;

@@ -1,0 +1,3 @@
+//! Fitting a deformation to matched landmarks (see the submodules).
+
+pub mod landmarks;
