@@ -243,6 +243,11 @@ impl Mds {
     pub fn role(&self, p: usize) -> &Role {
         &self.roles[p]
     }
+    /// The dependent points in evaluation order (each uses only free points and dependents
+    /// earlier in this order).
+    pub fn order(&self) -> &[usize] {
+        &self.order
+    }
     /// Number of free points (the dimension of the C1 spline space when construction
     /// succeeds).
     pub fn num_free(&self) -> usize {

@@ -1,0 +1,407 @@
+//! The fitting objective and its analytic gradient.
+//!
+//! For variables `x` (see [`super::param`]) with control points `P(x)`:
+//!
+//! ```text
+//!   F(x) = sum_i w_i rho(|phi(s_i) - t_i|)                    data (pixels^2)
+//!        + lambda_bend sum_T E_T(phi)                          bending (thin-plate)
+//!        + mu sum_T |T|/n_s sum_samples beta(det J(sample))   fold barrier
+//! ```
+//!
+//! * `rho` is squares `r^2`, Huber (`r^2` up to `delta`, then `2 delta r - delta^2`) or
+//!   Cauchy (`c^2 ln(1 + r^2/c^2)`); all three have curvature 2 at `r = 0`, so the normal
+//!   matrix of the squares problem preconditions every loss.
+//! * `E_T` is the exact bending energy of each coordinate on triangle `T`
+//!   ([`super::basis::bending_matrix`]).
+//! * `beta` keeps `det J` above a floor `f`: with `u = det - f` and `U = tau - f`,
+//!   `beta = (U/u - 1)^2` for `0 < u < U`, 0 above `tau`, growing without bound towards the
+//!   floor; below `u = U/20` it continues as its second-order Taylor polynomial (so line
+//!   searches that overshoot see a finite, steep wall instead of a pole). `det J` is sampled
+//!   at the level-`k` barycentric points of each triangle (vertices, edges and interior).
+//!
+//! `phi(s_i)` is a fixed row over the control points (the source points do not move), so the
+//! data term's gradient is exact and cheap; the barrier's is `d det / d q` from the two
+//! derivative rows. Gradients are pulled back to `x` through the MDS map.
+
+use super::basis::{bending_matrix, derivative_rows, sample_points, value_row, Row};
+use super::param::Param;
+use crate::spline::Spline;
+
+/// The robust loss of the data term.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Loss {
+    /// `r^2`.
+    Squares,
+    /// Huber with threshold `delta` (pixels).
+    Huber(f64),
+    /// Cauchy (Lorentzian) with scale `c` (pixels).
+    Cauchy(f64),
+}
+
+impl Loss {
+    /// `(rho(r), rho'(r) / r)`.
+    #[inline]
+    pub fn eval(self, r: f64) -> (f64, f64) {
+        match self {
+            Loss::Squares => (r * r, 2.0),
+            Loss::Huber(d) => {
+                if r <= d {
+                    (r * r, 2.0)
+                } else {
+                    (2.0 * d * r - d * d, 2.0 * d / r)
+                }
+            }
+            Loss::Cauchy(c) => {
+                let q = 1.0 + r * r / (c * c);
+                (c * c * q.ln(), 2.0 / q)
+            }
+        }
+    }
+
+    /// The name used in reports and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Loss::Squares => "squares",
+            Loss::Huber(_) => "huber",
+            Loss::Cauchy(_) => "cauchy",
+        }
+    }
+}
+
+/// The fold barrier's parameters.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Barrier {
+    /// The floor `f` that `det J` must stay above.
+    pub floor: f64,
+    /// Where the barrier starts (`tau > f`).
+    pub tau: f64,
+    /// Its weight `mu` (per unit of reference area).
+    pub mu: f64,
+}
+
+impl Barrier {
+    /// `(beta, beta')` at `det`.
+    #[inline]
+    pub fn eval(&self, det: f64) -> (f64, f64) {
+        if det >= self.tau {
+            return (0.0, 0.0);
+        }
+        let big_u = self.tau - self.floor;
+        let ue = big_u / 20.0;
+        let at = |u: f64| {
+            let v = big_u / u - 1.0;
+            let d1 = 2.0 * v * (-big_u / (u * u));
+            let d2 = 2.0 * (big_u / (u * u)).powi(2) + 2.0 * v * (2.0 * big_u / (u * u * u));
+            (v * v, d1, d2)
+        };
+        let u = det - self.floor;
+        if u >= ue {
+            let (b, d1, _) = at(u);
+            (b, d1)
+        } else {
+            let (b, d1, d2) = at(ue);
+            let h = u - ue;
+            (b + d1 * h + 0.5 * d2 * h * h, d1 + d2 * h)
+        }
+    }
+}
+
+/// One landmark's row: `phi(s) = sum w_p P_p`, its target and weight.
+#[derive(Clone, Debug)]
+pub struct DataRow {
+    /// The row over control points.
+    pub row: Row,
+    /// Target point.
+    pub target: [f64; 2],
+    /// Weight.
+    pub weight: f64,
+}
+
+#[derive(Clone, Debug)]
+struct TriTerm {
+    patch: Vec<usize>,
+    k: Vec<f64>,
+    /// Per sample: `d/dx` and `d/dy` rows over the patch.
+    samples: Vec<[Vec<f64>; 2]>,
+    sample_weight: f64,
+}
+
+/// The terms of `F` at some `x`.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Terms {
+    /// Data term.
+    pub data: f64,
+    /// Bending energy (before `lambda`).
+    pub bend: f64,
+    /// Barrier term (before `mu`).
+    pub barrier: f64,
+    /// Smallest sampled `det J`.
+    pub min_det: f64,
+    /// The total `F`.
+    pub total: f64,
+}
+
+/// The objective over one parameterization; see the module docs.
+#[derive(Clone, Debug)]
+pub struct Objective {
+    /// The parameterization.
+    pub param: Param,
+    rows: Vec<DataRow>,
+    tris: Vec<TriTerm>,
+    /// The data loss.
+    pub loss: Loss,
+    /// `lambda_bend`.
+    pub bend: f64,
+    /// The barrier (None: off).
+    pub barrier: Option<Barrier>,
+}
+
+impl Objective {
+    /// Builds the objective. `det_level` is the sample level `k` of the barrier.
+    pub fn new(
+        s: &Spline,
+        param: Param,
+        rows: Vec<DataRow>,
+        loss: Loss,
+        bend: f64,
+        barrier: Option<Barrier>,
+        det_level: usize,
+    ) -> Objective {
+        let pts = sample_points(det_level);
+        let tris = (0..s.mesh().num_triangles())
+            .map(|t| {
+                let patch = s.layout().patches()[t].clone();
+                let v = s.mesh().triangle(t).map(|i| s.mesh().vertex(i));
+                let area = 0.5
+                    * ((v[1][0] - v[0][0]) * (v[2][1] - v[0][1])
+                        - (v[2][0] - v[0][0]) * (v[1][1] - v[0][1]))
+                        .abs();
+                TriTerm {
+                    k: bending_matrix(s, t),
+                    samples: pts.iter().map(|&b| derivative_rows(s, t, b)).collect(),
+                    sample_weight: area / pts.len() as f64,
+                    patch,
+                }
+            })
+            .collect();
+        Objective { param, rows, tris, loss, bend, barrier }
+    }
+
+    /// The data rows.
+    pub fn rows(&self) -> &[DataRow] {
+        &self.rows
+    }
+
+    /// Multiplies each data row's weight by `scale[i]`.
+    pub fn scale_weights(&mut self, scale: &[f64]) {
+        for (r, s) in self.rows.iter_mut().zip(scale) {
+            r.weight *= s;
+        }
+    }
+
+    /// The data rows' residual lengths `|phi(s_i) - t_i|` at `x`.
+    pub fn residual_lengths(&self, x: &[f64]) -> Vec<f64> {
+        self.mapped(x)
+            .iter()
+            .zip(&self.rows)
+            .map(|(m, r)| (m[0] - r.target[0]).hypot(m[1] - r.target[1]))
+            .collect()
+    }
+
+    /// `F(x)` and its terms; with `grad`, also `dF/dx` (`2 nv` entries).
+    pub fn eval(&self, x: &[f64], grad: Option<&mut [f64]>) -> Terms {
+        let n = self.param.var_of.len();
+        let mut p = vec![[0.0f64; 2]; n];
+        self.param.points_into(x, &mut p);
+        let want = grad.is_some();
+        let mut g = if want { vec![[0.0f64; 2]; n] } else { Vec::new() };
+        let mut t = Terms { min_det: f64::INFINITY, ..Terms::default() };
+        for r in &self.rows {
+            let mut v = [0.0; 2];
+            for &(j, w) in &r.row {
+                v[0] += w * p[j][0];
+                v[1] += w * p[j][1];
+            }
+            let e = [v[0] - r.target[0], v[1] - r.target[1]];
+            let (rho, psi) = self.loss.eval(e[0].hypot(e[1]));
+            t.data += r.weight * rho;
+            if want {
+                let f = r.weight * psi;
+                for &(j, w) in &r.row {
+                    g[j][0] += f * w * e[0];
+                    g[j][1] += f * w * e[1];
+                }
+            }
+        }
+        let mut q = [[0.0f64; 2]; 64];
+        for tri in &self.tris {
+            let m = tri.patch.len();
+            let q = &mut q[..m];
+            for (a, &j) in tri.patch.iter().enumerate() {
+                q[a] = p[j];
+            }
+            if self.bend > 0.0 {
+                for r in 0..m {
+                    let mut kq = [0.0; 2];
+                    for c in 0..m {
+                        let kv = tri.k[r * m + c];
+                        kq[0] += kv * q[c][0];
+                        kq[1] += kv * q[c][1];
+                    }
+                    t.bend += q[r][0] * kq[0] + q[r][1] * kq[1];
+                    if want {
+                        g[tri.patch[r]][0] += 2.0 * self.bend * kq[0];
+                        g[tri.patch[r]][1] += 2.0 * self.bend * kq[1];
+                    }
+                }
+            }
+            for [dx, dy] in &tri.samples {
+                let mut j = [[0.0f64; 2]; 2];
+                for a in 0..m {
+                    j[0][0] += dx[a] * q[a][0];
+                    j[0][1] += dy[a] * q[a][0];
+                    j[1][0] += dx[a] * q[a][1];
+                    j[1][1] += dy[a] * q[a][1];
+                }
+                let det = j[0][0] * j[1][1] - j[0][1] * j[1][0];
+                t.min_det = t.min_det.min(det);
+                if let Some(b) = &self.barrier {
+                    let (beta, db) = b.eval(det);
+                    if beta != 0.0 || db != 0.0 {
+                        t.barrier += tri.sample_weight * beta;
+                        if want {
+                            let f = b.mu * tri.sample_weight * db;
+                            for a in 0..m {
+                                let gp = &mut g[tri.patch[a]];
+                                gp[0] += f * (dx[a] * j[1][1] - dy[a] * j[1][0]);
+                                gp[1] += f * (dy[a] * j[0][0] - dx[a] * j[0][1]);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        let mu = self.barrier.map_or(0.0, |b| b.mu);
+        t.total = t.data + self.bend * t.bend + mu * t.barrier;
+        if let Some(gx) = grad {
+            self.param.backprop(&mut g, gx);
+        }
+        t
+    }
+
+    /// The normal matrix `N` of the squares problem without barrier, one coordinate:
+    /// `sum_i w_i a_i a_i^T + lambda sum_T S_T^T K_T S_T` (`nv x nv`, row-major), where `a_i`
+    /// is landmark `i`'s row over the variables and `S_T` the patch rows. `F`'s Hessian is
+    /// `2 N` per coordinate for squares.
+    pub fn normal_matrix(&self) -> Vec<f64> {
+        self.normal_matrix_weighted(None)
+    }
+
+    /// [`normal_matrix`](Self::normal_matrix) with each data row's weight multiplied by
+    /// `scale[i]` (iteratively reweighted least squares).
+    pub fn normal_matrix_weighted(&self, scale: Option<&[f64]>) -> Vec<f64> {
+        let nv = self.param.nv();
+        let rows = self.param.rows();
+        let mut nm = vec![0.0; nv * nv];
+        let mut dense = vec![0.0; nv];
+        let mut touched: Vec<usize> = Vec::new();
+        for (i, r) in self.rows.iter().enumerate() {
+            let weight = r.weight * scale.map_or(1.0, |s| s[i]);
+            for &(j, w) in &r.row {
+                for &(k, v) in &rows[j] {
+                    if dense[k] == 0.0 {
+                        touched.push(k);
+                    }
+                    dense[k] += w * v;
+                }
+            }
+            touched.sort_unstable();
+            touched.dedup();
+            for &a in &touched {
+                for &b in &touched {
+                    nm[a * nv + b] += weight * dense[a] * dense[b];
+                }
+            }
+            for &k in &touched {
+                dense[k] = 0.0;
+            }
+            touched.clear();
+        }
+        if self.bend > 0.0 {
+            let mut local: Vec<usize> = Vec::new();
+            let mut pos = vec![usize::MAX; nv];
+            for tri in &self.tris {
+                let m = tri.patch.len();
+                local.clear();
+                for &j in &tri.patch {
+                    for &(k, _) in &rows[j] {
+                        if pos[k] == usize::MAX {
+                            pos[k] = local.len();
+                            local.push(k);
+                        }
+                    }
+                }
+                let u = local.len();
+                if u == 0 {
+                    continue;
+                }
+                // S_T (m x u), then K S_T (m x u), then S_T^T (K S_T) (u x u).
+                let mut st = vec![0.0; m * u];
+                for (a, &j) in tri.patch.iter().enumerate() {
+                    for &(k, v) in &rows[j] {
+                        st[a * u + pos[k]] += v;
+                    }
+                }
+                let mut ks = vec![0.0; m * u];
+                for r in 0..m {
+                    for c in 0..m {
+                        let kv = tri.k[r * m + c];
+                        if kv != 0.0 {
+                            for z in 0..u {
+                                ks[r * u + z] += kv * st[c * u + z];
+                            }
+                        }
+                    }
+                }
+                for a in 0..m {
+                    for z1 in 0..u {
+                        let sv = st[a * u + z1];
+                        if sv != 0.0 {
+                            let row = local[z1] * nv;
+                            for z2 in 0..u {
+                                nm[row + local[z2]] += self.bend * sv * ks[a * u + z2];
+                            }
+                        }
+                    }
+                }
+                for &k in &local {
+                    pos[k] = usize::MAX;
+                }
+            }
+        }
+        nm
+    }
+
+    /// `phi(s_i)` for every data row at variables `x`.
+    pub fn mapped(&self, x: &[f64]) -> Vec<[f64; 2]> {
+        let mut p = vec![[0.0f64; 2]; self.param.var_of.len()];
+        self.param.points_into(x, &mut p);
+        self.rows
+            .iter()
+            .map(|r| {
+                let mut v = [0.0; 2];
+                for &(j, w) in &r.row {
+                    v[0] += w * p[j][0];
+                    v[1] += w * p[j][1];
+                }
+                v
+            })
+            .collect()
+    }
+}
+
+/// The data row of a source point: `Err(())` when it lies outside the mesh.
+pub fn data_row(s: &Spline, src: [f64; 2], target: [f64; 2], weight: f64) -> Option<DataRow> {
+    let (t, b) = s.mesh().locate(src, None)?;
+    Some(DataRow { row: value_row(s, t, b), target, weight })
+}

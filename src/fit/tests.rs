@@ -1,0 +1,209 @@
+//! Tests of the fit: gradients against finite differences, the Gauss-Newton step, recovery
+//! of smooth maps, robustness to bad matches, the fold barrier, exactness of the result.
+
+use super::landmarks::Landmark;
+use super::objective::{Barrier, Loss};
+use super::solve::{fit, objective, FitError, FitOptions};
+use crate::mesh::{Mesh, MeshOptions};
+use crate::spline::Spline;
+use rand::rngs::SmallRng;
+use rand::{Rng, SeedableRng};
+
+fn grid_spline() -> Spline {
+    let mesh = Mesh::grid(10, 5, 500.0, 250.0, MeshOptions::default()).unwrap();
+    Spline::identity(mesh, 5).unwrap()
+}
+
+fn smooth_map(p: [f64; 2]) -> [f64; 2] {
+    let (x, y) = (p[0], p[1]);
+    [x + 6.0 * (y / 60.0).sin() + 3.0 + 0.02 * y, y + 5.0 * (x / 80.0).cos() - 2.0 - 0.01 * x]
+}
+
+fn landmarks(n: usize, seed: u64, f: impl Fn([f64; 2]) -> [f64; 2]) -> Vec<Landmark> {
+    let mut rng = SmallRng::seed_from_u64(seed);
+    (0..n)
+        .map(|i| {
+            let s = [rng.gen_range(10.0..490.0), rng.gen_range(10.0..240.0)];
+            Landmark { name: Some(format!("l{i}")), src: s, dst: f(s), weight: 1.0 }
+        })
+        .collect()
+}
+
+#[test]
+fn gradient_matches_finite_differences_for_every_loss_and_the_barrier() {
+    let s = grid_spline();
+    let lms = landmarks(20, 1, smooth_map);
+    for loss in [Loss::Squares, Loss::Huber(2.0), Loss::Cauchy(3.0)] {
+        let opts = FitOptions {
+            loss,
+            bend: 0.5,
+            barrier: Some(Barrier { floor: 0.1, tau: 1.2, mu: 3.0 }),
+            ..FitOptions::default()
+        };
+        let obj = objective(&s, &lms, &opts).unwrap();
+        let mut rng = SmallRng::seed_from_u64(2);
+        let x: Vec<f64> = obj.param.x0().iter().map(|v| v + rng.gen_range(-1.5..1.5)).collect();
+        let mut g = vec![0.0; x.len()];
+        let t = obj.eval(&x, Some(&mut g));
+        assert!(t.barrier > 0.0, "the barrier must be active somewhere in this test");
+        for k in (0..x.len()).step_by(37) {
+            let h = 1e-4;
+            let (mut xp, mut xm) = (x.clone(), x.clone());
+            xp[k] += h;
+            xm[k] -= h;
+            let fd = (obj.eval(&xp, None).total - obj.eval(&xm, None).total) / (2.0 * h);
+            let tol = 1e-5 * (1.0 + g[k].abs().max(fd.abs()));
+            assert!((fd - g[k]).abs() < tol, "{loss:?} var {k}: analytic {} fd {fd}", g[k]);
+        }
+    }
+}
+
+#[test]
+fn gauss_newton_step_is_the_minimizer_of_the_squares_problem() {
+    let s = grid_spline();
+    let lms = landmarks(40, 3, smooth_map);
+    let opts = FitOptions { barrier: None, ..FitOptions::default() };
+    let f = fit(&s, &lms, &opts).unwrap();
+    assert_eq!(f.report.method, "gauss-newton");
+    // Gradient at the (exact, rounded) result is ~0 relative to the gradient at the start.
+    let obj = objective(&f.spline, &lms, &opts).unwrap();
+    let mut g = vec![0.0; 2 * obj.param.nv()];
+    obj.eval(&obj.param.x0(), Some(&mut g));
+    let obj0 = objective(&s, &lms, &opts).unwrap();
+    let mut g0 = vec![0.0; g.len()];
+    obj0.eval(&obj0.param.x0(), Some(&mut g0));
+    let n = |v: &[f64]| v.iter().map(|a| a * a).sum::<f64>().sqrt();
+    assert!(n(&g) < 1e-6 * n(&g0), "{} vs {}", n(&g), n(&g0));
+    assert!(f.report.exact_c1);
+}
+
+#[test]
+fn smooth_map_is_recovered_at_held_out_points() {
+    let s = grid_spline();
+    let lms = landmarks(50, 4, smooth_map);
+    let held = landmarks(30, 5, smooth_map);
+    let f = fit(&s, &lms, &FitOptions { bend: 1e-3, ..FitOptions::default() }).unwrap();
+    let tre = super::solve::residuals(&f.spline, &held).unwrap();
+    let worst = tre.iter().map(|r| r.residual).fold(0.0, f64::max);
+    eprintln!("{:?} fit rms {} tre max {worst}", f.report.method, f.report.fit.rms);
+    assert!(f.report.fit.rms < 0.2, "fit rms {}", f.report.fit.rms);
+    assert!(worst < 1.5, "held-out error {worst}");
+    assert!(!f.report.folds);
+}
+
+#[test]
+fn robust_losses_ignore_gross_outliers() {
+    let s = grid_spline();
+    let mut lms = landmarks(50, 6, smooth_map);
+    for l in lms.iter_mut().take(5) {
+        l.dst[0] += 60.0;
+        l.dst[1] -= 45.0;
+    }
+    let held = landmarks(30, 7, smooth_map);
+    let err = |loss| {
+        // A stiff spline: fitting one bad match would cost more bending than its (bounded)
+        // robust loss, so the robust fits drop them; squares cannot.
+        let f = fit(&s, &lms, &FitOptions { loss, bend: 10.0, ..FitOptions::default() }).unwrap();
+        eprintln!("{loss:?}: {} iterations, {:.1} ms", f.report.iterations, f.report.time_ms);
+        let r = super::solve::residuals(&f.spline, &held).unwrap();
+        (r.iter().map(|x| x.residual * x.residual).sum::<f64>() / r.len() as f64).sqrt()
+    };
+    let (sq, cauchy) = (err(Loss::Squares), err(Loss::Cauchy(2.0)));
+    let huber = err(Loss::Huber(2.0));
+    eprintln!("held-out rms: squares {sq}, huber {huber}, cauchy {cauchy}");
+    assert!(cauchy < 0.5 * sq && cauchy < 3.0, "squares {sq}, cauchy {cauchy}");
+}
+
+#[test]
+fn barrier_keeps_det_j_above_its_floor_where_squares_fold() {
+    let s = grid_spline();
+    // Two nearby sources pulled across each other: the squares fit folds.
+    let lms = vec![
+        Landmark { name: None, src: [200.0, 120.0], dst: [260.0, 120.0], weight: 1.0 },
+        Landmark { name: None, src: [240.0, 120.0], dst: [190.0, 120.0], weight: 1.0 },
+        Landmark { name: None, src: [50.0, 50.0], dst: [50.0, 50.0], weight: 1.0 },
+        Landmark { name: None, src: [450.0, 200.0], dst: [450.0, 200.0], weight: 1.0 },
+    ];
+    let plain =
+        fit(&s, &lms, &FitOptions { barrier: None, bend: 1e-3, ..FitOptions::default() }).unwrap();
+    assert!(plain.report.folds, "min det {}", plain.report.min_det_j);
+    let guarded = fit(&s, &lms, &FitOptions { bend: 1e-3, ..FitOptions::default() }).unwrap();
+    eprintln!("{:?}", guarded.report.min_det_j);
+    assert!(!guarded.report.folds && guarded.report.min_det_j > 0.05);
+    assert!(guarded.report.method.contains("lbfgs"));
+}
+
+#[test]
+fn result_is_exactly_c1_and_input_untouched() {
+    let s = grid_spline();
+    let before = s.points().to_vec();
+    let f = fit(&s, &landmarks(10, 8, smooth_map), &FitOptions::default()).unwrap();
+    assert_eq!(s.points(), &before[..]);
+    f.spline.check_c1().unwrap();
+}
+
+#[test]
+fn bad_landmarks_are_refused() {
+    let s = grid_spline();
+    let mut lms = landmarks(5, 9, smooth_map);
+    assert_eq!(fit(&s, &[], &FitOptions::default()).unwrap_err(), FitError::NoLandmarks);
+    lms[2].src = [900.0, 10.0];
+    assert!(matches!(
+        fit(&s, &lms, &FitOptions::default()),
+        Err(FitError::OutsideMesh { index: 2, .. })
+    ));
+    lms[2].src = [f64::NAN, 10.0];
+    assert!(matches!(fit(&s, &lms, &FitOptions::default()), Err(FitError::BadLandmark { .. })));
+    lms[2].src = [10.0, 10.0];
+    lms[2].weight = 0.0;
+    assert!(matches!(fit(&s, &lms, &FitOptions::default()), Err(FitError::BadLandmark { .. })));
+}
+
+#[test]
+fn radius_limits_the_change_to_the_landmarks_neighbourhood() {
+    let s = grid_spline();
+    let lms = vec![Landmark { name: None, src: [120.0, 80.0], dst: [126.0, 83.0], weight: 1.0 }];
+    let f = fit(&s, &lms, &FitOptions { radius: Some(2), ..FitOptions::default() }).unwrap();
+    assert!(f.report.fit.max < 0.01, "{:?}", f.report.fit);
+    // Far away, phi is still the identity exactly.
+    for p in [[450.0, 200.0], [480.0, 20.0]] {
+        assert_eq!(f.spline.eval(p, None).unwrap(), s.eval(p, None).unwrap());
+    }
+}
+
+#[test]
+fn hard_mode_interpolates_exactly_in_rational_arithmetic() {
+    use crate::exact::Rat;
+    let s = grid_spline();
+    // Sources on the 2^-8 grid, so the constraint is phi(s_i) = t_i for the given s_i.
+    let mut lms = landmarks(12, 10, smooth_map);
+    for l in lms.iter_mut() {
+        l.src = l.src.map(|v| (v * 256.0).round() / 256.0);
+    }
+    let f = fit(&s, &lms, &FitOptions { hard: true, ..FitOptions::default() }).unwrap();
+    f.spline.check_c1().unwrap();
+    for l in &lms {
+        let (row, tgt) = super::hard::landmark_row(&s, l).unwrap();
+        for a in 0..2 {
+            let mut acc = Rat::from_integer(0.into());
+            for (p, c) in &row {
+                acc += Rat::from_integer(c.clone()) * &f.spline.points()[*p][a];
+            }
+            assert_eq!(acc, tgt[a], "landmark {:?} coordinate {a}", l.name);
+        }
+    }
+    assert!(f.report.fit.max < 1e-5, "{:?}", f.report.fit);
+    assert!(f.report.method.ends_with("+hard"));
+}
+
+#[test]
+fn hard_mode_reports_contradictory_landmarks() {
+    let s = grid_spline();
+    let lms = vec![
+        Landmark { name: Some("a".into()), src: [100.0, 100.0], dst: [105.0, 100.0], weight: 1.0 },
+        Landmark { name: Some("b".into()), src: [100.0, 100.0], dst: [95.0, 100.0], weight: 1.0 },
+        Landmark { name: None, src: [300.0, 100.0], dst: [300.0, 100.0], weight: 1.0 },
+    ];
+    let e = fit(&s, &lms, &FitOptions { hard: true, ..FitOptions::default() }).unwrap_err();
+    assert!(matches!(e, FitError::Unsolvable(_)), "{e}");
+}
