@@ -91,71 +91,92 @@ pub fn derivative_rows(s: &Spline, t: usize, b: [f64; 3]) -> [Vec<f64>; 2] {
     out
 }
 
-/// The bending matrix `K_T` of triangle `t` (local patch order, `n x n` row-major, `n` the
-/// number of patch points): `E_T(f) = q^T K_T q` for each coordinate. See the module docs.
-pub fn bending_matrix(s: &Spline, t: usize) -> Vec<f64> {
-    let d = s.degree();
-    let n = (d + 1) * (d + 2) / 2;
-    if d < 2 {
-        return vec![0.0; n * n];
-    }
-    let k = d - 2;
-    let mk = multi_indices(k);
-    let nk = mk.len();
-    let g = frame(s, t).gradients();
-    let tri = s.mesh().triangle(t).map(|v| s.mesh().vertex(v));
-    let area = 0.5
-        * ((tri[1][0] - tri[0][0]) * (tri[2][1] - tri[0][1])
-            - (tri[2][0] - tri[0][0]) * (tri[1][1] - tri[0][1]))
-            .abs();
-    // Gram matrix of the degree-k Bernstein basis on T.
-    let scale = 2.0 * area / (((2 * k + 1) * (2 * k + 2)) as f64);
-    let mut gram = vec![0.0; nk * nk];
-    for (i, a) in mk.iter().enumerate() {
-        for (j, b) in mk.iter().enumerate() {
-            let sum = [a[0] + b[0], a[1] + b[1], a[2] + b[2]];
-            gram[i * nk + j] = multinomial(*a) * multinomial(*b) / multinomial(sum) * scale;
-        }
-    }
-    // L_ab (nk x n) for (a, b) in xx, yy, xy with weights 1, 1, 2.
-    let dd = (d * (d - 1)) as f64;
-    let mut kmat = vec![0.0; n * n];
-    for (a, b, w) in [(0usize, 0usize, 1.0f64), (1, 1, 1.0), (0, 1, 2.0)] {
-        let mut l = vec![0.0; nk * n];
-        for (i, m) in mk.iter().enumerate() {
-            for kk in 0..3 {
-                for ll in 0..3 {
-                    let mut idx = *m;
-                    idx[kk] += 1;
-                    idx[ll] += 1;
-                    l[i * n + local_index(d, idx[0], idx[1])] += dd * g[kk][a] * g[ll][b];
-                }
+/// The parts of the bending matrix shared by every triangle of a degree: the multi-indices
+/// of degree `d - 2` and their Bernstein Gram matrix on a triangle of unit area.
+#[derive(Clone, Debug)]
+pub struct Bending {
+    d: usize,
+    mk: Vec<[usize; 3]>,
+    gram_unit: Vec<f64>,
+}
+
+impl Bending {
+    /// The shared parts for degree `d`.
+    pub fn new(d: usize) -> Bending {
+        let k = d.saturating_sub(2);
+        let mk = multi_indices(k);
+        let nk = mk.len();
+        let scale = 2.0 / (((2 * k + 1) * (2 * k + 2)) as f64);
+        let mut gram_unit = vec![0.0; nk * nk];
+        for (i, a) in mk.iter().enumerate() {
+            for (j, b) in mk.iter().enumerate() {
+                let sum = [a[0] + b[0], a[1] + b[1], a[2] + b[2]];
+                gram_unit[i * nk + j] =
+                    multinomial(*a) * multinomial(*b) / multinomial(sum) * scale;
             }
         }
-        // K += w L^T G L.
+        Bending { d, mk, gram_unit }
+    }
+
+    /// `K_T` of triangle `t` (local patch order, `n x n` row-major): `E_T(f) = q^T K_T q`
+    /// for each coordinate. See the module docs.
+    pub fn matrix(&self, s: &Spline, t: usize) -> Vec<f64> {
+        let d = self.d;
+        let n = (d + 1) * (d + 2) / 2;
+        if d < 2 {
+            return vec![0.0; n * n];
+        }
+        let (mk, nk) = (&self.mk, self.mk.len());
+        let g = frame(s, t).gradients();
+        let tri = s.mesh().triangle(t).map(|v| s.mesh().vertex(v));
+        let area = 0.5
+            * ((tri[1][0] - tri[0][0]) * (tri[2][1] - tri[0][1])
+                - (tri[2][0] - tri[0][0]) * (tri[1][1] - tri[0][1]))
+                .abs();
+        let dd = (d * (d - 1)) as f64;
+        let mut kmat = vec![0.0; n * n];
+        let mut l = vec![0.0; nk * n];
         let mut gl = vec![0.0; nk * n];
-        for i in 0..nk {
-            for j in 0..nk {
-                let gv = gram[i * nk + j];
-                if gv != 0.0 {
+        // L_ab (nk x n) for (a, b) in xx, yy, xy with weights 1, 1, 2; K += w L^T G L.
+        for (a, b, w) in [(0usize, 0usize, 1.0f64), (1, 1, 1.0), (0, 1, 2.0)] {
+            l.fill(0.0);
+            gl.fill(0.0);
+            for (i, m) in mk.iter().enumerate() {
+                for kk in 0..3 {
+                    for ll in 0..3 {
+                        let mut idx = *m;
+                        idx[kk] += 1;
+                        idx[ll] += 1;
+                        l[i * n + local_index(d, idx[0], idx[1])] += dd * g[kk][a] * g[ll][b];
+                    }
+                }
+            }
+            for i in 0..nk {
+                for j in 0..nk {
+                    let gv = self.gram_unit[i * nk + j] * area;
                     for c in 0..n {
                         gl[i * n + c] += gv * l[j * n + c];
                     }
                 }
             }
-        }
-        for i in 0..nk {
-            for r in 0..n {
-                let lv = l[i * n + r];
-                if lv != 0.0 {
-                    for c in 0..n {
-                        kmat[r * n + c] += w * lv * gl[i * n + c];
+            for i in 0..nk {
+                for r in 0..n {
+                    let lv = l[i * n + r];
+                    if lv != 0.0 {
+                        for c in 0..n {
+                            kmat[r * n + c] += w * lv * gl[i * n + c];
+                        }
                     }
                 }
             }
         }
+        kmat
     }
-    kmat
+}
+
+/// The bending matrix `K_T` of triangle `t` ([`Bending::matrix`]).
+pub fn bending_matrix(s: &Spline, t: usize) -> Vec<f64> {
+    Bending::new(s.degree()).matrix(s, t)
 }
 
 /// Barycentric sample points of level `k` in a triangle (`(k+1)(k+2)/2` points, vertices

@@ -23,7 +23,7 @@
 //! data term's gradient is exact and cheap; the barrier's is `d det / d q` from the two
 //! derivative rows. Gradients are pulled back to `x` through the MDS map.
 
-use super::basis::{bending_matrix, derivative_rows, sample_points, value_row, Row};
+use super::basis::{derivative_rows, sample_points, value_row, Bending, Row};
 use super::param::Param;
 use crate::spline::Spline;
 
@@ -168,6 +168,7 @@ impl Objective {
         det_level: usize,
     ) -> Objective {
         let pts = sample_points(det_level);
+        let bending = Bending::new(s.degree());
         let tris = (0..s.mesh().num_triangles())
             .map(|t| {
                 let patch = s.layout().patches()[t].clone();
@@ -177,7 +178,7 @@ impl Objective {
                         - (v[2][0] - v[0][0]) * (v[1][1] - v[0][1]))
                         .abs();
                 TriTerm {
-                    k: bending_matrix(s, t),
+                    k: bending.matrix(s, t),
                     samples: pts.iter().map(|&b| derivative_rows(s, t, b)).collect(),
                     sample_weight: area / pts.len() as f64,
                     patch,

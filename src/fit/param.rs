@@ -17,6 +17,19 @@ use crate::exact::{rat_to_f64, Rat};
 use crate::spline::mds::{Mds, Role};
 use crate::spline::Spline;
 
+/// `v` rounded to the nearest multiple of `2^-bits`, as an exact rational.
+pub fn grid_rat(v: f64, bits: u32) -> Rat {
+    let scaled = (v * (bits as f64).exp2()).round();
+    if scaled.abs() < 9.0e15 {
+        Rat::new(
+            crate::exact::Int::from(scaled as i64),
+            crate::exact::Int::from_i128(1i128 << bits),
+        )
+    } else {
+        crate::spline::mds::round_to_grid(&crate::exact::rat_from_f64(v).expect("finite"), bits)
+    }
+}
+
 /// The affine map from variables to all control points, in `f64`.
 #[derive(Clone, Debug)]
 pub struct Param {
@@ -39,12 +52,9 @@ impl Param {
         let base: Vec<[f64; 2]> = (0..n).map(|p| s.point_f64(p)).collect();
         let (lo, hi) = s.mesh().bbox();
         let axis = usize::from(hi[1] - lo[1] > hi[0] - lo[0]);
-        let nominal = s.nominal();
         let mut vars: Vec<usize> =
             (0..n).filter(|&p| is_var[p] && matches!(mds.role(p), Role::Free)).collect();
-        vars.sort_by(|&a, &b| {
-            rat_to_f64(&nominal[a][axis]).total_cmp(&rat_to_f64(&nominal[b][axis])).then(a.cmp(&b))
-        });
+        vars.sort_by(|&a, &b| base[a][axis].total_cmp(&base[b][axis]).then(a.cmp(&b)));
         let mut var_of = vec![None; n];
         for (k, &p) in vars.iter().enumerate() {
             var_of[p] = Some(k);
@@ -149,15 +159,7 @@ impl Param {
         let nv = self.nv();
         let mut vals: Vec<Vec<Rat>> = s.points().to_vec();
         for (k, &p) in self.vars.iter().enumerate() {
-            vals[p] = [x[k], x[nv + k]]
-                .iter()
-                .map(|&v| {
-                    crate::spline::mds::round_to_grid(
-                        &crate::exact::rat_from_f64(v).expect("finite variables"),
-                        bits,
-                    )
-                })
-                .collect();
+            vals[p] = [x[k], x[nv + k]].iter().map(|&v| grid_rat(v, bits)).collect();
         }
         let all = vec![true; vals.len()];
         mds.recompute(&mut vals, &all);

@@ -18,7 +18,7 @@
 //!    exactly ([`crate::spline::Spline::from_points`]). The saved deformation is therefore C1
 //!    exactly, and can be edited further by hand.
 
-use super::basis::{derivative_rows, sample_points};
+use super::basis::sample_points;
 use super::chol::Cholesky;
 use super::landmarks::Landmark;
 use super::objective::{data_row, Barrier, Loss, Objective};
@@ -255,21 +255,52 @@ pub fn residuals(s: &Spline, lms: &[Landmark]) -> Result<Vec<Residual>, FitError
 
 /// The smallest `det J` over the level-`k` barycentric samples of every triangle.
 pub fn min_det_j(s: &Spline, k: usize) -> f64 {
+    let d = s.degree();
     let pts = sample_points(k);
+    // Per sample: B^(d-1)_m(b) for every m (shared by all triangles).
+    let bern: Vec<Vec<f64>> = pts.iter().map(|&b| super::basis::bernstein(d - 1, b)).collect();
+    let mi = crate::spline::layout::multi_indices(d - 1);
+    let up: Vec<[usize; 3]> = mi
+        .iter()
+        .map(|m| {
+            [0, 1, 2].map(|c| {
+                let mut u = *m;
+                u[c] += 1;
+                crate::spline::layout::local_index(d, u[0], u[1])
+            })
+        })
+        .collect();
     let mut best = f64::INFINITY;
+    let mut q: Vec<[f64; 2]> = Vec::new();
     for t in 0..s.mesh().num_triangles() {
-        let patch = &s.layout().patches()[t];
-        let q: Vec<[f64; 2]> = patch.iter().map(|&p| s.point_f64(p)).collect();
-        for &b in &pts {
-            let [dx, dy] = derivative_rows(s, t, b);
+        let g = super::basis::frame(s, t).gradients();
+        q.clear();
+        q.extend(s.layout().patches()[t].iter().map(|&p| s.point_f64(p)));
+        // Directional differences: e_m = sum_c g_c (x) q_(m+e_c), a 2x2 block per m.
+        let blocks: Vec<[[f64; 2]; 2]> = up
+            .iter()
+            .map(|u| {
+                let mut j = [[0.0; 2]; 2];
+                for c in 0..3 {
+                    for r in 0..2 {
+                        j[r][0] += g[c][0] * q[u[c]][r];
+                        j[r][1] += g[c][1] * q[u[c]][r];
+                    }
+                }
+                j
+            })
+            .collect();
+        for w in &bern {
             let mut j = [[0.0f64; 2]; 2];
-            for a in 0..q.len() {
-                j[0][0] += dx[a] * q[a][0];
-                j[0][1] += dy[a] * q[a][0];
-                j[1][0] += dx[a] * q[a][1];
-                j[1][1] += dy[a] * q[a][1];
+            for (wm, b) in w.iter().zip(&blocks) {
+                for r in 0..2 {
+                    j[r][0] += wm * b[r][0];
+                    j[r][1] += wm * b[r][1];
+                }
             }
-            best = best.min(j[0][0] * j[1][1] - j[0][1] * j[1][0]);
+            // The common factor d scales both rows: det scales by d^2.
+            let det = (j[0][0] * j[1][1] - j[0][1] * j[1][0]) * (d * d) as f64;
+            best = best.min(det);
         }
     }
     best
@@ -340,6 +371,16 @@ fn check_options(o: &FitOptions) -> Result<(), FitError> {
 
 /// The variables' objective for these landmarks (exposed for tests and benches).
 pub fn objective(s: &Spline, lms: &[Landmark], opts: &FitOptions) -> Result<Objective, FitError> {
+    objective_with(s, &Mds::new(s)?, lms, opts)
+}
+
+/// [`objective`] with a prebuilt determining set.
+pub fn objective_with(
+    s: &Spline,
+    mds: &Mds,
+    lms: &[Landmark],
+    opts: &FitOptions,
+) -> Result<Objective, FitError> {
     check_options(opts)?;
     if lms.is_empty() {
         return Err(FitError::NoLandmarks);
@@ -359,7 +400,6 @@ pub fn objective(s: &Spline, lms: &[Landmark], opts: &FitOptions) -> Result<Obje
         }
         rows.push(r);
     }
-    let mds = Mds::new(s)?;
     let n = s.num_points();
     let is_var = match opts.radius {
         None => vec![true; n],
@@ -378,7 +418,7 @@ pub fn objective(s: &Spline, lms: &[Landmark], opts: &FitOptions) -> Result<Obje
             is_var
         }
     };
-    let param = Param::new(s, &mds, &is_var);
+    let param = Param::new(s, mds, &is_var);
     Ok(Objective::new(s, param, rows, opts.loss, opts.bend, opts.barrier, opts.det_level))
 }
 
@@ -388,16 +428,17 @@ pub fn fit(s: &Spline, lms: &[Landmark], opts: &FitOptions) -> Result<Fit, FitEr
     if opts.hard {
         return super::hard::fit_hard(s, lms, opts, start);
     }
-    let obj = objective(s, lms, opts)?;
+    let mds = Mds::new(s)?;
+    let obj = objective_with(s, &mds, lms, opts)?;
     let nv = obj.param.nv();
     let x0 = obj.param.x0();
     let cost_initial = obj.eval(&x0, None).total;
     let (x, method, iterations) =
         if nv == 0 { (x0.clone(), "none".to_string(), 0) } else { solve(&obj, &x0, opts)? };
     let cost_final = obj.eval(&x, None).total;
-    let mds = Mds::new(s)?;
     let pts = obj.param.exact_points(s, &mds, &x, opts.grid_bits);
-    let fitted = Spline::from_points(s.mesh().clone(), s.degree(), pts, s.z_layers().cloned())?;
+    let mut fitted = s.clone();
+    fitted.set_points(pts)?;
     let report =
         report(&fitted, lms, opts, method, nv, iterations, cost_initial, cost_final, start)?;
     Ok(Fit { spline: fitted, report })

@@ -3,4 +3,5 @@ pub mod colormesh;
 pub mod deformation;
 pub mod font;
 pub mod model;
+pub mod overlay;
 pub mod plot;

@@ -23,6 +23,7 @@
 pub mod colormesh;
 pub mod field;
 pub mod inverse;
+pub mod pullback;
 pub mod remap;
 pub mod sample;
 
