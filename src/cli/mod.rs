@@ -5,6 +5,7 @@
 
 mod bench;
 mod demo;
+mod match_cmd;
 mod model_cmd;
 mod solve;
 pub mod spline_cmds;
@@ -198,6 +199,29 @@ enum Command {
         #[arg(long)]
         size: Option<String>,
     },
+    /// Automatic landmarks between two images (ORB, ratio and cross check, RANSAC affine):
+    /// `src` in A's pixel coordinates, `dst` in B's.
+    Match {
+        /// Image A (any type; converted to 8-bit gray, deep images scaled by their max).
+        a: PathBuf,
+        /// Image B.
+        b: PathBuf,
+        /// Output landmarks.
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Lowe's ratio for descriptor matches.
+        #[arg(long, default_value_t = 0.8)]
+        ratio: f32,
+        /// RANSAC inlier threshold (pixels).
+        #[arg(long, default_value_t = 3.0)]
+        threshold: f64,
+        /// Most ORB keypoints per image.
+        #[arg(long, default_value_t = 1000)]
+        features: usize,
+        /// Output format: csv, bigwarp or json.
+        #[arg(long, default_value = "csv")]
+        format: String,
+    },
     /// Measurements and experiments.
     Bench {
         #[command(subcommand)]
@@ -357,6 +381,17 @@ pub fn run() -> i32 {
         }),
         Command::Field { deformation, output, inverse, jacobian, size } => {
             warp_cmd::field(&deformation, &output, inverse, jacobian.as_deref(), size.as_deref())
+        }
+        Command::Match { a, b, output, ratio, threshold, features, format } => {
+            match_cmd::run(match_cmd::MatchArgs {
+                a: &a,
+                b: &b,
+                output: &output,
+                ratio,
+                threshold,
+                features,
+                format: &format,
+            })
         }
         Command::Bench { which: BenchCommand::Bitgrowth { output, trials, quick, seed, only } } => {
             bench::bitgrowth(&output, trials, quick, seed, only.as_deref())
