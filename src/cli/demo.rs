@@ -208,5 +208,6 @@ pub fn run(dir: &Path) -> Result<()> {
         ed = zedited.display(),
         m = moved.display()
     );
+    super::demo_fit::run(&dir.join("fit"))?;
     Ok(())
 }

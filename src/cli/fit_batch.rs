@@ -86,8 +86,10 @@ fn read_frames(path: &Path) -> Result<Vec<Frame>> {
         files
             .iter()
             .map(|f| {
-                let img = image::open(f).with_context(|| format!("cannot read frame {}", f.display()))?;
-                let stem = f.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+                let img =
+                    image::open(f).with_context(|| format!("cannot read frame {}", f.display()))?;
+                let stem =
+                    f.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
                 Ok(Frame { stem, img: to_gray8(img) })
             })
             .collect()
@@ -142,8 +144,9 @@ fn scene_model(scene: &Path, explicit: Option<&Path>) -> Result<Option<(PathBuf,
 fn name_sources(lms: &mut [Landmark], model: Option<&Model>) {
     let Some(m) = model else { return };
     for l in lms.iter_mut() {
-        if let Some((_, v)) = l.name.as_ref().and_then(|n| m.landmarks.iter().find(|(k, _)| k == n)) {
-            let p = m.vertices[*v];
+        if let Some((_, v)) = l.name.as_ref().and_then(|n| m.landmarks.iter().find(|(k, _)| k == n))
+        {
+            let p = m.vertices[*v as usize];
             l.src = [p[0], p[1]];
         }
     }
@@ -162,8 +165,11 @@ fn frame_landmarks(
                 .iter()
                 .map(|e| a.landmarks.join(format!("{}.{e}", f.stem)))
                 .find(|p| p.exists())
-                .ok_or_else(|| anyhow!("no landmarks for frame {} in {}", f.stem, a.landmarks.display()))?;
-            let mut l = read_landmarks(&p).with_context(|| format!("cannot read {}", p.display()))?;
+                .ok_or_else(|| {
+                    anyhow!("no landmarks for frame {} in {}", f.stem, a.landmarks.display())
+                })?;
+            let mut l =
+                read_landmarks(&p).with_context(|| format!("cannot read {}", p.display()))?;
             name_sources(&mut l, model);
             out.push(l);
         }
@@ -180,8 +186,9 @@ fn frame_landmarks(
     for k in 1..frames.len() {
         let prev = &sets[k - 1];
         let pts: Vec<[f64; 2]> = prev.iter().map(|l| l.dst).collect();
-        let moved = track_points(&frames[k - 1].img, &frames[k].img, &pts, None, &TrackOptions::default())
-            .with_context(|| format!("tracking into frame {}", frames[k].stem))?;
+        let moved =
+            track_points(&frames[k - 1].img, &frames[k].img, &pts, None, &TrackOptions::default())
+                .with_context(|| format!("tracking into frame {}", frames[k].stem))?;
         let next: Vec<Landmark> = prev
             .iter()
             .zip(moved)
@@ -208,7 +215,8 @@ fn write_outputs(
     write_atomic(&out.join(format!("{stem}.json")), deformation::to_string(s, None).as_bytes())?;
     let (w, h) = (frame.img.width() as usize, frame.img.height() as usize);
     let reg = pull_back_gray8(s, frame.img.as_raw(), w, h, w, h, 0);
-    let mut pm = tiny_skia::Pixmap::new(w as u32, h as u32).ok_or_else(|| anyhow!("empty frame"))?;
+    let mut pm =
+        tiny_skia::Pixmap::new(w as u32, h as u32).ok_or_else(|| anyhow!("empty frame"))?;
     for (d, &g) in pm.pixels_mut().iter_mut().zip(&reg) {
         *d = tiny_skia::ColorU8::from_rgba(g, g, g, 255).premultiply();
     }
@@ -219,11 +227,8 @@ fn write_outputs(
         save_model(m, &moved, &out.join(format!("{stem}.obj")))?;
         outline = silhouette(&moved, &m.triangles);
     }
-    let marks: Vec<Mark> = report
-        .residuals
-        .iter()
-        .map(|r| Mark { mapped: r.mapped, target: r.dst })
-        .collect();
+    let marks: Vec<Mark> =
+        report.residuals.iter().map(|r| Mark { mapped: r.mapped, target: r.dst }).collect();
     let _ = lms;
     let ov = overlay(frame.img.as_raw(), w as u32, h as u32, &outline, &marks)
         .ok_or_else(|| anyhow!("empty frame"))?;
@@ -231,7 +236,10 @@ fn write_outputs(
     let mut v = serde_json::to_value(report)?;
     v["frame"] = serde_json::Value::from(stem.as_str());
     v["tracking_lost"] = serde_json::Value::from(lost);
-    write_atomic(&out.join(format!("{stem}.report.json")), serde_json::to_string_pretty(&v)?.as_bytes())?;
+    write_atomic(
+        &out.join(format!("{stem}.report.json")),
+        serde_json::to_string_pretty(&v)?.as_bytes(),
+    )?;
     Ok(())
 }
 
@@ -244,7 +252,8 @@ pub fn run(a: BatchArgs) -> Result<()> {
     let model = scene_model(a.scene, a.model)?;
     let bound = match model {
         Some((p, m)) => {
-            let b = bind(&m, &scene).with_context(|| format!("cannot bind model {}", p.display()))?;
+            let b =
+                bind(&m, &scene).with_context(|| format!("cannot bind model {}", p.display()))?;
             Some((p, m, b))
         }
         None => None,
@@ -268,7 +277,15 @@ pub fn run(a: BatchArgs) -> Result<()> {
         let f = fit(warm, &sets[k], &opts)
             .map_err(fit_error)
             .with_context(|| format!("frame {}", frames[k].stem))?;
-        write_outputs(a.output, &frames[k], &f.spline, &sets[k], &f.report, lost[k], bound.as_ref())?;
+        write_outputs(
+            a.output,
+            &frames[k],
+            &f.spline,
+            &sets[k],
+            &f.report,
+            lost[k],
+            bound.as_ref(),
+        )?;
         bar.inc(1);
         Ok(Some((f.spline, f.report)))
     };
@@ -292,7 +309,9 @@ pub fn run(a: BatchArgs) -> Result<()> {
                 }
                 None => {
                     let p = a.output.join(format!("{}.json", frames[k].stem));
-                    if let Some((s, _)) = read_text(&p).ok().and_then(|t| deformation::from_str(&t).ok()) {
+                    if let Some((s, _)) =
+                        read_text(&p).ok().and_then(|t| deformation::from_str(&t).ok())
+                    {
                         warm = s;
                     }
                     out.push((k, None));

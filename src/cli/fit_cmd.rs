@@ -54,21 +54,24 @@ impl SolverArgs<'_> {
 /// Maps a fit error to the CLI's exit codes: unsolvable hard constraints exit 2.
 pub fn fit_error(e: FitError) -> anyhow::Error {
     match e {
-        FitError::Unsolvable(_) => {
-            anyhow::Error::new(Exit { code: EXIT_UNSOLVABLE, message: e.to_string(), printed: false })
-        }
+        FitError::Unsolvable(_) => anyhow::Error::new(Exit {
+            code: EXIT_UNSOLVABLE,
+            message: e.to_string(),
+            printed: false,
+        }),
         other => anyhow::Error::new(other),
     }
 }
 
 /// One line per fit.
 pub fn summary(r: &FitReport) -> String {
-    let mut s = format!(
-        "{} landmarks: rms {:.3} px, max {:.3} px",
-        r.fit.count, r.fit.rms, r.fit.max
-    );
+    let mut s =
+        format!("{} landmarks: rms {:.3} px, max {:.3} px", r.fit.count, r.fit.rms, r.fit.max);
     if let Some(h) = &r.holdout {
-        s += &format!("; held-out TRE rms {:.3} px, max {:.3} px ({})", h.tre.rms, h.tre.max, h.tre.count);
+        s += &format!(
+            "; held-out TRE rms {:.3} px, max {:.3} px ({})",
+            h.tre.rms, h.tre.max, h.tre.count
+        );
     }
     s += &format!(
         "; min det J {:.3}{}; {} ({} iterations, {} variables) in {:.1} ms; C1 exact: {}",
@@ -101,9 +104,12 @@ pub fn run_single(
         .with_context(|| format!("cannot read landmarks {}", landmarks.display()))?;
     let (fitted, held): (Vec<Landmark>, Vec<Landmark>) = if holdout_k > 0 {
         if holdout_k >= lms.len() {
-            bail!("--holdout {holdout_k}: only {} landmarks, at least one must be fitted", lms.len());
+            bail!(
+                "--holdout {holdout_k}: only {} landmarks, at least one must be fitted",
+                lms.len()
+            );
         }
-        holdout(&lms, holdout_k, seed)
+        holdout(&lms, holdout_k, seed)?
     } else {
         (lms, Vec::new())
     };

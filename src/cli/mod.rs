@@ -5,6 +5,10 @@
 
 mod bench;
 mod demo;
+mod demo_fit;
+mod fit_batch;
+mod fit_cmd;
+mod match_cmd;
 mod model_cmd;
 mod solve;
 pub mod spline_cmds;
@@ -198,6 +202,91 @@ enum Command {
         #[arg(long)]
         size: Option<String>,
     },
+    /// Automatic landmarks between two images (ORB, ratio and cross check, RANSAC affine):
+    /// `src` in A's pixel coordinates, `dst` in B's.
+    Match {
+        /// Image A (any type; converted to 8-bit gray, deep images scaled by their max).
+        a: PathBuf,
+        /// Image B.
+        b: PathBuf,
+        /// Output landmarks.
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Lowe's ratio for descriptor matches.
+        #[arg(long, default_value_t = 0.8)]
+        ratio: f32,
+        /// RANSAC inlier threshold (pixels).
+        #[arg(long, default_value_t = 3.0)]
+        threshold: f64,
+        /// Most ORB keypoints per image.
+        #[arg(long, default_value_t = 1000)]
+        features: usize,
+        /// Output format: csv, bigwarp or json.
+        #[arg(long, default_value = "csv")]
+        format: String,
+    },
+    /// Fit a deformation to landmarks (`fit DEF --landmarks L -o OUT.json`), or a scene to
+    /// every frame of a sequence (`fit --model SCENE.json --frames DIR --landmarks L -o DIR`).
+    Fit {
+        /// The deformation to fit (the warm start); not with --model.
+        deformation: Option<PathBuf>,
+        /// Landmarks: CSV `name,src_x,src_y,dst_x,dst_y[,weight]`, Fiji BigWarp CSV or JSON
+        /// (with --frames: targets in the first frame, or a directory of per-frame files).
+        #[arg(long)]
+        landmarks: PathBuf,
+        /// Output deformation (single fit) or output folder (with --frames).
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Report (JSON): residuals, RMS, max, held-out TRE, min det J, iterations, time.
+        #[arg(long)]
+        report: Option<PathBuf>,
+        /// Data loss: squares, huber or cauchy.
+        #[arg(long, default_value = "squares")]
+        loss: String,
+        /// Scale of the huber / cauchy loss (pixels).
+        #[arg(long, default_value_t = 2.0)]
+        loss_scale: f64,
+        /// Weight of the bending (thin-plate) energy.
+        #[arg(long, default_value_t = 0.01)]
+        bend: f64,
+        /// Landmarks become hard constraints phi(s) = t (exact, through ECLES).
+        #[arg(long)]
+        hard: bool,
+        /// Keep K landmarks (chosen at random, see --seed) out of the fit and report their
+        /// error (TRE).
+        #[arg(long, default_value_t = 0)]
+        holdout: usize,
+        /// Seed of the --holdout choice.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Only control points within R control-net steps of the landmarks move.
+        #[arg(long)]
+        radius: Option<usize>,
+        /// Floor that the fold barrier keeps det J above.
+        #[arg(long, default_value_t = 0.1)]
+        min_det: f64,
+        /// Turn the fold barrier off.
+        #[arg(long)]
+        no_barrier: bool,
+        /// Iteration cap of L-BFGS.
+        #[arg(long, default_value_t = 200)]
+        max_iters: u64,
+        /// Scene (deformation, usually from `model bind`) for a frame sequence.
+        #[arg(long)]
+        model: Option<PathBuf>,
+        /// The scene's model file (default: the scene's "model" key).
+        #[arg(long)]
+        model_file: Option<PathBuf>,
+        /// Frames: a folder of images or a multi-page TIFF.
+        #[arg(long)]
+        frames: Option<PathBuf>,
+        /// Follow the landmarks from frame to frame (pyramidal Lucas-Kanade).
+        #[arg(long)]
+        track: bool,
+        /// Only the i-th of n contiguous frame ranges (e.g. 0/4), for cluster array jobs.
+        #[arg(long)]
+        shard: Option<String>,
+    },
     /// Measurements and experiments.
     Bench {
         #[command(subcommand)]
@@ -357,6 +446,73 @@ pub fn run() -> i32 {
         }),
         Command::Field { deformation, output, inverse, jacobian, size } => {
             warp_cmd::field(&deformation, &output, inverse, jacobian.as_deref(), size.as_deref())
+        }
+        Command::Match { a, b, output, ratio, threshold, features, format } => {
+            match_cmd::run(match_cmd::MatchArgs {
+                a: &a,
+                b: &b,
+                output: &output,
+                ratio,
+                threshold,
+                features,
+                format: &format,
+            })
+        }
+        Command::Fit {
+            deformation,
+            landmarks,
+            output,
+            report,
+            loss,
+            loss_scale,
+            bend,
+            hard,
+            holdout,
+            seed,
+            radius,
+            min_det,
+            no_barrier,
+            max_iters,
+            model,
+            model_file,
+            frames,
+            track,
+            shard,
+        } => {
+            let solver = fit_cmd::SolverArgs {
+                loss: &loss,
+                loss_scale,
+                bend,
+                hard,
+                radius,
+                min_det,
+                no_barrier,
+                max_iters,
+            };
+            match (deformation, model, frames) {
+                (Some(d), None, None) => fit_cmd::run_single(
+                    &d,
+                    &landmarks,
+                    &output,
+                    report.as_deref(),
+                    holdout,
+                    seed,
+                    &solver,
+                ),
+                (d, Some(scene), Some(fr)) if d.is_none() => fit_batch::run(fit_batch::BatchArgs {
+                    scene: &scene,
+                    model: model_file.as_deref(),
+                    frames: &fr,
+                    landmarks: &landmarks,
+                    track,
+                    output: &output,
+                    shard: shard.as_deref(),
+                    solver,
+                }),
+                _ => Err(anyhow::anyhow!(
+                    "give either DEF.json (one fit) or --model SCENE.json with --frames (a sequence)"
+                )),
+            }
         }
         Command::Bench { which: BenchCommand::Bitgrowth { output, trials, quick, seed, only } } => {
             bench::bitgrowth(&output, trials, quick, seed, only.as_deref())

@@ -85,7 +85,11 @@ pub fn bind_cmd(a: BindArgs) -> Result<()> {
     let t = Instant::now();
     let b = bind(&model, &s)?;
     let bind_time = t.elapsed();
-    write_atomic(a.output, deformation::to_string(&s, None).as_bytes())?;
+    // The scene: the deformation plus the model's path (an extra key the format allows),
+    // relative to the scene's folder when both share one, so `fit --model SCENE` finds it.
+    let mut v = deformation::to_json(&s, None);
+    v["model"] = serde_json::Value::from(scene_relative(a.output, a.model));
+    write_atomic(a.output, crate::io::json_rows(&v).as_bytes())?;
     let z = s.z_layers().expect("set above");
     writeln!(
         std::io::stdout(),
@@ -103,6 +107,15 @@ pub fn bind_cmd(a: BindArgs) -> Result<()> {
         warn_outside(&b.outside);
     }
     Ok(())
+}
+
+/// `model` as seen from the folder of `scene`: relative when `model` lies under it,
+/// absolute otherwise.
+fn scene_relative(scene: &Path, model: &Path) -> String {
+    let abs = |p: &Path| std::fs::canonicalize(p).unwrap_or_else(|_| p.to_path_buf());
+    let dir = abs(scene.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new(".")));
+    let m = abs(model);
+    m.strip_prefix(&dir).unwrap_or(&m).to_string_lossy().into_owned()
 }
 
 fn warn_outside(outside: &[usize]) {

@@ -1,4 +1,38 @@
-//! Landmark pairs: a source point in the reference domain and a target point in the image.
+//! Landmark pairs: a source point in the reference domain and a target point in the image,
+//! and their text formats.
+//!
+//! # Coordinates
+//!
+//! All points are pixel coordinates: pixel `(i, j)` (column `i`, row `j`) is centred at
+//! `(x, y) = (i, j)`, `x` grows to the right and `y` grows downwards. The formats below store
+//! these numbers unchanged (Fiji / BigWarp use the same convention for 2D images with unit
+//! calibration: ImgLib2 puts pixel centres at integer coordinates).
+//!
+//! # Formats
+//!
+//! * [`LandmarkFormat::Csv`]: `name,src_x,src_y,dst_x,dst_y[,weight]`, one landmark a line,
+//!   with an optional header line. The header is recognised when, on the first non-empty
+//!   line, some field among columns 2..5 is not a number. An empty name means no name; the
+//!   weight defaults to 1. A field may be double-quoted (`""` inside is a quote). Values must
+//!   be finite and weights `> 0`; errors give the 1-based line number. The writer emits the
+//!   header `name,src_x,src_y,dst_x,dst_y,weight` and every number with Rust's `{}`
+//!   formatting of `f64`, the shortest text that reads back to the same value.
+//! * [`LandmarkFormat::BigWarp`]: the landmark table of Fiji's BigWarp: no header, every
+//!   field quoted, `"Pt-0","true","x_moving","y_moving","x_fixed","y_fixed"` (2D). The
+//!   second field is the active flag; inactive rows are skipped on import, and so are rows
+//!   whose fixed or moving point is still unset (BigWarp writes `Infinity` there). By
+//!   default the *moving* point becomes `src` and the *fixed* point `dst` (the deformation
+//!   sends the moving image's landmarks onto the fixed image's); `swap = true` reverses
+//!   this on import and export. Names come from the first field (`Pt-<index>` is written
+//!   for unnamed landmarks); weights are not stored (1 on import).
+//! * [`LandmarkFormat::Json`]:
+//!   `{"landmarks":[{"name":"a","src":[x,y],"dst":[x,y],"weight":1.0}, ...]}`, name and
+//!   weight optional.
+//!
+//! Everything here works on strings; reading and writing files is in `crate::io::landmarks`.
+
+use super::rng::SplitMix64;
+use serde::{Deserialize, Serialize};
 
 /// One matched pair: `src` in the reference domain (mesh coordinates), `dst` where the
 /// deformation should send it (image pixels), with a weight and an optional name.
@@ -12,4 +46,561 @@ pub struct Landmark {
     pub dst: [f64; 2],
     /// Weight (finite, > 0; default 1).
     pub weight: f64,
+}
+
+/// Errors of the landmark text formats.
+#[derive(Debug, thiserror::Error)]
+pub enum LandmarkError {
+    /// A line of a CSV or BigWarp table is malformed (`line` is 1-based).
+    #[error("line {line}: {message}")]
+    Line {
+        /// 1-based line number.
+        line: usize,
+        /// What is wrong.
+        message: String,
+    },
+    /// The JSON text does not have the expected shape.
+    #[error("landmark JSON: {0}")]
+    Json(#[from] serde_json::Error),
+    /// A landmark cannot be stored: a non-finite coordinate or a weight `<= 0`.
+    #[error("landmark {index} ({name}): {message}")]
+    Invalid {
+        /// 0-based position in the list.
+        index: usize,
+        /// Its name, or `unnamed`.
+        name: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// A hold-out set as large as the whole list was asked for.
+    #[error("cannot hold out {k} of {len} landmarks: at least one must remain for the fit")]
+    Holdout {
+        /// Requested hold-out size.
+        k: usize,
+        /// Number of landmarks.
+        len: usize,
+    },
+    /// An unknown format name.
+    #[error("unknown landmark format {0:?} (expected csv, bigwarp or json)")]
+    UnknownFormat(String),
+}
+
+/// A landmark text format (see the module documentation).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LandmarkFormat {
+    /// `name,src_x,src_y,dst_x,dst_y[,weight]` with an optional header.
+    Csv,
+    /// Fiji BigWarp's landmark table (moving -> `src`, fixed -> `dst`).
+    BigWarp,
+    /// `{"landmarks": [...]}`.
+    Json,
+}
+
+impl LandmarkFormat {
+    /// The format of a file from its extension (without the dot, any case) and its text:
+    /// `json` -> [`Json`](Self::Json); otherwise [`BigWarp`](Self::BigWarp) when the first
+    /// non-empty line starts with a double quote and has 6 fields whose second is `true` or
+    /// `false`; otherwise [`Csv`](Self::Csv). Without an extension, text starting with `{`
+    /// is JSON.
+    pub fn detect(extension: Option<&str>, text: &str) -> LandmarkFormat {
+        let ext = extension.map(str::to_ascii_lowercase);
+        if ext.as_deref() == Some("json") || (ext.is_none() && text.trim_start().starts_with('{')) {
+            return LandmarkFormat::Json;
+        }
+        let first = text.lines().map(str::trim).find(|l| !l.is_empty());
+        if let Some(line) = first {
+            if line.starts_with('"') {
+                if let Ok(f) = split_csv(line) {
+                    if f.len() == 6 && matches!(f[1].trim(), "true" | "false") {
+                        return LandmarkFormat::BigWarp;
+                    }
+                }
+            }
+        }
+        LandmarkFormat::Csv
+    }
+}
+
+impl std::str::FromStr for LandmarkFormat {
+    type Err = LandmarkError;
+
+    /// `csv`, `bigwarp` or `json` (any case).
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s.to_ascii_lowercase().as_str() {
+            "csv" => Ok(LandmarkFormat::Csv),
+            "bigwarp" => Ok(LandmarkFormat::BigWarp),
+            "json" => Ok(LandmarkFormat::Json),
+            _ => Err(LandmarkError::UnknownFormat(s.to_string())),
+        }
+    }
+}
+
+/// Parses landmarks in `format` (BigWarp with moving -> `src`).
+pub fn parse(text: &str, format: LandmarkFormat) -> Result<Vec<Landmark>, LandmarkError> {
+    match format {
+        LandmarkFormat::Csv => parse_csv(text),
+        LandmarkFormat::BigWarp => parse_bigwarp(text, false),
+        LandmarkFormat::Json => parse_json(text),
+    }
+}
+
+/// Writes landmarks in `format` (BigWarp with `src` -> moving). Fails on a non-finite
+/// coordinate or a weight `<= 0`.
+pub fn to_string(lms: &[Landmark], format: LandmarkFormat) -> Result<String, LandmarkError> {
+    match format {
+        LandmarkFormat::Csv => to_csv(lms),
+        LandmarkFormat::BigWarp => to_bigwarp(lms, false),
+        LandmarkFormat::Json => to_json(lms),
+    }
+}
+
+/// Splits one CSV line into fields; a field may be double-quoted with `""` for a quote.
+fn split_csv(line: &str) -> Result<Vec<String>, String> {
+    let mut fields = Vec::new();
+    let mut chars = line.chars().peekable();
+    loop {
+        let mut field = String::new();
+        while chars.peek().is_some_and(|c| *c == ' ' || *c == '\t') {
+            chars.next();
+        }
+        if chars.peek() == Some(&'"') {
+            chars.next();
+            loop {
+                match chars.next() {
+                    Some('"') if chars.peek() == Some(&'"') => {
+                        chars.next();
+                        field.push('"');
+                    }
+                    Some('"') => break,
+                    Some(c) => field.push(c),
+                    None => return Err("unterminated quoted field".into()),
+                }
+            }
+            while chars.peek().is_some_and(|c| *c == ' ' || *c == '\t') {
+                chars.next();
+            }
+            match chars.next() {
+                None => {
+                    fields.push(field);
+                    return Ok(fields);
+                }
+                Some(',') => fields.push(field),
+                Some(c) => return Err(format!("unexpected {c:?} after a quoted field")),
+            }
+        } else {
+            loop {
+                match chars.next() {
+                    None => {
+                        fields.push(field.trim().to_string());
+                        return Ok(fields);
+                    }
+                    Some(',') => break,
+                    Some(c) => field.push(c),
+                }
+            }
+            fields.push(field.trim().to_string());
+        }
+    }
+}
+
+/// A finite number, or an error message naming the column.
+fn number(field: &str, column: &str) -> Result<f64, String> {
+    let v: f64 =
+        field.trim().parse().map_err(|_| format!("{column}: {field:?} is not a number"))?;
+    if !v.is_finite() {
+        return Err(format!("{column}: {field:?} is not finite"));
+    }
+    Ok(v)
+}
+
+const CSV_COLUMNS: [&str; 6] = ["name", "src_x", "src_y", "dst_x", "dst_y", "weight"];
+
+/// Parses the CSV format (see the module documentation).
+pub fn parse_csv(text: &str) -> Result<Vec<Landmark>, LandmarkError> {
+    let mut out = Vec::new();
+    let mut first = true;
+    for (k, raw) in text.lines().enumerate() {
+        let line = k + 1;
+        let err = |message: String| LandmarkError::Line { line, message };
+        if raw.trim().is_empty() {
+            continue;
+        }
+        let f = split_csv(raw.trim()).map_err(err)?;
+        let is_first = std::mem::replace(&mut first, false);
+        if is_first && f.iter().skip(1).any(|x| x.trim().parse::<f64>().is_err()) {
+            continue; // header
+        }
+        if f.len() != 5 && f.len() != 6 {
+            return Err(err(format!(
+                "expected 5 or 6 fields (name,src_x,src_y,dst_x,dst_y[,weight]), found {}",
+                f.len()
+            )));
+        }
+        let mut v = [0.0; 5];
+        for c in 1..f.len() {
+            v[c - 1] = number(&f[c], CSV_COLUMNS[c]).map_err(err)?;
+        }
+        let weight = if f.len() == 6 { v[4] } else { 1.0 };
+        if weight <= 0.0 {
+            return Err(err(format!("weight {weight} is not > 0")));
+        }
+        let name = if f[0].is_empty() { None } else { Some(f[0].clone()) };
+        out.push(Landmark { name, src: [v[0], v[1]], dst: [v[2], v[3]], weight });
+    }
+    Ok(out)
+}
+
+/// Checks that every landmark can be written: finite coordinates, weight finite and > 0.
+fn validate(lms: &[Landmark]) -> Result<(), LandmarkError> {
+    for (index, l) in lms.iter().enumerate() {
+        let bad = |message: &str| LandmarkError::Invalid {
+            index,
+            name: l.name.clone().unwrap_or_else(|| "unnamed".into()),
+            message: message.into(),
+        };
+        if !l.src.iter().chain(&l.dst).all(|v| v.is_finite()) {
+            return Err(bad("non-finite coordinate"));
+        }
+        if !(l.weight.is_finite() && l.weight > 0.0) {
+            return Err(bad("weight must be finite and > 0"));
+        }
+    }
+    Ok(())
+}
+
+/// A CSV field, quoted when it holds a comma, a quote, leading/trailing space or a newline.
+fn csv_field(s: &str) -> String {
+    if s.contains([',', '"', '\n', '\r']) || s.trim() != s {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
+}
+
+/// Writes the CSV format with a header; numbers in shortest round-trip form.
+pub fn to_csv(lms: &[Landmark]) -> Result<String, LandmarkError> {
+    validate(lms)?;
+    let mut s = String::from("name,src_x,src_y,dst_x,dst_y,weight\n");
+    for l in lms {
+        let name = csv_field(l.name.as_deref().unwrap_or(""));
+        s.push_str(&format!(
+            "{name},{},{},{},{},{}\n",
+            l.src[0], l.src[1], l.dst[0], l.dst[1], l.weight
+        ));
+    }
+    Ok(s)
+}
+
+/// Parses a BigWarp landmark table: moving -> `src`, fixed -> `dst`, or the reverse when
+/// `swap`. Inactive rows and rows with an unset (infinite) point are skipped.
+pub fn parse_bigwarp(text: &str, swap: bool) -> Result<Vec<Landmark>, LandmarkError> {
+    let mut out = Vec::new();
+    for (k, raw) in text.lines().enumerate() {
+        let line = k + 1;
+        let err = |message: String| LandmarkError::Line { line, message };
+        if raw.trim().is_empty() {
+            continue;
+        }
+        let f = split_csv(raw.trim()).map_err(err)?;
+        if f.len() == 8 {
+            return Err(err("3D BigWarp landmarks are not supported (8 fields)".into()));
+        }
+        if f.len() != 6 {
+            return Err(err(format!("expected 6 fields (BigWarp 2D), found {}", f.len())));
+        }
+        match f[1].trim() {
+            "true" => {}
+            "false" => continue,
+            other => return Err(err(format!("active flag {other:?} is not true/false"))),
+        }
+        let mut v = [0.0; 4];
+        for c in 0..4 {
+            let t = f[c + 2].trim();
+            v[c] = match t.parse::<f64>() {
+                Ok(x) if x.is_nan() => return Err(err(format!("field {}: NaN", c + 3))),
+                Ok(x) => x,
+                Err(_) => return Err(err(format!("field {}: {t:?} is not a number", c + 3))),
+            };
+        }
+        if v.iter().any(|x| x.is_infinite()) {
+            continue; // a point BigWarp has not placed yet
+        }
+        let (moving, fixed) = ([v[0], v[1]], [v[2], v[3]]);
+        let (src, dst) = if swap { (fixed, moving) } else { (moving, fixed) };
+        let name = if f[0].is_empty() { None } else { Some(f[0].clone()) };
+        out.push(Landmark { name, src, dst, weight: 1.0 });
+    }
+    Ok(out)
+}
+
+/// Writes a BigWarp landmark table (all rows active): `src` -> moving, `dst` -> fixed, or
+/// the reverse when `swap`. Unnamed landmarks are called `Pt-<index>`; weights are lost.
+pub fn to_bigwarp(lms: &[Landmark], swap: bool) -> Result<String, LandmarkError> {
+    validate(lms)?;
+    let q = |s: &str| format!("\"{}\"", s.replace('"', "\"\""));
+    let mut s = String::new();
+    for (i, l) in lms.iter().enumerate() {
+        let name = l.name.clone().unwrap_or_else(|| format!("Pt-{i}"));
+        let (m, f) = if swap { (l.dst, l.src) } else { (l.src, l.dst) };
+        let nums: Vec<String> =
+            [m[0], m[1], f[0], f[1]].iter().map(|v| q(&v.to_string())).collect();
+        s.push_str(&format!("{},\"true\",{}\n", q(&name), nums.join(",")));
+    }
+    Ok(s)
+}
+
+#[derive(Serialize, Deserialize)]
+struct JsonLandmark {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    name: Option<String>,
+    src: [f64; 2],
+    dst: [f64; 2],
+    #[serde(default = "unit_weight")]
+    weight: f64,
+}
+
+fn unit_weight() -> f64 {
+    1.0
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct JsonLandmarks {
+    landmarks: Vec<JsonLandmark>,
+}
+
+/// Parses the JSON format; weights must be `> 0`.
+pub fn parse_json(text: &str) -> Result<Vec<Landmark>, LandmarkError> {
+    let file: JsonLandmarks = serde_json::from_str(text)?;
+    let lms: Vec<Landmark> = file
+        .landmarks
+        .into_iter()
+        .map(|j| Landmark { name: j.name, src: j.src, dst: j.dst, weight: j.weight })
+        .collect();
+    validate(&lms)?;
+    Ok(lms)
+}
+
+/// Writes the JSON format (pretty-printed, one key per line).
+pub fn to_json(lms: &[Landmark]) -> Result<String, LandmarkError> {
+    validate(lms)?;
+    let file = JsonLandmarks {
+        landmarks: lms
+            .iter()
+            .map(|l| JsonLandmark {
+                name: l.name.clone(),
+                src: l.src,
+                dst: l.dst,
+                weight: l.weight,
+            })
+            .collect(),
+    };
+    let mut s = serde_json::to_string_pretty(&file)?;
+    s.push('\n');
+    Ok(s)
+}
+
+/// Splits `lms` into a fit set and a held-out set of `k` landmarks, chosen uniformly at
+/// random (a partial Fisher-Yates shuffle driven by SplitMix64 from `seed`, so the split is
+/// the same on every platform). Both sets keep the input order. `k = 0` holds nothing out;
+/// `k >= lms.len()` is an error ([`LandmarkError::Holdout`]), since nothing would be left
+/// to fit.
+pub fn holdout(
+    lms: &[Landmark],
+    k: usize,
+    seed: u64,
+) -> Result<(Vec<Landmark>, Vec<Landmark>), LandmarkError> {
+    if k >= lms.len() && k > 0 {
+        return Err(LandmarkError::Holdout { k, len: lms.len() });
+    }
+    let mut rng = SplitMix64::new(seed);
+    let mut idx: Vec<usize> = (0..lms.len()).collect();
+    for i in 0..k {
+        let j = i + rng.below(lms.len() - i);
+        idx.swap(i, j);
+    }
+    let mut held = vec![false; lms.len()];
+    for &i in &idx[..k] {
+        held[i] = true;
+    }
+    let (mut fit, mut out) = (Vec::new(), Vec::new());
+    for (l, &h) in lms.iter().zip(&held) {
+        if h {
+            out.push(l.clone())
+        } else {
+            fit.push(l.clone())
+        }
+    }
+    Ok((fit, out))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn lm(name: Option<&str>, src: [f64; 2], dst: [f64; 2], weight: f64) -> Landmark {
+        Landmark { name: name.map(String::from), src, dst, weight }
+    }
+
+    fn sample() -> Vec<Landmark> {
+        vec![
+            lm(Some("a"), [0.1, 2.0 / 3.0], [1e-300, -7.25], 1.0),
+            lm(None, [512.0, 3.0], [0.30000000000000004, 1e21], 2.5),
+            lm(Some("with, comma \"q\""), [-1.0, 0.0], [5.0, 6.0], 0.125),
+        ]
+    }
+
+    #[test]
+    fn csv_round_trip_is_exact() {
+        let text = to_csv(&sample()).unwrap();
+        assert!(text.starts_with("name,src_x,src_y,dst_x,dst_y,weight\n"));
+        assert_eq!(parse_csv(&text).unwrap(), sample());
+        assert_eq!(parse(&text, LandmarkFormat::Csv).unwrap(), sample());
+    }
+
+    #[test]
+    fn csv_without_header_default_weight_and_empty_name() {
+        let l = parse_csv("\n p1, 1, 2, 3, 4\n,5,6,7,8,0.5\n").unwrap();
+        assert_eq!(l[0], lm(Some("p1"), [1.0, 2.0], [3.0, 4.0], 1.0));
+        assert_eq!(l[1], lm(None, [5.0, 6.0], [7.0, 8.0], 0.5));
+        // A numeric name in the first data line is not a header.
+        let l = parse_csv("7,1,2,3,4\n").unwrap();
+        assert_eq!(l[0].name.as_deref(), Some("7"));
+    }
+
+    #[test]
+    fn csv_errors_name_the_line() {
+        let cases = [
+            ("name,sx,sy,dx,dy\na,1,2,3\n", 2, "5 or 6 fields"),
+            ("a,1,2,3,4\nb,1,NaN,3,4\n", 2, "not finite"),
+            ("a,1,2,3,inf\n", 1, "not finite"),
+            ("a,1,2,3,4,0\n", 1, "not > 0"),
+            ("a,1,2,3,4,-2\n", 1, "not > 0"),
+            ("a,1,2,3,4\nb,1,x,3,4\n", 2, "not a number"),
+            ("a,1,2,3,4,1,9\n", 1, "5 or 6 fields"),
+            ("\"a,1,2,3,4\n", 1, "unterminated"),
+        ];
+        for (text, line, msg) in cases {
+            let e = parse_csv(text).unwrap_err();
+            match &e {
+                LandmarkError::Line { line: l, message } => {
+                    assert_eq!(*l, line, "{text:?}: {e}");
+                    assert!(message.contains(msg), "{text:?}: {e}");
+                }
+                other => panic!("{text:?}: unexpected {other}"),
+            }
+        }
+    }
+
+    #[test]
+    fn writers_reject_invalid_landmarks() {
+        let bad = [lm(None, [f64::NAN, 0.0], [0.0; 2], 1.0), lm(None, [0.0; 2], [0.0; 2], 0.0)];
+        for l in bad {
+            for f in [LandmarkFormat::Csv, LandmarkFormat::BigWarp, LandmarkFormat::Json] {
+                assert!(matches!(
+                    to_string(std::slice::from_ref(&l), f),
+                    Err(LandmarkError::Invalid { .. })
+                ));
+            }
+        }
+    }
+
+    #[test]
+    fn bigwarp_import_skips_inactive_and_unset_and_maps_moving_to_src() {
+        let text = "\"Pt-0\",\"true\",\"10.5\",\"20.0\",\"11.0\",\"21.25\"\n\
+                    \"Pt-1\",\"false\",\"1.0\",\"2.0\",\"3.0\",\"4.0\"\n\
+                    \"Pt-2\",\"true\",\"5.0\",\"6.0\",\"Infinity\",\"Infinity\"\n\
+                    \"nucleus\",\"true\",\"-1.0\",\"0.0\",\"7.0\",\"8.0\"\n";
+        let l = parse_bigwarp(text, false).unwrap();
+        assert_eq!(
+            l,
+            vec![
+                lm(Some("Pt-0"), [10.5, 20.0], [11.0, 21.25], 1.0),
+                lm(Some("nucleus"), [-1.0, 0.0], [7.0, 8.0], 1.0)
+            ]
+        );
+        let s = parse_bigwarp(text, true).unwrap();
+        assert_eq!(s[0].src, [11.0, 21.25]);
+        assert_eq!(s[0].dst, [10.5, 20.0]);
+        assert!(parse_bigwarp("\"a\",\"yes\",\"1\",\"2\",\"3\",\"4\"\n", false).is_err());
+        assert!(parse_bigwarp("\"a\",\"true\",\"1\",\"2\",\"3\"\n", false).is_err());
+        let e = parse_bigwarp("\"a\",\"true\",\"1\",\"2\",\"3\",\"4\",\"5\",\"6\"\n", false);
+        assert!(e.unwrap_err().to_string().contains("3D"));
+    }
+
+    #[test]
+    fn bigwarp_round_trip_and_swap() {
+        let lms = sample();
+        let text = to_bigwarp(&lms, false).unwrap();
+        assert!(text.lines().all(|l| l.starts_with('"') && l.contains(",\"true\",")));
+        assert!(text.contains("\"Pt-1\""));
+        let back = parse_bigwarp(&text, false).unwrap();
+        for (a, b) in lms.iter().zip(&back) {
+            assert_eq!((a.src, a.dst), (b.src, b.dst));
+            assert_eq!(b.weight, 1.0);
+        }
+        assert_eq!(back[2].name, lms[2].name);
+        assert_eq!(back[1].name.as_deref(), Some("Pt-1"));
+        let swapped = parse_bigwarp(&to_bigwarp(&lms, true).unwrap(), false).unwrap();
+        assert_eq!((swapped[0].src, swapped[0].dst), (lms[0].dst, lms[0].src));
+    }
+
+    #[test]
+    fn json_round_trip_and_defaults() {
+        let lms = sample();
+        let text = to_json(&lms).unwrap();
+        assert_eq!(parse_json(&text).unwrap(), lms);
+        let l = parse_json(r#"{"landmarks":[{"src":[1,2],"dst":[3.5,4]}]}"#).unwrap();
+        assert_eq!(l, vec![lm(None, [1.0, 2.0], [3.5, 4.0], 1.0)]);
+        assert!(parse_json(r#"{"landmarks":[{"src":[1,2],"dst":[3,4],"weight":-1}]}"#).is_err());
+        assert!(parse_json(r#"{"landmarks":[{"src":[1],"dst":[3,4]}]}"#).is_err());
+        assert!(parse_json(r#"{"points":[]}"#).is_err());
+    }
+
+    #[test]
+    fn format_detection_and_names() {
+        let bw = "\n\"Pt-0\",\"false\",\"1\",\"2\",\"3\",\"4\"\n";
+        assert_eq!(LandmarkFormat::detect(Some("csv"), bw), LandmarkFormat::BigWarp);
+        assert_eq!(LandmarkFormat::detect(Some("CSV"), "a,1,2,3,4\n"), LandmarkFormat::Csv);
+        // Quoted first field but not a BigWarp row (5 fields).
+        let q = "\"a\",1,2,3,4\n";
+        assert_eq!(LandmarkFormat::detect(Some("csv"), q), LandmarkFormat::Csv);
+        assert_eq!(LandmarkFormat::detect(Some("json"), "x"), LandmarkFormat::Json);
+        assert_eq!(LandmarkFormat::detect(None, " {\"landmarks\":[]}"), LandmarkFormat::Json);
+        assert_eq!(LandmarkFormat::detect(Some("txt"), "{"), LandmarkFormat::Csv);
+        for (s, f) in [
+            ("csv", LandmarkFormat::Csv),
+            ("BigWarp", LandmarkFormat::BigWarp),
+            ("json", LandmarkFormat::Json),
+        ] {
+            assert_eq!(s.parse::<LandmarkFormat>().unwrap(), f);
+        }
+        assert!("xml".parse::<LandmarkFormat>().is_err());
+        // Each writer's output is detected as its own format.
+        for f in [LandmarkFormat::Csv, LandmarkFormat::BigWarp, LandmarkFormat::Json] {
+            let ext = if f == LandmarkFormat::Json { "json" } else { "csv" };
+            let text = to_string(&sample(), f).unwrap();
+            assert_eq!(LandmarkFormat::detect(Some(ext), &text), f);
+        }
+    }
+
+    #[test]
+    fn holdout_is_deterministic_disjoint_and_ordered() {
+        let lms: Vec<Landmark> =
+            (0..20).map(|i| lm(Some(&format!("p{i}")), [i as f64, 0.0], [0.0; 2], 1.0)).collect();
+        let (fit, held) = holdout(&lms, 5, 42).unwrap();
+        assert_eq!((fit.len(), held.len()), (15, 5));
+        assert_eq!(holdout(&lms, 5, 42).unwrap(), (fit.clone(), held.clone()));
+        let key = |l: &Landmark| l.src[0];
+        for set in [&fit, &held] {
+            assert!(set.windows(2).all(|w| key(&w[0]) < key(&w[1])));
+        }
+        let mut all: Vec<f64> = fit.iter().chain(&held).map(key).collect();
+        all.sort_by(f64::total_cmp);
+        assert_eq!(all, (0..20).map(|i| i as f64).collect::<Vec<_>>());
+        // Different seeds give different splits (for these seeds).
+        assert_ne!(holdout(&lms, 5, 43).unwrap().1, held);
+        assert_eq!(holdout(&lms, 0, 1).unwrap(), (lms.clone(), vec![]));
+        assert!(matches!(holdout(&lms, 20, 1), Err(LandmarkError::Holdout { k: 20, len: 20 })));
+    }
 }
