@@ -4,6 +4,9 @@
 //!   loss, bending 0.01, barrier on; the whole `fit` call (objective, factorization, solve,
 //!   exact certification, report). Target 20 ms.
 //! * `fit_cauchy_50_landmarks_100_triangles`: the same with the Cauchy loss (IRLS).
+//! * `track_and_fit_511`: one frame of a sequence: 50 landmarks tracked (pyramidal
+//!   Lucas-Kanade, forward-backward check) from frame 0 to frame 1 of the bundled 511 x 511
+//!   time-lapse, then the fit to the tracked points. Target 100 ms.
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use rand::rngs::SmallRng;
@@ -12,6 +15,7 @@ use std::hint::black_box;
 use trimorph::fit::landmarks::Landmark;
 use trimorph::fit::objective::Loss;
 use trimorph::fit::solve::{fit, FitOptions};
+use trimorph::fit::track::{track_points, TrackOptions};
 use trimorph::mesh::{Mesh, MeshOptions};
 use trimorph::spline::Spline;
 
@@ -21,7 +25,7 @@ fn setup() -> (Spline, Vec<Landmark>) {
     let mut rng = SmallRng::seed_from_u64(11);
     let lms = (0..50)
         .map(|i| {
-            let p = [rng.gen_range(5.0..505.0), rng.gen_range(5.0..505.0)];
+            let p: [f64; 2] = [rng.gen_range(5.0..505.0), rng.gen_range(5.0..505.0)];
             let q = [p[0] + 6.0 * (p[1] / 70.0).sin() + 2.0, p[1] + 5.0 * (p[0] / 90.0).cos()];
             Landmark { name: Some(format!("l{i}")), src: p, dst: q, weight: 1.0 }
         })
@@ -47,9 +51,53 @@ fn bench(c: &mut Criterion) {
     });
 }
 
+/// The 50 strongest-gradient pixels of a frame, at least 30 px apart and 25 px inside.
+fn features(img: &image::GrayImage, n: usize) -> Vec<[f64; 2]> {
+    let (w, h) = img.dimensions();
+    let g = |x: u32, y: u32| img.get_pixel(x, y)[0] as f64;
+    let mut cand: Vec<(f64, [f64; 2])> = Vec::new();
+    for y in 25..h - 25 {
+        for x in 25..w - 25 {
+            let (gx, gy) = (g(x + 1, y) - g(x - 1, y), g(x, y + 1) - g(x, y - 1));
+            cand.push((gx * gx + gy * gy, [x as f64, y as f64]));
+        }
+    }
+    cand.sort_by(|a, b| b.0.total_cmp(&a.0));
+    let mut out: Vec<[f64; 2]> = Vec::new();
+    for (_, p) in cand {
+        if out.len() < n && out.iter().all(|q| (q[0] - p[0]).hypot(q[1] - p[1]) >= 30.0) {
+            out.push(p);
+        }
+    }
+    out
+}
+
+fn bench_track(c: &mut Criterion) {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/data/microscopy/timelapse");
+    let f0 = image::open(format!("{dir}/frame_00.png")).unwrap().to_luma8();
+    let f1 = image::open(format!("{dir}/frame_01.png")).unwrap().to_luma8();
+    let pts = features(&f0, 50);
+    let mesh = Mesh::grid(10, 5, 511.0, 511.0, MeshOptions::default()).unwrap();
+    let s = Spline::identity(mesh, 5).unwrap();
+    let opts = FitOptions::default();
+    let run = || {
+        let moved =
+            track_points(&f0, &f1, &pts, None, &TrackOptions::default()).unwrap();
+        let lms: Vec<Landmark> = pts
+            .iter()
+            .zip(moved)
+            .filter_map(|(p, m)| m.map(|d| Landmark { name: None, src: *p, dst: d, weight: 1.0 }))
+            .collect();
+        fit(&s, &lms, &opts).unwrap()
+    };
+    let f = run();
+    eprintln!("tracked {} of {} points; fit rms {:.3}", f.report.fit.count, pts.len(), f.report.fit.rms);
+    c.bench_function("track_and_fit_511", |b| b.iter(|| black_box(run().report.fit.rms)));
+}
+
 criterion_group! {
     name = benches;
     config = Criterion::default().sample_size(20);
-    targets = bench
+    targets = bench, bench_track
 }
 criterion_main!(benches);

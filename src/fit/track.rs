@@ -219,7 +219,7 @@ mod tests {
     #[test]
     fn points_leaving_the_image_are_lost() {
         let a = cell();
-        let (w, h) = a.dimensions();
+        let w = a.width();
         // Shift right by 3 and up by 2: points in the last 3 columns or the first 2 rows
         // leave the frame.
         let b = shifted(&a, 3, -2);
@@ -235,7 +235,6 @@ mod tests {
         let none = TrackOptions { fb_threshold: None, ..Default::default() };
         let r = track_points(&a, &b, &pts, None, &none).unwrap();
         assert_eq!(r, vec![None; pts.len()], "without the fb check: {r:?}");
-        assert!(h > 2);
     }
 
     #[test]
