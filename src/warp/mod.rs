@@ -25,6 +25,7 @@ pub mod field;
 pub mod inverse;
 pub mod remap;
 pub mod sample;
+mod sample_simd;
 
 use crate::spline::Spline;
 use image::{DynamicImage, ImageBuffer};
