@@ -308,6 +308,10 @@ impl EvalCache {
         let big = n * k.max(1);
         let stride = big + 1;
         let mut vals = vec![[0.0f64; 6]; stride * stride];
+        // `basis(b)` without allocating, powers by repeated multiplication: the same values as
+        // `powi` up to 3 (degree 5), a few ulps apart above, far inside the bound's margin.
+        let mut pw = vec![[1.0f64; 3]; k + 1];
+        let mut w = vec![0.0f64; mi.len()];
         for i in 0..=big {
             for j in 0..=big - i {
                 let b = [
@@ -315,7 +319,12 @@ impl EvalCache {
                     i as f64 / big as f64,
                     j as f64 / big as f64,
                 ];
-                let w = basis(b);
+                for e in 1..=k {
+                    pw[e] = [0, 1, 2].map(|a| pw[e - 1][a] * b[a]);
+                }
+                for ((wm, m), c) in w.iter_mut().zip(&mi).zip(&multi) {
+                    *wm = c * pw[m[0]][0] * pw[m[1]][1] * pw[m[2]][2];
+                }
                 let mut h = [0.0f64; 6];
                 for (wm, cm) in w.iter().zip(&coef) {
                     for e in 0..6 {

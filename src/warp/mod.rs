@@ -26,6 +26,7 @@ pub mod inverse;
 pub mod pullback;
 pub mod remap;
 pub mod sample;
+mod sample_simd;
 
 use crate::spline::Spline;
 use image::{DynamicImage, ImageBuffer};

@@ -158,14 +158,17 @@ pub(super) fn affine_inverse_norm(p: [[f64; 2]; 3], q: [[f64; 2]; 3]) -> Option<
     if sp * sq == 0.0 || !(sp * sq).is_finite() {
         return None;
     }
+    // A = Qe Pe^-1 = B / sp with B = Qe adj(Pe); |A^-1| = smax(A) / |det A| and
+    // det B = sq sp, so |A^-1| = (smax(B) / |sp|) / (|sq sp| / sp^2) = smax(B) / |sq|: one
+    // division instead of five.
     let pe = [[p[1][0] - p[0][0], p[2][0] - p[0][0]], [p[1][1] - p[0][1], p[2][1] - p[0][1]]];
     let qe = [[q[1][0] - q[0][0], q[2][0] - q[0][0]], [q[1][1] - q[0][1], q[2][1] - q[0][1]]];
-    let pinv = [[pe[1][1] / sp, -pe[0][1] / sp], [-pe[1][0] / sp, pe[0][0] / sp]];
-    let a = [0, 1].map(|r| [0, 1].map(|c| qe[r][0] * pinv[0][c] + qe[r][1] * pinv[1][c]));
-    let det = a[0][0] * a[1][1] - a[0][1] * a[1][0];
-    let fro2 = a[0][0].powi(2) + a[0][1].powi(2) + a[1][0].powi(2) + a[1][1].powi(2);
+    let adj = [[pe[1][1], -pe[0][1]], [-pe[1][0], pe[0][0]]];
+    let b = [0, 1].map(|r| [0, 1].map(|c| qe[r][0] * adj[0][c] + qe[r][1] * adj[1][c]));
+    let det = b[0][0] * b[1][1] - b[0][1] * b[1][0];
+    let fro2 = b[0][0] * b[0][0] + b[0][1] * b[0][1] + b[1][0] * b[1][0] + b[1][1] * b[1][1];
     let smax = ((fro2 + ((fro2 * fro2 - 4.0 * det * det).max(0.0)).sqrt()) / 2.0).sqrt();
-    Some(smax / det.abs())
+    Some(smax / sq.abs())
 }
 
 /// A box of the deformed plane clipped to a `w x h` output, as inclusive pixel bounds.

@@ -27,7 +27,8 @@ pub(super) fn raster(
     if det == 0.0 || !det.is_finite() {
         return 0;
     }
-    let inv = [[e2[1] / det, -e2[0] / det], [-e1[1] / det, e1[0] / det]];
+    let rdet = 1.0 / det;
+    let inv = [[e2[1] * rdet, -e2[0] * rdet], [-e1[1] * rdet, e1[0] * rdet]];
     let (lo, hi) = bbox(q);
     let ya = fast_ceil(lo[1] - 1e-7).max(y0 as f64) as usize;
     let yb = (fast_floor(hi[1] + 1e-7) as isize).min((y0 + rows) as isize - 1);
@@ -54,7 +55,8 @@ pub(super) fn raster(
             flat[nf] = [c[k], by[k]];
             nf += 1;
         } else {
-            let line = [(-eps - c[k]) / bx[k], -by[k] / bx[k]];
+            let rb = 1.0 / bx[k];
+            let line = [(-eps - c[k]) * rb, -by[k] * rb];
             if bx[k] > 0.0 {
                 lower[nl] = line;
                 nl += 1;

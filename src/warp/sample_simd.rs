@@ -1,0 +1,246 @@
+//! Bilinear resampling of 8-bit gray images, eight pixels at a time (x86_64 AVX2).
+//!
+//! The scalar path ([`super::sample::fill_pixels`]) computes, for a position `(x, y)` with
+//! `x0 = floor(x)`, `y0 = floor(y)`, `fx = (x - x0) as f32`, `fy = (y - y0) as f32` and the
+//! taps `a = I(x0, y0)`, `b = I(x0 + 1, y0)`, `e = I(x0, y0 + 1)`, `f = I(x0 + 1, y0 + 1)`:
+//!
+//! ```text
+//!   t = a + (b - a) fx,   u = e + (f - e) fx,   v = t + (u - t) fy,
+//!   out = trunc(clamp(v + 0.5, 0, 255))
+//! ```
+//!
+//! in `f32`, each operation rounded (no fused multiply-add). The vector path here does the
+//! same operations in the same order on eight lanes: the floors and fractions in `f64`
+//! (`vroundpd`, exact subtraction, then one rounding to `f32` as `as f32` does), the
+//! interpolation in `f32` with separate multiplies and adds, the final conversion by
+//! truncation. So its output is bit-identical to the scalar path's.
+//!
+//! **Taps.** With `k = y0 w + x0` (the image is `w x h`, one byte per pixel, row-major),
+//! the two top taps are bytes `k, k + 1` and the two bottom taps are bytes `k + w, k + w + 1`.
+//! Each lane gathers the 32-bit word at byte `k` (taps `a, b` in its low two bytes) and the
+//! word at byte `k + w - 2` (taps `e, f` in its high two bytes). A group of eight is taken on
+//! the vector path only when every lane has `0 <= x0 < w - 1` and `0 <= y0 < h - 1` (so
+//! `w, h >= 2`); then both words lie inside the image:
+//!
+//! ```text
+//!   k + 3       <= (h - 2) w + (w - 2) + 3 = (h - 1) w + 1 <= h w - 1      (w >= 2)
+//!   k + w - 2   >= 0                                                      (w >= 2)
+//!   k + w + 1   <= (h - 2) w + (w - 2) + w + 1 = h w - 1
+//! ```
+//!
+//! Any other group (a position outside the mesh, `NaN`, or a neighbourhood crossing the
+//! image border) is done pixel by pixel by the scalar path, as is the tail of fewer than
+//! eight pixels. Out-of-range and `NaN` coordinates convert to `i32::MIN` and so fail the
+//! test.
+
+/// Fills `out[i]` for every position `pos[i]` (`i < min(pos.len(), out.len())`) of a
+/// `w x h` gray image `data` by bilinear interpolation, with `scalar(p)` giving the value of
+/// the pixels the vector path does not take. Returns `false` (and writes nothing) when the
+/// vector path is not available: not x86_64, no AVX2, or an image too large for 32-bit
+/// offsets.
+pub(super) fn bilinear_gray8(
+    data: &[u8],
+    w: usize,
+    h: usize,
+    pos: &[[f64; 2]],
+    out: &mut [u8],
+    scalar: impl Fn(&[f64; 2]) -> u8,
+) -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        let fits = w.checked_mul(h).is_some_and(|n| n <= data.len() && n < i32::MAX as usize);
+        if fits && std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: AVX2 is available (checked just above); `data` holds at least `w h`
+            // bytes and `w h < 2^31` (checked just above), as `avx2::bilinear_gray8` requires.
+            unsafe { avx2::bilinear_gray8(data, w, h, pos, out, &scalar) };
+            return true;
+        }
+    }
+    let _ = (data, w, h, pos, out, scalar);
+    false
+}
+
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    use std::arch::x86_64::*;
+
+    /// See [`super::bilinear_gray8`].
+    ///
+    /// # Safety
+    ///
+    /// The CPU supports AVX2; `data.len() >= w h` and `w h < 2^31`.
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn bilinear_gray8(
+        data: &[u8],
+        w: usize,
+        h: usize,
+        pos: &[[f64; 2]],
+        out: &mut [u8],
+        scalar: &impl Fn(&[f64; 2]) -> u8,
+    ) {
+        let n = pos.len().min(out.len());
+        let groups = n / 8;
+        // Lane bounds: x0 <= w - 2 and y0 <= h - 2, i.e. x0 < w - 1 and y0 < h - 1. With
+        // w h < 2^31 both fit in i32 (and are -1 when the image is one pixel wide or high,
+        // rejecting every lane).
+        let xmax = _mm256_set1_epi32(w as i32 - 2);
+        let ymax = _mm256_set1_epi32(h as i32 - 2);
+        let minus1 = _mm256_set1_epi32(-1);
+        let wv = _mm256_set1_epi32(w as i32);
+        let below = _mm256_set1_epi32(w as i32 - 2);
+        let byte = _mm256_set1_epi32(0xff);
+        let (half, zero, top) = (_mm256_set1_ps(0.5), _mm256_setzero_ps(), _mm256_set1_ps(255.0));
+        let base = data.as_ptr() as *const i32;
+        for g in 0..groups {
+            let i = 8 * g;
+            // SAFETY: i + 8 <= n <= pos.len(), and [[f64; 2]] is 16 f64 for 8 positions,
+            // contiguous; unaligned loads.
+            let pp = pos.as_ptr().add(i) as *const f64;
+            let (v0, v1) = (_mm256_loadu_pd(pp), _mm256_loadu_pd(pp.add(4)));
+            let (v2, v3) = (_mm256_loadu_pd(pp.add(8)), _mm256_loadu_pd(pp.add(12)));
+            // [x0 x2 x1 x3] -> [x0 x1 x2 x3] (and likewise for y and the next four).
+            let xa = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpacklo_pd(v0, v1));
+            let ya = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpackhi_pd(v0, v1));
+            let xb = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpacklo_pd(v2, v3));
+            let yb = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpackhi_pd(v2, v3));
+            let (fxa, fya) = (_mm256_floor_pd(xa), _mm256_floor_pd(ya));
+            let (fxb, fyb) = (_mm256_floor_pd(xb), _mm256_floor_pd(yb));
+            let x0 = _mm256_set_m128i(_mm256_cvttpd_epi32(fxb), _mm256_cvttpd_epi32(fxa));
+            let y0 = _mm256_set_m128i(_mm256_cvttpd_epi32(fyb), _mm256_cvttpd_epi32(fya));
+            let ok = _mm256_and_si256(
+                _mm256_and_si256(_mm256_cmpgt_epi32(x0, minus1), _mm256_cmpgt_epi32(y0, minus1)),
+                _mm256_andnot_si256(
+                    _mm256_or_si256(_mm256_cmpgt_epi32(x0, xmax), _mm256_cmpgt_epi32(y0, ymax)),
+                    minus1,
+                ),
+            );
+            if _mm256_movemask_ps(_mm256_castsi256_ps(ok)) != 0xff {
+                for k in i..i + 8 {
+                    out[k] = scalar(&pos[k]);
+                }
+                continue;
+            }
+            let fx = _mm256_set_m128(
+                _mm256_cvtpd_ps(_mm256_sub_pd(xb, fxb)),
+                _mm256_cvtpd_ps(_mm256_sub_pd(xa, fxa)),
+            );
+            let fy = _mm256_set_m128(
+                _mm256_cvtpd_ps(_mm256_sub_pd(yb, fyb)),
+                _mm256_cvtpd_ps(_mm256_sub_pd(ya, fya)),
+            );
+            let k = _mm256_add_epi32(_mm256_mullo_epi32(y0, wv), x0);
+            // SAFETY: every lane passed 0 <= x0 <= w - 2, 0 <= y0 <= h - 2 (so w, h >= 2);
+            // the words read are bytes k .. k + 3 and k + w - 2 .. k + w + 1, inside
+            // 0 .. w h <= data.len() by the bounds in the module docs.
+            let wt = _mm256_i32gather_epi32::<1>(base, k);
+            let wb = _mm256_i32gather_epi32::<1>(base, _mm256_add_epi32(k, below));
+            let a = _mm256_cvtepi32_ps(_mm256_and_si256(wt, byte));
+            let b = _mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32::<8>(wt), byte));
+            let e = _mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32::<16>(wb), byte));
+            let f = _mm256_cvtepi32_ps(_mm256_srli_epi32::<24>(wb));
+            let t = _mm256_add_ps(a, _mm256_mul_ps(_mm256_sub_ps(b, a), fx));
+            let u = _mm256_add_ps(e, _mm256_mul_ps(_mm256_sub_ps(f, e), fx));
+            let v = _mm256_add_ps(t, _mm256_mul_ps(_mm256_sub_ps(u, t), fy));
+            let v = _mm256_min_ps(_mm256_max_ps(_mm256_add_ps(v, half), zero), top);
+            let r = _mm256_cvttps_epi32(v);
+            // 8 x i32 in 0..=255 -> bytes: per 128-bit lane, r0..r3 (resp. r4..r7) in the
+            // low four bytes.
+            let r16 = _mm256_packus_epi32(r, r);
+            let r8 = _mm256_packus_epi16(r16, r16);
+            let lo = _mm_cvtsi128_si32(_mm256_castsi256_si128(r8)) as u32;
+            let hi = _mm_cvtsi128_si32(_mm256_extracti128_si256::<1>(r8)) as u32;
+            let bytes = (lo as u64 | (hi as u64) << 32).to_le_bytes();
+            out[i..i + 8].copy_from_slice(&bytes);
+        }
+        for k in 8 * groups..n {
+            out[k] = scalar(&pos[k]);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::warp::sample::Source;
+    use crate::warp::Interp;
+    use rand::rngs::SmallRng;
+    use rand::{Rng, SeedableRng};
+    use std::cell::Cell;
+
+    /// The scalar reference: `Source::sample_into` (bilinear), 7 outside.
+    fn reference(src: &Source<'_, u8>, p: &[f64; 2]) -> u8 {
+        if p[0].is_nan() {
+            return 7;
+        }
+        let mut o = [0u8];
+        src.sample_into(*p, Interp::Bilinear, &mut o);
+        o[0]
+    }
+
+    #[test]
+    fn vector_path_matches_the_scalar_path_bit_for_bit() {
+        let mut rng = SmallRng::seed_from_u64(5);
+        for (w, h) in [(37usize, 23usize), (2, 2), (1, 9), (64, 1), (300, 5)] {
+            let data: Vec<u8> = (0..w * h).map(|_| rng.gen()).collect();
+            let src = Source { data: &data, w, h, nc: 1 };
+            // Runs of 1 to 24 positions of one kind, so that many groups of eight are all
+            // inside (vector path) and others mix kinds (scalar path).
+            let mut pos = Vec::new();
+            while pos.len() < 4000 {
+                let (kind, run) = (rng.gen_range(0..10), rng.gen_range(1..25));
+                for _ in 0..run {
+                    pos.push(match kind {
+                        // Inside, near the right and bottom edges, on integer coordinates.
+                        0 => {
+                            [(w as f64 - 1.0) * rng.gen::<f64>(), h as f64 - 1.0 - rng.gen::<f64>()]
+                        }
+                        1 => [(w - 1) as f64, rng.gen_range(0.0..h as f64)],
+                        2 => [rng.gen_range(0..w) as f64, rng.gen_range(0..h) as f64],
+                        // Outside, NaN, huge.
+                        3 => [
+                            rng.gen_range(-3.0..w as f64 + 3.0),
+                            rng.gen_range(-3.0..h as f64 + 3.0),
+                        ],
+                        4 => [f64::NAN, f64::NAN],
+                        5 => [1e12 * rng.gen::<f64>() - 5e11, 0.5],
+                        _ => [(w - 1) as f64 * rng.gen::<f64>(), (h - 1) as f64 * rng.gen::<f64>()],
+                    });
+                }
+            }
+            // Every start and remainder length modulo 8.
+            for len in (0..=24).chain([pos.len() - 5]) {
+                for start in [0, 1, 5] {
+                    let ps = &pos[start..start + len];
+                    let mut out = vec![0u8; len];
+                    if !bilinear_gray8(&data, w, h, ps, &mut out, |p| reference(&src, p)) {
+                        return; // no vector path on this machine: nothing to compare
+                    }
+                    for (k, p) in ps.iter().enumerate() {
+                        assert_eq!(out[k], reference(&src, p), "{w}x{h} at {p:?}");
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn interior_groups_take_the_vector_path() {
+        let (w, h) = (16usize, 16usize);
+        let data: Vec<u8> = (0..w * h).map(|v| (v * 37 % 256) as u8).collect();
+        let src = Source { data: &data, w, h, nc: 1 };
+        let pos: Vec<[f64; 2]> =
+            (0..19).map(|k| [0.3 + 0.7 * k as f64, 14.9 - 0.6 * k as f64]).collect();
+        let mut out = vec![0u8; pos.len()];
+        let calls = Cell::new(0);
+        let scalar = |p: &[f64; 2]| {
+            calls.set(calls.get() + 1);
+            reference(&src, p)
+        };
+        if bilinear_gray8(&data, w, h, &pos, &mut out, scalar) {
+            assert_eq!(calls.get(), 3, "two groups of eight vectorized, a tail of three");
+        }
+        for (k, p) in pos.iter().enumerate() {
+            assert_eq!(out[k], reference(&src, p));
+        }
+    }
+}
