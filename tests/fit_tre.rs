@@ -7,6 +7,8 @@
 //! same thirty landmarks is the baseline; the spline fit must be no worse, and must not fold.
 //! Both numbers are printed (`cargo test --test fit_tre -- --nocapture`).
 
+#![allow(clippy::needless_range_loop)]
+
 use trimorph::fit::landmarks::Landmark;
 use trimorph::fit::solve::{fit, residuals, FitOptions};
 use trimorph::mesh::{Mesh, MeshOptions};
