@@ -207,3 +207,31 @@ fn hard_mode_reports_contradictory_landmarks() {
     let e = fit(&s, &lms, &FitOptions { hard: true, ..FitOptions::default() }).unwrap_err();
     assert!(matches!(e, FitError::Unsolvable(_)), "{e}");
 }
+
+mod props {
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 12, ..ProptestConfig::default() })]
+        /// Whatever the landmarks, the fit is C1 exactly (checked in rational arithmetic),
+        /// never worse than the warm start on its own objective, and leaves the input alone.
+        #[test]
+        fn fits_are_exactly_c1_and_improve_the_objective(
+            pts in prop::collection::vec((5.0f64..495.0, 5.0f64..245.0, -12.0f64..12.0, -12.0f64..12.0), 3..25),
+            bend in 0.001f64..1.0,
+            robust in 0usize..3,
+        ) {
+            let s = grid_spline();
+            let lms: Vec<Landmark> = pts
+                .iter()
+                .map(|&(x, y, dx, dy)| Landmark { name: None, src: [x, y], dst: [x + dx, y + dy], weight: 1.0 })
+                .collect();
+            let loss = [Loss::Squares, Loss::Huber(2.0), Loss::Cauchy(2.0)][robust];
+            let f = fit(&s, &lms, &FitOptions { loss, bend, ..FitOptions::default() }).unwrap();
+            prop_assert!(f.spline.check_c1().is_ok());
+            prop_assert!(f.report.exact_c1);
+            prop_assert!(f.report.cost_final <= f.report.cost_initial + 1e-9);
+        }
+    }
+}
