@@ -190,3 +190,22 @@ fn frame_sequences_track_resume_and_shard() {
         assert!((d[0] - 4.5).abs() < 0.5 && (d[1] + 3.0).abs() < 0.5, "tracked shift {d:?}");
     }
 }
+
+/// Bug: the cause of an I/O error was printed twice ("...: No such file ...: No such file ...").
+#[test]
+fn missing_landmark_file_error_names_the_cause_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let def = reference(dir.path());
+    let o = trimorph(&[
+        "fit",
+        s(&def),
+        "--landmarks",
+        "no-such.csv",
+        "-o",
+        s(&dir.path().join("o.json")),
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("no-such.csv"), "{err}");
+    assert_eq!(err.matches("os error 2").count(), 1, "{err}");
+}

@@ -366,6 +366,20 @@ pub struct Exit {
     pub printed: bool,
 }
 
+/// The error and its causes joined by ": ", skipping a cause whose text the message already
+/// holds (many errors print their source themselves).
+fn error_text(e: &anyhow::Error) -> String {
+    let mut msg = e.to_string();
+    for c in e.chain().skip(1) {
+        let t = c.to_string();
+        if !msg.contains(&t) {
+            msg += ": ";
+            msg += &t;
+        }
+    }
+    msg
+}
+
 /// Parses the arguments, runs the command and returns the exit code.
 pub fn run() -> i32 {
     let cli = Cli::parse();
@@ -534,7 +548,7 @@ pub fn run() -> i32 {
                         return 0;
                     }
                 }
-                eprintln!("error: {e:#}");
+                eprintln!("error: {}", error_text(&e));
                 EXIT_INPUT
             }
         },
