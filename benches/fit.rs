@@ -81,8 +81,7 @@ fn bench_track(c: &mut Criterion) {
     let s = Spline::identity(mesh, 5).unwrap();
     let opts = FitOptions::default();
     let run = || {
-        let moved =
-            track_points(&f0, &f1, &pts, None, &TrackOptions::default()).unwrap();
+        let moved = track_points(&f0, &f1, &pts, None, &TrackOptions::default()).unwrap();
         let lms: Vec<Landmark> = pts
             .iter()
             .zip(moved)
@@ -91,7 +90,12 @@ fn bench_track(c: &mut Criterion) {
         fit(&s, &lms, &opts).unwrap()
     };
     let f = run();
-    eprintln!("tracked {} of {} points; fit rms {:.3}", f.report.fit.count, pts.len(), f.report.fit.rms);
+    eprintln!(
+        "tracked {} of {} points; fit rms {:.3}",
+        f.report.fit.count,
+        pts.len(),
+        f.report.fit.rms
+    );
     c.bench_function("track_and_fit_511", |b| b.iter(|| black_box(run().report.fit.rms)));
 }
 
