@@ -133,7 +133,7 @@ fn frame_sequences_track_resume_and_shard() {
     let frames = dir.path().join("frames");
     fs::create_dir_all(&frames).unwrap();
     for k in 0..4 {
-        frame(1.5 * k as f64, -1.0 * k as f64).save(frames.join(format!("f{k}.png"))).unwrap();
+        frame(1.5 * k as f64, -(k as f64)).save(frames.join(format!("f{k}.png"))).unwrap();
     }
     let scene = dir.path().join("scene.json");
     ok(&trimorph(&["mesh", "--grid", "4x3", "--size", "160,120", "-o", s(&scene)]));

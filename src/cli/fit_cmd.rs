@@ -34,7 +34,7 @@ impl SolverArgs<'_> {
         if !(self.min_det.is_finite() && self.min_det < 1.0) {
             bail!("--min-det must be a number below 1");
         }
-        let barrier = (!self.no_barrier).then(|| Barrier {
+        let barrier = (!self.no_barrier).then_some(Barrier {
             floor: self.min_det,
             tau: self.min_det + 0.2,
             mu: 1.0,
