@@ -93,8 +93,9 @@ impl Tps {
                 b.swap(c, p);
                 for r in c + 1..m {
                     let f = a[r][c] / a[c][c];
-                    for k in c..m {
-                        a[r][k] -= f * a[c][k];
+                    let (top, bot) = a.split_at_mut(r);
+                    for (x, y) in bot[0][c..m].iter_mut().zip(&top[c][c..m]) {
+                        *x -= f * y;
                     }
                     b[r] -= f * b[c];
                 }

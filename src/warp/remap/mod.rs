@@ -170,6 +170,57 @@ pub struct RemapPlan<'a> {
     bands: usize,
 }
 
+/// A reference triangle's shape, as far as [`Refiner::tri_bound`] needs it: the same
+/// figures for every congruent copy (the halves of a block's sub-rectangles).
+struct HalfShape {
+    /// adj(Pe), Pe the edge matrix `[P1 - P0, P2 - P0]` (columns).
+    adj: [[f64; 2]; 2],
+    /// Signed area (twice) of the triangle.
+    area: f64,
+    diam: f64,
+    /// Squared circumradius.
+    r2: f64,
+}
+
+impl HalfShape {
+    fn new(p: [[f64; 2]; 3]) -> HalfShape {
+        let pe = [[p[1][0] - p[0][0], p[2][0] - p[0][0]], [p[1][1] - p[0][1], p[2][1] - p[0][1]]];
+        let d2 = |u: [f64; 2], v: [f64; 2]| (u[0] - v[0]).powi(2) + (u[1] - v[1]).powi(2);
+        let l = d2(p[0], p[1]).max(d2(p[0], p[2])).max(d2(p[1], p[2]));
+        HalfShape {
+            adj: [[pe[1][1], -pe[0][1]], [-pe[1][0], pe[0][0]]],
+            area: signed_area(p),
+            diam: l.sqrt(),
+            r2: l / 4.0,
+        }
+    }
+
+    /// [`Refiner::tri_bound`] for a copy of this shape with image `q` (signed area `sq`),
+    /// the same arithmetic as [`affine_inverse_norm`] and `tri_bound` with the reference
+    /// figures precomputed.
+    #[inline]
+    fn bound(&self, q: [[f64; 2]; 3], sq: f64, m2: f64) -> Option<f64> {
+        let (sp, adj) = (self.area, self.adj);
+        if sp * sq == 0.0 || !(sp * sq).is_finite() {
+            return None;
+        }
+        if m2 == 0.0 {
+            return Some(0.0);
+        }
+        let qe = [[q[1][0] - q[0][0], q[2][0] - q[0][0]], [q[1][1] - q[0][1], q[2][1] - q[0][1]]];
+        let b = [0, 1].map(|r| [0, 1].map(|c| qe[r][0] * adj[0][c] + qe[r][1] * adj[1][c]));
+        let det = b[0][0] * b[1][1] - b[0][1] * b[1][0];
+        let fro2 = b[0][0] * b[0][0] + b[0][1] * b[0][1] + b[1][0] * b[1][0] + b[1][1] * b[1][1];
+        let smax = ((fro2 + ((fro2 * fro2 - 4.0 * det * det).max(0.0)).sqrt()) / 2.0).sqrt();
+        let ainv = smax / sq.abs();
+        let shrink = 1.0 - ainv * m2 * self.diam;
+        if shrink <= 0.5 {
+            return None;
+        }
+        Some(1.01 * ainv / shrink * m2 * self.r2 / 2.0)
+    }
+}
+
 struct Refiner<'s> {
     s: &'s Spline,
     curv: CurvatureGrid,
@@ -239,27 +290,26 @@ impl Refiner<'_> {
                 out.pool.push(v);
             }
         }
+        // Every sub-rectangle's halves have the same reference shape, so what `tri_bound`
+        // derives from it (adj(Pe), its area, diameter, circumradius) is computed once.
+        let halves = [[0, 1, 3], [0, 3, 2]];
+        let pr = [[0.0, 0.0], [step[0], 0.0], [0.0, step[1]], [step[0], step[1]]];
+        let shape = halves.map(|h| HalfShape::new(h.map(|c| pr[c])));
         let mut worst = 0.0f64;
         let mut sign = 0.0f64;
         let n = k + 1;
         for j in 0..k {
             for i in 0..k {
-                let (x0, y0) = (p[0][0] + i as f64 * step[0], p[0][1] + j as f64 * step[1]);
-                let pp = [
-                    [x0, y0],
-                    [x0 + step[0], y0],
-                    [x0, y0 + step[1]],
-                    [x0 + step[0], y0 + step[1]],
-                ];
                 let b = off + j * n + i;
                 let qq = [out.pool[b], out.pool[b + 1], out.pool[b + n], out.pool[b + n + 1]];
-                for h in [[0, 1, 3], [0, 3, 2]] {
-                    let (pt, qt) = (h.map(|c| pp[c]), h.map(|c| qq[c]));
-                    let sg = (signed_area(pt) * signed_area(qt)).signum();
+                for (h, sh) in halves.iter().zip(&shape) {
+                    let qt = h.map(|c| qq[c]);
+                    let sq = signed_area(qt);
+                    let sg = (sh.area * sq).signum();
                     if sign == 0.0 {
                         sign = sg;
                     }
-                    match self.tri_bound(pt, qt, m2) {
+                    match sh.bound(qt, sq, m2) {
                         Some(bd) if bd <= self.tol && sg == sign => worst = worst.max(bd),
                         _ => {
                             out.pool.truncate(off);

@@ -48,20 +48,23 @@ pub(super) fn raster(
     let c = [1.0 - c1 - c2, c1, c2];
     let bx = [-inv[0][0] - inv[1][0], inv[0][0], inv[1][0]];
     let by = [-inv[0][1] - inv[1][1], inv[0][1], inv[1][1]];
-    let (mut lower, mut upper, mut flat) = ([[0.0f64; 2]; 3], [[0.0f64; 2]; 3], [[0.0f64; 2]; 3]);
-    let (mut nl, mut nu, mut nf) = (0, 0, 0);
+    // Since sum_k bx_k = 0 and not all bx_k vanish, there are at most two lower lines, two
+    // upper lines and one flat line; unused slots hold neutral lines (x >= xa, x <= xb,
+    // 0 >= -eps), so each row costs a fixed, branch-free handful of operations.
+    let (xaf, xbf) = (xa as f64, xb as f64);
+    let (mut lower, mut upper, mut flat) = ([[xaf, 0.0]; 2], [[xbf, 0.0]; 2], [0.0f64, 0.0]);
+    let (mut nl, mut nu) = (0, 0);
     for k in 0..3 {
         if bx[k] == 0.0 {
-            flat[nf] = [c[k], by[k]];
-            nf += 1;
+            flat = [c[k], by[k]];
         } else {
             let rb = 1.0 / bx[k];
             let line = [(-eps - c[k]) * rb, -by[k] * rb];
             if bx[k] > 0.0 {
-                lower[nl] = line;
+                lower[nl & 1] = line;
                 nl += 1;
             } else {
-                upper[nu] = line;
+                upper[nu & 1] = line;
                 nu += 1;
             }
         }
@@ -73,18 +76,9 @@ pub(super) fn raster(
     let mut written = 0;
     for y in ya..=yb as usize {
         let yf = y as f64;
-        if flat[..nf].iter().any(|f| f[0] + f[1] * yf < -eps) {
-            continue;
-        }
-        let mut lo_x = xa as f64;
-        for l in &lower[..nl] {
-            lo_x = lo_x.max(l[0] + l[1] * yf);
-        }
-        let mut hi_x = xb as f64;
-        for u in &upper[..nu] {
-            hi_x = hi_x.min(u[0] + u[1] * yf);
-        }
-        if hi_x < lo_x {
+        let lo_x = xaf.max(lower[0][0] + lower[0][1] * yf).max(lower[1][0] + lower[1][1] * yf);
+        let hi_x = xbf.min(upper[0][0] + upper[0][1] * yf).min(upper[1][0] + upper[1][1] * yf);
+        if hi_x < lo_x || flat[0] + flat[1] * yf < -eps {
             continue;
         }
         let (x0, x1) = (fast_ceil(lo_x), fast_floor(hi_x));
