@@ -35,7 +35,9 @@ fn bench(c: &mut Criterion) {
     let pv = m.preview(2).unwrap();
     g.bench_function("30_preview_frames_512_step2", |bn| {
         bn.iter(|| {
-            (0..30).map(|k| m.preview_frame(&pv, k as f64 / 29.0, [0, 0, 0, 255]).unwrap()).count()
+            (0..30)
+                .map(|k| m.preview_frame(&pv, k as f64 / 29.0, [0, 0, 0, 255]).unwrap())
+                .collect::<Vec<_>>()
         })
     });
     g.finish();
