@@ -36,7 +36,7 @@ pub mod output;
 #[cfg(test)]
 mod tests;
 
-use crate::exact::matrix::Rat;
+use crate::exact::matrix::{rat_to_f64, Rat};
 use crate::exact::Int;
 use crate::fit::landmarks::Landmark;
 use crate::fit::solve::{fit, FitError, FitOptions};
@@ -126,6 +126,19 @@ impl Schedule {
             Schedule::Smooth => t,
         }
     }
+
+    /// `alpha(t)` in exact arithmetic (the same formula as [`Schedule::at`]).
+    pub fn at_exact(self, t: &Rat) -> Rat {
+        let (zero, one) = (Rat::from_integer(Int::from(0)), Rat::from_integer(Int::from(1)));
+        match self {
+            Schedule::Smooth if *t >= zero && *t <= one => {
+                let three = Rat::from_integer(Int::from(3));
+                let two = Rat::from_integer(Int::from(2));
+                t * t * (three - two * t)
+            }
+            _ => t.clone(),
+        }
+    }
 }
 
 impl std::str::FromStr for Schedule {
@@ -179,6 +192,13 @@ impl Default for MorphOptions {
 /// `t = k / (n - 1)` for `k = 0 .. n`.
 pub fn frame_times(n: usize) -> Vec<f64> {
     (0..n).map(|k| if n < 2 { 0.0 } else { k as f64 / (n - 1) as f64 }).collect()
+}
+
+/// `t = k / (n - 1)` for `k = 0 .. n`, exactly. Small denominators keep the blended control
+/// points short (blending with `1/29` as an `f64` costs several times more than `1/29`).
+pub fn frame_times_exact(n: usize) -> Vec<Rat> {
+    let d = Int::from(n.saturating_sub(1).max(1) as i64);
+    (0..n).map(|k| Rat::new(Int::from(k as i64), d.clone())).collect()
 }
 
 /// The common working type of two images (see the module docs).
@@ -333,16 +353,25 @@ impl Morph {
 
     /// `phi_{A->t}` for the shape weight `s`: `(1 - s) id + s phi_{A->B}`, exactly.
     pub fn phi_a_at(&self, s: f64) -> Result<Spline, MorphError> {
+        self.phi_a_exact(&exact(s)?)
+    }
+
+    /// [`Morph::phi_a_at`] for an exact `s`.
+    pub fn phi_a_exact(&self, s: &Rat) -> Result<Spline, MorphError> {
         let mut out = self.phi_ab.clone();
-        out.set_points(blend_points(&self.id_a, self.phi_ab.points(), &exact(s)?))?;
+        out.set_points(blend_points(&self.id_a, self.phi_ab.points(), s))?;
         Ok(out)
     }
 
     /// `phi_{B->t}` for the shape weight `s`: `s id + (1 - s) phi_{B->A}`, exactly.
     pub fn phi_b_at(&self, s: f64) -> Result<Spline, MorphError> {
+        self.phi_b_exact(&exact(s)?)
+    }
+
+    /// [`Morph::phi_b_at`] for an exact `s`.
+    pub fn phi_b_exact(&self, s: &Rat) -> Result<Spline, MorphError> {
         let mut out = self.phi_ba.clone();
-        let w = exact(s)?;
-        let one_minus = Rat::new(Int::from(1), Int::from(1)) - w;
+        let one_minus = Rat::from_integer(Int::from(1)) - s;
         out.set_points(blend_points(&self.id_b, self.phi_ba.points(), &one_minus))?;
         Ok(out)
     }
@@ -385,9 +414,16 @@ impl Morph {
     /// The frame at time `t` (any real `t`; `0` is `A`, `1` is `B`), of `A`'s size and the
     /// working type.
     pub fn frame(&self, t: f64) -> Result<DynamicImage, MorphError> {
-        let (s, c) = self.weights(t)?;
+        self.frame_exact(&exact(t)?)
+    }
+
+    /// [`Morph::frame`] at an exact `t` (`alpha_shape` is evaluated exactly).
+    pub fn frame_exact(&self, t: &Rat) -> Result<DynamicImage, MorphError> {
+        let (_, c) = self.weights(rat_to_f64(t))?;
+        let s = self.opts.shape.at_exact(t);
         let (w, h) = (self.a.width(), self.a.height());
-        let (sa, sb) = (self.phi_a_at(s)?, self.phi_b_at(s)?);
+        let (sa, sb) = rayon::join(|| self.phi_a_exact(&s), || self.phi_b_exact(&s));
+        let (sa, sb) = (sa?, sb?);
         let ro = self.opts.remap;
         let (pa, pb) = rayon::join(
             || (c < 1.0).then(|| RemapPlan::new(&sa, w, h, ro)),
@@ -440,10 +476,10 @@ impl Morph {
         if n < 2 {
             return Err(MorphError::Frames(n));
         }
-        frame_times(n)
+        frame_times_exact(n)
             .into_par_iter()
             .map(|t| {
-                let f = self.frame(t);
+                let f = self.frame_exact(&t);
                 progress();
                 f
             })

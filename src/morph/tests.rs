@@ -66,6 +66,20 @@ fn blends_are_exactly_c1_and_end_at_identity_and_fit() {
 }
 
 #[test]
+fn exact_and_float_times_give_the_same_frame() {
+    let (a, b) = (pattern(64, 48, 0.0), pattern(64, 48, 3.0));
+    let m = Morph::new(&a, &b, &landmarks(), &MorphOptions::default()).unwrap();
+    let third = Rat::new(Int::from(1), Int::from(3));
+    let (x, y) = (m.frame_exact(&third).unwrap(), m.frame(1.0 / 3.0).unwrap());
+    assert!(max_diff(&x, &y) <= 1);
+    let (p, q) = (m.phi_a_exact(&third).unwrap(), m.phi_a_at(1.0 / 3.0).unwrap());
+    for i in 0..p.num_points() {
+        let (u, v) = (p.point_f64(i), q.point_f64(i));
+        assert!((u[0] - v[0]).abs() < 1e-9 && (u[1] - v[1]).abs() < 1e-9);
+    }
+}
+
+#[test]
 fn first_frame_is_a_and_last_is_b() {
     let (a, b) = (pattern(64, 48, 0.0), pattern(64, 48, 3.0));
     let m = Morph::new(&a, &b, &landmarks(), &MorphOptions::default()).unwrap();
@@ -189,6 +203,14 @@ fn schedules() {
     assert_eq!("smooth".parse::<Schedule>(), Ok(Schedule::Smooth));
     assert!("cubic".parse::<Schedule>().is_err());
     assert_eq!(frame_times(3), vec![0.0, 0.5, 1.0]);
+    let half = frame_times_exact(3)[1].clone();
+    assert_eq!(half, Rat::new(Int::from(1), Int::from(2)));
+    let quarter = Rat::new(Int::from(1), Int::from(4));
+    assert_eq!(rat_to_f64(&Schedule::Smooth.at_exact(&quarter)), 0.15625);
+    assert_eq!(
+        Schedule::Smooth.at_exact(&Rat::from_integer(Int::from(2))),
+        Rat::from_integer(Int::from(2))
+    );
 }
 
 #[test]
