@@ -140,3 +140,37 @@ fn bad_inputs_exit_1_with_a_message() {
         assert!(err.contains(msg), "{full:?}: expected `{msg}` in: {err}");
     }
 }
+
+#[test]
+fn preview_path_writes_colour_mesh_frames_starting_at_a() {
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b, l) = crop_inputs(dir.path());
+    let out = dir.path().join("out");
+    let o = trimorph(&[
+        "morph",
+        &a,
+        &b,
+        "--landmarks",
+        &l,
+        "--frames",
+        "4",
+        "--preview",
+        "1",
+        "--quiet",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(o.stderr.is_empty(), "--quiet prints nothing");
+    let f0 = image::open(out.join("frame_000.png")).unwrap().to_luma8();
+    let f3 = image::open(out.join("frame_003.png")).unwrap().to_luma8();
+    let want = image::open(&a).unwrap().to_luma8();
+    // Inside the outer ring (half covered by the mesh) frame 0 is A.
+    for (x, y, p) in f0.enumerate_pixels() {
+        if x > 0 && y > 0 && x < 127 && y < 127 {
+            assert!(p.0[0].abs_diff(want.get_pixel(x, y).0[0]) <= 1, "({x}, {y})");
+        }
+    }
+    assert_ne!(f0.as_raw(), f3.as_raw());
+    assert!(out.join("morph.gif").exists() && out.join("contact-sheet.png").exists());
+}

@@ -5,7 +5,7 @@ use crate::io::landmarks::read_landmarks;
 use crate::io::raster::read_stack;
 use crate::io::write_atomic;
 use crate::morph::output::{apng_bytes, contact_sheet, frame_name, gif_bytes, png_bytes};
-use crate::morph::{frame_times, Morph, MorphOptions, Schedule};
+use crate::morph::{frame_times, frame_times_exact, Morph, MorphOptions, Schedule};
 use crate::warp::Interp;
 use anyhow::{anyhow, bail, Context, Result};
 use image::DynamicImage;
@@ -58,10 +58,10 @@ pub fn run(a: MorphArgs<'_>) -> Result<()> {
         None => morph.frames(a.frames, &|| bar.inc(1))?,
         Some(step) => {
             let pv = morph.preview(step)?;
-            times
+            frame_times_exact(a.frames)
                 .par_iter()
-                .map(|&t| {
-                    let pm = morph.preview_frame(&pv, t, [0, 0, 0, 255])?;
+                .map(|t| {
+                    let pm = morph.preview_frame_exact(&pv, t, [0, 0, 0, 255])?;
                     bar.inc(1);
                     let img = image::RgbaImage::from_raw(pm.width(), pm.height(), pm.take())
                         .expect("sizes match");

@@ -519,7 +519,18 @@ impl Morph {
         t: f64,
         background: [u8; 4],
     ) -> Result<Pixmap, MorphError> {
-        let (s, c) = self.weights(t)?;
+        self.preview_frame_exact(pv, &exact(t)?, background)
+    }
+
+    /// [`Morph::preview_frame`] at an exact `t`.
+    pub fn preview_frame_exact(
+        &self,
+        pv: &Preview,
+        t: &Rat,
+        background: [u8; 4],
+    ) -> Result<Pixmap, MorphError> {
+        let (_, c) = self.weights(rat_to_f64(t))?;
+        let s = self.opts.shape.at_exact(t);
         let c = c as f32;
         let colors = pv
             .colors_a
@@ -535,7 +546,7 @@ impl Morph {
             triangles: pv.mesh.triangles.clone(),
             colors: Colors::PerVertex(colors),
         };
-        let (moved, _) = mesh.deform(&self.phi_a_at(s)?);
+        let (moved, _) = mesh.deform(&self.phi_a_exact(&s)?);
         Ok(rasterize(&moved, self.a.width(), self.a.height(), Some(background))?)
     }
 }
