@@ -125,7 +125,8 @@ fn bad_inputs_exit_1_with_a_message() {
     )
     .unwrap();
     let missing = dir.path().join("missing.png");
-    let cases: [(Vec<&str>, &str); 4] = [
+    let cases: [(Vec<&str>, &str); 5] = [
+        (vec![&a, &b, "--landmarks", &l, "--range", "0", "-o", out], "--range"),
         (vec![missing.to_str().unwrap(), &b, "--landmarks", &l, "-o", out], "cannot read image A"),
         (vec![&a, &b, "--landmarks", &l, "--frames", "1", "-o", out], "at least 2"),
         (vec![&a, &b, "--landmarks", bad_lm.to_str().unwrap(), "-o", out], "outside image B"),
@@ -173,4 +174,33 @@ fn preview_path_writes_colour_mesh_frames_starting_at_a() {
     }
     assert_ne!(f0.as_raw(), f3.as_raw());
     assert!(out.join("morph.gif").exists() && out.join("contact-sheet.png").exists());
+}
+
+#[test]
+fn range_makes_a_caricature() {
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b, l) = crop_inputs(dir.path());
+    let run = |range: &str, out: &Path| {
+        let o = trimorph(&[
+            "morph",
+            &a,
+            &b,
+            "--landmarks",
+            &l,
+            "--frames",
+            "2",
+            "--quiet",
+            "--range",
+            range,
+            "-o",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        image::open(out.join("frame_001.png")).unwrap().to_luma8()
+    };
+    let plain = run("0,1", &dir.path().join("plain"));
+    let over = run("0,1.5", &dir.path().join("over"));
+    let b = image::open(&b).unwrap().to_luma8();
+    assert!(plain.pixels().zip(b.pixels()).all(|(x, y)| x.0[0].abs_diff(y.0[0]) <= 1));
+    assert_ne!(over.as_raw(), b.as_raw());
 }

@@ -180,6 +180,10 @@ enum Command {
         /// Number of frames (t = k / (frames - 1)).
         #[arg(long, default_value_t = 30)]
         frames: usize,
+        /// Times T0,T1 of the first and last frame; outside 0,1 is a caricature
+        /// (e.g. `-0.25,1.25`).
+        #[arg(long, default_value = "0,1", allow_hyphen_values = true)]
+        range: String,
         /// Output folder.
         #[arg(short, long)]
         output: PathBuf,
@@ -507,6 +511,7 @@ pub fn run() -> i32 {
             b,
             landmarks,
             frames,
+            range,
             output,
             gif,
             apng,
@@ -521,6 +526,7 @@ pub fn run() -> i32 {
             b: &b,
             landmarks: &landmarks,
             frames,
+            range: &range,
             output: &output,
             gif: gif.as_deref(),
             apng: apng.as_deref(),

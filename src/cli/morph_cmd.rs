@@ -1,11 +1,12 @@
 //! `trimorph morph A B --landmarks L.csv --frames N -o DIR`: frames, animations, contact sheet.
 
 use super::warp_cmd::progress_bar;
+use crate::exact::matrix::rat_to_f64;
 use crate::io::landmarks::read_landmarks;
 use crate::io::raster::read_stack;
 use crate::io::write_atomic;
 use crate::morph::output::{apng_bytes, contact_sheet, frame_name, gif_bytes, png_bytes};
-use crate::morph::{frame_times, frame_times_exact, Morph, MorphOptions, Schedule};
+use crate::morph::{times_between, Morph, MorphOptions, Schedule};
 use crate::warp::Interp;
 use anyhow::{anyhow, bail, Context, Result};
 use image::DynamicImage;
@@ -18,6 +19,7 @@ pub struct MorphArgs<'a> {
     pub b: &'a Path,
     pub landmarks: &'a Path,
     pub frames: usize,
+    pub range: &'a str,
     pub output: &'a Path,
     pub gif: Option<&'a Path>,
     pub apng: Option<&'a Path>,
@@ -43,6 +45,12 @@ pub fn run(a: MorphArgs<'_>) -> Result<()> {
     let shape: Schedule = a.shape.parse().map_err(|e: String| anyhow!("--shape: {e}"))?;
     let color: Schedule = a.color.parse().map_err(|e: String| anyhow!("--color: {e}"))?;
     let interp: Interp = a.interp.parse().map_err(|e: String| anyhow!("--interp: {e}"))?;
+    let (t0, t1) = a
+        .range
+        .split_once(',')
+        .and_then(|(x, y)| Some((x.trim().parse::<f64>().ok()?, y.trim().parse::<f64>().ok()?)))
+        .filter(|(x, y)| x.is_finite() && y.is_finite())
+        .ok_or_else(|| anyhow!("--range: expected T0,T1 (two numbers), got `{}`", a.range))?;
     let img_a = first_page(a.a, "A")?;
     let img_b = first_page(a.b, "B")?;
     let lms = read_landmarks(a.landmarks)
@@ -52,13 +60,14 @@ pub fn run(a: MorphArgs<'_>) -> Result<()> {
     std::fs::create_dir_all(a.output)
         .with_context(|| format!("cannot create {}", a.output.display()))?;
 
-    let times = frame_times(a.frames);
+    let exact_times = times_between(a.frames, t0, t1)?;
+    let times: Vec<f64> = exact_times.iter().map(rat_to_f64).collect();
     let bar = progress_bar(a.frames as u64, !a.quiet, "morph");
     let frames: Vec<DynamicImage> = match a.preview {
-        None => morph.frames(a.frames, &|| bar.inc(1))?,
+        None => morph.frames_at(&exact_times, &|| bar.inc(1))?,
         Some(step) => {
             let pv = morph.preview(step)?;
-            frame_times_exact(a.frames)
+            exact_times
                 .par_iter()
                 .map(|t| {
                     let pm = morph.preview_frame_exact(&pv, t, [0, 0, 0, 255])?;

@@ -237,6 +237,12 @@ fn common(a: &DynamicImage, b: &DynamicImage) -> (DynamicImage, DynamicImage) {
     (keep(a, conv(a)), keep(b, conv(b)))
 }
 
+/// `n` times from `t0` to `t1`, equally spaced, exactly: `t0 + k (t1 - t0) / (n - 1)`.
+pub fn times_between(n: usize, t0: f64, t1: f64) -> Result<Vec<Rat>, MorphError> {
+    let (a, b) = (exact(t0)?, exact(t1)?);
+    Ok(frame_times_exact(n).into_iter().map(|u| &a + &(&u * &(&b - &a))).collect())
+}
+
 /// `f64` as an exact rational.
 fn exact(v: f64) -> Result<Rat, MorphError> {
     let r = BigRational::from_float(v).ok_or(MorphError::Schedule(v))?;
@@ -476,10 +482,20 @@ impl Morph {
         if n < 2 {
             return Err(MorphError::Frames(n));
         }
-        frame_times_exact(n)
-            .into_par_iter()
+        self.frames_at(&frame_times_exact(n), progress)
+    }
+
+    /// Frames at the given exact times (for caricatures: times outside `[0, 1]`), in
+    /// parallel; `progress` is called once per finished frame.
+    pub fn frames_at(
+        &self,
+        times: &[Rat],
+        progress: &(dyn Fn() + Sync),
+    ) -> Result<Vec<DynamicImage>, MorphError> {
+        times
+            .par_iter()
             .map(|t| {
-                let f = self.frame_exact(&t);
+                let f = self.frame_exact(t);
                 progress();
                 f
             })

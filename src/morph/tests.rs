@@ -196,6 +196,25 @@ fn preview_starts_at_a_and_moves_with_phi() {
 }
 
 #[test]
+fn caricature_frames_extrapolate_the_shape() {
+    let (a, b) = (pattern(64, 48, 0.0), pattern(64, 48, 3.0));
+    let m = Morph::new(&a, &b, &landmarks(), &MorphOptions::default()).unwrap();
+    let ts = times_between(3, -0.5, 1.5).unwrap();
+    assert_eq!(ts.iter().map(rat_to_f64).collect::<Vec<_>>(), vec![-0.5, 0.5, 1.5]);
+    let frames = m.frames_at(&ts, &|| {}).unwrap();
+    assert_eq!(frames.len(), 3);
+    // The middle one is the ordinary t = 0.5 frame; the ends differ from A and B.
+    assert!(max_diff(&frames[1], &m.frame(0.5).unwrap()) <= 1);
+    assert!(max_diff(&frames[0], &a) > 10 && max_diff(&frames[2], &b) > 10);
+    let sp = m.phi_a_exact(&ts[2]).unwrap();
+    sp.check_c1().unwrap();
+    // Landmarks go 1.5 times as far as from A to B, up to 1.5 times the fit residual.
+    let errs = m.landmark_errors(1.5).unwrap();
+    let fit = m.landmark_errors(1.0).unwrap().iter().map(|e| e[0]).fold(0.0, f64::max);
+    assert!(errs.iter().all(|e| e[0] <= 1.5 * fit + 1e-6));
+}
+
+#[test]
 fn schedules() {
     assert_eq!(Schedule::Smooth.at(0.5), 0.5);
     assert_eq!(Schedule::Smooth.at(0.25), 0.15625);
