@@ -12,6 +12,7 @@
 //!   Part II;
 //! * [`warp`]: points and images through a deformation (forward and inverse);
 //! * [`fit`]: deformations fitted to matched landmarks (argmin over ECLES);
+//! * [`morph`]: image morphing through two fitted deformations blended exactly;
 //! * [`render`]: pictures (plots, deformations);
 //! * [`io`]: atomic file output;
 //! * [`cli`]: the `trimorph` command line.
@@ -29,6 +30,7 @@ pub mod exact;
 pub mod fit;
 pub mod io;
 pub mod mesh;
+pub mod morph;
 pub mod prism;
 pub mod render;
 pub mod spline;

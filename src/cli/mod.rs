@@ -10,6 +10,7 @@ mod fit_batch;
 mod fit_cmd;
 mod match_cmd;
 mod model_cmd;
+mod morph_cmd;
 mod solve;
 pub mod spline_cmds;
 mod warp_cmd;
@@ -164,6 +165,53 @@ enum Command {
         /// Largest accepted error of an inverse point (pixels).
         #[arg(long, default_value_t = 0.01)]
         tolerance: f64,
+    },
+    /// Morph image A into image B through landmark pairs (src in A, dst in B): frames
+    /// `frame_000.png` ... in the output folder, an animated GIF and APNG, and
+    /// `contact-sheet.png`. Frames have A's size.
+    Morph {
+        /// Image A (first frame).
+        a: PathBuf,
+        /// Image B (last frame).
+        b: PathBuf,
+        /// Landmark pairs (CSV `name,src_x,src_y,dst_x,dst_y[,weight]`, BigWarp CSV or JSON).
+        #[arg(long)]
+        landmarks: PathBuf,
+        /// Number of frames (t = k / (frames - 1)).
+        #[arg(long, default_value_t = 30)]
+        frames: usize,
+        /// Times T0,T1 of the first and last frame; outside 0,1 is a caricature
+        /// (e.g. `-0.25,1.25`).
+        #[arg(long, default_value = "0,1", allow_hyphen_values = true)]
+        range: String,
+        /// Output folder.
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Animated GIF (default OUTPUT/morph.gif).
+        #[arg(long)]
+        gif: Option<PathBuf>,
+        /// Animated PNG (default OUTPUT/morph.apng).
+        #[arg(long)]
+        apng: Option<PathBuf>,
+        /// Shape schedule alpha_shape(t): linear or smooth.
+        #[arg(long, default_value = "linear")]
+        shape: String,
+        /// Colour schedule alpha_color(t): linear or smooth.
+        #[arg(long, default_value = "linear")]
+        color: String,
+        /// Image resampling: nearest, bilinear or bicubic.
+        #[arg(long, default_value = "bilinear")]
+        interp: String,
+        /// Fast preview: draw A as a colour mesh with a vertex every STEP pixels instead of
+        /// warping both images.
+        #[arg(long, value_name = "STEP")]
+        preview: Option<u32>,
+        /// Delay between animation frames (milliseconds).
+        #[arg(long, default_value_t = 100)]
+        delay: u32,
+        /// No progress bar or summary.
+        #[arg(long)]
+        quiet: bool,
     },
     /// 2.5D models: bind a 3D model to a prism mesh, or write the bundled organism.
     #[command(subcommand)]
@@ -457,6 +505,37 @@ pub fn run() -> i32 {
             interp: &interp,
             background,
             tolerance,
+        }),
+        Command::Morph {
+            a,
+            b,
+            landmarks,
+            frames,
+            range,
+            output,
+            gif,
+            apng,
+            shape,
+            color,
+            interp,
+            preview,
+            delay,
+            quiet,
+        } => morph_cmd::run(morph_cmd::MorphArgs {
+            a: &a,
+            b: &b,
+            landmarks: &landmarks,
+            frames,
+            range: &range,
+            output: &output,
+            gif: gif.as_deref(),
+            apng: apng.as_deref(),
+            shape: &shape,
+            color: &color,
+            interp: &interp,
+            preview,
+            delay_ms: delay,
+            quiet,
         }),
         Command::Field { deformation, output, inverse, jacobian, size } => {
             warp_cmd::field(&deformation, &output, inverse, jacobian.as_deref(), size.as_deref())

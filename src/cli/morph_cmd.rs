@@ -1,0 +1,122 @@
+//! `trimorph morph A B --landmarks L.csv --frames N -o DIR`: frames, animations, contact sheet.
+
+use super::warp_cmd::progress_bar;
+use crate::exact::matrix::rat_to_f64;
+use crate::io::landmarks::read_landmarks;
+use crate::io::raster::read_stack;
+use crate::io::write_atomic;
+use crate::morph::output::{apng_bytes, contact_sheet, frame_name, gif_bytes, png_bytes};
+use crate::morph::{times_between, Morph, MorphOptions, Schedule};
+use crate::warp::Interp;
+use anyhow::{anyhow, bail, Context, Result};
+use image::DynamicImage;
+use rayon::prelude::*;
+use std::path::{Path, PathBuf};
+
+/// Options of `trimorph morph`.
+pub struct MorphArgs<'a> {
+    pub a: &'a Path,
+    pub b: &'a Path,
+    pub landmarks: &'a Path,
+    pub frames: usize,
+    pub range: &'a str,
+    pub output: &'a Path,
+    pub gif: Option<&'a Path>,
+    pub apng: Option<&'a Path>,
+    pub shape: &'a str,
+    pub color: &'a str,
+    pub interp: &'a str,
+    pub preview: Option<u32>,
+    pub delay_ms: u32,
+    pub quiet: bool,
+}
+
+fn first_page(path: &Path, which: &str) -> Result<DynamicImage> {
+    let stack = read_stack(path)
+        .with_context(|| format!("cannot read image {which} {}", path.display()))?;
+    stack.pages.into_iter().next().ok_or_else(|| anyhow!("image {which} has no pages"))
+}
+
+/// Runs the command.
+pub fn run(a: MorphArgs<'_>) -> Result<()> {
+    if a.frames < 2 {
+        bail!("--frames must be at least 2 (the first frame is A, the last B), got {}", a.frames);
+    }
+    let shape: Schedule = a.shape.parse().map_err(|e: String| anyhow!("--shape: {e}"))?;
+    let color: Schedule = a.color.parse().map_err(|e: String| anyhow!("--color: {e}"))?;
+    let interp: Interp = a.interp.parse().map_err(|e: String| anyhow!("--interp: {e}"))?;
+    let (t0, t1) = a
+        .range
+        .split_once(',')
+        .and_then(|(x, y)| Some((x.trim().parse::<f64>().ok()?, y.trim().parse::<f64>().ok()?)))
+        .filter(|(x, y)| x.is_finite() && y.is_finite())
+        .ok_or_else(|| anyhow!("--range: expected T0,T1 (two numbers), got `{}`", a.range))?;
+    let img_a = first_page(a.a, "A")?;
+    let img_b = first_page(a.b, "B")?;
+    let lms = read_landmarks(a.landmarks)
+        .with_context(|| format!("cannot read landmarks {}", a.landmarks.display()))?;
+    let opts = MorphOptions { shape, color, interp, ..MorphOptions::default() };
+    let morph = Morph::new(&img_a, &img_b, &lms, &opts)?;
+    std::fs::create_dir_all(a.output)
+        .with_context(|| format!("cannot create {}", a.output.display()))?;
+
+    let exact_times = times_between(a.frames, t0, t1)?;
+    let times: Vec<f64> = exact_times.iter().map(rat_to_f64).collect();
+    let bar = progress_bar(a.frames as u64, !a.quiet, "morph");
+    let frames: Vec<DynamicImage> = match a.preview {
+        None => morph.frames_at(&exact_times, &|| bar.inc(1))?,
+        Some(step) => {
+            let pv = morph.preview(step)?;
+            exact_times
+                .par_iter()
+                .map(|t| {
+                    let pm = morph.preview_frame_exact(&pv, t, [0, 0, 0, 255])?;
+                    bar.inc(1);
+                    let img = image::RgbaImage::from_raw(pm.width(), pm.height(), pm.take())
+                        .expect("sizes match");
+                    Ok(DynamicImage::ImageRgba8(img))
+                })
+                .collect::<Result<_>>()?
+        }
+    };
+    bar.finish_and_clear();
+
+    frames.par_iter().enumerate().try_for_each(|(k, f)| -> Result<()> {
+        let p = a.output.join(frame_name(k, a.frames));
+        write_atomic(&p, &png_bytes(f)?).with_context(|| format!("cannot write {}", p.display()))
+    })?;
+    let gif = a.gif.map(Path::to_path_buf).unwrap_or_else(|| a.output.join("morph.gif"));
+    let apng = a.apng.map(Path::to_path_buf).unwrap_or_else(|| a.output.join("morph.apng"));
+    let sheet: PathBuf = a.output.join("contact-sheet.png");
+    write_atomic(&gif, &gif_bytes(&frames, a.delay_ms)?)
+        .with_context(|| format!("cannot write {}", gif.display()))?;
+    write_atomic(&apng, &apng_bytes(&frames, a.delay_ms)?)
+        .with_context(|| format!("cannot write {}", apng.display()))?;
+    let cols = a.frames.min(8);
+    let pm = contact_sheet(&frames, &times, cols, 160)?;
+    let bytes = pm.encode_png().map_err(|e| anyhow!("encoding the contact sheet: {e}"))?;
+    write_atomic(&sheet, &bytes).with_context(|| format!("cannot write {}", sheet.display()))?;
+
+    let worst = [0.0, 1.0]
+        .iter()
+        .map(|&t| morph.landmark_errors(t))
+        .collect::<Result<Vec<_>, _>>()?
+        .concat()
+        .iter()
+        .flatten()
+        .fold(0.0f64, |m, &e| if e.is_finite() { m.max(e) } else { m });
+    if !a.quiet {
+        eprintln!(
+            "{} frames ({} x {}) in {}; {}, {}, {}; largest landmark fit residual {:.3} px",
+            a.frames,
+            morph.image_a().width(),
+            morph.image_a().height(),
+            a.output.display(),
+            gif.display(),
+            apng.display(),
+            sheet.display(),
+            worst
+        );
+    }
+    Ok(())
+}

@@ -1,0 +1,654 @@
+//! Image morphing between two images `A` and `B` through matched landmarks.
+//!
+//! **Method.** Landmark pairs `(L_A, L_B)` (src: a point in `A`, dst: the matching point in
+//! `B`) give the intermediate landmarks `L_t = (1 - s) L_A + s L_B` with `s = alpha_shape(t)`.
+//! Frame `t` warps `A` by `phi_{A->t}` and `B` by `phi_{B->t}`, both onto `A`'s pixel grid,
+//! and cross-dissolves them with weight `c = alpha_color(t)` on `B`. The two schedules are
+//! separate ([`Schedule`]); `alpha_shape` may leave `[0, 1]` (caricature), `alpha_color` is
+//! clamped to `[0, 1]`.
+//!
+//! **Linearity.** With the squares loss and no fold barrier, a fit is one Gauss-Newton step
+//! from the identity ([`crate::fit::solve`]), so its control points are an affine function
+//! of the targets, and the identity's bending energy is zero. Hence the fit to `L_t` is
+//! `(1 - s) id + s phi_{A->B}`, control point by control point. We fit twice (A->B on a
+//! mesh over `A`, B->A on a mesh over `B`) and obtain every frame's deformations by blending
+//! control points *exactly* in rational arithmetic: the C1 conditions are linear, so the
+//! blend of two exactly-C1 splines is exactly C1 (re-checked by [`Spline::set_points`]), for
+//! any `s`, including `s` outside `[0, 1]`. The fits use [`MorphOptions::fit`] with the
+//! barrier off by default; with a barrier the blend is still exactly C1 but no longer equal
+//! to a direct fit to `L_t`.
+//!
+//! Consequence: `phi_{A->t}(p) = (1 - s) p + s phi_{A->B}(p)`, so a landmark lands at
+//! `L_t` up to `s` times the A->B fit's residual ([`Morph::landmark_errors`]).
+//!
+//! **Sizes and types.** Output frames have `A`'s size. `B` keeps its own size: its
+//! deformation is defined over `B`'s domain and its preimages are computed for an output of
+//! `A`'s size, so `B` is neither padded nor cropped; where only one image has a preimage,
+//! that image alone is shown, where neither has, the background. Both images are converted
+//! to one common type (8-bit unless either is 16-bit or float; gray unless either is
+//! colour; alpha if either has alpha), which is the frames' type.
+//!
+//! **Preview.** [`Morph::preview_frame`] draws `A` as a fine colour mesh ([`ColorMesh`]):
+//! vertices moved by `phi_{A->t}`, vertex colours blended with `B`'s colour at
+//! `phi_{A->B}(v)`, rasterized with tiny-skia.
+
+pub mod output;
+#[cfg(test)]
+mod tests;
+
+use crate::exact::matrix::{rat_to_f64, Rat};
+use crate::exact::Int;
+use crate::fit::landmarks::Landmark;
+use crate::fit::solve::{fit, FitError, FitOptions};
+use crate::mesh::{Mesh, MeshError, MeshOptions};
+use crate::render::colormesh::rasterize;
+use crate::spline::{Spline, SplineError};
+use crate::warp::colormesh::{ColorMesh, ColorMeshError, ColorMode, Colors};
+use crate::warp::remap::{RemapOptions, RemapPlan};
+use crate::warp::sample::{self, Source, Texel};
+use crate::warp::Interp;
+use image::{DynamicImage, ImageBuffer};
+use num_rational::BigRational;
+use rayon::prelude::*;
+use tiny_skia::Pixmap;
+
+/// Why a morph cannot be made.
+#[derive(Debug, thiserror::Error)]
+pub enum MorphError {
+    /// Fewer than 3 landmark pairs.
+    #[error("morphing needs at least 3 landmark pairs, found {0}")]
+    TooFewLandmarks(usize),
+    /// A landmark outside its image.
+    #[error(
+        "landmark {index} ({name}): point ({x}, {y}) lies outside image {image} \
+         ({w} x {h} px, pixel centres 0..{w}-1)"
+    )]
+    OutsideImage {
+        /// Index in the input.
+        index: usize,
+        /// Its name or `-`.
+        name: String,
+        /// `A` (src) or `B` (dst).
+        image: char,
+        /// x.
+        x: f64,
+        /// y.
+        y: f64,
+        /// Image width.
+        w: u32,
+        /// Image height.
+        h: u32,
+    },
+    /// An image smaller than 2 x 2.
+    #[error("image {0} is too small ({1} x {2} px; at least 2 x 2)")]
+    TooSmall(char, u32, u32),
+    /// Fewer than 2 frames.
+    #[error("a morph needs at least 2 frames, got {0}")]
+    Frames(usize),
+    /// A schedule value that is not finite.
+    #[error("the schedule is not finite at t = {0}")]
+    Schedule(f64),
+    /// The mesh could not be built.
+    #[error("mesh: {0}")]
+    Mesh(#[from] MeshError),
+    /// A fit failed.
+    #[error("fitting {dir}: {source}")]
+    Fit {
+        /// `A->B` or `B->A`.
+        dir: &'static str,
+        /// The fit's error.
+        source: FitError,
+    },
+    /// A blended spline is not C1 (a bug if it ever happens).
+    #[error(transparent)]
+    Spline(#[from] SplineError),
+    /// The preview mesh.
+    #[error("colour mesh: {0}")]
+    ColorMesh(#[from] ColorMeshError),
+}
+
+/// A schedule `alpha(t)`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Schedule {
+    /// `alpha(t) = t`.
+    #[default]
+    Linear,
+    /// Smoothstep `3t^2 - 2t^3` on `[0, 1]`, `t` outside.
+    Smooth,
+}
+
+impl Schedule {
+    /// `alpha(t)`.
+    pub fn at(self, t: f64) -> f64 {
+        match self {
+            Schedule::Linear => t,
+            Schedule::Smooth if (0.0..=1.0).contains(&t) => t * t * (3.0 - 2.0 * t),
+            Schedule::Smooth => t,
+        }
+    }
+
+    /// `alpha(t)` in exact arithmetic (the same formula as [`Schedule::at`]).
+    pub fn at_exact(self, t: &Rat) -> Rat {
+        let (zero, one) = (Rat::from_integer(Int::from(0)), Rat::from_integer(Int::from(1)));
+        match self {
+            Schedule::Smooth if *t >= zero && *t <= one => {
+                let three = Rat::from_integer(Int::from(3));
+                let two = Rat::from_integer(Int::from(2));
+                t * t * (three - two * t)
+            }
+            _ => t.clone(),
+        }
+    }
+}
+
+impl std::str::FromStr for Schedule {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Schedule, String> {
+        match s {
+            "linear" => Ok(Schedule::Linear),
+            "smooth" => Ok(Schedule::Smooth),
+            _ => Err(format!("unknown schedule `{s}` (use linear or smooth)")),
+        }
+    }
+}
+
+/// Options of a [`Morph`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct MorphOptions {
+    /// Mesh cells per side over each image (default 8).
+    pub cells: usize,
+    /// Spline degree (default 5).
+    pub degree: usize,
+    /// Fit options (default: [`FitOptions::default`] with the barrier off, see the module
+    /// docs).
+    pub fit: FitOptions,
+    /// Resampling.
+    pub interp: Interp,
+    /// `alpha_shape`.
+    pub shape: Schedule,
+    /// `alpha_color` (clamped to `[0, 1]`).
+    pub color: Schedule,
+    /// Value of every channel where neither image has a preimage (alpha 0 there).
+    pub background: f64,
+    /// Preimage computation.
+    pub remap: RemapOptions,
+}
+
+impl Default for MorphOptions {
+    fn default() -> Self {
+        MorphOptions {
+            cells: 8,
+            degree: 5,
+            fit: FitOptions { barrier: None, ..FitOptions::default() },
+            interp: Interp::Bilinear,
+            shape: Schedule::Linear,
+            color: Schedule::Linear,
+            background: 0.0,
+            remap: RemapOptions::default(),
+        }
+    }
+}
+
+/// `t = k / (n - 1)` for `k = 0 .. n`.
+pub fn frame_times(n: usize) -> Vec<f64> {
+    (0..n).map(|k| if n < 2 { 0.0 } else { k as f64 / (n - 1) as f64 }).collect()
+}
+
+/// `t = k / (n - 1)` for `k = 0 .. n`, exactly. Small denominators keep the blended control
+/// points short (blending with `1/29` as an `f64` costs several times more than `1/29`).
+pub fn frame_times_exact(n: usize) -> Vec<Rat> {
+    let d = Int::from(n.saturating_sub(1).max(1) as i64);
+    (0..n).map(|k| Rat::new(Int::from(k as i64), d.clone())).collect()
+}
+
+/// The common working type of two images (see the module docs).
+fn common(a: &DynamicImage, b: &DynamicImage) -> (DynamicImage, DynamicImage) {
+    use image::ColorType as C;
+    let depth = |c: C| match c {
+        C::Rgb32F | C::Rgba32F => 2,
+        C::L16 | C::La16 | C::Rgb16 | C::Rgba16 => 1,
+        _ => 0,
+    };
+    let (ca, cb) = (a.color(), b.color());
+    let d = depth(ca).max(depth(cb));
+    let alpha = ca.has_alpha() || cb.has_alpha();
+    let colour = ca.has_color() || cb.has_color() || d == 2;
+    let conv = |x: &DynamicImage| -> DynamicImage {
+        match (d, colour, alpha) {
+            (0, false, false) => x.to_luma8().into(),
+            (0, false, true) => x.to_luma_alpha8().into(),
+            (0, true, false) => x.to_rgb8().into(),
+            (0, true, true) => x.to_rgba8().into(),
+            (1, false, false) => x.to_luma16().into(),
+            (1, false, true) => x.to_luma_alpha16().into(),
+            (1, true, false) => x.to_rgb16().into(),
+            (1, true, true) => x.to_rgba16().into(),
+            (_, _, false) => x.to_rgb32f().into(),
+            (_, _, true) => x.to_rgba32f().into(),
+        }
+    };
+    let keep = |x: &DynamicImage, conv_x: DynamicImage| {
+        if x.color() == conv_x.color() {
+            x.clone()
+        } else {
+            conv_x
+        }
+    };
+    (keep(a, conv(a)), keep(b, conv(b)))
+}
+
+/// `n` times from `t0` to `t1`, equally spaced, exactly: `t0 + k (t1 - t0) / (n - 1)`.
+pub fn times_between(n: usize, t0: f64, t1: f64) -> Result<Vec<Rat>, MorphError> {
+    let (a, b) = (exact(t0)?, exact(t1)?);
+    Ok(frame_times_exact(n).into_iter().map(|u| &a + &(&u * &(&b - &a))).collect())
+}
+
+/// `f64` as an exact rational.
+fn exact(v: f64) -> Result<Rat, MorphError> {
+    let r = BigRational::from_float(v).ok_or(MorphError::Schedule(v))?;
+    Ok(Rat::new(Int::from_big(r.numer().clone()), Int::from_big(r.denom().clone())))
+}
+
+/// `(1 - s) id + s phi`, exactly.
+fn blend_points(id: &[Vec<Rat>], phi: &[Vec<Rat>], s: &Rat) -> Vec<Vec<Rat>> {
+    id.iter()
+        .zip(phi)
+        .map(|(p, q)| p.iter().zip(q).map(|(a, b)| a + &(s * &(b - a))).collect())
+        .collect()
+}
+
+/// A morph: both images, the landmarks and the two fitted deformations.
+#[derive(Clone, Debug)]
+pub struct Morph {
+    a: DynamicImage,
+    b: DynamicImage,
+    landmarks: Vec<Landmark>,
+    phi_ab: Spline,
+    phi_ba: Spline,
+    id_a: Vec<Vec<Rat>>,
+    id_b: Vec<Vec<Rat>>,
+    opts: MorphOptions,
+}
+
+fn check_inside(lms: &[Landmark], w: u32, h: u32, image: char) -> Result<(), MorphError> {
+    for (index, l) in lms.iter().enumerate() {
+        let p = if image == 'A' { l.src } else { l.dst };
+        let inside = p[0] >= 0.0 && p[1] >= 0.0 && p[0] <= (w - 1) as f64 && p[1] <= (h - 1) as f64;
+        if !inside {
+            return Err(MorphError::OutsideImage {
+                index,
+                name: l.name.clone().unwrap_or_else(|| "-".into()),
+                image,
+                x: p[0],
+                y: p[1],
+                w,
+                h,
+            });
+        }
+    }
+    Ok(())
+}
+
+impl Morph {
+    /// Fits `phi_{A->B}` (mesh over `A`) and `phi_{B->A}` (mesh over `B`).
+    pub fn new(
+        a: &DynamicImage,
+        b: &DynamicImage,
+        landmarks: &[Landmark],
+        opts: &MorphOptions,
+    ) -> Result<Morph, MorphError> {
+        for (img, name) in [(a, 'A'), (b, 'B')] {
+            if img.width() < 2 || img.height() < 2 {
+                return Err(MorphError::TooSmall(name, img.width(), img.height()));
+            }
+        }
+        if landmarks.len() < 3 {
+            return Err(MorphError::TooFewLandmarks(landmarks.len()));
+        }
+        check_inside(landmarks, a.width(), a.height(), 'A')?;
+        check_inside(landmarks, b.width(), b.height(), 'B')?;
+        let (a, b) = common(a, b);
+        let identity = |img: &DynamicImage| -> Result<Spline, MorphError> {
+            let (w, h) = (f64::from(img.width() - 1), f64::from(img.height() - 1));
+            let mesh = Mesh::grid(opts.cells, opts.cells, w, h, MeshOptions::default())?;
+            Ok(Spline::identity(mesh, opts.degree)?)
+        };
+        let (id_a, id_b) = (identity(&a)?, identity(&b)?);
+        let reversed: Vec<Landmark> =
+            landmarks.iter().map(|l| Landmark { src: l.dst, dst: l.src, ..l.clone() }).collect();
+        let (fab, fba) =
+            rayon::join(|| fit(&id_a, landmarks, &opts.fit), || fit(&id_b, &reversed, &opts.fit));
+        let phi_ab = fab.map_err(|source| MorphError::Fit { dir: "A->B", source })?.spline;
+        let phi_ba = fba.map_err(|source| MorphError::Fit { dir: "B->A", source })?.spline;
+        Ok(Morph {
+            id_a: id_a.points().to_vec(),
+            id_b: id_b.points().to_vec(),
+            a,
+            b,
+            landmarks: landmarks.to_vec(),
+            phi_ab,
+            phi_ba,
+            opts: opts.clone(),
+        })
+    }
+
+    /// `A` in the working type.
+    pub fn image_a(&self) -> &DynamicImage {
+        &self.a
+    }
+
+    /// `B` in the working type.
+    pub fn image_b(&self) -> &DynamicImage {
+        &self.b
+    }
+
+    /// The fitted `phi_{A->B}`.
+    pub fn phi_ab(&self) -> &Spline {
+        &self.phi_ab
+    }
+
+    /// The fitted `phi_{B->A}`.
+    pub fn phi_ba(&self) -> &Spline {
+        &self.phi_ba
+    }
+
+    /// The options.
+    pub fn options(&self) -> &MorphOptions {
+        &self.opts
+    }
+
+    /// `phi_{A->t}` for the shape weight `s`: `(1 - s) id + s phi_{A->B}`, exactly.
+    pub fn phi_a_at(&self, s: f64) -> Result<Spline, MorphError> {
+        self.phi_a_exact(&exact(s)?)
+    }
+
+    /// [`Morph::phi_a_at`] for an exact `s`.
+    pub fn phi_a_exact(&self, s: &Rat) -> Result<Spline, MorphError> {
+        let mut out = self.phi_ab.clone();
+        out.set_points(blend_points(&self.id_a, self.phi_ab.points(), s))?;
+        Ok(out)
+    }
+
+    /// `phi_{B->t}` for the shape weight `s`: `s id + (1 - s) phi_{B->A}`, exactly.
+    pub fn phi_b_at(&self, s: f64) -> Result<Spline, MorphError> {
+        self.phi_b_exact(&exact(s)?)
+    }
+
+    /// [`Morph::phi_b_at`] for an exact `s`.
+    pub fn phi_b_exact(&self, s: &Rat) -> Result<Spline, MorphError> {
+        let mut out = self.phi_ba.clone();
+        let one_minus = Rat::from_integer(Int::from(1)) - s;
+        out.set_points(blend_points(&self.id_b, self.phi_ba.points(), &one_minus))?;
+        Ok(out)
+    }
+
+    /// `alpha_shape(t)` and the clamped `alpha_color(t)`.
+    pub fn weights(&self, t: f64) -> Result<(f64, f64), MorphError> {
+        let (s, c) = (self.opts.shape.at(t), self.opts.color.at(t));
+        if !(s.is_finite() && c.is_finite()) {
+            return Err(MorphError::Schedule(t));
+        }
+        Ok((s, c.clamp(0.0, 1.0)))
+    }
+
+    /// The intermediate landmarks `L_t`.
+    pub fn landmarks_at(&self, t: f64) -> Result<Vec<[f64; 2]>, MorphError> {
+        let (s, _) = self.weights(t)?;
+        Ok(self
+            .landmarks
+            .iter()
+            .map(|l| [0, 1].map(|k| (1.0 - s) * l.src[k] + s * l.dst[k]))
+            .collect())
+    }
+
+    /// For each landmark, `|phi_{A->t}(L_A) - L_t|` and `|phi_{B->t}(L_B) - L_t|` (pixels).
+    pub fn landmark_errors(&self, t: f64) -> Result<Vec<[f64; 2]>, MorphError> {
+        let (s, _) = self.weights(t)?;
+        let (pa, pb) = (self.phi_a_at(s)?, self.phi_b_at(s)?);
+        let lt = self.landmarks_at(t)?;
+        let dist = |sp: &Spline, p: [f64; 2], q: [f64; 2]| {
+            sp.eval(p, None).map_or(f64::INFINITY, |m| (m[0] - q[0]).hypot(m[1] - q[1]))
+        };
+        Ok(self
+            .landmarks
+            .iter()
+            .zip(&lt)
+            .map(|(l, &q)| [dist(&pa, l.src, q), dist(&pb, l.dst, q)])
+            .collect())
+    }
+
+    /// The frame at time `t` (any real `t`; `0` is `A`, `1` is `B`), of `A`'s size and the
+    /// working type.
+    pub fn frame(&self, t: f64) -> Result<DynamicImage, MorphError> {
+        self.frame_exact(&exact(t)?)
+    }
+
+    /// [`Morph::frame`] at an exact `t` (`alpha_shape` is evaluated exactly).
+    pub fn frame_exact(&self, t: &Rat) -> Result<DynamicImage, MorphError> {
+        let (_, c) = self.weights(rat_to_f64(t))?;
+        let s = self.opts.shape.at_exact(t);
+        let (w, h) = (self.a.width(), self.a.height());
+        let (sa, sb) = rayon::join(|| self.phi_a_exact(&s), || self.phi_b_exact(&s));
+        let (sa, sb) = (sa?, sb?);
+        let ro = self.opts.remap;
+        let (pa, pb) = rayon::join(
+            || (c < 1.0).then(|| RemapPlan::new(&sa, w, h, ro)),
+            || (c > 0.0).then(|| RemapPlan::new(&sb, w, h, ro)),
+        );
+        let job = Job {
+            pa: pa.as_ref(),
+            pb: pb.as_ref(),
+            c: c as f32,
+            interp: self.opts.interp,
+            bg: self.opts.background,
+            w: w as usize,
+            h: h as usize,
+            band_rows: ro.band_rows.max(1) as usize,
+        };
+        macro_rules! go {
+            ($v:ident) => {{
+                let (DynamicImage::$v(x), DynamicImage::$v(y)) = (&self.a, &self.b) else {
+                    unreachable!("both images have the working type")
+                };
+                let nc = self.a.color().channel_count() as usize;
+                let out = job.run(
+                    source(x.as_raw(), x.width(), x.height(), nc),
+                    source(y.as_raw(), y.width(), y.height(), nc),
+                );
+                DynamicImage::$v(ImageBuffer::from_raw(w, h, out).expect("sizes match"))
+            }};
+        }
+        Ok(match &self.a {
+            DynamicImage::ImageLuma8(_) => go!(ImageLuma8),
+            DynamicImage::ImageLumaA8(_) => go!(ImageLumaA8),
+            DynamicImage::ImageRgb8(_) => go!(ImageRgb8),
+            DynamicImage::ImageRgba8(_) => go!(ImageRgba8),
+            DynamicImage::ImageLuma16(_) => go!(ImageLuma16),
+            DynamicImage::ImageLumaA16(_) => go!(ImageLumaA16),
+            DynamicImage::ImageRgb16(_) => go!(ImageRgb16),
+            DynamicImage::ImageRgba16(_) => go!(ImageRgba16),
+            DynamicImage::ImageRgb32F(_) => go!(ImageRgb32F),
+            _ => go!(ImageRgba32F),
+        })
+    }
+
+    /// Frames at `t = k / (n - 1)`, `k = 0 .. n`, in parallel; `progress` is called once per
+    /// finished frame (from any thread).
+    pub fn frames(
+        &self,
+        n: usize,
+        progress: &(dyn Fn() + Sync),
+    ) -> Result<Vec<DynamicImage>, MorphError> {
+        if n < 2 {
+            return Err(MorphError::Frames(n));
+        }
+        self.frames_at(&frame_times_exact(n), progress)
+    }
+
+    /// Frames at the given exact times (for caricatures: times outside `[0, 1]`), in
+    /// parallel; `progress` is called once per finished frame.
+    pub fn frames_at(
+        &self,
+        times: &[Rat],
+        progress: &(dyn Fn() + Sync),
+    ) -> Result<Vec<DynamicImage>, MorphError> {
+        times
+            .par_iter()
+            .map(|t| {
+                let f = self.frame_exact(t);
+                progress();
+                f
+            })
+            .collect()
+    }
+
+    /// The colour mesh of `A` (one vertex per `step` pixels) with, per vertex, `A`'s colour
+    /// and `B`'s colour at `phi_{A->B}(v)` (`A`'s where that is outside `B`).
+    pub fn preview(&self, step: u32) -> Result<Preview, MorphError> {
+        let mesh = ColorMesh::from_image(&self.a, step, ColorMode::PerVertex)?;
+        let Colors::PerVertex(ca) = &mesh.colors else { unreachable!("per-vertex mode") };
+        let mut q = vec![None; mesh.vertices.len()];
+        self.phi_ab.eval_many(&mesh.vertices, &mut q);
+        let b = self.b.to_rgba8();
+        let src = Source { data: b.as_raw(), w: b.width() as usize, h: b.height() as usize, nc: 4 };
+        let (bw, bh) = (f64::from(b.width() - 1), f64::from(b.height() - 1));
+        let cb = q
+            .iter()
+            .zip(ca)
+            .map(|(q, a)| match q {
+                Some(p) if p[0] >= 0.0 && p[1] >= 0.0 && p[0] <= bw && p[1] <= bh => {
+                    let mut px = [0u8; 4];
+                    src.sample_into(*p, Interp::Bilinear, &mut px);
+                    px
+                }
+                _ => *a,
+            })
+            .collect();
+        Ok(Preview { colors_a: ca.clone(), colors_b: cb, mesh })
+    }
+
+    /// The preview frame at `t`: the colour mesh moved by `phi_{A->t}`, colours blended,
+    /// on `background` (straight RGBA8).
+    pub fn preview_frame(
+        &self,
+        pv: &Preview,
+        t: f64,
+        background: [u8; 4],
+    ) -> Result<Pixmap, MorphError> {
+        self.preview_frame_exact(pv, &exact(t)?, background)
+    }
+
+    /// [`Morph::preview_frame`] at an exact `t`.
+    pub fn preview_frame_exact(
+        &self,
+        pv: &Preview,
+        t: &Rat,
+        background: [u8; 4],
+    ) -> Result<Pixmap, MorphError> {
+        let (_, c) = self.weights(rat_to_f64(t))?;
+        let s = self.opts.shape.at_exact(t);
+        let c = c as f32;
+        let colors = pv
+            .colors_a
+            .iter()
+            .zip(&pv.colors_b)
+            .map(|(a, b)| {
+                [0, 1, 2, 3]
+                    .map(|k| u8::from_f32((1.0 - c) * f32::from(a[k]) + c * f32::from(b[k])))
+            })
+            .collect();
+        let mesh = ColorMesh {
+            vertices: pv.mesh.vertices.clone(),
+            triangles: pv.mesh.triangles.clone(),
+            colors: Colors::PerVertex(colors),
+        };
+        let (moved, _) = mesh.deform(&self.phi_a_exact(&s)?);
+        Ok(rasterize(&moved, self.a.width(), self.a.height(), Some(background))?)
+    }
+}
+
+/// `A`'s colour mesh with both colour sets ([`Morph::preview`]).
+#[derive(Clone, Debug)]
+pub struct Preview {
+    mesh: ColorMesh,
+    colors_a: Vec<[u8; 4]>,
+    colors_b: Vec<[u8; 4]>,
+}
+
+/// One frame's resampling: both plans and the blend.
+struct Job<'p, 's> {
+    pa: Option<&'p RemapPlan<'s>>,
+    pb: Option<&'p RemapPlan<'s>>,
+    c: f32,
+    interp: Interp,
+    bg: f64,
+    w: usize,
+    h: usize,
+    band_rows: usize,
+}
+
+fn source<T>(data: &[T], w: u32, h: u32, nc: usize) -> Source<'_, T> {
+    Source { data, w: w as usize, h: h as usize, nc }
+}
+
+fn fill<T: Texel>(src: &Source<'_, T>, pos: &[[f64; 2]], out: &mut [T], interp: Interp, bg: f64) {
+    match src.nc {
+        1 => sample::fill_pixels::<T, 1>(src, pos, out, interp, bg),
+        2 => sample::fill_pixels::<T, 2>(src, pos, out, interp, bg),
+        3 => sample::fill_pixels::<T, 3>(src, pos, out, interp, bg),
+        _ => sample::fill_pixels::<T, 4>(src, pos, out, interp, bg),
+    }
+}
+
+impl Job<'_, '_> {
+    fn run<T: Texel + Default>(&self, a: Source<'_, T>, b: Source<'_, T>) -> Vec<T> {
+        let nc = a.nc;
+        let band_px = self.band_rows * self.w;
+        let mut out = vec![T::default(); self.w * self.h * nc];
+        out.par_chunks_mut(band_px * nc).enumerate().for_each_init(
+            || {
+                (
+                    vec![[0.0f64; 2]; band_px],
+                    vec![[0.0f64; 2]; band_px],
+                    vec![T::default(); band_px * nc],
+                )
+            },
+            |(pos_a, pos_b, tmp), (band, dst)| {
+                let n = dst.len() / nc;
+                let (mut has_a, mut has_b) = (false, false);
+                if let Some(p) = self.pa {
+                    p.fill_band(band, pos_a);
+                    fill(&a, &pos_a[..n], dst, self.interp, self.bg);
+                    has_a = true;
+                }
+                if let Some(p) = self.pb {
+                    p.fill_band(band, pos_b);
+                    let tmp = &mut tmp[..n * nc];
+                    fill(&b, &pos_b[..n], tmp, self.interp, self.bg);
+                    has_b = true;
+                    if !has_a {
+                        dst.copy_from_slice(tmp);
+                    } else {
+                        let c = self.c;
+                        for i in 0..n {
+                            let (ina, inb) = (!pos_a[i][0].is_nan(), !pos_b[i][0].is_nan());
+                            let px = &mut dst[i * nc..(i + 1) * nc];
+                            let pb = &tmp[i * nc..(i + 1) * nc];
+                            match (ina, inb) {
+                                (true, true) => {
+                                    for (o, v) in px.iter_mut().zip(pb) {
+                                        *o = T::from_f32((1.0 - c) * o.to_f32() + c * v.to_f32());
+                                    }
+                                }
+                                (false, true) => px.copy_from_slice(pb),
+                                _ => {}
+                            }
+                        }
+                    }
+                }
+                debug_assert!(has_a || has_b);
+            },
+        );
+        out
+    }
+}

@@ -1,0 +1,206 @@
+//! `trimorph morph` end to end: outputs, golden frames and refused inputs.
+//!
+//! Golden frames: a 128 x 128 crop (x 272.., y 120..) of time-lapse frames 0 and 9 with the
+//! three tracks inside it as landmarks, 3 frames. Regenerate after an intended change with
+//! `TRIMORPH_REGENERATE_GOLDEN=1 cargo test --test cli_morph` and review the PNGs.
+//! Tolerance as in `tests/golden.rs`: every channel within [`MAX_DIFF`] levels, at most
+//! [`MAX_OFF`] pixels differing at all.
+
+use image::{DynamicImage, GenericImageView};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+const MAX_DIFF: u8 = 2;
+const MAX_OFF: usize = 64;
+const CROP: (u32, u32) = (272, 120);
+
+fn data(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("data/microscopy/timelapse").join(name)
+}
+
+fn golden(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/golden").join(name)
+}
+
+fn trimorph(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_trimorph")).args(args).output().unwrap()
+}
+
+/// Cropped inputs and shifted landmarks in `dir`.
+fn crop_inputs(dir: &Path) -> (String, String, String) {
+    let crop = |f: &str, out: &str| {
+        let p = dir.join(out);
+        image::open(data(f)).unwrap().crop_imm(CROP.0, CROP.1, 128, 128).save(&p).unwrap();
+        p.display().to_string()
+    };
+    let (a, b) = (crop("frame_00.png", "a.png"), crop("frame_09.png", "b.png"));
+    let text = std::fs::read_to_string(data("landmarks_00_09.csv")).unwrap();
+    let mut csv = String::from("name,src_x,src_y,dst_x,dst_y\n");
+    for line in text.lines().skip(1) {
+        let f: Vec<&str> = line.split(',').collect();
+        if ["track3", "track5", "track10"].contains(&f[0]) {
+            let v: Vec<f64> = f[1..5].iter().map(|s| s.parse().unwrap()).collect();
+            let (dx, dy) = (f64::from(CROP.0), f64::from(CROP.1));
+            csv += &format!("{},{},{},{},{}\n", f[0], v[0] - dx, v[1] - dy, v[2] - dx, v[3] - dy);
+        }
+    }
+    let l = dir.join("l.csv");
+    std::fs::write(&l, csv).unwrap();
+    (a, b, l.display().to_string())
+}
+
+fn compare(name: &str, got: &DynamicImage) {
+    let p = golden(name);
+    if std::env::var_os("TRIMORPH_REGENERATE_GOLDEN").is_some() {
+        got.save(&p).unwrap();
+        return;
+    }
+    let want = image::open(&p).unwrap_or_else(|e| panic!("{}: {e} (regenerate?)", p.display()));
+    assert_eq!(want.dimensions(), got.dimensions(), "{name}: size");
+    assert_eq!(want.color(), got.color(), "{name}: type");
+    let (a, b) = (want.to_rgba8(), got.to_rgba8());
+    let mut off = 0;
+    for (pa, pb) in a.pixels().zip(b.pixels()) {
+        let d = pa.0.iter().zip(pb.0).map(|(x, y)| x.abs_diff(y)).max().unwrap_or(0);
+        assert!(d <= MAX_DIFF, "{name}: a pixel differs by {d} > {MAX_DIFF}");
+        off += (d > 0) as usize;
+    }
+    assert!(off <= MAX_OFF, "{name}: {off} pixels differ (> {MAX_OFF})");
+}
+
+#[test]
+fn morph_writes_frames_animations_and_sheet_and_matches_golden_frames() {
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b, l) = crop_inputs(dir.path());
+    let out = dir.path().join("out");
+    let gif = dir.path().join("anim.gif");
+    let o = trimorph(&[
+        "morph",
+        &a,
+        &b,
+        "--landmarks",
+        &l,
+        "--frames",
+        "3",
+        "-o",
+        out.to_str().unwrap(),
+        "--gif",
+        gif.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let mut names: Vec<String> = std::fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(
+        names,
+        ["contact-sheet.png", "frame_000.png", "frame_001.png", "frame_002.png", "morph.apng"]
+    );
+    assert!(std::fs::metadata(&gif).unwrap().len() > 0);
+    let frames: Vec<DynamicImage> =
+        (0..3).map(|k| image::open(out.join(format!("frame_{k:03}.png"))).unwrap()).collect();
+    // The end frames are the inputs (preimages within 0.01 px: at most one level).
+    for (f, input) in [(&frames[0], &a), (&frames[2], &b)] {
+        let want = image::open(input).unwrap().to_luma8();
+        let got = f.to_luma8();
+        let d = got.pixels().zip(want.pixels()).map(|(x, y)| x.0[0].abs_diff(y.0[0]));
+        assert!(d.max().unwrap() <= 1);
+    }
+    for (k, f) in frames.iter().enumerate() {
+        compare(&format!("morph_frame_{k:03}.png"), f);
+    }
+}
+
+#[test]
+fn bad_inputs_exit_1_with_a_message() {
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b, l) = crop_inputs(dir.path());
+    let out = dir.path().join("out");
+    let out = out.to_str().unwrap();
+    let bad_lm = dir.path().join("bad.csv");
+    std::fs::write(
+        &bad_lm,
+        "name,src_x,src_y,dst_x,dst_y\na,1,1,2,2\nb,100,5,300,5\nc,5,90,6,91\n",
+    )
+    .unwrap();
+    let missing = dir.path().join("missing.png");
+    let cases: [(Vec<&str>, &str); 5] = [
+        (vec![&a, &b, "--landmarks", &l, "--range", "0", "-o", out], "--range"),
+        (vec![missing.to_str().unwrap(), &b, "--landmarks", &l, "-o", out], "cannot read image A"),
+        (vec![&a, &b, "--landmarks", &l, "--frames", "1", "-o", out], "at least 2"),
+        (vec![&a, &b, "--landmarks", bad_lm.to_str().unwrap(), "-o", out], "outside image B"),
+        (vec![&a, &b, "--landmarks", &a, "-o", out], "cannot read landmarks"),
+    ];
+    for (args, msg) in cases {
+        let mut full = vec!["morph"];
+        full.extend(args);
+        let o = trimorph(&full);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{full:?}: {err}");
+        assert!(err.contains(msg), "{full:?}: expected `{msg}` in: {err}");
+    }
+}
+
+#[test]
+fn preview_path_writes_colour_mesh_frames_starting_at_a() {
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b, l) = crop_inputs(dir.path());
+    let out = dir.path().join("out");
+    let o = trimorph(&[
+        "morph",
+        &a,
+        &b,
+        "--landmarks",
+        &l,
+        "--frames",
+        "4",
+        "--preview",
+        "1",
+        "--quiet",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(o.stderr.is_empty(), "--quiet prints nothing");
+    let f0 = image::open(out.join("frame_000.png")).unwrap().to_luma8();
+    let f3 = image::open(out.join("frame_003.png")).unwrap().to_luma8();
+    let want = image::open(&a).unwrap().to_luma8();
+    // Inside the outer ring (half covered by the mesh) frame 0 is A.
+    for (x, y, p) in f0.enumerate_pixels() {
+        if x > 0 && y > 0 && x < 127 && y < 127 {
+            assert!(p.0[0].abs_diff(want.get_pixel(x, y).0[0]) <= 1, "({x}, {y})");
+        }
+    }
+    assert_ne!(f0.as_raw(), f3.as_raw());
+    assert!(out.join("morph.gif").exists() && out.join("contact-sheet.png").exists());
+}
+
+#[test]
+fn range_makes_a_caricature() {
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b, l) = crop_inputs(dir.path());
+    let run = |range: &str, out: &Path| {
+        let o = trimorph(&[
+            "morph",
+            &a,
+            &b,
+            "--landmarks",
+            &l,
+            "--frames",
+            "2",
+            "--quiet",
+            "--range",
+            range,
+            "-o",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        image::open(out.join("frame_001.png")).unwrap().to_luma8()
+    };
+    let plain = run("0,1", &dir.path().join("plain"));
+    let over = run("0,1.5", &dir.path().join("over"));
+    let b = image::open(&b).unwrap().to_luma8();
+    assert!(plain.pixels().zip(b.pixels()).all(|(x, y)| x.0[0].abs_diff(y.0[0]) <= 1));
+    assert_ne!(over.as_raw(), b.as_raw());
+}
