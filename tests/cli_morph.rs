@@ -3,27 +3,19 @@
 //! Golden frames: a 128 x 128 crop (x 272.., y 120..) of time-lapse frames 0 and 9 with the
 //! three tracks inside it as landmarks, 3 frames. Regenerate after an intended change with
 //! `TRIMORPH_REGENERATE_GOLDEN=1 cargo test --test cli_morph` and review the PNGs.
-//! Tolerance as in `tests/golden.rs`: every channel within [`MAX_DIFF`] levels, at most
-//! [`MAX_OFF`] pixels differing at all.
+//! Tolerance as in `tests/golden.rs`: every channel within `common::GOLDEN_MAX_DIFF` (2) levels, at most
+//! `common::GOLDEN_MAX_OFF` (64) pixels differing at all.
 
-use image::{DynamicImage, GenericImageView};
+mod common;
+use common::trimorph;
+
+use image::DynamicImage;
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
-const MAX_DIFF: u8 = 2;
-const MAX_OFF: usize = 64;
 const CROP: (u32, u32) = (272, 120);
 
 fn data(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("data/microscopy/timelapse").join(name)
-}
-
-fn golden(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/golden").join(name)
-}
-
-fn trimorph(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_trimorph")).args(args).output().unwrap()
 }
 
 /// Cropped inputs and shifted landmarks in `dir`.
@@ -50,22 +42,7 @@ fn crop_inputs(dir: &Path) -> (String, String, String) {
 }
 
 fn compare(name: &str, got: &DynamicImage) {
-    let p = golden(name);
-    if std::env::var_os("TRIMORPH_REGENERATE_GOLDEN").is_some() {
-        got.save(&p).unwrap();
-        return;
-    }
-    let want = image::open(&p).unwrap_or_else(|e| panic!("{}: {e} (regenerate?)", p.display()));
-    assert_eq!(want.dimensions(), got.dimensions(), "{name}: size");
-    assert_eq!(want.color(), got.color(), "{name}: type");
-    let (a, b) = (want.to_rgba8(), got.to_rgba8());
-    let mut off = 0;
-    for (pa, pb) in a.pixels().zip(b.pixels()) {
-        let d = pa.0.iter().zip(pb.0).map(|(x, y)| x.abs_diff(y)).max().unwrap_or(0);
-        assert!(d <= MAX_DIFF, "{name}: a pixel differs by {d} > {MAX_DIFF}");
-        off += (d > 0) as usize;
-    }
-    assert!(off <= MAX_OFF, "{name}: {off} pixels differ (> {MAX_OFF})");
+    common::compare_golden(name, got);
 }
 
 #[test]

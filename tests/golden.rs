@@ -6,17 +6,16 @@
 //! `data/microscopy/cell.png`). To regenerate the expected outputs after an intended change,
 //! run `TRIMORPH_REGENERATE_GOLDEN=1 cargo test --test golden` and review the new PNGs.
 //!
-//! Tolerance: every channel of every pixel within [`MAX_DIFF`] levels of the stored value
+//! Tolerance: every channel of every pixel within `common::GOLDEN_MAX_DIFF` (2) levels of the stored value
 //! (the outputs are deterministic, but float rounding may differ across CPUs and compilers),
-//! and at most [`MAX_OFF`] pixels differing at all.
+//! and at most `common::GOLDEN_MAX_OFF` (64) pixels differing at all.
 
-use image::{DynamicImage, GenericImageView};
+mod common;
+
+use image::DynamicImage;
 use std::path::{Path, PathBuf};
 use trimorph::warp::inverse::InverseOptions;
 use trimorph::warp::{warp_image, Interp};
-
-const MAX_DIFF: u8 = 2;
-const MAX_OFF: usize = 64;
 
 fn dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/golden")
@@ -43,22 +42,7 @@ fn spline() -> trimorph::spline::Spline {
 }
 
 fn compare(name: &str, got: &DynamicImage) {
-    let p = dir().join(name);
-    if regenerate() {
-        got.save(&p).unwrap();
-        return;
-    }
-    let want = image::open(&p).unwrap_or_else(|e| panic!("{}: {e} (regenerate?)", p.display()));
-    assert_eq!(want.dimensions(), got.dimensions(), "{name}: size");
-    assert_eq!(want.color(), got.color(), "{name}: type");
-    let (a, b) = (want.to_rgba8(), got.to_rgba8());
-    let mut off = 0;
-    for (pa, pb) in a.pixels().zip(b.pixels()) {
-        let d = pa.0.iter().zip(pb.0).map(|(x, y)| x.abs_diff(y)).max().unwrap_or(0);
-        assert!(d <= MAX_DIFF, "{name}: a pixel differs by {d} > {MAX_DIFF}");
-        off += (d > 0) as usize;
-    }
-    assert!(off <= MAX_OFF, "{name}: {off} pixels differ (at most {MAX_OFF} may)");
+    common::compare_golden(name, got);
 }
 
 #[test]

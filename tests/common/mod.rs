@@ -23,3 +23,36 @@ pub fn ok(o: &Output) {
 pub fn s(p: &Path) -> &str {
     p.to_str().unwrap()
 }
+
+/// Golden-image tolerance: every channel of every pixel within this many levels.
+pub const GOLDEN_MAX_DIFF: u8 = 2;
+/// Golden-image tolerance: at most this many pixels may differ at all.
+pub const GOLDEN_MAX_OFF: usize = 64;
+
+/// The folder of golden images.
+pub fn golden_dir() -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/golden")
+}
+
+/// Compares `got` with the golden image `name` (same size and type; tolerance
+/// [`GOLDEN_MAX_DIFF`] levels, at most [`GOLDEN_MAX_OFF`] pixels differing), or stores it when
+/// `TRIMORPH_REGENERATE_GOLDEN` is set.
+pub fn compare_golden(name: &str, got: &image::DynamicImage) {
+    use image::GenericImageView;
+    let p = golden_dir().join(name);
+    if std::env::var_os("TRIMORPH_REGENERATE_GOLDEN").is_some() {
+        got.save(&p).unwrap();
+        return;
+    }
+    let want = image::open(&p).unwrap_or_else(|e| panic!("{}: {e} (regenerate?)", p.display()));
+    assert_eq!(want.dimensions(), got.dimensions(), "{name}: size");
+    assert_eq!(want.color(), got.color(), "{name}: type");
+    let (a, b) = (want.to_rgba8(), got.to_rgba8());
+    let mut off = 0;
+    for (pa, pb) in a.pixels().zip(b.pixels()) {
+        let d = pa.0.iter().zip(pb.0).map(|(x, y)| x.abs_diff(y)).max().unwrap_or(0);
+        assert!(d <= GOLDEN_MAX_DIFF, "{name}: a pixel differs by {d} > {GOLDEN_MAX_DIFF}");
+        off += (d > 0) as usize;
+    }
+    assert!(off <= GOLDEN_MAX_OFF, "{name}: {off} pixels differ (at most {GOLDEN_MAX_OFF} may)");
+}
