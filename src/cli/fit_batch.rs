@@ -206,7 +206,6 @@ fn write_outputs(
     out: &Path,
     frame: &Frame,
     s: &Spline,
-    lms: &[Landmark],
     report: &FitReport,
     lost: usize,
     model: Option<&(PathBuf, Model, Binding)>,
@@ -229,7 +228,6 @@ fn write_outputs(
     }
     let marks: Vec<Mark> =
         report.residuals.iter().map(|r| Mark { mapped: r.mapped, target: r.dst }).collect();
-    let _ = lms;
     let ov = overlay(frame.img.as_raw(), w as u32, h as u32, &outline, &marks)
         .ok_or_else(|| anyhow!("empty frame"))?;
     save_png(&ov, &out.join(format!("{stem}.overlay.png")))?;
@@ -277,15 +275,7 @@ pub fn run(a: BatchArgs) -> Result<()> {
         let f = fit(warm, &sets[k], &opts)
             .map_err(fit_error)
             .with_context(|| format!("frame {}", frames[k].stem))?;
-        write_outputs(
-            a.output,
-            &frames[k],
-            &f.spline,
-            &sets[k],
-            &f.report,
-            lost[k],
-            bound.as_ref(),
-        )?;
+        write_outputs(a.output, &frames[k], &f.spline, &f.report, lost[k], bound.as_ref())?;
         bar.inc(1);
         Ok(Some((f.spline, f.report)))
     };
