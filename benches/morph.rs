@@ -32,14 +32,16 @@ fn bench(c: &mut Criterion) {
             m.frames(30, &|| {}).unwrap()
         })
     });
-    let pv = m.preview(2).unwrap();
-    g.bench_function("30_preview_frames_512_step2", |bn| {
-        bn.iter(|| {
-            (0..30)
-                .map(|k| m.preview_frame(&pv, k as f64 / 29.0, [0, 0, 0, 255]).unwrap())
-                .collect::<Vec<_>>()
-        })
-    });
+    for step in [2u32, 4] {
+        let pv = m.preview(step).unwrap();
+        g.bench_function(format!("30_preview_frames_512_step{step}"), |bn| {
+            bn.iter(|| {
+                (0..30)
+                    .map(|k| m.preview_frame(&pv, k as f64 / 29.0, [0, 0, 0, 255]).unwrap())
+                    .collect::<Vec<_>>()
+            })
+        });
+    }
     g.finish();
 }
 

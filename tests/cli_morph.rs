@@ -181,3 +181,52 @@ fn range_makes_a_caricature() {
     assert!(plain.pixels().zip(b.pixels()).all(|(x, y)| x.0[0].abs_diff(y.0[0]) <= 1));
     assert_ne!(over.as_raw(), b.as_raw());
 }
+
+#[test]
+fn morph_from_a_fitted_deformation_starts_at_a_and_ends_near_b() {
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b, l) = crop_inputs(dir.path());
+    let s = |p: &Path| p.display().to_string();
+    let mesh = dir.path().join("mesh.json");
+    let phi = dir.path().join("phi.json");
+    let o = trimorph(&["mesh", "--grid", "4x4", "--size", "127,127", "-o", &s(&mesh)]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = trimorph(&["fit", &s(&mesh), "--landmarks", &l, "-o", &s(&phi)]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let out = dir.path().join("out");
+    let o = trimorph(&[
+        "morph",
+        &a,
+        &b,
+        "--phi-ab",
+        &s(&phi),
+        "--frames",
+        "3",
+        "--background",
+        "255",
+        "--cells",
+        "4",
+        "-o",
+        &s(&out),
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let f0 = image::open(out.join("frame_000.png")).unwrap().to_luma8();
+    let f2 = image::open(out.join("frame_002.png")).unwrap().to_luma8();
+    let (ia, ib) = (image::open(&a).unwrap().to_luma8(), image::open(&b).unwrap().to_luma8());
+    let diff = |x: &image::GrayImage, y: &image::GrayImage| {
+        x.as_raw().iter().zip(y.as_raw()).map(|(p, q)| p.abs_diff(*q)).max().unwrap()
+    };
+    assert!(diff(&f0, &ia) <= 1, "frame 0 differs from A by {}", diff(&f0, &ia));
+    assert!(diff(&f2, &ib) <= 1, "last frame differs from B by {}", diff(&f2, &ib));
+    assert!(out.join("contact-sheet.png").exists() && out.join("morph.gif").exists());
+
+    // Landmarks and --phi-ab together are refused; --phi-ba needs --phi-ab.
+    let o = trimorph(&["morph", &a, &b, "--landmarks", &l, "--phi-ab", &s(&phi), "-o", &s(&out)]);
+    assert_eq!(o.status.code(), Some(2), "clap usage error");
+    let o = trimorph(&["morph", &a, &b, "--phi-ba", &s(&phi), "-o", &s(&out)]);
+    assert_eq!(o.status.code(), Some(2), "clap usage error");
+    let o = trimorph(&["morph", &a, &b, "--phi-ab", &l, "-o", &s(&out)]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("cannot read deformation"));
+}

@@ -175,8 +175,24 @@ enum Command {
         /// Image B (last frame).
         b: PathBuf,
         /// Landmark pairs (CSV `name,src_x,src_y,dst_x,dst_y[,weight]`, BigWarp CSV or JSON).
-        #[arg(long)]
-        landmarks: PathBuf,
+        #[arg(long, required_unless_present = "phi_ab", conflicts_with = "phi_ab")]
+        landmarks: Option<PathBuf>,
+        /// Instead of landmarks: a deformation (format v1) mapping A's pixel coordinates to
+        /// B's, e.g. the output of `trimorph fit`.
+        #[arg(long, value_name = "DEF")]
+        phi_ab: Option<PathBuf>,
+        /// With --phi-ab: the deformation mapping B to A (default: fitted to samples of
+        /// --phi-ab).
+        #[arg(long, value_name = "DEF", requires = "phi_ab")]
+        phi_ba: Option<PathBuf>,
+        /// Mesh cells per side of the fitted deformations.
+        #[arg(long, default_value_t = 8)]
+        cells: usize,
+        /// Background where neither image has a preimage: one value for every channel, in
+        /// the images' sample units (0..255 for 8-bit, 0..65535 for 16-bit, 0..1 for float;
+        /// alpha is 0 there when the images have alpha).
+        #[arg(long, default_value_t = 0.0)]
+        background: f64,
         /// Number of frames (t = k / (frames - 1)).
         #[arg(long, default_value_t = 30)]
         frames: usize,
@@ -510,6 +526,10 @@ pub fn run() -> i32 {
             a,
             b,
             landmarks,
+            phi_ab,
+            phi_ba,
+            cells,
+            background,
             frames,
             range,
             output,
@@ -524,7 +544,11 @@ pub fn run() -> i32 {
         } => morph_cmd::run(morph_cmd::MorphArgs {
             a: &a,
             b: &b,
-            landmarks: &landmarks,
+            landmarks: landmarks.as_deref(),
+            phi_ab: phi_ab.as_deref(),
+            phi_ba: phi_ba.as_deref(),
+            cells,
+            background,
             frames,
             range: &range,
             output: &output,

@@ -4,9 +4,10 @@ use super::warp_cmd::progress_bar;
 use crate::exact::matrix::rat_to_f64;
 use crate::io::landmarks::read_landmarks;
 use crate::io::raster::read_stack;
-use crate::io::write_atomic;
+use crate::io::{deformation, read_text, write_atomic};
 use crate::morph::output::{apng_bytes, contact_sheet, frame_name, gif_bytes, png_bytes};
 use crate::morph::{times_between, Morph, MorphOptions, Schedule};
+use crate::spline::Spline;
 use crate::warp::Interp;
 use anyhow::{anyhow, bail, Context, Result};
 use image::DynamicImage;
@@ -17,7 +18,11 @@ use std::path::{Path, PathBuf};
 pub struct MorphArgs<'a> {
     pub a: &'a Path,
     pub b: &'a Path,
-    pub landmarks: &'a Path,
+    pub landmarks: Option<&'a Path>,
+    pub phi_ab: Option<&'a Path>,
+    pub phi_ba: Option<&'a Path>,
+    pub cells: usize,
+    pub background: f64,
     pub frames: usize,
     pub range: &'a str,
     pub output: &'a Path,
@@ -53,10 +58,47 @@ pub fn run(a: MorphArgs<'_>) -> Result<()> {
         .ok_or_else(|| anyhow!("--range: expected T0,T1 (two numbers), got `{}`", a.range))?;
     let img_a = first_page(a.a, "A")?;
     let img_b = first_page(a.b, "B")?;
-    let lms = read_landmarks(a.landmarks)
-        .with_context(|| format!("cannot read landmarks {}", a.landmarks.display()))?;
-    let opts = MorphOptions { shape, color, interp, ..MorphOptions::default() };
-    let morph = Morph::new(&img_a, &img_b, &lms, &opts)?;
+    if a.cells == 0 {
+        bail!("--cells must be at least 1");
+    }
+    if !(a.background.is_finite() && a.background >= 0.0) {
+        bail!("--background must be a number >= 0 (sample units), got {}", a.background);
+    }
+    let opts = MorphOptions {
+        shape,
+        color,
+        interp,
+        cells: a.cells,
+        background: a.background,
+        ..MorphOptions::default()
+    };
+    let load = |p: &Path| -> Result<Spline> {
+        let (s, _) = deformation::from_str(&read_text(p)?)
+            .with_context(|| format!("cannot read deformation {}", p.display()))?;
+        Ok(s)
+    };
+    let morph = match (a.landmarks, a.phi_ab) {
+        (Some(l), _) => {
+            let lms = read_landmarks(l)
+                .with_context(|| format!("cannot read landmarks {}", l.display()))?;
+            Morph::new(&img_a, &img_b, &lms, &opts)?
+        }
+        (None, Some(p)) => {
+            let phi_ab = load(p)?;
+            let phi_ba = a.phi_ba.map(load).transpose()?;
+            let m = Morph::from_deformations(&img_a, &img_b, phi_ab, phi_ba, &opts)?;
+            let cov = m.coverage();
+            if cov < 1.0 && !a.quiet {
+                eprintln!(
+                    "note: {} covers {:.1}% of A; the rest of A has no preimage in any frame",
+                    p.display(),
+                    100.0 * cov
+                );
+            }
+            m
+        }
+        (None, None) => bail!("give --landmarks L.csv or --phi-ab DEF.json"),
+    };
     std::fs::create_dir_all(a.output)
         .with_context(|| format!("cannot create {}", a.output.display()))?;
 
@@ -67,10 +109,19 @@ pub fn run(a: MorphArgs<'_>) -> Result<()> {
         None => morph.frames_at(&exact_times, &|| bar.inc(1))?,
         Some(step) => {
             let pv = morph.preview(step)?;
+            // The preview is 8-bit: scale the background from the working type's range.
+            let full = match morph.image_a().color().bytes_per_pixel()
+                / morph.image_a().color().channel_count()
+            {
+                1 => 255.0,
+                2 => 65535.0,
+                _ => 1.0,
+            };
+            let bg = (a.background / full * 255.0).round().clamp(0.0, 255.0) as u8;
             exact_times
                 .par_iter()
                 .map(|t| {
-                    let pm = morph.preview_frame_exact(&pv, t, [0, 0, 0, 255])?;
+                    let pm = morph.preview_frame_exact(&pv, t, [bg, bg, bg, 255])?;
                     bar.inc(1);
                     let img = image::RgbaImage::from_raw(pm.width(), pm.height(), pm.take())
                         .expect("sizes match");
@@ -106,8 +157,13 @@ pub fn run(a: MorphArgs<'_>) -> Result<()> {
         .flatten()
         .fold(0.0f64, |m, &e| if e.is_finite() { m.max(e) } else { m });
     if !a.quiet {
+        let residual = if a.landmarks.is_some() {
+            format!("; largest landmark fit residual {worst:.3} px")
+        } else {
+            String::new()
+        };
         eprintln!(
-            "{} frames ({} x {}) in {}; {}, {}, {}; largest landmark fit residual {:.3} px",
+            "{} frames ({} x {}) in {}; {}, {}, {}{}",
             a.frames,
             morph.image_a().width(),
             morph.image_a().height(),
@@ -115,7 +171,7 @@ pub fn run(a: MorphArgs<'_>) -> Result<()> {
             gif.display(),
             apng.display(),
             sheet.display(),
-            worst
+            residual
         );
     }
     Ok(())

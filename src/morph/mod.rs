@@ -32,6 +32,7 @@
 //! vertices moved by `phi_{A->t}`, vertex colours blended with `B`'s colour at
 //! `phi_{A->B}(v)`, rasterized with tiny-skia.
 
+mod job;
 pub mod output;
 #[cfg(test)]
 mod tests;
@@ -45,9 +46,10 @@ use crate::render::colormesh::rasterize;
 use crate::spline::{Spline, SplineError};
 use crate::warp::colormesh::{ColorMesh, ColorMeshError, ColorMode, Colors};
 use crate::warp::remap::{RemapOptions, RemapPlan};
-use crate::warp::sample::{self, Source, Texel};
+use crate::warp::sample::{Source, Texel};
 use crate::warp::Interp;
 use image::{DynamicImage, ImageBuffer};
+use job::{source, Job};
 use num_rational::BigRational;
 use rayon::prelude::*;
 use tiny_skia::Pixmap;
@@ -332,6 +334,91 @@ impl Morph {
         })
     }
 
+    /// A morph from given deformations instead of landmarks: `phi_ab` maps `A`'s pixel
+    /// coordinates to `B`'s, `phi_ba` the other way. Without `phi_ba`, it is fitted (with
+    /// [`MorphOptions::fit`], on a `cells x cells` mesh over `B`) to `phi_ab` sampled on a
+    /// 24 x 24 grid over `A` (pairs `(phi_ab(p), p)` with `phi_ab(p)` inside `B`).
+    ///
+    /// The blends use each deformation's own mesh and degree (`phi_{A->t}` is
+    /// `(1 - s) id + s phi_ab` on `phi_ab`'s mesh), so they stay exactly C1. Pixels of `A`
+    /// outside `phi_ab`'s domain have no preimage in any frame (they show `B`, or the
+    /// background); [`Morph::coverage`] tells how much of `A` is covered. Such a morph has
+    /// no landmarks ([`Morph::landmark_errors`] is empty).
+    pub fn from_deformations(
+        a: &DynamicImage,
+        b: &DynamicImage,
+        phi_ab: Spline,
+        phi_ba: Option<Spline>,
+        opts: &MorphOptions,
+    ) -> Result<Morph, MorphError> {
+        for (img, name) in [(a, 'A'), (b, 'B')] {
+            if img.width() < 2 || img.height() < 2 {
+                return Err(MorphError::TooSmall(name, img.width(), img.height()));
+            }
+        }
+        let (a, b) = common(a, b);
+        let phi_ba = match phi_ba {
+            Some(s) => s,
+            None => {
+                let (bw, bh) = (f64::from(b.width() - 1), f64::from(b.height() - 1));
+                let grid = 24;
+                let pts: Vec<[f64; 2]> = (0..grid * grid)
+                    .map(|k| {
+                        let (i, j) = (k % grid, k / grid);
+                        [
+                            f64::from(a.width() - 1) * i as f64 / (grid - 1) as f64,
+                            f64::from(a.height() - 1) * j as f64 / (grid - 1) as f64,
+                        ]
+                    })
+                    .collect();
+                let mut q = vec![None; pts.len()];
+                phi_ab.eval_many(&pts, &mut q);
+                let samples: Vec<Landmark> = pts
+                    .iter()
+                    .zip(&q)
+                    .filter_map(|(p, q)| {
+                        let q = (*q)?;
+                        let inside = q[0] >= 0.0 && q[1] >= 0.0 && q[0] <= bw && q[1] <= bh;
+                        inside.then_some(Landmark { name: None, src: q, dst: *p, weight: 1.0 })
+                    })
+                    .collect();
+                if samples.len() < 3 {
+                    return Err(MorphError::TooFewLandmarks(samples.len()));
+                }
+                let mesh = Mesh::grid(opts.cells, opts.cells, bw, bh, MeshOptions::default())?;
+                let id_b = Spline::identity(mesh, opts.degree)?;
+                fit(&id_b, &samples, &opts.fit)
+                    .map_err(|source| MorphError::Fit { dir: "B->A", source })?
+                    .spline
+            }
+        };
+        let id_a = Spline::identity(phi_ab.mesh().clone(), phi_ab.degree())?;
+        let id_b = Spline::identity(phi_ba.mesh().clone(), phi_ba.degree())?;
+        Ok(Morph {
+            id_a: id_a.points().to_vec(),
+            id_b: id_b.points().to_vec(),
+            a,
+            b,
+            landmarks: Vec::new(),
+            phi_ab,
+            phi_ba,
+            opts: opts.clone(),
+        })
+    }
+
+    /// The fraction of `A`'s pixels inside `phi_{A->B}`'s domain (sampled every 4 pixels);
+    /// 1 for a morph made from landmarks.
+    pub fn coverage(&self) -> f64 {
+        let (w, h) = (self.a.width(), self.a.height());
+        let pts: Vec<[f64; 2]> = (0..h)
+            .step_by(4)
+            .flat_map(|y| (0..w).step_by(4).map(move |x| [f64::from(x), f64::from(y)]))
+            .collect();
+        let mut q = vec![None; pts.len()];
+        self.phi_ab.eval_many(&pts, &mut q);
+        q.iter().filter(|q| q.is_some()).count() as f64 / pts.len().max(1) as f64
+    }
+
     /// `A` in the working type.
     pub fn image_a(&self) -> &DynamicImage {
         &self.a
@@ -502,33 +589,57 @@ impl Morph {
             .collect()
     }
 
-    /// The colour mesh of `A` (one vertex per `step` pixels) with, per vertex, `A`'s colour
-    /// and `B`'s colour at `phi_{A->B}(v)` (`A`'s where that is outside `B`).
+    /// The colour mesh of `A` (one vertex per `step` pixels) with, per vertex, `A`'s colour,
+    /// `B`'s colour at `phi_{A->B}(v)` (`A`'s where that is outside `B`) and `phi_{A->B}(v)`
+    /// itself. Vertices outside `phi_{A->B}`'s domain are dropped with their triangles.
     pub fn preview(&self, step: u32) -> Result<Preview, MorphError> {
-        let mesh = ColorMesh::from_image(&self.a, step, ColorMode::PerVertex)?;
-        let Colors::PerVertex(ca) = &mesh.colors else { unreachable!("per-vertex mode") };
-        let mut q = vec![None; mesh.vertices.len()];
-        self.phi_ab.eval_many(&mesh.vertices, &mut q);
+        let full = ColorMesh::from_image(&self.a, step, ColorMode::PerVertex)?;
+        let mut q = vec![None; full.vertices.len()];
+        self.phi_ab.eval_many(&full.vertices, &mut q);
+        let Colors::PerVertex(all_colors) = &full.colors else { unreachable!("per-vertex mode") };
+        // Keep the vertices with an image (and the triangles of kept vertices), in order.
+        let mut remap = vec![u32::MAX; q.len()];
+        let (mut base, mut targets, mut ca) = (Vec::new(), Vec::new(), Vec::new());
+        for (i, qi) in q.iter().enumerate() {
+            if let Some(p) = qi {
+                remap[i] = base.len() as u32;
+                base.push(full.vertices[i]);
+                targets.push(*p);
+                ca.push(all_colors[i]);
+            }
+        }
+        let triangles: Vec<[u32; 3]> = full
+            .triangles
+            .iter()
+            .map(|t| t.map(|i| remap[i as usize]))
+            .filter(|t| !t.contains(&u32::MAX))
+            .collect();
         let b = self.b.to_rgba8();
         let src = Source { data: b.as_raw(), w: b.width() as usize, h: b.height() as usize, nc: 4 };
         let (bw, bh) = (f64::from(b.width() - 1), f64::from(b.height() - 1));
-        let cb = q
+        let cb = targets
             .iter()
-            .zip(ca)
-            .map(|(q, a)| match q {
-                Some(p) if p[0] >= 0.0 && p[1] >= 0.0 && p[0] <= bw && p[1] <= bh => {
+            .zip(&ca)
+            .map(|(p, a)| {
+                if p[0] >= 0.0 && p[1] >= 0.0 && p[0] <= bw && p[1] <= bh {
                     let mut px = [0u8; 4];
                     src.sample_into(*p, Interp::Bilinear, &mut px);
                     px
+                } else {
+                    *a
                 }
-                _ => *a,
             })
             .collect();
-        Ok(Preview { colors_a: ca.clone(), colors_b: cb, mesh })
+        let mesh = ColorMesh { vertices: base, triangles, colors: Colors::PerVertex(Vec::new()) };
+        Ok(Preview { colors_a: ca, colors_b: cb, targets, mesh })
     }
 
     /// The preview frame at `t`: the colour mesh moved by `phi_{A->t}`, colours blended,
     /// on `background` (straight RGBA8).
+    ///
+    /// By linearity (module docs) `phi_{A->t}(v) = v + s (phi_{A->B}(v) - v)`, so a frame
+    /// costs one multiply-add per vertex and the rasterization; no spline is evaluated. The
+    /// positions agree with evaluating the exact blend to within `f64` rounding.
     pub fn preview_frame(
         &self,
         pv: &Preview,
@@ -546,7 +657,10 @@ impl Morph {
         background: [u8; 4],
     ) -> Result<Pixmap, MorphError> {
         let (_, c) = self.weights(rat_to_f64(t))?;
-        let s = self.opts.shape.at_exact(t);
+        let s = rat_to_f64(&self.opts.shape.at_exact(t));
+        if !s.is_finite() {
+            return Err(MorphError::Schedule(rat_to_f64(t)));
+        }
         let c = c as f32;
         let colors = pv
             .colors_a
@@ -557,98 +671,34 @@ impl Morph {
                     .map(|k| u8::from_f32((1.0 - c) * f32::from(a[k]) + c * f32::from(b[k])))
             })
             .collect();
-        let mesh = ColorMesh {
-            vertices: pv.mesh.vertices.clone(),
+        let vertices = pv
+            .mesh
+            .vertices
+            .iter()
+            .zip(&pv.targets)
+            .map(|(v, q)| [v[0] + s * (q[0] - v[0]), v[1] + s * (q[1] - v[1])])
+            .collect();
+        let moved = ColorMesh {
+            vertices,
             triangles: pv.mesh.triangles.clone(),
             colors: Colors::PerVertex(colors),
         };
-        let (moved, _) = mesh.deform(&self.phi_a_exact(&s)?);
         Ok(rasterize(&moved, self.a.width(), self.a.height(), Some(background))?)
     }
 }
 
-/// `A`'s colour mesh with both colour sets ([`Morph::preview`]).
+/// `A`'s colour mesh with both colour sets and the vertices' images ([`Morph::preview`]).
 #[derive(Clone, Debug)]
 pub struct Preview {
     mesh: ColorMesh,
     colors_a: Vec<[u8; 4]>,
     colors_b: Vec<[u8; 4]>,
+    targets: Vec<[f64; 2]>,
 }
 
-/// One frame's resampling: both plans and the blend.
-struct Job<'p, 's> {
-    pa: Option<&'p RemapPlan<'s>>,
-    pb: Option<&'p RemapPlan<'s>>,
-    c: f32,
-    interp: Interp,
-    bg: f64,
-    w: usize,
-    h: usize,
-    band_rows: usize,
-}
-
-fn source<T>(data: &[T], w: u32, h: u32, nc: usize) -> Source<'_, T> {
-    Source { data, w: w as usize, h: h as usize, nc }
-}
-
-fn fill<T: Texel>(src: &Source<'_, T>, pos: &[[f64; 2]], out: &mut [T], interp: Interp, bg: f64) {
-    match src.nc {
-        1 => sample::fill_pixels::<T, 1>(src, pos, out, interp, bg),
-        2 => sample::fill_pixels::<T, 2>(src, pos, out, interp, bg),
-        3 => sample::fill_pixels::<T, 3>(src, pos, out, interp, bg),
-        _ => sample::fill_pixels::<T, 4>(src, pos, out, interp, bg),
-    }
-}
-
-impl Job<'_, '_> {
-    fn run<T: Texel + Default>(&self, a: Source<'_, T>, b: Source<'_, T>) -> Vec<T> {
-        let nc = a.nc;
-        let band_px = self.band_rows * self.w;
-        let mut out = vec![T::default(); self.w * self.h * nc];
-        out.par_chunks_mut(band_px * nc).enumerate().for_each_init(
-            || {
-                (
-                    vec![[0.0f64; 2]; band_px],
-                    vec![[0.0f64; 2]; band_px],
-                    vec![T::default(); band_px * nc],
-                )
-            },
-            |(pos_a, pos_b, tmp), (band, dst)| {
-                let n = dst.len() / nc;
-                let (mut has_a, mut has_b) = (false, false);
-                if let Some(p) = self.pa {
-                    p.fill_band(band, pos_a);
-                    fill(&a, &pos_a[..n], dst, self.interp, self.bg);
-                    has_a = true;
-                }
-                if let Some(p) = self.pb {
-                    p.fill_band(band, pos_b);
-                    let tmp = &mut tmp[..n * nc];
-                    fill(&b, &pos_b[..n], tmp, self.interp, self.bg);
-                    has_b = true;
-                    if !has_a {
-                        dst.copy_from_slice(tmp);
-                    } else {
-                        let c = self.c;
-                        for i in 0..n {
-                            let (ina, inb) = (!pos_a[i][0].is_nan(), !pos_b[i][0].is_nan());
-                            let px = &mut dst[i * nc..(i + 1) * nc];
-                            let pb = &tmp[i * nc..(i + 1) * nc];
-                            match (ina, inb) {
-                                (true, true) => {
-                                    for (o, v) in px.iter_mut().zip(pb) {
-                                        *o = T::from_f32((1.0 - c) * o.to_f32() + c * v.to_f32());
-                                    }
-                                }
-                                (false, true) => px.copy_from_slice(pb),
-                                _ => {}
-                            }
-                        }
-                    }
-                }
-                debug_assert!(has_a || has_b);
-            },
-        );
-        out
+impl Preview {
+    /// Number of vertices and triangles of the preview mesh.
+    pub fn size(&self) -> (usize, usize) {
+        (self.mesh.vertices.len(), self.mesh.triangles.len())
     }
 }

@@ -250,3 +250,71 @@ fn animations_decode_with_every_frame() {
     let sheet = output::contact_sheet(&frames, &frame_times(4), 2, 20).unwrap();
     assert!(sheet.width() > 40 && sheet.height() > 20);
 }
+
+#[test]
+fn preview_vertices_follow_the_exact_blend() {
+    let (a, b) = (pattern(64, 48, 0.0), pattern(64, 48, 3.0));
+    let m = Morph::new(&a, &b, &landmarks(), &MorphOptions::default()).unwrap();
+    let pv = m.preview(4).unwrap();
+    let (nv, nt) = pv.size();
+    assert!(nv > 100 && nt > 150, "{nv} vertices, {nt} triangles");
+    for s in [0.0, 0.37, 1.0, 1.4] {
+        let phi = m.phi_a_at(s).unwrap();
+        let mut worst = 0.0f64;
+        for (v, q) in pv.mesh.vertices.iter().zip(&pv.targets) {
+            let lin = [v[0] + s * (q[0] - v[0]), v[1] + s * (q[1] - v[1])];
+            let e = phi.eval(*v, None).unwrap();
+            worst = worst.max((lin[0] - e[0]).abs()).max((lin[1] - e[1]).abs());
+        }
+        // Named tolerance: f64 rounding of the spline evaluation, far below a pixel.
+        assert!(worst < 1e-9, "s = {s}: linear preview differs from the blend by {worst}");
+    }
+}
+
+#[test]
+fn a_morph_from_both_deformations_equals_the_landmark_morph() {
+    let (a, b) = (pattern(64, 48, 0.0), pattern(56, 44, 3.0));
+    let opts = MorphOptions::default();
+    let m = Morph::new(&a, &b, &landmarks(), &opts).unwrap();
+    let d = Morph::from_deformations(&a, &b, m.phi_ab().clone(), Some(m.phi_ba().clone()), &opts)
+        .unwrap();
+    assert_eq!(d.coverage(), 1.0);
+    assert!(d.landmark_errors(0.5).unwrap().is_empty());
+    for t in [0.0, 0.4, 1.0] {
+        assert_eq!(max_diff(&m.frame(t).unwrap(), &d.frame(t).unwrap()), 0, "t = {t}");
+        d.phi_a_at(t).unwrap().check_c1().unwrap();
+    }
+}
+
+#[test]
+fn a_morph_from_one_deformation_fits_the_reverse_and_ends_at_a_and_b() {
+    let (a, b) = (pattern(64, 48, 0.0), pattern(64, 48, 3.0));
+    let opts = MorphOptions::default();
+    let m = Morph::new(&a, &b, &landmarks(), &opts).unwrap();
+    let d = Morph::from_deformations(&a, &b, m.phi_ab().clone(), None, &opts).unwrap();
+    // The fitted reverse approximately inverts phi_ab (within a tenth of a pixel here).
+    let mut worst = 0.0f64;
+    for l in landmarks() {
+        let q = d.phi_ab().eval(l.src, None).unwrap();
+        let back = d.phi_ba().eval(q, None).unwrap();
+        worst = worst.max((back[0] - l.src[0]).hypot(back[1] - l.src[1]));
+    }
+    assert!(worst < 0.1, "phi_ba(phi_ab(p)) is {worst} px from p");
+    assert!(max_diff(&d.frame(0.0).unwrap(), &a) <= 1);
+    assert!(max_diff(&d.frame(1.0).unwrap(), &b) <= 1);
+    d.phi_b_at(0.3).unwrap().check_c1().unwrap();
+}
+
+#[test]
+fn a_deformation_not_covering_a_leaves_background_and_reports_coverage() {
+    let (a, b) = (pattern(64, 48, 0.0), pattern(64, 48, 3.0));
+    let mesh = Mesh::grid(4, 4, 31.0, 47.0, MeshOptions::default()).unwrap();
+    let half = Spline::identity(mesh, 5).unwrap();
+    let opts = MorphOptions { background: 255.0, ..MorphOptions::default() };
+    let d = Morph::from_deformations(&a, &b, half, None, &opts).unwrap();
+    let cov = d.coverage();
+    assert!((0.45..0.55).contains(&cov), "coverage {cov}");
+    let f = d.frame(0.0).unwrap().to_luma8();
+    assert_eq!(f.get_pixel(60, 20)[0], 255, "uncovered pixel shows the background");
+    assert_eq!(f.get_pixel(10, 20)[0], a.to_luma8().get_pixel(10, 20)[0]);
+}
