@@ -33,5 +33,6 @@ pub mod mesh;
 pub mod morph;
 pub mod prism;
 pub mod render;
+pub mod server;
 pub mod spline;
 pub mod warp;

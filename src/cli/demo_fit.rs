@@ -65,6 +65,24 @@ fn write_landmarks(dir: &Path) -> Result<usize> {
     Ok(ids.len())
 }
 
+/// The bundled scene: a worm-like organism model (generated, lying across the frame) in a
+/// layer of prisms (z in [-16, 16]) over an 8x8-cell identity mesh of time-lapse frame 0
+/// (511 x 511 px), and that frame.
+pub fn bundled_scene() -> Result<(Spline, crate::prism::Model, image::DynamicImage)> {
+    let mut model =
+        worm(&WormOptions { length: 380.0, radius: 14.0, bend: 35.0, rings: 120, around: 24 });
+    for v in model.vertices.iter_mut() {
+        v[0] += 65.0;
+        v[1] += 250.0;
+    }
+    let mesh = Mesh::grid(8, 8, 511.0, 511.0, MeshOptions::default())?;
+    let mut s = Spline::identity(mesh, 5)?;
+    let z = identity_layers(&s, rat_int(-16), rat_int(16))?;
+    s.set_z_layers(Some(z));
+    let frame = image::load_from_memory(FRAMES[0]).context("bundled frame 0")?;
+    Ok((s, model, frame))
+}
+
 /// Runs demo part 4 into `dir`.
 pub fn run(dir: &Path) -> Result<()> {
     println!(
@@ -77,19 +95,9 @@ pub fn run(dir: &Path) -> Result<()> {
     }
     let lms = dir.join("landmarks");
     let tracks = write_landmarks(&lms)?;
-    // The organism: a worm-like tube lying across the 511 x 511 frame (pixel units).
-    let mut model =
-        worm(&WormOptions { length: 380.0, radius: 14.0, bend: 35.0, rings: 120, around: 24 });
-    for v in model.vertices.iter_mut() {
-        v[0] += 65.0;
-        v[1] += 250.0;
-    }
+    let (s, model, _) = bundled_scene()?;
     let model_path = dir.join("worm.obj");
     save_model(&model, &model.vertices, &model_path)?;
-    let mesh = Mesh::grid(8, 8, 511.0, 511.0, MeshOptions::default())?;
-    let mut s = Spline::identity(mesh, 5)?;
-    let z = identity_layers(&s, rat_int(-16), rat_int(16))?;
-    s.set_z_layers(Some(z));
     let scene = dir.join("scene.json");
     let mut v = deformation::to_json(&s, None);
     v["model"] = serde_json::Value::from("worm.obj");

@@ -95,11 +95,34 @@ pub fn run_single(
     report: Option<&Path>,
     holdout_k: usize,
     seed: u64,
+    pin: Option<&str>,
     solver: &SolverArgs,
 ) -> Result<()> {
-    let opts = solver.options()?;
-    let (s, _) = deformation::from_str(&read_text(def)?)
+    let mut opts = solver.options()?;
+    let text = read_text(def)?;
+    let (s, _) = deformation::from_str(&text)
         .with_context(|| format!("cannot read deformation {}", def.display()))?;
+    if let Some(list) = pin {
+        opts.pinned = if list.trim() == "edited" {
+            let p = deformation::pinned_from_str(&text)
+                .with_context(|| format!("--pin edited: {}", def.display()))?;
+            if p.is_empty() {
+                bail!(
+                    "--pin edited: {} records no corrected points (save it from the editor after an edit)",
+                    def.display()
+                );
+            }
+            p
+        } else {
+            list.split(',')
+                .map(|t| {
+                    t.trim().parse::<usize>().map_err(|_| {
+                        anyhow::anyhow!("--pin: `{}` is not a control point index", t.trim())
+                    })
+                })
+                .collect::<Result<_>>()?
+        };
+    }
     let lms = read_landmarks(landmarks)
         .with_context(|| format!("cannot read landmarks {}", landmarks.display()))?;
     let (fitted, held): (Vec<Landmark>, Vec<Landmark>) = if holdout_k > 0 {

@@ -6,6 +6,8 @@
 mod bench;
 mod demo;
 mod demo_fit;
+mod editor_cmd;
+pub use demo_fit::bundled_scene;
 mod fit_batch;
 mod fit_cmd;
 mod match_cmd;
@@ -229,6 +231,23 @@ enum Command {
         #[arg(long)]
         quiet: bool,
     },
+    /// Interactive editor in the browser: serves a page on 127.0.0.1 (only) and prints its
+    /// address. Without arguments it opens the bundled worm scene over time-lapse frame 0.
+    /// Files are loaded and saved inside the current folder only.
+    Editor {
+        /// Deformation or scene to edit (format v1; a scene's "model" and "image" keys are
+        /// loaded too). Default: an identity over --image, or the bundled scene.
+        deformation: Option<PathBuf>,
+        /// 3D model (OBJ, PLY) bound to the prism layer.
+        #[arg(long)]
+        model: Option<PathBuf>,
+        /// Background image: the microscope frame to match.
+        #[arg(long)]
+        image: Option<PathBuf>,
+        /// Port on 127.0.0.1 (0: any free port).
+        #[arg(long, default_value_t = 8080)]
+        port: u16,
+    },
     /// 2.5D models: bind a 3D model to a prism mesh, or write the bundled organism.
     #[command(subcommand)]
     Model(ModelCommand),
@@ -326,6 +345,11 @@ enum Command {
         /// Only control points within R control-net steps of the landmarks move.
         #[arg(long)]
         radius: Option<usize>,
+        /// Control points held exactly at their values in DEF: a comma list of indices, or
+        /// `edited` for the points corrected by hand in `trimorph editor` (DEF's "pinned"
+        /// key). With --hard, the landmarks are exact too.
+        #[arg(long, value_name = "LIST")]
+        pin: Option<String>,
         /// Floor that the fold barrier keeps det J above.
         #[arg(long, default_value_t = 0.1)]
         min_det: f64,
@@ -561,6 +585,14 @@ pub fn run() -> i32 {
             delay_ms: delay,
             quiet,
         }),
+        Command::Editor { deformation, model, image, port } => {
+            editor_cmd::run(editor_cmd::EditorArgs {
+                deformation: deformation.as_deref(),
+                model: model.as_deref(),
+                image: image.as_deref(),
+                port,
+            })
+        }
         Command::Field { deformation, output, inverse, jacobian, size } => {
             warp_cmd::field(&deformation, &output, inverse, jacobian.as_deref(), size.as_deref())
         }
@@ -587,6 +619,7 @@ pub fn run() -> i32 {
             holdout,
             seed,
             radius,
+            pin,
             min_det,
             no_barrier,
             max_iters,
@@ -614,6 +647,7 @@ pub fn run() -> i32 {
                     report.as_deref(),
                     holdout,
                     seed,
+                    pin.as_deref(),
                     &solver,
                 ),
                 (d, Some(scene), Some(fr)) if d.is_none() => fit_batch::run(fit_batch::BatchArgs {

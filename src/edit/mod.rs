@@ -246,6 +246,36 @@ impl Editor {
         Ok(())
     }
 
+    /// Replaces the spline by another with the same mesh and degree (undo and redo, or a
+    /// fit result loaded over the current one), keeping the selection index. Ends the
+    /// selection. Refused, with nothing changed, if the layouts differ or an extra
+    /// constraint does not hold for the new points.
+    pub fn replace_spline(&mut self, s: Spline) -> Result<(), EditError> {
+        if !same_layout(&self.spline, &s) {
+            return Err(EditError::Argument(
+                "the new deformation has another mesh or degree than the one being edited".into(),
+            ));
+        }
+        for e in &self.extras {
+            let col = |k: usize| -> Vec<Vec<Rat>> {
+                s.points().iter().map(|p| vec![p[k].clone()]).collect()
+            };
+            let holds = (0..2).all(|k| {
+                axis_system(s.c1_matrix(), std::slice::from_ref(e), k).is_satisfied(&col(k))
+            });
+            if !holds {
+                return Err(EditError::Argument(format!(
+                    "constraint {} does not hold for the new points",
+                    e.to_json()
+                )));
+            }
+        }
+        // The bounded mode's minimal determining set depends on the mesh only: kept.
+        self.spline = s;
+        self.selection = None;
+        Ok(())
+    }
+
     /// The spline being edited.
     pub fn spline(&self) -> &Spline {
         &self.spline
@@ -638,6 +668,18 @@ impl Editor {
     pub fn clear_selection(&mut self) {
         self.selection = None;
     }
+}
+
+/// Whether two splines have the same mesh (exact vertex coordinates and triangles) and
+/// degree, so that control points correspond one to one.
+pub fn same_layout(a: &Spline, b: &Spline) -> bool {
+    let (ma, mb) = (a.mesh(), b.mesh());
+    a.degree() == b.degree()
+        && a.num_points() == b.num_points()
+        && ma.num_vertices() == mb.num_vertices()
+        && ma.num_triangles() == mb.num_triangles()
+        && (0..ma.num_triangles()).all(|t| ma.triangle(t) == mb.triangle(t))
+        && (0..ma.num_vertices()).all(|v| ma.vertex_int(v) == mb.vertex_int(v))
 }
 
 /// Exact rational from a finite `f64` (convenience for callers).

@@ -21,9 +21,14 @@
 //! weighted least squares). If the edit is not solvable the neighbourhood grows (radius 3,
 //! 6, then everything); if it is still not solvable the landmarks contradict each other
 //! (e.g. one source sent to two targets) and the fit fails with ECLES's reason.
+//!
+//! **Pinned points** ([`FitOptions::pinned`], e.g. control points corrected by hand in the
+//! editor) replace that single anchor: they are the ECLES anchors, held at their values in
+//! the input spline, and the neighbourhood grows from them as well as from the landmarks.
+//! Without `hard` the landmark rows are left out and only the pins are exact.
 
 use super::landmarks::Landmark;
-use super::solve::{fit, report, Fit, FitError, FitOptions};
+use super::solve::{fit_soft, report, Fit, FitError, FitOptions};
 use crate::ecles::{ConstraintSystem, EclesError, InitOptions};
 use crate::edit::select::{neighborhood, Neighborhood, SelectIndex};
 use crate::exact::{Int, Rat};
@@ -107,9 +112,13 @@ pub(super) fn fit_hard(
     opts: &FitOptions,
     start: Instant,
 ) -> Result<Fit, FitError> {
-    let soft = fit(s, lms, &FitOptions { hard: false, ..opts.clone() })?;
+    let soft = fit_soft(s, lms, opts, start)?;
     let hint = &soft.spline;
     let n = s.num_points();
+    let mut is_pinned = vec![false; n];
+    for &p in &opts.pinned {
+        is_pinned[p] = true;
+    }
     let c1 = s.c1_matrix();
     let mut rows: Vec<Vec<(usize, Int)>> = (0..c1.rows()).map(|i| c1.row(i).to_vec()).collect();
     let mut q: Vec<Vec<Rat>> = vec![vec![Rat::zero(); 2]; c1.rows()];
@@ -122,9 +131,12 @@ pub(super) fn fit_hard(
             y: l.src[1],
         })?;
         seeds.extend(row.iter().map(|(p, _)| *p));
-        rows.push(row);
-        q.push(tgt.to_vec());
+        if opts.hard {
+            rows.push(row);
+            q.push(tgt.to_vec());
+        }
     }
+    seeds.extend(&opts.pinned);
     seeds.sort_unstable();
     seeds.dedup();
     let r = crate::exact::SparseIntMatrix::from_rows(n, rows)
@@ -143,17 +155,23 @@ pub(super) fn fit_hard(
         })
         .expect("a mesh has vertices");
     // Vertex v's corner point has index v (corner points come first in the layout).
+    // Pinned points, if any, are the anchors instead, at their input values.
+    let anchors: Vec<usize> =
+        if opts.pinned.is_empty() { vec![anchor] } else { opts.pinned.clone() };
     let idx = SelectIndex::new(s);
-    let values = hint.points().to_vec();
+    let mut values = hint.points().to_vec();
+    for &p in &opts.pinned {
+        values[p] = s.points()[p].clone();
+    }
     let mut last_err = None;
     for hood in [Neighborhood::Radius(3), Neighborhood::Radius(6), Neighborhood::All] {
         let mut in_d = vec![false; n];
         for p in seeds.iter().copied().chain(neighborhood(&idx, &seeds, &hood)) {
             in_d[p] = true;
         }
-        in_d[anchor] = false;
-        let derived: Vec<usize> = (0..n).filter(|&p| in_d[p]).collect();
-        let mut session = match sys.initialize(&values, &[anchor], &derived, InitOptions::default())
+        let derived: Vec<usize> =
+            (0..n).filter(|&p| in_d[p] && !is_pinned[p] && p != anchors[0]).collect();
+        let mut session = match sys.initialize(&values, &anchors, &derived, InitOptions::default())
         {
             Ok(x) => x,
             Err(e) => {
@@ -162,7 +180,8 @@ pub(super) fn fit_hard(
             }
         };
         let hints: Vec<Vec<Rat>> = derived.iter().map(|&p| values[p].clone()).collect();
-        match session.update(&[values[anchor].clone()], Some(&hints), None) {
+        let anchor_values: Vec<Vec<Rat>> = anchors.iter().map(|&p| values[p].clone()).collect();
+        match session.update(&anchor_values, Some(&hints), None) {
             Ok(()) => {
                 let mut pts = values.clone();
                 session.write_into(&mut pts);
@@ -175,7 +194,7 @@ pub(super) fn fit_hard(
                     &spline,
                     lms,
                     opts,
-                    format!("{}+hard", soft.report.method),
+                    format!("{}+{}", soft.report.method, if opts.hard { "hard" } else { "pinned" }),
                     soft.report.variables / 2,
                     soft.report.iterations,
                     soft.report.cost_initial,

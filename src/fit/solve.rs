@@ -53,6 +53,11 @@ pub struct FitOptions {
     /// Barycentric sample level of `det J` in the barrier (default 4: 15 samples per
     /// triangle); the report samples at twice this level.
     pub det_level: usize,
+    /// Control points pinned at their values in the input spline (e.g. points corrected
+    /// by hand in the editor). They are held exactly: the soft fit does not vary them and
+    /// an ECLES update ([`super::hard`]) makes the result exactly C1 with every pinned point
+    /// at its input value (default: none).
+    pub pinned: Vec<usize>,
 }
 
 impl Default for FitOptions {
@@ -66,6 +71,7 @@ impl Default for FitOptions {
             hard: false,
             grid_bits: 20,
             det_level: 4,
+            pinned: Vec::new(),
         }
     }
 }
@@ -369,6 +375,15 @@ fn check_options(o: &FitOptions) -> Result<(), FitError> {
     Ok(())
 }
 
+fn check_pinned(o: &FitOptions, n: usize) -> Result<(), FitError> {
+    match o.pinned.iter().find(|&&p| p >= n) {
+        Some(p) => Err(FitError::Options(format!(
+            "pinned control point {p} does not exist (the spline has {n})"
+        ))),
+        None => Ok(()),
+    }
+}
+
 /// The variables' objective for these landmarks (exposed for tests and benches).
 pub fn objective(s: &Spline, lms: &[Landmark], opts: &FitOptions) -> Result<Objective, FitError> {
     objective_with(s, &Mds::new(s)?, lms, opts)
@@ -401,6 +416,7 @@ pub fn objective_with(
         rows.push(r);
     }
     let n = s.num_points();
+    check_pinned(opts, n)?;
     let is_var = match opts.radius {
         None => vec![true; n],
         Some(r) => {
@@ -418,6 +434,10 @@ pub fn objective_with(
             is_var
         }
     };
+    let mut is_var = is_var;
+    for &p in &opts.pinned {
+        is_var[p] = false;
+    }
     let param = Param::new(s, mds, &is_var);
     Ok(Objective::new(s, param, rows, opts.loss, opts.bend, opts.barrier, opts.det_level))
 }
@@ -425,9 +445,19 @@ pub fn objective_with(
 /// Fits `s` to the landmarks (see the module docs). `s` is the warm start; it is not changed.
 pub fn fit(s: &Spline, lms: &[Landmark], opts: &FitOptions) -> Result<Fit, FitError> {
     let start = Instant::now();
-    if opts.hard {
+    if opts.hard || !opts.pinned.is_empty() {
         return super::hard::fit_hard(s, lms, opts, start);
     }
+    fit_soft(s, lms, opts, start)
+}
+
+/// The soft fit (no landmark rows, no ECLES step; pinned free points do not vary).
+pub(super) fn fit_soft(
+    s: &Spline,
+    lms: &[Landmark],
+    opts: &FitOptions,
+    start: Instant,
+) -> Result<Fit, FitError> {
     let mds = Mds::new(s)?;
     let obj = objective_with(s, &mds, lms, opts)?;
     let nv = obj.param.nv();

@@ -4,6 +4,7 @@
 use super::landmarks::Landmark;
 use super::objective::{Barrier, Loss};
 use super::solve::{fit, objective, FitError, FitOptions};
+use crate::exact::rat_int;
 use crate::mesh::{Mesh, MeshOptions};
 use crate::spline::Spline;
 use rand::rngs::SmallRng;
@@ -234,4 +235,37 @@ mod props {
             prop_assert!(f.report.cost_final <= f.report.cost_initial + 1e-9);
         }
     }
+}
+
+#[test]
+fn pinned_points_keep_their_input_values_exactly() {
+    // A hand-corrected start: one interior corner point moved off the identity.
+    let mesh = Mesh::grid(4, 4, 100.0, 100.0, MeshOptions::default()).unwrap();
+    let id = Spline::identity(mesh, 5).unwrap();
+    let mut ed = crate::edit::Editor::new(id);
+    let v = (0..ed.spline().mesh().num_vertices())
+        .find(|&v| {
+            let p = ed.spline().mesh().vertex(v);
+            (p[0] - 50.0).abs() < 1e-9 && (p[1] - 50.0).abs() < 1e-9
+        })
+        .unwrap();
+    ed.select(&[v], &[], &crate::edit::select::Neighborhood::Radius(3), crate::edit::Mode::Xy)
+        .unwrap();
+    ed.translate(&[rat_int(3), rat_int(-2)]).unwrap();
+    let corrected = ed.into_spline();
+    let lms: Vec<Landmark> = [[20.0, 20.0], [80.0, 25.0], [30.0, 75.0], [70.0, 70.0], [50.0, 30.0]]
+        .iter()
+        .map(|&p| Landmark { name: None, src: p, dst: [p[0] + 1.5, p[1] + 0.5], weight: 1.0 })
+        .collect();
+    for hard in [false, true] {
+        let opts = FitOptions { pinned: vec![v], hard, ..FitOptions::default() };
+        let f = fit(&corrected, &lms, &opts).unwrap();
+        assert_eq!(f.spline.points()[v], corrected.points()[v], "hard = {hard}");
+        f.spline.check_c1().unwrap();
+        assert!(f.report.method.ends_with(if hard { "+hard" } else { "+pinned" }));
+        // The rest did fit: residuals well below the 1.6 px offset.
+        assert!(f.report.fit.rms < 0.8, "hard = {hard}: rms {}", f.report.fit.rms);
+    }
+    let bad = FitOptions { pinned: vec![usize::MAX], ..FitOptions::default() };
+    assert!(matches!(fit(&corrected, &lms, &bad), Err(FitError::Options(_))));
 }

@@ -128,6 +128,26 @@ pub fn constraints_from_str(text: &str, s: &Spline) -> Result<Vec<Extra>, Deform
     }
 }
 
+/// The control points recorded as corrected by hand (key `"pinned"`, written by
+/// `trimorph editor`; an extra key that format v1 allows). Empty when absent.
+pub fn pinned_from_str(text: &str) -> Result<Vec<usize>, DeformationError> {
+    let doc: Value =
+        serde_json::from_str(text).map_err(|e| DeformationError::Json(e.to_string()))?;
+    match doc.get("pinned") {
+        None | Some(Value::Null) => Ok(Vec::new()),
+        Some(Value::Array(a)) => a
+            .iter()
+            .enumerate()
+            .map(|(i, v)| {
+                v.as_u64().map(|x| x as usize).ok_or_else(|| {
+                    key(&format!("pinned[{i}]"), "expected a control point index (integer >= 0)")
+                })
+            })
+            .collect(),
+        Some(_) => Err(key("pinned", "expected an array of control point indices")),
+    }
+}
+
 /// The file text of a spline: one key per line, one row per line for arrays of rows.
 pub fn to_string(s: &Spline, last: Option<&LastEdit>) -> String {
     to_string_with(s, last, &[])

@@ -1,0 +1,45 @@
+//! One editor drag step on the bundled scene (worm model in prisms over an 8x8-cell mesh of
+//! a 511 x 511 frame, degree 5, 1681 control points): the API call `POST /api/update`
+//! through [`trimorph::server::handle`], i.e. the exact ECLES update, the deformed model,
+//! mesh polylines and control points, and the JSON answer. The browser adds the HTTP round
+//! trip and the redraw (measured by `tests/editor_e2e.rs`).
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use serde_json::json;
+use std::hint::black_box;
+use trimorph::server::doc::Doc;
+use trimorph::server::handle;
+
+fn bench(c: &mut Criterion) {
+    let (s, model, frame) = trimorph::cli::bundled_scene().unwrap();
+    let dir = std::env::temp_dir();
+    let mut g = c.benchmark_group("editor");
+    g.sample_size(30);
+    for radius in [2u64, 4] {
+        let mut doc = Doc::new(s.clone(), &dir);
+        doc.set_model("worm.obj".into(), model.clone()).unwrap();
+        doc.set_frame("frame.png".into(), frame.clone()).unwrap();
+        let p = doc.editor().nearest_points(&[[255.5, 255.5]])[0];
+        let sel = json!({"anchors": [p], "radius": radius}).to_string();
+        let r = handle(&mut doc, "POST", "/api/select", sel.as_bytes());
+        assert_eq!(r.status, 200);
+        let mut k = 0u32;
+        g.bench_function(format!("drag_step_radius{radius}"), |b| {
+            b.iter(|| {
+                k += 1;
+                let v = [f64::from(k % 50) * 0.25, -f64::from(k % 30) * 0.25];
+                let body = json!({"op": "translate", "v": v}).to_string();
+                let r = handle(&mut doc, "POST", "/api/update", body.as_bytes());
+                assert_eq!(r.status, 200);
+                black_box(r.body.len())
+            })
+        });
+        g.bench_function(format!("select_radius{radius}"), |b| {
+            b.iter(|| black_box(handle(&mut doc, "POST", "/api/select", sel.as_bytes()).status))
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

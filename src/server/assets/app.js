@@ -1,0 +1,434 @@
+// trimorph editor page. The engine (Rust, /api/...) computes all geometry; this page only
+// draws what it is sent and turns mouse and keyboard input into API calls.
+// World coordinates = mesh coordinates = reference image pixels (x right, y down).
+'use strict';
+
+const T = {
+  state: null, geo: {}, stat: {}, img: null, jac: null, jacVersion: 0,
+  view: { s: 1, tx: 0, ty: 0 }, anchors: [], center: null,
+  drag: null, busy: false, pending: null, timings: [], lastError: null,
+  layers: {},
+};
+window.trimorph = T;
+
+const $ = (id) => document.getElementById(id);
+const canvas = $('view');
+const ctx = canvas.getContext('2d');
+const obl = $('oblique');
+const octx = obl.getContext('2d');
+
+async function api(method, path, body) {
+  const opt = { method, headers: {} };
+  if (body !== undefined) {
+    opt.headers['Content-Type'] = 'application/json';
+    opt.body = JSON.stringify(body);
+  }
+  const r = await fetch(path, opt);
+  const ct = r.headers.get('Content-Type') || '';
+  const v = ct.startsWith('application/json') ? await r.json() : null;
+  if (!r.ok) throw new Error((v && v.error) || ('HTTP ' + r.status));
+  return v;
+}
+T.api = api;
+
+function status(msg, isError) {
+  const f = $('status');
+  f.textContent = msg;
+  f.className = isError ? 'error' : '';
+  if (isError) T.lastError = msg;
+}
+
+function mode() { return $('mode').value; }
+function op() { return $('op').value; }
+function radius() { return $('all').checked ? null : Math.max(0, parseInt($('radius').value || '0', 10)); }
+
+// ---- view transform ----------------------------------------------------------------
+function toScreen(x, y) { return [T.view.s * x + T.view.tx, T.view.s * y + T.view.ty]; }
+function toWorld(X, Y) { return [(X - T.view.tx) / T.view.s, (Y - T.view.ty) / T.view.s]; }
+T.toScreen = toScreen; T.toWorld = toWorld;
+
+function bounds() {
+  if (T.state && T.state.frame) return [-0.5, -0.5, T.state.frame.width - 0.5, T.state.frame.height - 0.5];
+  let b = [Infinity, Infinity, -Infinity, -Infinity];
+  for (const p of T.geo.points || []) {
+    b = [Math.min(b[0], p[0]), Math.min(b[1], p[1]), Math.max(b[2], p[0]), Math.max(b[3], p[1])];
+  }
+  return b;
+}
+
+function fitView() {
+  const [x0, y0, x1, y1] = bounds();
+  const w = canvas.clientWidth, h = canvas.clientHeight;
+  const s = 0.95 * Math.min(w / (x1 - x0 || 1), h / (y1 - y0 || 1));
+  T.view = { s, tx: w / 2 - s * (x0 + x1) / 2, ty: h / 2 - s * (y0 + y1) / 2 };
+  draw();
+}
+
+// ---- drawing ------------------------------------------------------------------------
+function draw() {
+  const dpr = window.devicePixelRatio || 1;
+  const w = canvas.clientWidth, h = canvas.clientHeight;
+  if (canvas.width !== Math.round(w * dpr) || canvas.height !== Math.round(h * dpr)) {
+    canvas.width = Math.round(w * dpr); canvas.height = Math.round(h * dpr);
+  }
+  ctx.setTransform(1, 0, 0, 1, 0, 0);
+  ctx.fillStyle = '#151617';
+  ctx.fillRect(0, 0, canvas.width, canvas.height);
+  const v = T.view;
+  ctx.setTransform(dpr * v.s, 0, 0, dpr * v.s, dpr * v.tx, dpr * v.ty);
+  const px = 1 / v.s; // one screen pixel in world units
+  const L = T.layers, g = T.geo, st = T.stat;
+  ctx.imageSmoothingEnabled = v.s < 2;
+  if (L.image && T.img) ctx.drawImage(T.img, -0.5, -0.5);
+  if (L.jacobian && T.jac) ctx.drawImage(T.jac, -0.5, -0.5);
+  if (L.model && g.model_outline) {
+    const o = g.model_outline;
+    ctx.beginPath();
+    for (let k = 0; k < o.length; k += 4) { ctx.moveTo(o[k], o[k + 1]); ctx.lineTo(o[k + 2], o[k + 3]); }
+    ctx.lineWidth = 2 * px; ctx.strokeStyle = 'rgba(90, 230, 140, 0.95)'; ctx.stroke();
+  }
+  const pts = g.points || [];
+  if (L.quads && st.quads) {
+    ctx.beginPath();
+    for (const q of st.quads) polygon(q.map((i) => pts[i]));
+    ctx.lineWidth = px; ctx.strokeStyle = 'rgba(180, 140, 255, 0.45)'; ctx.stroke();
+  }
+  if (L.net && st.net) {
+    ctx.beginPath();
+    for (const [a, b] of st.net) { ctx.moveTo(pts[a][0], pts[a][1]); ctx.lineTo(pts[b][0], pts[b][1]); }
+    ctx.lineWidth = px; ctx.strokeStyle = 'rgba(160, 160, 160, 0.5)'; ctx.stroke();
+  }
+  if (L.mesh && g.mesh) {
+    ctx.beginPath();
+    for (const line of g.mesh) {
+      if (!line.length) continue;
+      ctx.moveTo(line[0][0], line[0][1]);
+      for (let k = 1; k < line.length; k++) ctx.lineTo(line[k][0], line[k][1]);
+    }
+    ctx.lineWidth = 1.5 * px; ctx.strokeStyle = 'rgba(90, 200, 255, 0.9)'; ctx.stroke();
+  }
+  const sel = g.selection;
+  if (L.constraints && sel && st.quads) {
+    ctx.beginPath();
+    for (const c of sel.constraints) if (st.quads[c]) polygon(st.quads[c].map((i) => pts[i]));
+    ctx.lineWidth = 1.5 * px; ctx.strokeStyle = 'rgba(255, 160, 40, 0.9)'; ctx.stroke();
+  }
+  if (L.points) {
+    const r = 2 * px;
+    ctx.fillStyle = 'rgba(230, 230, 230, 0.8)';
+    ctx.beginPath();
+    for (const p of pts) ctx.rect(p[0] - r, p[1] - r, 2 * r, 2 * r);
+    ctx.fill();
+    const pinned = (T.state && T.state.pinned) || [];
+    ctx.strokeStyle = '#3cf'; ctx.lineWidth = px; ctx.beginPath();
+    for (const i of pinned) if (pts[i]) ctx.rect(pts[i][0] - 2 * r, pts[i][1] - 2 * r, 4 * r, 4 * r);
+    ctx.stroke();
+  }
+  if (sel) {
+    ctx.fillStyle = '#fc3';
+    for (const i of sel.derived) dot(pts[i], 2.2 * px);
+    ctx.fillStyle = '#f33';
+    for (const i of sel.anchors) dot(pts[i], 4.5 * px);
+  } else {
+    ctx.fillStyle = '#f33';
+    for (const i of T.anchors) if (pts[i]) dot(pts[i], 4.5 * px);
+  }
+  if (T.center) {
+    ctx.strokeStyle = '#fff'; ctx.lineWidth = 1.5 * px; ctx.beginPath();
+    const [cx, cy] = T.center, k = 8 * px;
+    ctx.moveTo(cx - k, cy); ctx.lineTo(cx + k, cy); ctx.moveTo(cx, cy - k); ctx.lineTo(cx, cy + k);
+    ctx.stroke();
+  }
+  drawOblique();
+}
+
+function polygon(ps) {
+  if (ps.some((p) => !p)) return;
+  ctx.moveTo(ps[0][0], ps[0][1]);
+  for (let k = 1; k < ps.length; k++) ctx.lineTo(ps[k][0], ps[k][1]);
+  ctx.closePath();
+}
+function dot(p, r) { if (!p) return; ctx.beginPath(); ctx.arc(p[0], p[1], r, 0, 2 * Math.PI); ctx.fill(); }
+
+// Oblique 3D view of the deformed model (z modes): rotated 60 degrees about the x axis,
+// painter's algorithm, flat shading.
+function drawOblique() {
+  const zmode = mode() === 'z0' || mode() === 'z1';
+  obl.hidden = !zmode;
+  const m = T.geo.model, tris = T.stat.model_triangles;
+  if (!zmode || !m || !tris) return;
+  const a = Math.PI / 3, ca = Math.cos(a), sa = Math.sin(a);
+  const n = m.length / 3, P = new Float64Array(2 * n), D = new Float64Array(n);
+  let b = [Infinity, Infinity, -Infinity, -Infinity];
+  for (let i = 0; i < n; i++) {
+    const x = m[3 * i], y = m[3 * i + 1], z = m[3 * i + 2];
+    P[2 * i] = x; P[2 * i + 1] = y * ca - z * sa; D[i] = y * sa + z * ca;
+    b = [Math.min(b[0], P[2 * i]), Math.min(b[1], P[2 * i + 1]), Math.max(b[2], P[2 * i]), Math.max(b[3], P[2 * i + 1])];
+  }
+  const W = obl.width, H = obl.height;
+  const s = 0.9 * Math.min(W / (b[2] - b[0] || 1), H / (b[3] - b[1] || 1));
+  const ox = W / 2 - s * (b[0] + b[2]) / 2, oy = H / 2 - s * (b[1] + b[3]) / 2;
+  octx.clearRect(0, 0, W, H);
+  const order = tris.map((t, k) => [D[t[0]] + D[t[1]] + D[t[2]], k]).sort((u, v) => u[0] - v[0]);
+  for (const [, k] of order) {
+    const t = tris[k];
+    const ux = m[3 * t[1]] - m[3 * t[0]], uy = m[3 * t[1] + 1] - m[3 * t[0] + 1], uz = m[3 * t[1] + 2] - m[3 * t[0] + 2];
+    const vx = m[3 * t[2]] - m[3 * t[0]], vy = m[3 * t[2] + 1] - m[3 * t[0] + 1], vz = m[3 * t[2] + 2] - m[3 * t[0] + 2];
+    const nx = uy * vz - uz * vy, ny = uz * vx - ux * vz, nz = ux * vy - uy * vx;
+    const len = Math.hypot(nx, ny, nz) || 1;
+    const light = Math.abs((ny * -sa + nz * ca) / len);
+    const c = Math.round(60 + 170 * light);
+    octx.fillStyle = `rgb(${Math.round(c * 0.5)},${c},${Math.round(c * 0.7)})`;
+    octx.beginPath();
+    octx.moveTo(ox + s * P[2 * t[0]], oy + s * P[2 * t[0] + 1]);
+    octx.lineTo(ox + s * P[2 * t[1]], oy + s * P[2 * t[1] + 1]);
+    octx.lineTo(ox + s * P[2 * t[2]], oy + s * P[2 * t[2] + 1]);
+    octx.closePath();
+    octx.fill();
+  }
+}
+
+// ---- data ---------------------------------------------------------------------------
+function applyGeo(r) {
+  for (const k of ['points', 'mesh', 'model', 'model_outline', 'z0', 'z1']) if (r[k] !== undefined) T.geo[k] = r[k];
+  T.geo.selection = r.selection;
+  if (r.state) T.state = r.state;
+}
+
+async function reload(keepView) {
+  T.state = await api('GET', '/api/state');
+  const full = await api('GET', '/api/geometry?full=1');
+  T.geo = full;
+  T.stat = { net: full.net, quads: full.quads, model_triangles: full.model_triangles };
+  if (T.state.frame && !T.img) {
+    const img = new Image();
+    img.src = '/api/image.png?' + Date.now();
+    await img.decode();
+    T.img = img;
+  }
+  $('mode').querySelector('[value=z0]').disabled = !T.state.z_modes;
+  $('mode').querySelector('[value=z1]').disabled = !T.state.z_modes;
+  if (!keepView) fitView(); else draw();
+  refreshJacobian();
+  status(summary());
+}
+
+function summary() {
+  const s = T.state;
+  if (!s) return '';
+  const sel = s.selection ? `; ${s.selection.anchors.length} anchors, ${s.selection.derived.length} derived` : '';
+  const t = T.timings.length ? `; last drag step ${T.timings[T.timings.length - 1].toFixed(1)} ms (exact update ${s.last_update_ms.toFixed(1)} ms)` : '';
+  return `${s.name || 'untitled'}: degree ${s.degree}, ${s.points} control points, ${s.triangles} triangles; undo ${s.undo}, redo ${s.redo}; ${s.pinned.length} corrected${sel}${t}`;
+}
+
+async function refreshJacobian() {
+  if (!T.layers.jacobian) return;
+  const img = new Image();
+  img.src = '/api/jacobian.png?v=' + (++T.jacVersion);
+  try { await img.decode(); T.jac = img; draw(); } catch (e) { /* ignored: next change retries */ }
+}
+
+async function run(fn) {
+  try { await fn(); status(summary()); } catch (e) { status(String(e.message || e), true); }
+}
+
+// ---- editing ------------------------------------------------------------------------
+function nearestOnScreen(X, Y, maxPx) {
+  let best = -1, bd = maxPx * maxPx;
+  const pts = T.geo.points || [];
+  for (let i = 0; i < pts.length; i++) {
+    const [sx, sy] = toScreen(pts[i][0], pts[i][1]);
+    const d = (sx - X) ** 2 + (sy - Y) ** 2;
+    if (d < bd) { bd = d; best = i; }
+  }
+  return best;
+}
+
+async function select(anchors) {
+  T.anchors = anchors;
+  const r = await api('POST', '/api/select', { anchors, radius: radius(), mode: mode() });
+  applyGeo(r);
+  draw();
+}
+
+function anchorCentroid() {
+  const pts = T.geo.points, a = T.anchors;
+  let x = 0, y = 0;
+  for (const i of a) { x += pts[i][0]; y += pts[i][1]; }
+  return [x / a.length, y / a.length];
+}
+
+function opBody(d, X, Y) {
+  const [wx, wy] = toWorld(X, Y);
+  const zmode = d.mode !== 'xy';
+  if (d.op === 'translate') {
+    return zmode ? { op: 'translate', v: [-(Y - d.Y0) / T.view.s] } : { op: 'translate', v: [wx - d.wx0, wy - d.wy0] };
+  }
+  if (zmode) {
+    const f = Math.exp(-(Y - d.Y0) / 150);
+    const zs = T.geo[d.mode] || [];
+    const c = d.anchors.reduce((s, i) => s + (zs[i] || 0), 0) / d.anchors.length;
+    return { op: 'scale', center: [c], factor: f };
+  }
+  const c = d.center;
+  if (d.op === 'rotate') {
+    const a0 = Math.atan2(d.wy0 - c[1], d.wx0 - c[0]), a1 = Math.atan2(wy - c[1], wx - c[0]);
+    return { op: 'rotate', center: c, angle: a1 - a0 };
+  }
+  const r0 = Math.hypot(d.wx0 - c[0], d.wy0 - c[1]) || 1;
+  const f = Math.max(0.05, Math.hypot(wx - c[0], wy - c[1]) / r0);
+  return { op: 'scale', center: c, factor: f };
+}
+
+async function sendUpdate(body) {
+  if (T.busy) { T.pending = body; return; }
+  T.busy = true;
+  const t0 = performance.now();
+  try {
+    const r = await api('POST', '/api/update', body);
+    applyGeo(r);
+    draw();
+    T.timings.push(performance.now() - t0);
+    status(summary());
+  } catch (e) {
+    status(String(e.message || e), true);
+  } finally {
+    T.busy = false;
+    if (T.pending) { const p = T.pending; T.pending = null; sendUpdate(p); }
+  }
+}
+
+async function idle() {
+  while (T.busy || T.pending) await new Promise((r) => setTimeout(r, 5));
+}
+T.idle = idle;
+
+canvas.addEventListener('contextmenu', (e) => {
+  e.preventDefault();
+  T.center = toWorld(e.offsetX, e.offsetY);
+  draw();
+});
+
+canvas.addEventListener('mousedown', (e) => run(async () => {
+  const X = e.offsetX, Y = e.offsetY;
+  if (e.button === 1 || (e.button === 0 && mode() === 'view')) {
+    T.drag = { pan: true, X0: X, Y0: Y, tx: T.view.tx, ty: T.view.ty };
+    return;
+  }
+  if (e.button !== 0) return;
+  const hit = nearestOnScreen(X, Y, 10);
+  if (hit < 0) {
+    if (!e.shiftKey) {
+      T.anchors = [];
+      await api('POST', '/api/clear');
+      T.geo.selection = null;
+      T.drag = { pan: true, X0: X, Y0: Y, tx: T.view.tx, ty: T.view.ty };
+      draw();
+    }
+    return;
+  }
+  let anchors = T.anchors.slice();
+  if (e.shiftKey) {
+    anchors = anchors.includes(hit) ? anchors.filter((i) => i !== hit) : anchors.concat([hit]);
+  } else if (!anchors.includes(hit)) {
+    anchors = [hit];
+  }
+  if (!anchors.length) { T.anchors = []; await api('POST', '/api/clear'); T.geo.selection = null; draw(); return; }
+  await select(anchors);
+  const [wx0, wy0] = toWorld(X, Y);
+  T.drag = { X0: X, Y0: Y, wx0, wy0, op: op(), mode: mode(), anchors, center: T.center || anchorCentroid(), moved: false };
+}));
+
+window.addEventListener('mousemove', (e) => {
+  const d = T.drag;
+  if (!d) return;
+  const r = canvas.getBoundingClientRect();
+  const X = e.clientX - r.left, Y = e.clientY - r.top;
+  if (d.pan) {
+    T.view.tx = d.tx + X - d.X0; T.view.ty = d.ty + Y - d.Y0;
+    draw();
+    return;
+  }
+  d.moved = true;
+  sendUpdate(opBody(d, X, Y));
+});
+
+window.addEventListener('mouseup', () => run(async () => {
+  const d = T.drag;
+  T.drag = null;
+  if (!d || d.pan || !d.moved) return;
+  await idle();
+  T.state = await api('GET', '/api/state');
+  refreshJacobian();
+}));
+
+canvas.addEventListener('wheel', (e) => {
+  e.preventDefault();
+  const k = Math.exp(-e.deltaY / 500);
+  const [wx, wy] = toWorld(e.offsetX, e.offsetY);
+  T.view.s *= k;
+  T.view.tx = e.offsetX - T.view.s * wx; T.view.ty = e.offsetY - T.view.s * wy;
+  draw();
+}, { passive: false });
+
+// ---- commands -----------------------------------------------------------------------
+async function undoRedo(which) {
+  const r = await api('POST', '/api/' + which);
+  applyGeo(r);
+  T.anchors = [];
+  draw();
+  refreshJacobian();
+}
+
+const commands = {
+  undo: () => run(() => undoRedo('undo')),
+  redo: () => run(() => undoRedo('redo')),
+  save: () => run(async () => { const r = await api('POST', '/api/save', { path: $('path').value }); status('saved ' + r.saved); }),
+  savescene: () => run(async () => { const r = await api('POST', '/api/save', { path: $('path').value, scene: true }); status('saved scene ' + r.saved); }),
+  load: () => run(async () => { await api('POST', '/api/load', { path: $('path').value }); T.img = null; T.anchors = []; await reload(false); }),
+  exportobj: () => run(async () => { const r = await api('POST', '/api/export', { kind: 'obj', path: $('path').value.replace(/\.[^.]*$/, '') + '.obj' }); status('exported ' + r.saved); }),
+  exportimg: () => run(async () => { const r = await api('POST', '/api/export', { kind: 'warped', path: $('path').value.replace(/\.[^.]*$/, '') + '.png' }); status('exported ' + r.saved); }),
+  refit: () => run(async () => {
+    const r = await api('POST', '/api/refit', { landmarks: $('landmarks').value, hard: $('hard').checked });
+    applyGeo(r); draw(); refreshJacobian();
+    status(`re-fit (${r.method}): rms ${r.rms.toFixed(3)} px, ${r.pinned} pinned points held exactly`);
+  }),
+};
+for (const [id, fn] of Object.entries(commands)) $(id).addEventListener('click', fn);
+
+for (const box of document.querySelectorAll('[data-layer]')) {
+  T.layers[box.dataset.layer] = box.checked;
+  box.addEventListener('change', () => {
+    T.layers[box.dataset.layer] = box.checked;
+    if (box.dataset.layer === 'jacobian') refreshJacobian();
+    draw();
+  });
+}
+$('mode').addEventListener('change', () => run(async () => { T.anchors = []; await api('POST', '/api/clear'); T.geo.selection = null; draw(); }));
+
+window.addEventListener('keydown', (e) => {
+  if (e.target.tagName === 'INPUT' && e.target.type !== 'checkbox') return;
+  const k = e.key, ctrl = e.ctrlKey || e.metaKey;
+  const setSel = (id, v) => { const el = $(id); if (!el.querySelector(`[value=${v}]`).disabled) { el.value = v; el.dispatchEvent(new Event('change')); } };
+  if (ctrl && (k === 'z' || k === 'Z')) { e.preventDefault(); (e.shiftKey ? commands.redo : commands.undo)(); }
+  else if (ctrl && k === 'y') { e.preventDefault(); commands.redo(); }
+  else if (ctrl && k === 's') { e.preventDefault(); commands.save(); }
+  else if (ctrl) return;
+  else if (k === '1') setSel('mode', 'view');
+  else if (k === '2') setSel('mode', 'xy');
+  else if (k === '3') setSel('mode', 'z0');
+  else if (k === '4') setSel('mode', 'z1');
+  else if (k === 't') $('op').value = 'translate';
+  else if (k === 'r') $('op').value = 'rotate';
+  else if (k === 's') $('op').value = 'scale';
+  else if (k === 'a') $('all').checked = !$('all').checked;
+  else if (k === '+' || k === '=') $('radius').value = Math.min(50, +$('radius').value + 1);
+  else if (k === '-') $('radius').value = Math.max(0, +$('radius').value - 1);
+  else if (k === 'j') { const b = document.querySelector('[data-layer=jacobian]'); b.checked = !b.checked; b.dispatchEvent(new Event('change')); }
+  else if (k === 'f') fitView();
+  else if (k === 'c') { T.center = null; draw(); }
+  else if (k === 'Escape') run(async () => { T.anchors = []; await api('POST', '/api/clear'); T.geo.selection = null; draw(); });
+});
+
+window.addEventListener('resize', draw);
+run(() => reload(false)).then(() => { T.ready = true; });

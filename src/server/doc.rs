@@ -1,0 +1,444 @@
+//! The editor's document: the deformation being edited, the optional model and frame, the
+//! undo history and the points corrected by hand.
+//!
+//! Every operation either succeeds or leaves the document exactly as it was: edits go
+//! through [`Editor`] (which restores the spline on failure), loads are parsed completely
+//! before anything is replaced, and saves write a temporary file and rename it.
+//!
+//! Coordinates: mesh coordinates are the reference image's pixel coordinates (x right,
+//! y down, pixel centres at integers), as everywhere in trimorph; the frame is drawn in the
+//! same coordinates, so `phi` maps the reference onto the frame.
+
+use super::paths::confine;
+use super::ServerError;
+use crate::edit::select::Neighborhood;
+use crate::edit::{exact, EditError, Editor, LastEdit, Mode};
+use crate::exact::Rat;
+use crate::fit::solve::{fit, FitOptions};
+use crate::io::landmarks::read_landmarks;
+use crate::io::model::{load_model, save_model};
+use crate::io::{deformation, read_text, write_atomic};
+use crate::prism::{bind, deform, Binding, Model};
+use crate::spline::Spline;
+use image::DynamicImage;
+use serde_json::{json, Value};
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Most undo steps kept (older ones are dropped).
+pub const UNDO_LIMIT: usize = 200;
+
+/// A model bound to the prism layer.
+pub struct BoundModel {
+    /// Its file, relative to the root when it was loaded from there.
+    pub path: PathBuf,
+    /// The model.
+    pub model: Model,
+    /// Where each vertex sits in the reference prisms.
+    pub binding: Binding,
+}
+
+/// The frame to match (the background).
+pub struct Frame {
+    /// Its file.
+    pub path: PathBuf,
+    /// The image.
+    pub image: DynamicImage,
+    /// The image as PNG, served to the page.
+    pub png: Vec<u8>,
+}
+
+/// A drag operation, relative to the positions at selection time.
+#[derive(Clone, Debug)]
+pub enum Op {
+    /// Translation (2 values in xy mode, 1 in z modes).
+    Translate(Vec<f64>),
+    /// Rotation about a centre by an angle in radians (xy mode).
+    Rotate {
+        /// Centre (mesh coordinates).
+        center: [f64; 2],
+        /// Angle (radians, counter-clockwise in the y-down image plane's maths sense).
+        angle: f64,
+    },
+    /// Scaling about a centre by a positive factor.
+    Scale {
+        /// Centre (2 values in xy mode, 1 in z modes).
+        center: Vec<f64>,
+        /// Factor.
+        factor: f64,
+    },
+}
+
+/// The editor's document; see the module docs.
+pub struct Doc {
+    editor: Editor,
+    model: Option<BoundModel>,
+    frame: Option<Frame>,
+    undo: Vec<Spline>,
+    redo: Vec<Spline>,
+    pinned: BTreeSet<usize>,
+    before_drag: Option<Spline>,
+    root: PathBuf,
+    name: Option<String>,
+    /// Milliseconds of the last exact update.
+    pub last_update_ms: f64,
+}
+
+fn edit_err(e: EditError) -> ServerError {
+    ServerError::Unprocessable(e.to_string())
+}
+
+impl Doc {
+    /// A document for `spline`, confined to `root` for file loads and saves.
+    pub fn new(spline: Spline, root: &Path) -> Doc {
+        Doc {
+            editor: Editor::new(spline),
+            model: None,
+            frame: None,
+            undo: Vec::new(),
+            redo: Vec::new(),
+            pinned: BTreeSet::new(),
+            before_drag: None,
+            root: root.to_path_buf(),
+            name: None,
+            last_update_ms: 0.0,
+        }
+    }
+
+    /// Binds a model (the deformation must have z layers).
+    pub fn set_model(&mut self, path: PathBuf, model: Model) -> Result<(), ServerError> {
+        let binding = bind(&model, self.editor.spline())
+            .map_err(|e| ServerError::Unprocessable(format!("model {}: {e}", path.display())))?;
+        self.model = Some(BoundModel { path, model, binding });
+        Ok(())
+    }
+
+    /// Sets the background frame.
+    pub fn set_frame(&mut self, path: PathBuf, image: DynamicImage) -> Result<(), ServerError> {
+        let mut png = Vec::new();
+        image
+            .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+            .map_err(|e| ServerError::Unprocessable(format!("frame {}: {e}", path.display())))?;
+        self.frame = Some(Frame { path, image, png });
+        Ok(())
+    }
+
+    /// Records the document's file name (shown in the page, default save name).
+    pub fn set_name(&mut self, name: Option<String>) {
+        self.name = name;
+    }
+
+    /// Marks control points as corrected by hand (e.g. read from a saved file).
+    pub fn add_pinned(&mut self, pts: &[usize]) {
+        let n = self.editor.spline().num_points();
+        self.pinned.extend(pts.iter().copied().filter(|&p| p < n));
+    }
+
+    /// The spline.
+    pub fn spline(&self) -> &Spline {
+        self.editor.spline()
+    }
+    /// The editor (selection, index).
+    pub fn editor(&self) -> &Editor {
+        &self.editor
+    }
+    /// The bound model.
+    pub fn model(&self) -> Option<&BoundModel> {
+        self.model.as_ref()
+    }
+    /// The frame.
+    pub fn frame(&self) -> Option<&Frame> {
+        self.frame.as_ref()
+    }
+    /// Points corrected by hand so far.
+    pub fn pinned(&self) -> &BTreeSet<usize> {
+        &self.pinned
+    }
+    /// The folder file paths are confined to.
+    pub fn root(&self) -> &Path {
+        &self.root
+    }
+
+    /// Summary for the page.
+    pub fn state(&self) -> Value {
+        let s = self.spline();
+        let sel = self.editor.selection();
+        json!({
+            "name": self.name,
+            "degree": s.degree(),
+            "points": s.num_points(),
+            "triangles": s.mesh().num_triangles(),
+            "z_modes": s.z_layers().is_some(),
+            "model": self.model.as_ref().map(|m| m.path.display().to_string()),
+            "frame": self.frame.as_ref().map(|f| {
+                json!({"path": f.path.display().to_string(),
+                       "width": f.image.width(), "height": f.image.height()})
+            }),
+            "undo": self.undo.len(),
+            "redo": self.redo.len(),
+            "pinned": self.pinned.iter().collect::<Vec<_>>(),
+            "selection": sel.map(|s| json!({
+                "anchors": s.anchors, "derived": s.derived, "strong": s.strong,
+                "mode": mode_name(s.mode)
+            })),
+            "last_update_ms": self.last_update_ms,
+        })
+    }
+
+    /// 2DSD.Select: anchors, a neighbourhood radius (`None`: all points) and the mode.
+    pub fn select(
+        &mut self,
+        anchors: &[usize],
+        radius: Option<usize>,
+        mode: Mode,
+    ) -> Result<Value, ServerError> {
+        let hood = match radius {
+            Some(r) => Neighborhood::Radius(r),
+            None => Neighborhood::All,
+        };
+        let before = self.editor.spline().clone();
+        let sel = self.editor.select(anchors, &[], &hood, mode).map_err(edit_err)?;
+        let out = json!({
+            "anchors": sel.anchors,
+            "derived": sel.derived,
+            "theta": sel.theta,
+            "strong": sel.strong,
+            "relevant": sel.session().relevant().len(),
+            "rank": sel.session().rank(),
+        });
+        self.before_drag = Some(before);
+        Ok(out)
+    }
+
+    /// One drag step: the operation relative to the selection-time positions, exactly.
+    /// The first successful step of a selection records an undo step.
+    pub fn update(&mut self, op: &Op) -> Result<(), ServerError> {
+        let t0 = Instant::now();
+        let ex = |v: f64| exact(v).map_err(edit_err);
+        let r = match op {
+            Op::Translate(v) => {
+                let v: Vec<Rat> = v.iter().map(|&x| ex(x)).collect::<Result<_, _>>()?;
+                self.editor.translate(&v)
+            }
+            Op::Rotate { center, angle } => {
+                let c = [ex(center[0])?, ex(center[1])?];
+                self.editor.rotate(c, *angle)
+            }
+            Op::Scale { center, factor } => {
+                let c: Vec<Rat> = center.iter().map(|&x| ex(x)).collect::<Result<_, _>>()?;
+                let f = ex(*factor)?;
+                self.editor.scale(&c, &f)
+            }
+        };
+        r.map_err(edit_err)?;
+        self.last_update_ms = t0.elapsed().as_secs_f64() * 1e3;
+        if let Some(before) = self.before_drag.take() {
+            self.push_undo(before);
+        }
+        if let Some(sel) = self.editor.selection() {
+            self.pinned.extend(sel.anchors.iter().copied());
+        }
+        Ok(())
+    }
+
+    fn push_undo(&mut self, s: Spline) {
+        self.undo.push(s);
+        if self.undo.len() > UNDO_LIMIT {
+            self.undo.remove(0);
+        }
+        self.redo.clear();
+    }
+
+    /// Ends the selection.
+    pub fn clear_selection(&mut self) {
+        self.editor.clear_selection();
+        self.before_drag = None;
+    }
+
+    /// Undoes the last change (an edit, a load over the same mesh, or a refit).
+    pub fn undo(&mut self) -> Result<(), ServerError> {
+        let prev = self.undo.pop().ok_or(ServerError::Unprocessable("nothing to undo".into()))?;
+        let cur = self.editor.spline().clone();
+        if let Err(e) = self.editor.replace_spline(prev.clone()) {
+            self.undo.push(prev);
+            return Err(edit_err(e));
+        }
+        self.redo.push(cur);
+        self.before_drag = None;
+        Ok(())
+    }
+
+    /// Redoes the last undone change.
+    pub fn redo(&mut self) -> Result<(), ServerError> {
+        let next = self.redo.pop().ok_or(ServerError::Unprocessable("nothing to redo".into()))?;
+        let cur = self.editor.spline().clone();
+        if let Err(e) = self.editor.replace_spline(next.clone()) {
+            self.redo.push(next);
+            return Err(edit_err(e));
+        }
+        self.undo.push(cur);
+        self.before_drag = None;
+        Ok(())
+    }
+
+    /// The deformation file's JSON (format v1), with the corrected points (`"pinned"`)
+    /// and, for a scene, the model and frame paths.
+    pub fn to_json(&self, scene: bool) -> Value {
+        let last = self
+            .editor
+            .selection()
+            .map(|s| LastEdit { anchors: s.anchors.clone(), derived: s.derived.clone() });
+        let mut v =
+            deformation::to_json_with(self.spline(), last.as_ref(), self.editor.constraints());
+        v["pinned"] = json!(self.pinned.iter().collect::<Vec<_>>());
+        if scene {
+            // Bundled inputs (`bundled:...`) have no file to point to.
+            let real = |p: &Path| !p.to_string_lossy().starts_with("bundled:");
+            if let Some(m) = self.model.as_ref().filter(|m| real(&m.path)) {
+                v["model"] = json!(m.path.display().to_string());
+            }
+            if let Some(f) = self.frame.as_ref().filter(|f| real(&f.path)) {
+                v["image"] = json!(f.path.display().to_string());
+            }
+        }
+        v
+    }
+
+    /// Saves the deformation (or the scene) to `rel` inside the root.
+    pub fn save(&self, rel: &str, scene: bool) -> Result<PathBuf, ServerError> {
+        let path = confine(&self.root, rel, true)?;
+        let text = crate::io::json_rows(&self.to_json(scene));
+        write_atomic(&path, text.as_bytes()).map_err(|e| ServerError::Io(e.to_string()))?;
+        Ok(path)
+    }
+
+    /// Loads a deformation or scene from `rel` inside the root. Over the same mesh it
+    /// replaces the spline as one undoable step; otherwise it starts a new document (and
+    /// rebinds the model). A scene's `"model"` and `"image"` keys load those files too.
+    pub fn load(&mut self, rel: &str) -> Result<(), ServerError> {
+        let path = confine(&self.root, rel, false)?;
+        let bad = |e: String| ServerError::Unprocessable(format!("{rel}: {e}"));
+        let text = read_text(&path).map_err(|e| bad(e.to_string()))?;
+        let (s, _) = deformation::from_str(&text).map_err(|e| bad(e.to_string()))?;
+        let pinned = deformation::pinned_from_str(&text).map_err(|e| bad(e.to_string()))?;
+        let v: Value = serde_json::from_str(&text).map_err(|e| bad(e.to_string()))?;
+        let key = |k: &str| v.get(k).and_then(Value::as_str).map(str::to_string);
+        // Everything is read before anything changes.
+        let model = match key("model") {
+            Some(m) => {
+                let p = confine(&self.root, &m, false)?;
+                Some((PathBuf::from(m), load_model(&p).map_err(|e| bad(e.to_string()))?))
+            }
+            None => None,
+        };
+        let frame = match key("image") {
+            Some(i) => {
+                let p = confine(&self.root, &i, false)?;
+                Some((PathBuf::from(i), image::open(&p).map_err(|e| bad(e.to_string()))?))
+            }
+            None => None,
+        };
+        let same = crate::edit::same_layout(self.spline(), &s);
+        let model =
+            model.or_else(|| self.model.as_ref().map(|m| (m.path.clone(), m.model.clone())));
+        if same {
+            let bound = match model {
+                Some((p, m)) => {
+                    let binding = bind(&m, &s).map_err(|e| bad(format!("model: {e}")))?;
+                    Some(BoundModel { path: p, model: m, binding })
+                }
+                None => None,
+            };
+            let cur = self.editor.spline().clone();
+            self.editor.replace_spline(s).map_err(edit_err)?;
+            self.push_undo(cur);
+            self.model = bound;
+        } else {
+            let mut next = Doc::new(s, &self.root);
+            if let Some((p, m)) = model {
+                next.set_model(p, m)?;
+            }
+            next.frame = self.frame.take();
+            *self = next;
+        }
+        if let Some((p, img)) = frame {
+            self.set_frame(p, img)?;
+        }
+        self.add_pinned(&pinned);
+        self.name = Some(rel.to_string());
+        self.before_drag = None;
+        Ok(())
+    }
+
+    /// The deformed model's vertices (`psi`), if a model is bound.
+    pub fn deformed_model(&self) -> Option<Vec<[f64; 3]>> {
+        self.model.as_ref().map(|m| deform(&m.model, &m.binding, self.spline()))
+    }
+
+    /// Exports the deformed model (OBJ or PLY by extension) to `rel` inside the root.
+    pub fn export_model(&self, rel: &str) -> Result<PathBuf, ServerError> {
+        let m =
+            self.model.as_ref().ok_or(ServerError::Unprocessable("no model is loaded".into()))?;
+        let path = confine(&self.root, rel, true)?;
+        let v = deform(&m.model, &m.binding, self.spline());
+        save_model(&m.model, &v, &path).map_err(|e| ServerError::Io(e.to_string()))?;
+        Ok(path)
+    }
+
+    /// Exports the frame warped by `phi` (`O(q) = I(phi^-1(q))`, as `trimorph warp`).
+    pub fn export_warped(&self, rel: &str) -> Result<PathBuf, ServerError> {
+        let f =
+            self.frame.as_ref().ok_or(ServerError::Unprocessable("no image is loaded".into()))?;
+        let path = confine(&self.root, rel, true)?;
+        let (out, _) = crate::warp::warp_image(
+            self.spline(),
+            &f.image,
+            crate::warp::Interp::Bilinear,
+            0.0,
+            Default::default(),
+        )
+        .map_err(|e| ServerError::Unprocessable(e.to_string()))?;
+        let mut bytes = Vec::new();
+        out.write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png)
+            .map_err(|e| ServerError::Io(e.to_string()))?;
+        write_atomic(&path, &bytes).map_err(|e| ServerError::Io(e.to_string()))?;
+        Ok(path)
+    }
+
+    /// Re-runs the fit from the current state with the landmarks in `rel`, holding every
+    /// point corrected by hand exactly ([`FitOptions::pinned`]); `hard` makes the
+    /// landmarks exact too. One undoable step.
+    pub fn refit(&mut self, rel: &str, hard: bool) -> Result<Value, ServerError> {
+        let path = confine(&self.root, rel, false)?;
+        let lms =
+            read_landmarks(&path).map_err(|e| ServerError::Unprocessable(format!("{rel}: {e}")))?;
+        let opts = FitOptions {
+            pinned: self.pinned.iter().copied().collect(),
+            hard,
+            ..Default::default()
+        };
+        let f = fit(self.spline(), &lms, &opts)
+            .map_err(|e| ServerError::Unprocessable(format!("fit: {e}")))?;
+        let cur = self.editor.spline().clone();
+        self.editor.replace_spline(f.spline).map_err(edit_err)?;
+        self.push_undo(cur);
+        self.before_drag = None;
+        Ok(json!({
+            "method": f.report.method,
+            "rms": f.report.fit.rms,
+            "max": f.report.fit.max,
+            "pinned": opts.pinned.len(),
+            "min_det_j": f.report.min_det_j,
+        }))
+    }
+}
+
+/// The mode's name in the API.
+pub fn mode_name(m: Mode) -> &'static str {
+    match m {
+        Mode::Xy => "xy",
+        Mode::Z0 => "z0",
+        Mode::Z1 => "z1",
+    }
+}

@@ -1,0 +1,237 @@
+use super::doc::Doc;
+use super::*;
+use crate::mesh::{Mesh, MeshOptions};
+use crate::spline::Spline;
+use std::io::{Read as _, Write};
+use std::net::TcpStream;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+
+fn doc(root: &std::path::Path) -> Doc {
+    let mesh = Mesh::grid(4, 4, 100.0, 100.0, MeshOptions::default()).unwrap();
+    Doc::new(Spline::identity(mesh, 5).unwrap(), root)
+}
+
+fn call(d: &mut Doc, method: &str, url: &str, body: Value) -> (u16, Value) {
+    let b = if body.is_null() { Vec::new() } else { body.to_string().into_bytes() };
+    let r = handle(d, method, url, &b);
+    let v = serde_json::from_slice(&r.body).unwrap_or(Value::Null);
+    (r.status, v)
+}
+
+/// The vertex at (50, 50): an interior corner point (corner points come first).
+fn centre(d: &Doc) -> usize {
+    let m = d.spline().mesh();
+    (0..m.num_vertices()).find(|&v| m.vertex(v) == [50.0, 50.0]).unwrap()
+}
+
+#[test]
+fn select_update_undo_redo_round_trip_exactly() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut d = doc(dir.path());
+    let before = d.spline().points().to_vec();
+    let c = centre(&d);
+    let (st, v) = call(&mut d, "POST", "/api/select", json!({"anchors": [c], "radius": 2}));
+    assert_eq!(st, 200, "{v}");
+    assert!(!v["derived"].as_array().unwrap().is_empty());
+    for step in 1..=3 {
+        let (st, v) = call(
+            &mut d,
+            "POST",
+            "/api/update",
+            json!({"op": "translate", "v": [step as f64 * 1.5, -1.0]}),
+        );
+        assert_eq!(st, 200, "{v}");
+        assert_eq!(v["points"][c], json!([50.0 + step as f64 * 1.5, 49.0]));
+    }
+    let q = d.spline().point_f64(c);
+    assert_eq!(q, [54.5, 49.0]);
+    d.spline().check_c1().unwrap();
+    let (_, st) = call(&mut d, "GET", "/api/state", Value::Null);
+    assert_eq!(st["undo"], 1, "one drag = one undo step");
+    assert_eq!(st["pinned"], json!([c]));
+    let after = d.spline().points().to_vec();
+    assert_eq!(call(&mut d, "POST", "/api/undo", Value::Null).0, 200);
+    assert_eq!(d.spline().points(), &before[..]);
+    assert_eq!(call(&mut d, "POST", "/api/redo", Value::Null).0, 200);
+    assert_eq!(d.spline().points(), &after[..]);
+    let (st, v) = call(&mut d, "POST", "/api/redo", Value::Null);
+    assert_eq!(st, 422, "{v}");
+    assert!(v["error"].as_str().unwrap().contains("nothing to redo"));
+}
+
+#[test]
+fn a_refused_edit_answers_422_and_changes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut d = doc(dir.path());
+    let c = centre(&d);
+    let (st, v) = call(&mut d, "POST", "/api/select", json!({"anchors": [c], "radius": 1}));
+    assert_eq!(st, 200, "{v}");
+    let before = d.spline().points().to_vec();
+    for body in [
+        json!({"op": "scale", "center": [50.0, 50.0], "factor": -1.0}),
+        json!({"op": "translate", "v": [1.0]}),
+        json!({"op": "scale", "center": [50.0], "factor": 2.0}),
+    ] {
+        let (st, v) = call(&mut d, "POST", "/api/update", body.clone());
+        assert_eq!(st, 422, "{body}: {v}");
+        assert_eq!(d.spline().points(), &before[..], "{body} changed the spline");
+    }
+    assert_eq!(call(&mut d, "GET", "/api/state", Value::Null).1["undo"], 0);
+    // Anchors that are no control points, empty anchor sets, bad modes.
+    let n = d.spline().num_points();
+    for (body, status) in [
+        (json!({"anchors": [n + 5]}), 422),
+        (json!({"anchors": []}), 422),
+        (json!({"anchors": [c, c]}), 422),
+        (json!({"anchors": [c], "mode": "z0"}), 422),
+        (json!({"anchors": [c], "mode": "zz"}), 400),
+        (json!({"anchors": "x"}), 400),
+    ] {
+        let (st, v) = call(&mut d, "POST", "/api/select", body.clone());
+        assert_eq!(st, status, "{body}: {v}");
+        assert!(v["error"].is_string());
+    }
+    let (st, _) = call(&mut d, "POST", "/api/update", json!({"op": "spin", "v": [1.0]}));
+    assert_eq!(st, 400);
+    let r = handle(&mut d, "POST", "/api/update", br#"{"op": "translate", "v": [1e400, 0]}"#);
+    assert_eq!(r.status, 400);
+}
+
+#[test]
+fn rotate_and_scale_keep_c1_exactly() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut d = doc(dir.path());
+    let c = centre(&d);
+    call(&mut d, "POST", "/api/select", json!({"anchors": [c], "radius": 3}));
+    let (st, v) = call(
+        &mut d,
+        "POST",
+        "/api/update",
+        json!({"op": "rotate", "center": [40.0, 40.0], "angle": 0.2}),
+    );
+    assert_eq!(st, 200, "{v}");
+    d.spline().check_c1().unwrap();
+    let (st, v) = call(
+        &mut d,
+        "POST",
+        "/api/update",
+        json!({"op": "scale", "center": [50.0, 50.0], "factor": 1.25}),
+    );
+    assert_eq!(st, 200, "{v}");
+    d.spline().check_c1().unwrap();
+}
+
+#[test]
+fn save_and_load_stay_inside_the_folder() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut d = doc(dir.path());
+    let c = centre(&d);
+    call(&mut d, "POST", "/api/select", json!({"anchors": [c], "radius": 2}));
+    call(&mut d, "POST", "/api/update", json!({"op": "translate", "v": [2.0, 1.0]}));
+    let (st, v) = call(&mut d, "POST", "/api/save", json!({"path": "e.json"}));
+    assert_eq!(st, 200, "{v}");
+    let text = std::fs::read_to_string(dir.path().join("e.json")).unwrap();
+    let (s, _) = crate::io::deformation::from_str(&text).unwrap();
+    assert_eq!(s.points(), d.spline().points());
+    assert_eq!(crate::io::deformation::pinned_from_str(&text).unwrap(), vec![c]);
+    for p in ["../e.json", "/tmp/e.json", "a/../../e.json"] {
+        let (st, v) = call(&mut d, "POST", "/api/save", json!({ "path": p }));
+        assert_eq!(st, 403, "{p}: {v}");
+        let (st, _) = call(&mut d, "POST", "/api/load", json!({ "path": p }));
+        assert_eq!(st, 403, "{p}");
+    }
+    // A bad file changes nothing.
+    std::fs::write(dir.path().join("bad.json"), "{\"format\": 3").unwrap();
+    let pts = d.spline().points().to_vec();
+    let (st, v) = call(&mut d, "POST", "/api/load", json!({"path": "bad.json"}));
+    assert_eq!(st, 422, "{v}");
+    assert_eq!(d.spline().points(), &pts[..]);
+    // Loading the identity back over the same mesh is one undoable step.
+    let id = Spline::identity(d.spline().mesh().clone(), 5).unwrap();
+    std::fs::write(dir.path().join("id.json"), crate::io::deformation::to_string(&id, None))
+        .unwrap();
+    let (st, v) = call(&mut d, "POST", "/api/load", json!({"path": "id.json"}));
+    assert_eq!(st, 200, "{v}");
+    assert_eq!(d.spline().points(), id.points());
+    call(&mut d, "POST", "/api/undo", Value::Null);
+    assert_eq!(d.spline().points(), &pts[..]);
+}
+
+#[test]
+fn only_embedded_assets_and_the_api_are_served() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("secret.txt"), "x").unwrap();
+    let mut d = doc(dir.path());
+    let r = handle(&mut d, "GET", "/", b"");
+    assert_eq!(r.status, 200);
+    assert!(String::from_utf8_lossy(&r.body).contains("trimorph editor"));
+    assert_eq!(handle(&mut d, "GET", "/app.js", b"").status, 200);
+    for p in ["/secret.txt", "/../secret.txt", "/src/server/mod.rs", "/api/nothing", "/index.html"]
+    {
+        assert_eq!(handle(&mut d, "GET", p, b"").status, 404, "{p}");
+    }
+    assert_eq!(handle(&mut d, "POST", "/api/select", b"{not json").status, 400);
+    let g = call(&mut d, "GET", "/api/geometry?full=1", Value::Null).1;
+    assert_eq!(g["points"].as_array().unwrap().len(), d.spline().num_points());
+    assert_eq!(g["quads"].as_array().unwrap().len(), d.spline().quads().len());
+    assert!(!g["net"].as_array().unwrap().is_empty());
+    assert_eq!(handle(&mut d, "GET", "/api/jacobian.png", b"").content_type, "image/png");
+}
+
+/// A raw HTTP/1.1 request; returns the status and the body.
+fn http(addr: SocketAddr, head: &str, body: &[u8]) -> (u16, Vec<u8>) {
+    let mut s = TcpStream::connect(addr).unwrap();
+    s.write_all(head.as_bytes()).unwrap();
+    let _ = s.write_all(body);
+    let mut out = Vec::new();
+    let _ = s.read_to_end(&mut out);
+    let text = String::from_utf8_lossy(&out);
+    let status = text.split_whitespace().nth(1).and_then(|x| x.parse().ok()).unwrap_or(0);
+    let body = match out.windows(4).position(|w| w == b"\r\n\r\n") {
+        Some(i) => out[i + 4..].to_vec(),
+        None => Vec::new(),
+    };
+    (status, body)
+}
+
+#[test]
+fn the_server_binds_loopback_and_bounds_request_bodies() {
+    let dir = tempfile::tempdir().unwrap();
+    let server = Server::bind(0).unwrap();
+    let addr = server.addr();
+    assert!(addr.ip().is_loopback(), "{addr}");
+    assert_eq!(addr.ip().to_string(), "127.0.0.1");
+    let stop = Arc::new(AtomicBool::new(false));
+    let stop2 = stop.clone();
+    let root = dir.path().to_path_buf();
+    let t = std::thread::spawn(move || {
+        let mut d = doc(&root);
+        server.run(&mut d, &|| stop2.load(Ordering::Relaxed));
+    });
+    let (st, body) =
+        http(addr, "GET /api/state HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n", b"");
+    assert_eq!(st, 200);
+    let v: Value = serde_json::from_slice(&body).unwrap();
+    assert_eq!(v["degree"], 5);
+    // Declared too large: refused without reading it.
+    let head = format!(
+        "POST /api/select HTTP/1.1\r\nHost: x\r\nContent-Length: {}\r\nConnection: close\r\n\r\n",
+        MAX_BODY + 1
+    );
+    let (st, _) = http(addr, &head, b"{}");
+    assert_eq!(st, 413);
+    // Chunked and too large: cut off after MAX_BODY bytes.
+    let big = vec![b' '; MAX_BODY + 10];
+    let mut chunked = format!("{:x}\r\n", big.len()).into_bytes();
+    chunked.extend(&big);
+    chunked.extend(b"\r\n0\r\n\r\n");
+    let head = "POST /api/select HTTP/1.1\r\nHost: x\r\nTransfer-Encoding: chunked\r\nConnection: close\r\n\r\n";
+    let (st, _) = http(addr, head, &chunked);
+    assert_eq!(st, 413);
+    let (st, _) =
+        http(addr, "GET /etc/passwd HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n", b"");
+    assert_eq!(st, 404);
+    stop.store(true, Ordering::Relaxed);
+    t.join().unwrap();
+}

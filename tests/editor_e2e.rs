@@ -1,0 +1,54 @@
+//! The editor end to end in a real headless browser: `tests/e2e/editor.mjs` (playwright-core
+//! driving Debian's Chromium) starts `trimorph editor` on the bundled scene, clicks an
+//! anchor, drags it, checks through the API that it moved, saves and runs `trimorph check`
+//! (exact C1), undoes with Ctrl+Z and takes a screenshot (`target/e2e/editor.png`).
+//!
+//! Needs `node`, Chromium (`/usr/bin/chromium` or `$CHROMIUM`) and
+//! `tests/e2e/node_modules` (`npm ci` in `tests/e2e`); `.ci/run` installs them and sets
+//! `TRIMORPH_E2E=1`, which makes their absence a failure instead of a skip.
+
+use std::path::Path;
+use std::process::Command;
+
+#[test]
+fn editor_drag_in_headless_chromium() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let e2e = root.join("tests/e2e");
+    let chromium = std::env::var("CHROMIUM").unwrap_or_else(|_| "/usr/bin/chromium".into());
+    let node_ok = Command::new("node").arg("--version").output().is_ok_and(|o| o.status.success());
+    let ready = node_ok
+        && Path::new(&chromium).exists()
+        && e2e.join("node_modules/playwright-core").exists();
+    if !ready {
+        let required = std::env::var("TRIMORPH_E2E").is_ok_and(|v| v == "1");
+        assert!(
+            !required,
+            "TRIMORPH_E2E=1 but node, {chromium} or tests/e2e/node_modules is missing"
+        );
+        eprintln!("skipped: node, {chromium} or tests/e2e/node_modules missing (see .ci/run)");
+        return;
+    }
+    let work = tempfile::tempdir().unwrap();
+    let shots = root.join("target/e2e");
+    std::fs::create_dir_all(&shots).unwrap();
+    let shot = shots.join("editor.png");
+    let o = Command::new("node")
+        .arg(e2e.join("editor.mjs"))
+        .arg(env!("CARGO_BIN_EXE_trimorph"))
+        .arg(work.path())
+        .arg(&shot)
+        .env("CHROMIUM", &chromium)
+        .output()
+        .unwrap();
+    let out = String::from_utf8_lossy(&o.stdout);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "e2e failed:\n{out}\n{err}");
+    let line = out.lines().rev().find(|l| l.starts_with('{')).expect("a JSON summary");
+    let v: serde_json::Value = serde_json::from_str(line).unwrap();
+    assert_eq!(v["ok"], true, "{line}");
+    assert!(v["drag_steps"].as_u64().unwrap() >= 10, "{line}");
+    eprintln!("editor e2e: {line}");
+    let png = image::open(&shot).unwrap();
+    assert_eq!((png.width(), png.height()), (1100, 800));
+    assert!(work.path().join("e2e.json").exists());
+}
