@@ -209,3 +209,38 @@ fn missing_landmark_file_error_names_the_cause_once() {
     assert!(err.contains("no-such.csv"), "{err}");
     assert_eq!(err.matches("os error 2").count(), 1, "{err}");
 }
+
+#[test]
+fn pin_edited_holds_the_points_an_editor_file_records() {
+    let dir = tempfile::tempdir().unwrap();
+    let def = reference(dir.path());
+    // An editor-saved file: the reference with one corner point recorded as corrected.
+    let mut v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&def).unwrap()).unwrap();
+    v["pinned"] = serde_json::json!([7]);
+    let edited = dir.path().join("edited.json");
+    std::fs::write(&edited, v.to_string()).unwrap();
+    let lms = dir.path().join("l.csv");
+    std::fs::write(
+        &lms,
+        "name,src_x,src_y,dst_x,dst_y\na,30,30,33,31\nb,170,30,172,33\nc,30,120,31,118\nd,170,120,173,121\ne,100,75,104,77\n",
+    )
+    .unwrap();
+    let out = dir.path().join("refit.json");
+    let o =
+        trimorph(&["fit", s(&edited), "--landmarks", s(&lms), "--pin", "edited", "-o", s(&out)]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let a: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&def).unwrap()).unwrap();
+    let b: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    assert_eq!(a["points"][7], b["points"][7], "pinned point 7 kept exactly");
+    assert_ne!(a["points"][20], b["points"][20], "the rest was fitted");
+    ok(&trimorph(&["check", s(&out)]));
+    // Without recorded points, or with a bad list, the command explains.
+    let o = trimorph(&["fit", s(&def), "--landmarks", s(&lms), "--pin", "edited", "-o", s(&out)]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("records no corrected points"));
+    let o = trimorph(&["fit", s(&def), "--landmarks", s(&lms), "--pin", "3,x", "-o", s(&out)]);
+    assert!(String::from_utf8_lossy(&o.stderr).contains("`x` is not a control point index"));
+}

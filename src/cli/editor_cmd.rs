@@ -98,10 +98,14 @@ pub fn run(a: EditorArgs<'_>) -> Result<()> {
     let root = std::env::current_dir()?;
     let mut doc = initial_doc(&a, &root)?;
     let server = Server::bind(a.port)?;
-    println!("trimorph editor at http://{}/ (files: {})", server.addr(), root.display());
-    println!("Ctrl-C stops it; save first (Ctrl+S in the page).");
+    // Printing must not fail the server: whoever started it may close our stdout once it
+    // has read the address (tests/cli_editor.rs does).
     use std::io::Write;
-    std::io::stdout().flush()?;
+    let mut out = std::io::stdout();
+    let _ =
+        writeln!(out, "trimorph editor at http://{}/ (files: {})", server.addr(), root.display());
+    let _ = writeln!(out, "Ctrl-C stops it; save first (Ctrl+S in the page).");
+    let _ = out.flush();
     server.run(&mut doc, &|| false);
     Ok(())
 }

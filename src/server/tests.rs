@@ -235,3 +235,107 @@ fn the_server_binds_loopback_and_bounds_request_bodies() {
     stop.store(true, Ordering::Relaxed);
     t.join().unwrap();
 }
+
+/// A 2.5D document with a small worm model and a 101 x 101 frame.
+fn doc25(root: &std::path::Path) -> Doc {
+    use crate::prism::organism::{worm, WormOptions};
+    let mesh = Mesh::grid(4, 4, 100.0, 100.0, MeshOptions::default()).unwrap();
+    let mut s = Spline::identity(mesh, 5).unwrap();
+    let z =
+        crate::prism::identity_layers(&s, crate::exact::rat_int(-10), crate::exact::rat_int(10))
+            .unwrap();
+    s.set_z_layers(Some(z));
+    let mut m = worm(&WormOptions { length: 60.0, radius: 5.0, bend: 5.0, rings: 20, around: 8 });
+    for v in m.vertices.iter_mut() {
+        v[0] += 20.0;
+        v[1] += 50.0;
+    }
+    let mut d = Doc::new(s, root);
+    d.set_model("worm.obj".into(), m).unwrap();
+    let img = image::GrayImage::from_fn(101, 101, |x, y| image::Luma([((x * 2 + y) % 256) as u8]));
+    d.set_frame("frame.png".into(), image::DynamicImage::ImageLuma8(img)).unwrap();
+    d
+}
+
+#[test]
+fn z_modes_edit_the_layers_and_move_the_model() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut d = doc25(dir.path());
+    let c = centre(&d);
+    let z1_before = d.spline().z_layers().unwrap().z1.clone();
+    let model_before = d.deformed_model().unwrap();
+    let (st, v) =
+        call(&mut d, "POST", "/api/select", json!({"anchors": [c], "radius": 2, "mode": "z1"}));
+    assert_eq!(st, 200, "{v}");
+    assert_eq!(v["z1"].as_array().unwrap().len(), d.spline().num_points(), "z views in z modes");
+    let (st, v) = call(&mut d, "POST", "/api/update", json!({"op": "translate", "v": [4.0]}));
+    assert_eq!(st, 200, "{v}");
+    let z = d.spline().z_layers().unwrap();
+    assert_eq!(z.z1[c], &z1_before[c] + crate::exact::rat_int(4));
+    assert_ne!(d.deformed_model().unwrap(), model_before, "the model's top moved");
+    d.spline().check_c1().unwrap();
+    // xy answers leave the z views out.
+    call(&mut d, "POST", "/api/select", json!({"anchors": [c], "radius": 2}));
+    let (_, v) = call(&mut d, "POST", "/api/update", json!({"op": "translate", "v": [1.0, 0.0]}));
+    assert!(v.get("z1").is_none() && v.get("model").is_none() && v["model_outline"].is_array());
+}
+
+#[test]
+fn export_and_scene_round_trip() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut d = doc25(dir.path());
+    let c = centre(&d);
+    call(&mut d, "POST", "/api/select", json!({"anchors": [c], "radius": 2}));
+    call(&mut d, "POST", "/api/update", json!({"op": "translate", "v": [3.0, 2.0]}));
+    let (st, v) = call(&mut d, "POST", "/api/export", json!({"kind": "obj", "path": "w.obj"}));
+    assert_eq!(st, 200, "{v}");
+    let m = crate::io::model::load_model(&dir.path().join("w.obj")).unwrap();
+    assert_eq!(m.vertices.len(), d.model().unwrap().model.vertices.len());
+    let (st, v) = call(&mut d, "POST", "/api/export", json!({"kind": "warped", "path": "w.png"}));
+    assert_eq!(st, 200, "{v}");
+    let img = image::open(dir.path().join("w.png")).unwrap();
+    assert_eq!((img.width(), img.height()), (101, 101));
+    let (st, _) = call(&mut d, "POST", "/api/export", json!({"kind": "svg", "path": "w.svg"}));
+    assert_eq!(st, 400);
+    // A scene names its model and image; loading it back restores everything.
+    crate::io::model::save_model(
+        &d.model().unwrap().model,
+        &d.model().unwrap().model.vertices,
+        &dir.path().join("worm.obj"),
+    )
+    .unwrap();
+    d.frame().unwrap().image.save(dir.path().join("frame.png")).unwrap();
+    let (st, v) = call(&mut d, "POST", "/api/save", json!({"path": "scene.json", "scene": true}));
+    assert_eq!(st, 200, "{v}");
+    let text = std::fs::read_to_string(dir.path().join("scene.json")).unwrap();
+    assert!(text.contains("\"model\"") && text.contains("\"image\""));
+    let mut e = doc(dir.path());
+    let (st, v) = call(&mut e, "POST", "/api/load", json!({"path": "scene.json"}));
+    assert_eq!(st, 200, "{v}");
+    assert_eq!(e.spline().points(), d.spline().points());
+    assert!(e.model().is_some() && e.frame().is_some());
+    assert_eq!(e.pinned().iter().copied().collect::<Vec<_>>(), vec![c]);
+}
+
+#[test]
+fn refit_holds_the_corrected_points_exactly() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut d = doc(dir.path());
+    let c = centre(&d);
+    call(&mut d, "POST", "/api/select", json!({"anchors": [c], "radius": 2}));
+    call(&mut d, "POST", "/api/update", json!({"op": "translate", "v": [2.0, -1.0]}));
+    let corrected = d.spline().points()[c].clone();
+    std::fs::write(
+        dir.path().join("l.csv"),
+        "name,src_x,src_y,dst_x,dst_y\na,20,20,22,21\nb,80,20,81,22\nc,20,80,21,79\nd,80,80,82,81\n",
+    )
+    .unwrap();
+    let (st, v) = call(&mut d, "POST", "/api/refit", json!({"landmarks": "l.csv", "hard": true}));
+    assert_eq!(st, 200, "{v}");
+    assert_eq!(v["pinned"], 1);
+    assert_eq!(d.spline().points()[c], corrected);
+    d.spline().check_c1().unwrap();
+    assert_eq!(call(&mut d, "GET", "/api/state", Value::Null).1["undo"], 2);
+    let (st, _) = call(&mut d, "POST", "/api/refit", json!({"landmarks": "../l.csv"}));
+    assert_eq!(st, 403);
+}

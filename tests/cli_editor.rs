@@ -1,0 +1,52 @@
+//! `trimorph editor` through the binary: it prints its 127.0.0.1 address and serves the API;
+//! bad inputs exit 1 with a message naming the file.
+
+mod common;
+use common::trimorph;
+use std::io::{BufRead, BufReader, Read, Write};
+use std::net::TcpStream;
+use std::process::{Command, Stdio};
+
+/// Also the regression test of a bug: the editor panicked (HTTP 500) when the process that
+/// started it closed the pipe after reading the address line.
+#[test]
+fn editor_prints_a_loopback_address_and_serves_the_bundled_scene() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_trimorph"))
+        .args(["editor", "--port", "0"])
+        .current_dir(dir.path())
+        .stdout(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut line = String::new();
+    BufReader::new(child.stdout.take().unwrap()).read_line(&mut line).unwrap();
+    let addr = line
+        .split("http://")
+        .nth(1)
+        .and_then(|r| r.split('/').next())
+        .unwrap_or_else(|| panic!("no address in `{line}`"))
+        .to_string();
+    assert!(addr.starts_with("127.0.0.1:"), "{line}");
+    let mut s = TcpStream::connect(&addr).unwrap();
+    s.write_all(b"GET /api/state HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n").unwrap();
+    let mut out = String::new();
+    s.read_to_string(&mut out).unwrap();
+    child.kill().unwrap();
+    let _ = child.wait();
+    assert!(out.starts_with("HTTP/1.1 200"), "{out}");
+    assert!(out.contains("\"points\":1681") && out.contains("bundled worm scene"), "{out}");
+}
+
+#[test]
+fn editor_refuses_bad_inputs_before_serving() {
+    let dir = tempfile::tempdir().unwrap();
+    let missing = dir.path().join("missing.json");
+    let bad = dir.path().join("bad.json");
+    std::fs::write(&bad, "{\"format\": \"something else\"}").unwrap();
+    for (file, msg) in [(&missing, "missing.json"), (&bad, "cannot read deformation")] {
+        let o = trimorph(&["editor", file.to_str().unwrap(), "--port", "0"]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{err}");
+        assert!(err.contains(msg), "expected `{msg}` in: {err}");
+    }
+}
