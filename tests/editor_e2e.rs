@@ -1,7 +1,9 @@
 //! The editor end to end in a real headless browser: `tests/e2e/editor.mjs` (playwright-core
 //! driving Debian's Chromium) starts `trimorph editor` on the bundled scene, clicks an
 //! anchor, drags it, checks through the API that it moved, saves and runs `trimorph check`
-//! (exact C1), undoes with Ctrl+Z and takes a screenshot (`target/e2e/editor.png`).
+//! (exact C1), undoes with Ctrl+Z and takes a screenshot (`target/e2e/editor.png`); then
+//! in z1 mode drags the point up and checks that sigma1 rose there and the oblique view
+//! shows (`target/e2e/editor_z1.png`).
 //!
 //! Needs `node`, Chromium (`/usr/bin/chromium` or `$CHROMIUM`) and
 //! `tests/e2e/node_modules` (`npm ci` in `tests/e2e`); `.ci/run` installs them and sets
@@ -51,4 +53,5 @@ fn editor_drag_in_headless_chromium() {
     let png = image::open(&shot).unwrap();
     assert_eq!((png.width(), png.height()), (1100, 800));
     assert!(work.path().join("e2e.json").exists());
+    assert!(shots.join("editor_z1.png").exists(), "the z1-mode screenshot");
 }

@@ -103,6 +103,25 @@ try {
   await page.waitForFunction(() => window.trimorph.state && window.trimorph.state.undo === 0, null, { timeout: 10000 });
   const undone = await api('GET', '/api/geometry');
   if (undone.points[idx][0] !== p0[0] || undone.points[idx][1] !== p0[1]) fail('undo did not restore the anchor');
+
+  // z1 mode: key 4, click the same point, drag up: the top surface sigma1 rises there and
+  // the oblique 3D view is shown.
+  const z0 = (await api('GET', '/api/geometry?full=1')).z1[idx];
+  await page.keyboard.press('4');
+  await page.mouse.move(X, Y);
+  await page.mouse.down();
+  for (let k = 1; k <= 10; k++) {
+    await page.mouse.move(X, Y - 3 * k);
+    await page.evaluate(() => window.trimorph.idle());
+  }
+  await page.mouse.up();
+  await page.evaluate(() => window.trimorph.idle());
+  const zs = await api('GET', '/api/state');
+  if (!zs.selection || zs.selection.mode !== 'z1') fail('z1 mode did not select: ' + JSON.stringify(zs.selection));
+  const z1 = (await api('GET', '/api/geometry?full=1')).z1[idx];
+  if (!(Math.abs(z1 - z0 - 30 / scale) < 1.5 / scale + 1e-3)) fail(`z1 moved from ${z0} to ${z1}, the drag was ${30 / scale}`);
+  if (await page.locator('#oblique').isHidden()) fail('the oblique view is hidden in z1 mode');
+  await page.screenshot({ path: shot.replace(/\.png$/, '_z1.png') });
   if (errors.length) fail('page errors: ' + errors.join('; '));
 
   const t = await page.evaluate(() => window.trimorph.timings);
