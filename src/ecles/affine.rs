@@ -134,7 +134,7 @@ impl AffineMapF64 {
 
 impl Session {
     /// The exact affine map of this session for the given weights (default 1); see the
-    /// [module docs](self).
+    /// module docs (`crate::ecles::affine`).
     pub fn affine_map(&mut self, weights: Option<&[Rat]>) -> Result<AffineMap, EclesError> {
         let weights = self.weights_or_default(weights)?;
         let (nd, na, d) = (self.derived.len(), self.anchors.len(), self.d);

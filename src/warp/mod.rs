@@ -4,18 +4,18 @@
 //! in mesh coordinates (for images: pixels, x to the right, y down, pixel `(i, j)` centred
 //! at `(i, j)`).
 //!
-//! * points: [`forward`] is `p -> phi(p)`; [`inverse`] is `q -> phi^-1(q)`;
+//! * points: [`forward`] is `p -> phi(p)`; [`inverse()`] is `q -> phi^-1(q)`;
 //! * images: the output is `O(q) = I(phi^-1(q))`, so a feature at `p` in the input appears
 //!   at `phi(p)` in the output. The inverse is solved by Newton's method on a coarse grid
 //!   of output nodes and interpolated inside a cell only where a bound on the second
 //!   derivatives of `phi` proves the error is below the tolerance (0.01 px by default);
 //!   other cells are split down to single pixels, each solved by Newton (see [`remap`] and
-//!   [`inverse`]). Pixels whose preimage is outside the mesh get the background value (and
+//!   [`inverse()`]). Pixels whose preimage is outside the mesh get the background value (and
 //!   alpha 0).
 //! * folds: where `phi` is not injective a pixel has several preimages; cells whose
 //!   corners disagree in the sign of `det J` are split to single pixels, and each pixel
 //!   gets the preimage Newton finds first, starting from its left neighbour's (so a fold
-//!   shows one of its layers, not a blend). [`field::fold_report`] says where folds are.
+//!   shows one of its layers, not a blend). [`field::jacobian_det`] (its [`field::FoldReport`]) says where folds are.
 //!
 //! Images keep their type: 8- and 16-bit gray, gray+alpha, RGB, RGBA and 32-bit float RGB
 //! and RGBA; every channel is resampled with the same map (nearest, bilinear or bicubic).

@@ -19,7 +19,7 @@
 //! constraints; the rows `row_perm[r..m]` are *redundant* (linear combinations of them). The
 //! null parts of the thesis's square working matrices are never stored (Alg. 6, step 15).
 //!
-//! Modules: [`factor`] computes the factoring (Algorithms 6-13), [`solve`] solves and checks
+//! Modules: `factor` computes the factoring (Algorithms 6-13), [`solve`] solves and checks
 //! consistency (Algorithm 14, eqs. 8.10 and 8.15-8.16), [`reconstruct`] rebuilds `A` from its
 //! factors (used by the tests to check the identity exactly).
 //!
