@@ -106,6 +106,7 @@ try {
 
   // z1 mode: key 4, click the same point, drag up: the top surface sigma1 rises there and
   // the oblique 3D view is shown.
+  const nxy = await page.evaluate(() => window.trimorph.timings.length);
   const z0 = (await api('GET', '/api/geometry?full=1')).z1[idx];
   await page.keyboard.press('4');
   await page.mouse.move(X, Y);
@@ -125,12 +126,13 @@ try {
   if (errors.length) fail('page errors: ' + errors.join('; '));
 
   const t = await page.evaluate(() => window.trimorph.timings);
-  const sorted = t.slice().sort((a, b) => a - b);
+  const stats = (a) => {
+    const s = a.slice().sort((x, y) => x - y);
+    return { n: s.length, median: s[Math.floor(s.length / 2)], p90: s[Math.floor(0.9 * (s.length - 1))], max: s[s.length - 1] };
+  };
   summary = {
     ok: true, anchor: idx, moved, drag_steps: t.length,
-    step_ms_median: sorted[Math.floor(sorted.length / 2)],
-    step_ms_p90: sorted[Math.floor(0.9 * (sorted.length - 1))],
-    step_ms_max: sorted[sorted.length - 1],
+    xy_step_ms: stats(t.slice(0, nxy)), z1_step_ms: stats(t.slice(nxy)),
     exact_update_ms_last: state.last_update_ms,
   };
   console.log(JSON.stringify(summary));

@@ -151,40 +151,42 @@ function polygon(ps) {
 function dot(p, r) { if (!p) return; ctx.beginPath(); ctx.arc(p[0], p[1], r, 0, 2 * Math.PI); ctx.fill(); }
 
 // Oblique 3D view of the deformed model (z modes): rotated 60 degrees about the x axis,
-// painter's algorithm, flat shading.
+// back faces culled, front faces flat-shaded in 12 grey levels (one fill per level).
 function drawOblique() {
   const zmode = mode() === 'z0' || mode() === 'z1';
   obl.hidden = !zmode;
   const m = T.geo.model, tris = T.stat.model_triangles;
   if (!zmode || !m || !tris) return;
   const a = Math.PI / 3, ca = Math.cos(a), sa = Math.sin(a);
-  const n = m.length / 3, P = new Float64Array(2 * n), D = new Float64Array(n);
+  const n = m.length / 3, P = new Float64Array(2 * n);
   let b = [Infinity, Infinity, -Infinity, -Infinity];
   for (let i = 0; i < n; i++) {
-    const x = m[3 * i], y = m[3 * i + 1], z = m[3 * i + 2];
-    P[2 * i] = x; P[2 * i + 1] = y * ca - z * sa; D[i] = y * sa + z * ca;
-    b = [Math.min(b[0], P[2 * i]), Math.min(b[1], P[2 * i + 1]), Math.max(b[2], P[2 * i]), Math.max(b[3], P[2 * i + 1])];
+    const x = m[3 * i], y = m[3 * i + 1] * ca - m[3 * i + 2] * sa;
+    P[2 * i] = x; P[2 * i + 1] = y;
+    if (x < b[0]) b[0] = x; if (y < b[1]) b[1] = y; if (x > b[2]) b[2] = x; if (y > b[3]) b[3] = y;
   }
   const W = obl.width, H = obl.height;
   const s = 0.9 * Math.min(W / (b[2] - b[0] || 1), H / (b[3] - b[1] || 1));
   const ox = W / 2 - s * (b[0] + b[2]) / 2, oy = H / 2 - s * (b[1] + b[3]) / 2;
   octx.clearRect(0, 0, W, H);
-  const order = tris.map((t, k) => [D[t[0]] + D[t[1]] + D[t[2]], k]).sort((u, v) => u[0] - v[0]);
-  for (const [, k] of order) {
-    const t = tris[k];
-    const ux = m[3 * t[1]] - m[3 * t[0]], uy = m[3 * t[1] + 1] - m[3 * t[0] + 1], uz = m[3 * t[1] + 2] - m[3 * t[0] + 2];
-    const vx = m[3 * t[2]] - m[3 * t[0]], vy = m[3 * t[2] + 1] - m[3 * t[0] + 1], vz = m[3 * t[2] + 2] - m[3 * t[0] + 2];
+  const LEVELS = 12, paths = [];
+  for (let l = 0; l < LEVELS; l++) paths.push(new Path2D());
+  for (const t of tris) {
+    const i0 = t[0], i1 = t[1], i2 = t[2];
+    const ax = P[2 * i0], ay = P[2 * i0 + 1], bx = P[2 * i1], by = P[2 * i1 + 1], cx = P[2 * i2], cy = P[2 * i2 + 1];
+    // Facing the viewer: positive orientation in the projected (y-down) plane.
+    if ((bx - ax) * (cy - ay) - (by - ay) * (cx - ax) <= 0) continue;
+    const ux = m[3 * i1] - m[3 * i0], uy = m[3 * i1 + 1] - m[3 * i0 + 1], uz = m[3 * i1 + 2] - m[3 * i0 + 2];
+    const vx = m[3 * i2] - m[3 * i0], vy = m[3 * i2 + 1] - m[3 * i0 + 1], vz = m[3 * i2 + 2] - m[3 * i0 + 2];
     const nx = uy * vz - uz * vy, ny = uz * vx - ux * vz, nz = ux * vy - uy * vx;
-    const len = Math.hypot(nx, ny, nz) || 1;
-    const light = Math.abs((ny * -sa + nz * ca) / len);
-    const c = Math.round(60 + 170 * light);
+    const light = Math.abs((ny * -sa + nz * ca) / (Math.hypot(nx, ny, nz) || 1));
+    const p = paths[Math.min(LEVELS - 1, Math.floor(light * LEVELS))];
+    p.moveTo(ox + s * ax, oy + s * ay); p.lineTo(ox + s * bx, oy + s * by); p.lineTo(ox + s * cx, oy + s * cy); p.closePath();
+  }
+  for (let l = 0; l < LEVELS; l++) {
+    const c = Math.round(60 + 170 * (l + 0.5) / LEVELS);
     octx.fillStyle = `rgb(${Math.round(c * 0.5)},${c},${Math.round(c * 0.7)})`;
-    octx.beginPath();
-    octx.moveTo(ox + s * P[2 * t[0]], oy + s * P[2 * t[0] + 1]);
-    octx.lineTo(ox + s * P[2 * t[1]], oy + s * P[2 * t[1] + 1]);
-    octx.lineTo(ox + s * P[2 * t[2]], oy + s * P[2 * t[2] + 1]);
-    octx.closePath();
-    octx.fill();
+    octx.fill(paths[l]);
   }
 }
 
