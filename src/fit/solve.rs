@@ -74,7 +74,7 @@ impl Default for FitOptions {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum FitError {
     /// No landmarks to fit.
-    #[error("no landmarks to fit")]
+    #[error("no landmarks to fit; give at least one landmark pair")]
     NoLandmarks,
     /// A landmark with a non-finite coordinate or a weight that is not positive.
     #[error("landmark {index} ({name}): {why}")]
@@ -87,7 +87,7 @@ pub enum FitError {
         why: String,
     },
     /// A source point outside the reference mesh.
-    #[error("landmark {index} ({name}): source point ({x}, {y}) lies outside the mesh")]
+    #[error("landmark {index} ({name}): source point ({x}, {y}) lies outside the mesh; move it inside the reference mesh or use a mesh that covers it")]
     OutsideMesh {
         /// Index in the input.
         index: usize,
@@ -117,7 +117,7 @@ pub enum FitError {
     #[error(transparent)]
     Spline(#[from] SplineError),
     /// Hard constraints that cannot be met.
-    #[error("the landmarks cannot be interpolated exactly: {0}")]
+    #[error("the landmarks cannot be interpolated exactly: {0}; correct or remove that landmark, or fit without hard constraints")]
     Unsolvable(String),
 }
 
