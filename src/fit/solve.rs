@@ -217,15 +217,26 @@ fn label(l: &Landmark) -> String {
     l.name.clone().unwrap_or_else(|| "-".into())
 }
 
-/// Checks landmark values (finite, weight > 0).
+/// Largest accepted landmark coordinate and weight magnitude: beyond it the fit's exact and
+/// floating-point arithmetic stops being meaningful (and a hard fit would grow huge
+/// rationals).
+pub const MAX_LANDMARK_VALUE: f64 = 1e9;
+
+/// Checks landmark values (finite, at most [`MAX_LANDMARK_VALUE`] in magnitude, weight > 0).
 pub fn validate(lms: &[Landmark]) -> Result<(), FitError> {
     for (index, l) in lms.iter().enumerate() {
         let bad = |why: &str| FitError::BadLandmark { index, name: label(l), why: why.into() };
         if !l.src.iter().chain(&l.dst).all(|v| v.is_finite()) {
             return Err(bad("a coordinate is not finite"));
         }
-        if !(l.weight.is_finite() && l.weight > 0.0) {
-            return Err(bad("the weight must be finite and positive"));
+        if l.src.iter().chain(&l.dst).any(|v| v.abs() > MAX_LANDMARK_VALUE) {
+            return Err(bad(
+                "a coordinate is beyond 1e9 in magnitude; landmarks are in the image's pixels \
+                 (rescale the file)",
+            ));
+        }
+        if !(l.weight.is_finite() && l.weight > 0.0 && l.weight <= MAX_LANDMARK_VALUE) {
+            return Err(bad("the weight must be finite, positive and at most 1e9"));
         }
     }
     Ok(())

@@ -347,6 +347,12 @@ pub fn cases() -> Vec<Case> {
             setup: |fx, id| fit(fx, id, "csv", &format!("{LM_HEAD}a,1,2,3,4\nb,5,6,inf,8\n"), &[]),
         },
         Case {
+            id: "lm_huge",
+            setup: |fx, id| {
+                fit(fx, id, "csv", &format!("{LM_HEAD}a,10,10,11,11\nb,20,20,1e300,21\n"), &[])
+            },
+        },
+        Case {
             id: "lm_duplicate",
             setup: |fx, id| {
                 fit(fx, id, "csv", &format!("{LM_HEAD}a,1,2,3,4\nb,5,6,7,8\na,9,9,9,9\n"), &[])
