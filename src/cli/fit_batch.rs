@@ -86,8 +86,10 @@ fn read_frames(path: &Path) -> Result<Vec<Frame>> {
         files
             .iter()
             .map(|f| {
-                let img =
-                    image::open(f).with_context(|| format!("cannot read frame {}", f.display()))?;
+                // Through the raster reader: sizes are checked before decoding.
+                let mut stack = crate::io::raster::read_stack(f)
+                    .with_context(|| format!("cannot read frame {}", f.display()))?;
+                let img = stack.pages.swap_remove(0);
                 let stem =
                     f.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
                 Ok(Frame { stem, img: to_gray8(img) })

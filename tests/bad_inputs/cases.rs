@@ -412,6 +412,26 @@ pub fn cases() -> Vec<Case> {
             setup: |fx, id| warp_image(fx, id, "tif", &tiff_header(100_000, 100_000, 1, 1)),
         },
         Case { id: "img_channels", setup: |fx, id| warp_image(fx, id, "tif", &cmyk_tiff()) },
+        Case {
+            id: "img_huge_background",
+            setup: |fx, id| {
+                let p = fx.file(&format!("{id}.png"), png_header(100_000, 100_000));
+                (args(&["render", s(&fx.def), "--background", s(&p), "-o", &fx.out("r.png")]), p)
+            },
+        },
+        Case {
+            id: "img_huge_frame",
+            setup: |fx, id| {
+                let frames = fx.dir.join(format!("{id}_frames"));
+                fs::create_dir_all(&frames).unwrap();
+                let p = frames.join("f0.png");
+                fs::write(&p, png_header(100_000, 100_000)).unwrap();
+                let lms = fx.file(&format!("{id}.csv"), format!("{LM_HEAD}a,10,10,10,10\n"));
+                let mut a = args(&["fit", "--model", s(&fx.def), "--frames", s(&frames)]);
+                a.extend(args(&["--landmarks", s(&lms), "-o", &fx.out("batch")]));
+                (a, p)
+            },
+        },
         Case { id: "img_not_image", setup: |fx, id| warp_image(fx, id, "png", b"hello") },
         Case {
             id: "mesh_outside_image",
