@@ -432,6 +432,22 @@ pub fn cases() -> Vec<Case> {
                 (a, p)
             },
         },
+        Case {
+            id: "frames_lost",
+            setup: |fx, id| {
+                let frames = fx.dir.join(format!("{id}_frames"));
+                fs::create_dir_all(&frames).unwrap();
+                for name in ["a.png", "b.png"] {
+                    image::GrayImage::from_pixel(1, 1, image::Luma([9]))
+                        .save(frames.join(name))
+                        .unwrap();
+                }
+                let lms = fx.file(&format!("{id}.csv"), format!("{LM_HEAD}m,0.5,0.5,0.5,0.5\n"));
+                let mut a = args(&["fit", "--model", s(&fx.def), "--frames", s(&frames)]);
+                a.extend(args(&["--landmarks", s(&lms), "--track", "-o", &fx.out("lost")]));
+                (a, frames.join("b.png"))
+            },
+        },
         Case { id: "img_not_image", setup: |fx, id| warp_image(fx, id, "png", b"hello") },
         Case {
             id: "mesh_outside_image",
