@@ -469,6 +469,11 @@ pub fn check_report(s: &Spline, samples_per_side: usize) -> Value {
 
 /// `trimorph check DEF`: exit 0 when C1 holds exactly, 1 otherwise.
 pub fn check(def: &Path, samples: usize) -> Result<()> {
+    // The scan costs samples^2 evaluations per triangle: beyond this it never finishes.
+    const MAX_SAMPLES: usize = 1000;
+    if samples > MAX_SAMPLES {
+        bail!("--samples {samples}: at most {MAX_SAMPLES} samples per triangle side");
+    }
     let text = read_text(def)?;
     let (s, _) = deformation::from_str_unchecked(&text)
         .with_context(|| format!("cannot read deformation {}", def.display()))?;
