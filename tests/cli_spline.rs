@@ -361,3 +361,15 @@ fn constraints_in_scripts_persist_and_can_make_edits_unsolvable() {
     assert_eq!(r.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&r.stderr).contains("vertical line"));
 }
+
+/// Bug: `check --samples 18446744073709551615` scanned forever; the count is now bounded.
+#[test]
+fn check_refuses_a_sample_count_that_would_never_finish() {
+    let dir = tempfile::tempdir().unwrap();
+    let def = dir.path().join("d.json");
+    ok(&trimorph(&["mesh", "--grid", "1x1", "--size", "10,10", "-o", def.to_str().unwrap()]));
+    let o = trimorph(&["check", def.to_str().unwrap(), "--samples", "18446744073709551615"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("at most 1000 samples"));
+    ok(&trimorph(&["check", def.to_str().unwrap(), "--samples", "1000"]));
+}

@@ -51,6 +51,8 @@ pub struct BatchArgs<'a> {
 /// A frame: its name and 8-bit gray pixels.
 struct Frame {
     stem: String,
+    /// Where it was read from (named in errors): its file, or `STACK.tif, page N`.
+    source: String,
     img: GrayImage,
 }
 
@@ -86,11 +88,13 @@ fn read_frames(path: &Path) -> Result<Vec<Frame>> {
         files
             .iter()
             .map(|f| {
-                let img =
-                    image::open(f).with_context(|| format!("cannot read frame {}", f.display()))?;
+                // Through the raster reader: sizes are checked before decoding.
+                let mut stack = crate::io::raster::read_stack(f)
+                    .with_context(|| format!("cannot read frame {}", f.display()))?;
+                let img = stack.pages.swap_remove(0);
                 let stem =
                     f.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-                Ok(Frame { stem, img: to_gray8(img) })
+                Ok(Frame { stem, source: f.display().to_string(), img: to_gray8(img) })
             })
             .collect()
     } else {
@@ -101,7 +105,11 @@ fn read_frames(path: &Path) -> Result<Vec<Frame>> {
             .pages
             .into_iter()
             .enumerate()
-            .map(|(i, p)| Frame { stem: format!("{base}_{i:03}"), img: to_gray8(p) })
+            .map(|(i, p)| Frame {
+                stem: format!("{base}_{i:03}"),
+                source: format!("{}, page {i}", path.display()),
+                img: to_gray8(p),
+            })
             .collect())
     }
 }
@@ -272,9 +280,15 @@ pub fn run(a: BatchArgs) -> Result<()> {
             bar.inc(1);
             return Ok(None);
         }
-        let f = fit(warm, &sets[k], &opts)
-            .map_err(fit_error)
-            .with_context(|| format!("frame {}", frames[k].stem))?;
+        let f = fit(warm, &sets[k], &opts).map_err(fit_error).with_context(|| {
+            format!(
+                "frame {} ({}; landmarks {}{})",
+                frames[k].stem,
+                frames[k].source,
+                a.landmarks.display(),
+                if a.track { ", tracked from the first frame" } else { "" }
+            )
+        })?;
         write_outputs(a.output, &frames[k], &f.spline, &f.report, lost[k], bound.as_ref())?;
         bar.inc(1);
         Ok(Some((f.spline, f.report)))

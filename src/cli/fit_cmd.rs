@@ -63,6 +63,15 @@ pub fn fit_error(e: FitError) -> anyhow::Error {
     }
 }
 
+/// Prefixes a fit error with the landmark file it is about (keeping the exit code).
+fn in_landmarks(e: anyhow::Error, landmarks: &Path) -> anyhow::Error {
+    let file = landmarks.display();
+    match e.downcast::<Exit>() {
+        Ok(x) => Exit { message: format!("{file}: {}", x.message), ..x }.into(),
+        Err(e) => anyhow::anyhow!("{file}: {}", super::error_text(&e)),
+    }
+}
+
 /// One line per fit.
 pub fn summary(r: &FitReport) -> String {
     let mut s =
@@ -136,8 +145,9 @@ pub fn run_single(
     } else {
         (lms, Vec::new())
     };
-    let f = fit(&s, &fitted, &opts).map_err(fit_error)?;
-    let rep = with_holdout(f.report, &f.spline, &held).map_err(fit_error)?;
+    let in_file = |e: FitError| in_landmarks(fit_error(e), landmarks);
+    let f = fit(&s, &fitted, &opts).map_err(in_file)?;
+    let rep = with_holdout(f.report, &f.spline, &held).map_err(in_file)?;
     write_atomic(output, deformation::to_string(&f.spline, None).as_bytes())?;
     if let Some(r) = report {
         let text = serde_json::to_string_pretty(&rep)?;

@@ -333,37 +333,46 @@ fn add_constraints(ed: &mut Editor, o: &serde_json::Map<String, Value>, k: usize
     Ok(())
 }
 
-/// `trimorph edit DEF --script EDITS -o OUT`.
-pub fn edit(def: &Path, script: &Path, output: &Path, bounded: Option<u32>) -> Result<()> {
-    if bounded.is_some_and(|b| !(8..=62).contains(&b)) {
-        bail!("--bounded-bits must be between 8 and 62");
-    }
-    let (spline, _) = load(def)?;
-    let extras = deformation::constraints_from_str(&read_text(def)?, &spline)
-        .with_context(|| format!("cannot read the constraints of {}", def.display()))?;
-    let text = read_text(script)?;
-    let ops: Value = serde_json::from_str(&text)
-        .with_context(|| format!("{} is not valid JSON", script.display()))?;
-    let ops = ops
-        .as_array()
-        .ok_or_else(|| anyhow!("{}: expected a JSON array of operations", script.display()))?;
-    let mut ed = Editor::new(spline);
-    if let Err(e) = ed.set_bounded(bounded) {
-        eprintln!("note: {e}; keeping exact values unbounded");
-    }
-    for e in extras {
-        ed.add_constraint(e).context("a stored constraint does not hold")?;
-    }
+/// Applies an edit script (JSON text: an array of operations) to `ed`, writing one progress
+/// line per operation to `log`. Errors name `source` (the script file) and the operation
+/// index; an unsolvable operation carries [`EXIT_UNSOLVABLE`]. Returns the number of
+/// operations and the anchors / derived points of the last move.
+pub fn run_script(
+    ed: &mut Editor,
+    text: &str,
+    source: &str,
+    log: &mut dyn Write,
+) -> Result<(usize, Option<LastEdit>)> {
+    let ops: Value = serde_json::from_str(text).map_err(|e| {
+        anyhow!(
+            "{source}, line {}: not valid JSON ({e}); an edit script is a JSON array of operations",
+            e.line()
+        )
+    })?;
+    let ops = ops.as_array().ok_or_else(|| {
+        anyhow!(
+            "{source}: expected a JSON array of operations, e.g. [{{\"op\": \"translate\", ...}}]"
+        )
+    })?;
     let mut last = None;
-    let mut out = std::io::stdout();
     for (k, op) in ops.iter().enumerate() {
-        let l = apply_op(&mut ed, op, k)?;
+        let l = apply_op(ed, op, k).map_err(|e| match e.downcast::<Exit>() {
+            Ok(x) => Exit { message: format!("{source}: {}", x.message), ..x }.into(),
+            Err(e) => {
+                let text = super::error_text(&e);
+                if text.starts_with("operation ") {
+                    anyhow!("{source}: {text}")
+                } else {
+                    anyhow!("{source}: operation {k}: {text}")
+                }
+            }
+        })?;
         let Some(sel) = ed.selection() else {
-            writeln!(out, "operation {k}: {} constraints in force", ed.constraints().len())?;
+            writeln!(log, "operation {k}: {} constraints in force", ed.constraints().len())?;
             continue;
         };
         writeln!(
-            out,
+            log,
             "operation {k}: {} anchors, {} derived, {} relevant conditions (rank {}), {}",
             l.anchors.len(),
             l.derived.len(),
@@ -373,12 +382,33 @@ pub fn edit(def: &Path, script: &Path, output: &Path, bounded: Option<u32>) -> R
         )?;
         last = Some(l);
     }
+    Ok((ops.len(), last))
+}
+
+/// `trimorph edit DEF --script EDITS -o OUT`.
+pub fn edit(def: &Path, script: &Path, output: &Path, bounded: Option<u32>) -> Result<()> {
+    if bounded.is_some_and(|b| !(8..=62).contains(&b)) {
+        bail!("--bounded-bits must be between 8 and 62");
+    }
+    let (spline, _) = load(def)?;
+    let extras = deformation::constraints_from_str(&read_text(def)?, &spline)
+        .with_context(|| format!("cannot read the constraints of {}", def.display()))?;
+    let text = read_text(script)?;
+    let mut ed = Editor::new(spline);
+    if let Err(e) = ed.set_bounded(bounded) {
+        eprintln!("note: {e}; keeping exact values unbounded");
+    }
+    for e in extras {
+        ed.add_constraint(e).context("a stored constraint does not hold")?;
+    }
+    let mut out = std::io::stdout();
+    let (n_ops, last) = run_script(&mut ed, &text, &script.display().to_string(), &mut out)?;
     ed.spline().check_c1().context("internal error: the edit broke C1")?;
     write_atomic(
         output,
         deformation::to_string_with(ed.spline(), last.as_ref(), ed.constraints()).as_bytes(),
     )?;
-    writeln!(out, "{} operations applied; C1 holds exactly -> {}", ops.len(), output.display())?;
+    writeln!(out, "{n_ops} operations applied; C1 holds exactly -> {}", output.display())?;
     Ok(())
 }
 
@@ -439,6 +469,11 @@ pub fn check_report(s: &Spline, samples_per_side: usize) -> Value {
 
 /// `trimorph check DEF`: exit 0 when C1 holds exactly, 1 otherwise.
 pub fn check(def: &Path, samples: usize) -> Result<()> {
+    // The scan costs samples^2 evaluations per triangle: beyond this it never finishes.
+    const MAX_SAMPLES: usize = 1000;
+    if samples > MAX_SAMPLES {
+        bail!("--samples {samples}: at most {MAX_SAMPLES} samples per triangle side");
+    }
     let text = read_text(def)?;
     let (s, _) = deformation::from_str_unchecked(&text)
         .with_context(|| format!("cannot read deformation {}", def.display()))?;

@@ -129,7 +129,8 @@ pub fn colormesh(image: &Path, output: &Path, step: u32, flat: bool) -> Result<(
     use crate::warp::colormesh::{ColorMesh, ColorMode};
     let stack = crate::io::raster::read_stack(image)?;
     let mode = if flat { ColorMode::Flat } else { ColorMode::PerVertex };
-    let mesh = ColorMesh::from_image(&stack.pages[0], step, mode)?;
+    let mesh = ColorMesh::from_image(&stack.pages[0], step, mode)
+        .with_context(|| format!("{}", image.display()))?;
     crate::io::colormesh::save(&mesh, output)?;
     println!(
         "{} vertices, {} triangles ({}) -> {}",
@@ -205,6 +206,13 @@ pub fn run(a: WarpArgs) -> Result<()> {
             let (warped, rep) =
                 warp_pages(&s, &stack.pages, &wo, &|n| bar.inc(n * stack.pages.len() as u64))?;
             bar.finish_and_clear();
+            if rep.pixels > 0 && rep.outside == rep.pixels {
+                bail!(
+                    "{}: the deformed mesh does not overlap the {w}x{h} image {} at all (every output pixel would be background); mesh coordinates are the image's pixels: use the deformation made for this image",
+                    a.deformation.display(),
+                    img_path.display()
+                );
+            }
             let out_stack = Stack { pages: warped, gray_float: stack.gray_float };
             crate::io::raster::write_stack(a.output, &out_stack)?;
             writeln!(

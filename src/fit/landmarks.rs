@@ -60,7 +60,7 @@ pub enum LandmarkError {
         message: String,
     },
     /// The JSON text does not have the expected shape.
-    #[error("landmark JSON: {0}")]
+    #[error("landmark JSON: {0} (expected {{\"landmarks\": [{{\"name\": \"a\", \"src\": [x, y], \"dst\": [x, y]}}, ...]}})")]
     Json(#[from] serde_json::Error),
     /// A landmark cannot be stored: a non-finite coordinate or a weight `<= 0`.
     #[error("landmark {index} ({name}): {message}")]

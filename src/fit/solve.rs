@@ -80,7 +80,7 @@ impl Default for FitOptions {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum FitError {
     /// No landmarks to fit.
-    #[error("no landmarks to fit")]
+    #[error("no landmarks to fit; give at least one landmark pair")]
     NoLandmarks,
     /// A landmark with a non-finite coordinate or a weight that is not positive.
     #[error("landmark {index} ({name}): {why}")]
@@ -93,7 +93,7 @@ pub enum FitError {
         why: String,
     },
     /// A source point outside the reference mesh.
-    #[error("landmark {index} ({name}): source point ({x}, {y}) lies outside the mesh")]
+    #[error("landmark {index} ({name}): source point ({x}, {y}) lies outside the mesh; move it inside the reference mesh or use a mesh that covers it")]
     OutsideMesh {
         /// Index in the input.
         index: usize,
@@ -123,7 +123,7 @@ pub enum FitError {
     #[error(transparent)]
     Spline(#[from] SplineError),
     /// Hard constraints that cannot be met.
-    #[error("the landmarks cannot be interpolated exactly: {0}")]
+    #[error("the landmarks cannot be interpolated exactly: {0}; correct or remove that landmark, or fit without hard constraints")]
     Unsolvable(String),
 }
 
@@ -223,15 +223,26 @@ fn label(l: &Landmark) -> String {
     l.name.clone().unwrap_or_else(|| "-".into())
 }
 
-/// Checks landmark values (finite, weight > 0).
+/// Largest accepted landmark coordinate and weight magnitude: beyond it the fit's exact and
+/// floating-point arithmetic stops being meaningful (and a hard fit would grow huge
+/// rationals).
+pub const MAX_LANDMARK_VALUE: f64 = 1e9;
+
+/// Checks landmark values (finite, at most [`MAX_LANDMARK_VALUE`] in magnitude, weight > 0).
 pub fn validate(lms: &[Landmark]) -> Result<(), FitError> {
     for (index, l) in lms.iter().enumerate() {
         let bad = |why: &str| FitError::BadLandmark { index, name: label(l), why: why.into() };
         if !l.src.iter().chain(&l.dst).all(|v| v.is_finite()) {
             return Err(bad("a coordinate is not finite"));
         }
-        if !(l.weight.is_finite() && l.weight > 0.0) {
-            return Err(bad("the weight must be finite and positive"));
+        if l.src.iter().chain(&l.dst).any(|v| v.abs() > MAX_LANDMARK_VALUE) {
+            return Err(bad(
+                "a coordinate is beyond 1e9 in magnitude; landmarks are in the image's pixels \
+                 (rescale the file)",
+            ));
+        }
+        if !(l.weight.is_finite() && l.weight > 0.0 && l.weight <= MAX_LANDMARK_VALUE) {
+            return Err(bad("the weight must be finite, positive and at most 1e9"));
         }
     }
     Ok(())

@@ -160,6 +160,23 @@ fn bad_landmarks_are_refused() {
     assert!(matches!(fit(&s, &lms, &FitOptions::default()), Err(FitError::BadLandmark { .. })));
 }
 
+/// Bug: a landmark target of 1e300 made `trimorph fit` run for minutes (soft and hard fits);
+/// huge coordinates and weights are now refused up front.
+#[test]
+fn huge_landmark_coordinates_are_refused_instead_of_hanging() {
+    let s = grid_spline();
+    let mut lms = landmarks(5, 9, smooth_map);
+    for hard in [false, true] {
+        let opts = FitOptions { hard, ..FitOptions::default() };
+        lms[1].dst = [1e300, 1.0];
+        assert!(matches!(fit(&s, &lms, &opts), Err(FitError::BadLandmark { index: 1, .. })));
+        lms[1].dst = lms[1].src;
+        lms[1].weight = 1e300;
+        assert!(matches!(fit(&s, &lms, &opts), Err(FitError::BadLandmark { index: 1, .. })));
+        lms[1].weight = 1.0;
+    }
+}
+
 #[test]
 fn radius_limits_the_change_to_the_landmarks_neighbourhood() {
     let s = grid_spline();

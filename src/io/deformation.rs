@@ -21,10 +21,10 @@ use serde_json::{json, Map, Value};
 #[derive(Debug, thiserror::Error)]
 pub enum DeformationError {
     /// Not JSON.
-    #[error("not valid JSON: {0}")]
+    #[error("not valid JSON: {0} (is the file complete? deformations are written by `trimorph mesh`, `edit` or `fit`)")]
     Json(String),
     /// Missing or malformed key.
-    #[error("{key}: {message}")]
+    #[error("{key}: {message}; correct that entry or write the file again with trimorph")]
     Key {
         /// The key (path).
         key: String,
@@ -32,7 +32,7 @@ pub enum DeformationError {
         message: String,
     },
     /// Wrong format or version.
-    #[error("not a trimorph deformation file version 1 ({0})")]
+    #[error("not a trimorph deformation file version 1 ({0}); make one with `trimorph mesh`")]
     Format(String),
     /// The mesh is invalid.
     #[error("reference mesh: {0}")]
@@ -229,12 +229,20 @@ fn read(text: &str, require_c1: bool) -> Result<(Spline, Option<LastEdit>), Defo
     }
     match doc.get("version").and_then(Value::as_u64) {
         Some(1) => {}
-        other => {
-            return Err(DeformationError::Format(format!("unsupported \"version\": {other:?}")))
+        _ => {
+            let found = doc.get("version").map_or("none".to_string(), Value::to_string);
+            return Err(DeformationError::Format(format!(
+                "\"version\" is {found}, this trimorph reads version 1 (a newer trimorph may read it)"
+            )));
         }
     }
-    let degree =
-        doc.get("degree").and_then(Value::as_u64).ok_or_else(|| key("degree", "missing"))? as usize;
+    let degree = match doc.get("degree") {
+        None => return Err(key("degree", "missing")),
+        Some(d) => d
+            .as_u64()
+            .and_then(|d| usize::try_from(d).ok())
+            .ok_or_else(|| key("degree", format!("expected a whole number, found {d}")))?,
+    };
     let ex = doc.get("exact").and_then(Value::as_object);
     let pick = |k: &str| ex.and_then(|e| e.get(k)).or_else(|| doc.get(k));
     let pick_path = |k: &str| {

@@ -20,6 +20,18 @@ pub enum LandmarkIoError {
         /// The cause (with the line number for CSV and BigWarp).
         source: LandmarkError,
     },
+    /// Two landmarks share a name.
+    #[error("{path}: landmarks {first} and {second} are both named `{name}`; give every landmark its own name")]
+    Duplicate {
+        /// The file.
+        path: PathBuf,
+        /// The shared name.
+        name: String,
+        /// Index of the first (0-based, in file order).
+        first: usize,
+        /// Index of the second.
+        second: usize,
+    },
 }
 
 /// The format of a landmark file from its extension and text (see
@@ -28,12 +40,27 @@ pub fn detect_format(path: &Path, text: &str) -> LandmarkFormat {
     LandmarkFormat::detect(path.extension().and_then(|e| e.to_str()), text)
 }
 
-/// Reads landmarks from `path` (`-` for standard input), detecting the format.
+/// Reads landmarks from `path` (`-` for standard input), detecting the format. Names must
+/// be unique (unnamed landmarks are allowed).
 pub fn read_landmarks(path: &Path) -> Result<Vec<Landmark>, LandmarkIoError> {
     let text = read_text(path)?;
     let format = detect_format(path, &text);
-    landmarks::parse(&text, format)
-        .map_err(|source| LandmarkIoError::Format { path: path.to_path_buf(), source })
+    let lms = landmarks::parse(&text, format)
+        .map_err(|source| LandmarkIoError::Format { path: path.to_path_buf(), source })?;
+    let mut seen = std::collections::HashMap::new();
+    for (i, l) in lms.iter().enumerate() {
+        if let Some(name) = &l.name {
+            if let Some(first) = seen.insert(name.as_str(), i) {
+                return Err(LandmarkIoError::Duplicate {
+                    path: path.to_path_buf(),
+                    name: name.clone(),
+                    first,
+                    second: i,
+                });
+            }
+        }
+    }
+    Ok(lms)
 }
 
 /// Writes landmarks to `path` in `format`, atomically (nothing is written when a landmark

@@ -60,23 +60,31 @@ pub fn landmarks_path(model: &Path) -> PathBuf {
 pub fn load_model(path: &Path) -> Result<Model, ModelIoError> {
     let bytes =
         std::fs::read(path).map_err(|source| IoError::Read { path: path.to_path_buf(), source })?;
-    let mut model = match ext(path).as_deref() {
-        Some("obj") => read_obj(&bytes, path)?,
-        Some("ply") => {
-            let raw = crate::io::colormesh::read_ply_raw(&bytes, path, false)?;
-            Model { vertices: raw.vertices, triangles: raw.triangles, landmarks: Vec::new() }
-        }
-        Some("xyz" | "txt" | "csv") => read_xyz(&bytes, path)?,
-        _ => return Err(ModelIoError::Extension(path.to_path_buf())),
-    };
-    if model.vertices.is_empty() {
-        return Err(fmt_err(path, None, "no vertices"));
-    }
+    let mut model = parse_model(&bytes, path)?;
     let side = landmarks_path(path);
     if side.exists() {
         model.landmarks = read_landmarks(&side, &model.vertices)?;
     }
     model.validate().map_err(|e| fmt_err(path, None, e.to_string()))?;
+    Ok(model)
+}
+
+/// Parses the bytes of a model file; `path` picks the format by its extension and names the
+/// file in errors (nothing is read from it, and no landmark sidecar is loaded). The model is
+/// not yet validated (see [`Model::validate`]).
+pub fn parse_model(bytes: &[u8], path: &Path) -> Result<Model, ModelIoError> {
+    let model = match ext(path).as_deref() {
+        Some("obj") => read_obj(bytes, path)?,
+        Some("ply") => {
+            let raw = crate::io::colormesh::read_ply_raw(bytes, path, false)?;
+            Model { vertices: raw.vertices, triangles: raw.triangles, landmarks: Vec::new() }
+        }
+        Some("xyz" | "txt" | "csv") => read_xyz(bytes, path)?,
+        _ => return Err(ModelIoError::Extension(path.to_path_buf())),
+    };
+    if model.vertices.is_empty() {
+        return Err(fmt_err(path, None, "no vertices"));
+    }
     Ok(model)
 }
 

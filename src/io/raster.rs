@@ -22,7 +22,9 @@ pub enum RasterError {
     #[error(transparent)]
     Io(#[from] IoError),
     /// The file could not be decoded.
-    #[error("{path}: cannot decode image: {reason}")]
+    #[error(
+        "{path}: cannot decode image: {reason} (is the file complete, and a PNG, TIFF or JPEG?)"
+    )]
     Decode {
         /// The file.
         path: PathBuf,
@@ -40,7 +42,7 @@ pub enum RasterError {
         kind: String,
     },
     /// A page is larger than [`MAX_PIXELS`] or empty.
-    #[error("{path}, page {page}: size {width} x {height} is outside 1 .. 2^30 pixels")]
+    #[error("{path}, page {page}: the image declares {width} x {height} pixels, outside 1 .. 2^30 pixels, so it is not decoded; crop or split it into smaller images")]
     Size {
         /// The file.
         path: PathBuf,
@@ -104,6 +106,12 @@ pub fn read_stack(path: &Path) -> Result<Stack, RasterError> {
     reader = image::ImageReader::new(Cursor::new(&bytes))
         .with_guessed_format()
         .map_err(|e| derr(e.to_string()))?;
+    // The decoder's own limits as well, enforced before it allocates.
+    let mut limits = image::Limits::default();
+    limits.max_image_width = Some(w);
+    limits.max_image_height = Some(h);
+    limits.max_alloc = Some(MAX_PIXELS * 16);
+    reader.limits(limits);
     let img = reader.decode().map_err(|e| derr(e.to_string()))?;
     check_type(path, 0, &img)?;
     Ok(Stack { pages: vec![img], gray_float: false })

@@ -117,7 +117,7 @@ pub enum MeshError {
         vertex: usize,
     },
     /// A coordinate is too large for exact integer arithmetic once scaled by the grid.
-    #[error("vertex {vertex}: coordinate {value} is too large (|coordinate * grid| must be below 2^40); rescale the input or use a smaller snapping grid")]
+    #[error("vertex {vertex}: coordinate {value:e} is too large (|coordinate * grid| must be below 2^40); rescale the input or use a smaller snapping grid")]
     CoordinateOutOfRange {
         /// The offending vertex.
         vertex: usize,

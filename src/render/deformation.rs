@@ -172,13 +172,27 @@ pub enum RenderError {
 /// detected from the content, not the file name.
 pub fn load_background(path: &Path) -> Result<Pixmap, RenderError> {
     let err = |message: String| RenderError::Image { path: path.to_path_buf(), message };
-    let reader = image::ImageReader::open(path)
+    let mut reader = image::ImageReader::open(path)
         .and_then(|r| r.with_guessed_format())
         .map_err(|e| err(e.to_string()))?;
+    // Refuse oversized images from their header, before the decoder allocates.
+    let mut limits = image::Limits::default();
+    limits.max_image_width = Some(MAX_SIZE);
+    limits.max_image_height = Some(MAX_SIZE);
+    reader.limits(limits);
     if reader.format().is_none() {
         return Err(err("unrecognised image format (expected PNG, JPEG or TIFF)".into()));
     }
-    let img = reader.decode().map_err(|e| err(e.to_string()))?.to_rgba8();
+    let img = reader
+        .decode()
+        .map_err(|e| match e {
+            image::ImageError::Limits(_) => err(format!(
+                "the image is larger than {MAX_SIZE} x {MAX_SIZE} pixels, the largest background \
+                 (it is not decoded); scale it down"
+            )),
+            e => err(e.to_string()),
+        })?
+        .to_rgba8();
     let (width, height) = img.dimensions();
     if !(1..=MAX_SIZE).contains(&width) || !(1..=MAX_SIZE).contains(&height) {
         return Err(RenderError::Size { width, height });

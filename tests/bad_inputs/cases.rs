@@ -1,0 +1,521 @@
+//! The cases of `tests/bad_inputs.rs`: how each bad input of `docs/errors.md` is made and
+//! which command reads it.
+
+use super::common::{ok, s, trimorph};
+use std::fs;
+use std::path::{Path, PathBuf};
+
+/// Valid files the bad inputs are derived from, in a temporary folder.
+pub struct Fixture {
+    /// The folder.
+    pub dir: PathBuf,
+    /// An identity deformation over a 2 x 2 grid of 40 x 40 pixels.
+    pub def: PathBuf,
+    /// Its text.
+    pub def_text: String,
+    /// A 40 x 40 gray PNG.
+    pub image: PathBuf,
+}
+
+impl Fixture {
+    /// Writes the valid files into `dir`.
+    pub fn new(dir: &Path) -> Fixture {
+        let def = dir.join("ok.json");
+        ok(&trimorph(&["mesh", "--grid", "2x2", "--size", "40,40", "-o", s(&def)]));
+        let image = dir.join("ok.png");
+        image::GrayImage::from_fn(40, 40, |x, y| image::Luma([(x * 5 + y * 3) as u8]))
+            .save(&image)
+            .unwrap();
+        let def_text = fs::read_to_string(&def).unwrap();
+        Fixture { dir: dir.to_path_buf(), def, def_text, image }
+    }
+
+    /// Writes `bytes` to `name` in the folder.
+    pub fn file(&self, name: &str, bytes: impl AsRef<[u8]>) -> PathBuf {
+        let p = self.dir.join(name);
+        fs::write(&p, bytes).unwrap();
+        p
+    }
+
+    /// The valid deformation with `f` applied to its JSON document.
+    pub fn def_with(&self, name: &str, f: impl FnOnce(&mut serde_json::Value)) -> PathBuf {
+        let mut v: serde_json::Value = serde_json::from_str(&self.def_text).unwrap();
+        f(&mut v);
+        self.file(name, v.to_string())
+    }
+
+    /// An output path in the folder.
+    pub fn out(&self, name: &str) -> String {
+        s(&self.dir.join(name)).to_string()
+    }
+}
+
+/// One bad input: `setup` writes it and returns the command line and the bad file.
+pub struct Case {
+    /// The row id in `docs/errors.md`.
+    pub id: &'static str,
+    /// Writes the input; returns the arguments and the file that the message must name.
+    pub setup: fn(&Fixture, &str) -> (Vec<String>, PathBuf),
+}
+
+fn args(a: &[&str]) -> Vec<String> {
+    a.iter().map(|x| x.to_string()).collect()
+}
+
+/// `trimorph check FILE` on a deformation file with `text`.
+fn check_text(fx: &Fixture, id: &str, text: &str) -> (Vec<String>, PathBuf) {
+    let p = fx.file(&format!("{id}.json"), text);
+    (args(&["check", s(&p)]), p)
+}
+
+/// `trimorph check FILE` on the valid deformation changed by `f`.
+fn check_doc(
+    fx: &Fixture,
+    id: &str,
+    f: impl FnOnce(&mut serde_json::Value),
+) -> (Vec<String>, PathBuf) {
+    let p = fx.def_with(&format!("{id}.json"), f);
+    (args(&["check", s(&p)]), p)
+}
+
+/// `trimorph mesh --points FILE` with `text`.
+fn mesh_points(fx: &Fixture, id: &str, text: &str) -> (Vec<String>, PathBuf) {
+    let p = fx.file(&format!("{id}.csv"), text);
+    (args(&["mesh", "--points", s(&p), "-o", &fx.out("m.json")]), p)
+}
+
+/// `trimorph mesh --obj FILE` with `text`.
+fn mesh_obj(fx: &Fixture, id: &str, text: &str) -> (Vec<String>, PathBuf) {
+    let p = fx.file(&format!("{id}.obj"), text);
+    (args(&["mesh", "--obj", s(&p), "-o", &fx.out("m.json")]), p)
+}
+
+/// `trimorph model bind --model FILE --auto` with `bytes`.
+fn model(fx: &Fixture, id: &str, ext: &str, bytes: &[u8]) -> (Vec<String>, PathBuf) {
+    let p = fx.file(&format!("{id}.{ext}"), bytes);
+    (args(&["model", "bind", "--model", s(&p), "--auto", "-o", &fx.out("b.json")]), p)
+}
+
+/// `trimorph fit OK --landmarks FILE` with `text` (and `extra` options).
+fn fit(fx: &Fixture, id: &str, ext: &str, text: &str, extra: &[&str]) -> (Vec<String>, PathBuf) {
+    let p = fx.file(&format!("{id}.{ext}"), text);
+    let mut a = args(&["fit", s(&fx.def), "--landmarks", s(&p), "-o", &fx.out("f.json")]);
+    a.extend(args(extra));
+    (a, p)
+}
+
+/// `trimorph warp OK --image FILE -o out.png` with `bytes`.
+fn warp_image(fx: &Fixture, id: &str, ext: &str, bytes: &[u8]) -> (Vec<String>, PathBuf) {
+    let p = fx.file(&format!("{id}.{ext}"), bytes);
+    (args(&["warp", s(&fx.def), "--image", s(&p), "-o", &fx.out("w.png")]), p)
+}
+
+/// `trimorph edit OK --script FILE` with `text`.
+fn edit(fx: &Fixture, id: &str, text: &str) -> (Vec<String>, PathBuf) {
+    let p = fx.file(&format!("{id}.json"), text);
+    (args(&["edit", s(&fx.def), "--script", s(&p), "-o", &fx.out("e.json")]), p)
+}
+
+/// `trimorph solve FILE` with `text`.
+fn solve(fx: &Fixture, id: &str, text: &str) -> (Vec<String>, PathBuf) {
+    let p = fx.file(&format!("{id}.json"), text);
+    (args(&["solve", s(&p)]), p)
+}
+
+/// A PNG declaring `w x h` 8-bit RGB: signature, IHDR, a tiny IDAT and IEND, all with valid
+/// CRCs, but nowhere near `w x h` pixels of data.
+pub fn png_header(w: u32, h: u32) -> Vec<u8> {
+    let mut ihdr = Vec::new();
+    ihdr.extend_from_slice(&w.to_be_bytes());
+    ihdr.extend_from_slice(&h.to_be_bytes());
+    ihdr.extend_from_slice(&[8, 2, 0, 0, 0]);
+    let mut out = b"\x89PNG\r\n\x1a\n".to_vec();
+    for (kind, data) in
+        [(&b"IHDR"[..], &ihdr[..]), (b"IDAT", &[0x78, 0x9c, 0x03, 0]), (b"IEND", &[])]
+    {
+        out.extend_from_slice(&(data.len() as u32).to_be_bytes());
+        let mut chunk = kind.to_vec();
+        chunk.extend_from_slice(data);
+        out.extend_from_slice(&chunk);
+        out.extend_from_slice(&crc32(&chunk).to_be_bytes());
+    }
+    out
+}
+
+/// A complete 4 x 4 CMYK TIFF (a channel layout trimorph does not read).
+pub fn cmyk_tiff() -> Vec<u8> {
+    use tiff::encoder::{colortype::CMYK8, TiffEncoder};
+    let mut out = std::io::Cursor::new(Vec::new());
+    TiffEncoder::new(&mut out).unwrap().write_image::<CMYK8>(4, 4, &[9u8; 64]).unwrap();
+    out.into_inner()
+}
+
+fn crc32(bytes: &[u8]) -> u32 {
+    let mut c = 0xffff_ffffu32;
+    for &b in bytes {
+        c ^= b as u32;
+        for _ in 0..8 {
+            c = if c & 1 != 0 { 0xedb8_8320 ^ (c >> 1) } else { c >> 1 };
+        }
+    }
+    !c
+}
+
+/// A little-endian TIFF declaring one `w x h` strip image with `spp` 8-bit samples per pixel
+/// (`photometric` 1 = gray, 2 = RGB, 5 = CMYK), its strip pointing past the end.
+pub fn tiff_header(w: u32, h: u32, spp: u16, photometric: u16) -> Vec<u8> {
+    let entries: Vec<(u16, u16, u32)> = vec![
+        (256, 4, w),
+        (257, 4, h),
+        (258, 3, 8),
+        (259, 3, 1),
+        (262, 3, photometric as u32),
+        (273, 4, 4096),
+        (277, 3, spp as u32),
+        (278, 4, h),
+        (279, 4, w.saturating_mul(h).saturating_mul(spp as u32)),
+    ];
+    let mut out = b"II*\0".to_vec();
+    out.extend_from_slice(&8u32.to_le_bytes());
+    out.extend_from_slice(&(entries.len() as u16).to_le_bytes());
+    for (tag, ty, v) in entries {
+        out.extend_from_slice(&tag.to_le_bytes());
+        out.extend_from_slice(&ty.to_le_bytes());
+        out.extend_from_slice(&1u32.to_le_bytes());
+        if ty == 3 {
+            out.extend_from_slice(&(v as u16).to_le_bytes());
+            out.extend_from_slice(&[0, 0]);
+        } else {
+            out.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    out.extend_from_slice(&0u32.to_le_bytes());
+    out
+}
+
+const LM_HEAD: &str = "name,src_x,src_y,dst_x,dst_y\n";
+
+/// Every case, in the order of the table.
+pub fn cases() -> Vec<Case> {
+    vec![
+        // Deformation files.
+        Case { id: "def_empty", setup: |fx, id| check_text(fx, id, "") },
+        Case {
+            id: "def_truncated",
+            setup: |fx, id| check_text(fx, id, &fx.def_text[..fx.def_text.len() / 2]),
+        },
+        Case {
+            id: "def_malformed",
+            setup: |fx, id| check_text(fx, id, "{\"format\": \"trimorph.deformation\",, }"),
+        },
+        Case { id: "def_not_deformation", setup: |fx, id| check_text(fx, id, "[1, 2, 3]") },
+        Case {
+            id: "def_wrong_type",
+            setup: |fx, id| check_doc(fx, id, |v| v["degree"] = "five".into()),
+        },
+        Case { id: "def_version", setup: |fx, id| check_doc(fx, id, |v| v["version"] = 7.into()) },
+        Case {
+            id: "def_nan",
+            setup: |fx, id| check_doc(fx, id, |v| v["exact"]["points"][3][0] = "NaN".into()),
+        },
+        Case {
+            id: "def_huge",
+            setup: |fx, id| check_doc(fx, id, |v| v["exact"]["vertices"][0][0] = "1e300".into()),
+        },
+        Case {
+            id: "def_patch_index",
+            setup: |fx, id| check_doc(fx, id, |v| v["patches"][0][0] = 99999.into()),
+        },
+        Case {
+            id: "def_huge_degree",
+            setup: |fx, id| check_doc(fx, id, |v| v["degree"] = 1_000_000_000u64.into()),
+        },
+        Case {
+            id: "def_not_c1",
+            setup: |fx, id| {
+                let p = fx.def_with(&format!("{id}.json"), |v| {
+                    let n = v["exact"]["points"].as_array().unwrap().len();
+                    v["exact"]["points"][n / 2][0] = "1/3".into();
+                });
+                (args(&["render", s(&p), "-o", &fx.out("r.png")]), p)
+            },
+        },
+        // Points and meshes.
+        Case { id: "points_empty", setup: |fx, id| mesh_points(fx, id, "") },
+        Case { id: "points_nan", setup: |fx, id| mesh_points(fx, id, "x,y\n0,0\n10,nan\n0,10\n") },
+        Case { id: "points_inf", setup: |fx, id| mesh_points(fx, id, "0,0\n10,0\n0,inf\n") },
+        Case { id: "points_off_grid", setup: |fx, id| mesh_points(fx, id, "0,0\n10,0\n0,1e12\n") },
+        Case {
+            id: "points_duplicate",
+            setup: |fx, id| mesh_points(fx, id, "0,0\n10,0\n0,10\n10,0.001\n"),
+        },
+        Case {
+            id: "points_collinear",
+            setup: |fx, id| mesh_points(fx, id, "0,0\n1,1\n2,2\n3,3\n"),
+        },
+        Case {
+            id: "obj_malformed",
+            setup: |fx, id| mesh_obj(fx, id, "v 0 0 0\nv 1 zero 0\nv 0 1 0\nf 1 2 3\n"),
+        },
+        Case {
+            id: "obj_index",
+            setup: |fx, id| mesh_obj(fx, id, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n"),
+        },
+        Case {
+            id: "obj_degenerate",
+            setup: |fx, id| {
+                mesh_obj(fx, id, "v 0 0 0\nv 1 0 0\nv 2 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 4\n")
+            },
+        },
+        Case {
+            id: "obj_clockwise",
+            setup: |fx, id| mesh_obj(fx, id, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 3 2\n"),
+        },
+        Case {
+            id: "obj_non_manifold",
+            setup: |fx, id| {
+                mesh_obj(
+                    fx,
+                    id,
+                    "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 -1 0\nv 1 1 0\nf 1 2 3\nf 1 4 2\nf 1 2 5\n",
+                )
+            },
+        },
+        Case { id: "obj_empty", setup: |fx, id| mesh_obj(fx, id, "") },
+        // 3D models.
+        Case {
+            id: "model_obj_line",
+            setup: |fx, id| model(fx, id, "obj", b"v 0 0 0\nv 1 0\nv 0 1 0\n"),
+        },
+        Case {
+            id: "model_obj_index",
+            setup: |fx, id| model(fx, id, "obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 -7\n"),
+        },
+        Case { id: "model_empty", setup: |fx, id| model(fx, id, "obj", b"# nothing\n") },
+        Case {
+            id: "model_ply_truncated",
+            setup: |fx, id| {
+                model(
+                    fx,
+                    id,
+                    "ply",
+                    b"ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\n\
+                      property float y\nproperty float z\nend_header\n\0\0\0\0\0\0",
+                )
+            },
+        },
+        Case {
+            id: "model_ply_huge_count",
+            setup: |fx, id| {
+                model(
+                    fx,
+                    id,
+                    "ply",
+                    b"ply\nformat binary_little_endian 1.0\nelement vertex 4000000000\n\
+                      property float x\nproperty float y\nproperty float z\nend_header\n",
+                )
+            },
+        },
+        Case {
+            id: "model_ply_header",
+            setup: |fx, id| model(fx, id, "ply", b"ply\nformat ascii 1.0\nelement vertex 1\n"),
+        },
+        Case {
+            id: "model_ply_nan",
+            setup: |fx, id| {
+                model(
+                    fx,
+                    id,
+                    "ply",
+                    b"ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\n\
+                      property float y\nproperty float z\nend_header\n0 0 0\n1 nan 0\n",
+                )
+            },
+        },
+        // Landmarks.
+        Case { id: "lm_empty", setup: |fx, id| fit(fx, id, "csv", "", &[]) },
+        Case {
+            id: "lm_short_row",
+            setup: |fx, id| fit(fx, id, "csv", &format!("{LM_HEAD}a,1,2,3,4\nb,5,6\n"), &[]),
+        },
+        Case {
+            id: "lm_nan",
+            setup: |fx, id| fit(fx, id, "csv", &format!("{LM_HEAD}a,1,2,3,4\nb,5,6,nan,8\n"), &[]),
+        },
+        Case {
+            id: "lm_inf",
+            setup: |fx, id| fit(fx, id, "csv", &format!("{LM_HEAD}a,1,2,3,4\nb,5,6,inf,8\n"), &[]),
+        },
+        Case {
+            id: "lm_huge",
+            setup: |fx, id| {
+                fit(fx, id, "csv", &format!("{LM_HEAD}a,10,10,11,11\nb,20,20,1e300,21\n"), &[])
+            },
+        },
+        Case {
+            id: "lm_duplicate",
+            setup: |fx, id| {
+                fit(fx, id, "csv", &format!("{LM_HEAD}a,1,2,3,4\nb,5,6,7,8\na,9,9,9,9\n"), &[])
+            },
+        },
+        Case {
+            id: "lm_outside",
+            setup: |fx, id| {
+                fit(fx, id, "csv", &format!("{LM_HEAD}a,10,10,11,11\nfar,90,10,91,11\n"), &[])
+            },
+        },
+        Case {
+            id: "lm_contradictory",
+            setup: |fx, id| {
+                fit(fx, id, "csv", &format!("{LM_HEAD}a,20,20,25,20\nb,20,20,15,20\n"), &["--hard"])
+            },
+        },
+        Case {
+            id: "lm_bigwarp",
+            setup: |fx, id| fit(fx, id, "csv", "\"Pt-0\",\"true\",\"1\",\"2\",\"x\",\"4\"\n", &[]),
+        },
+        Case {
+            id: "lm_json",
+            setup: |fx, id| fit(fx, id, "json", "{\"landmarks\": [{\"name\": \"a\",", &[]),
+        },
+        Case {
+            id: "lm_json_type",
+            setup: |fx, id| {
+                let text = r#"{"landmarks": [{"name": "a", "src": "here", "dst": [1, 2]}]}"#;
+                fit(fx, id, "json", text, &[])
+            },
+        },
+        // Images.
+        Case { id: "img_empty", setup: |fx, id| warp_image(fx, id, "png", b"") },
+        Case {
+            id: "img_truncated",
+            setup: |fx, id| {
+                let b = fs::read(&fx.image).unwrap();
+                warp_image(fx, id, "png", &b[..b.len() / 2])
+            },
+        },
+        Case { id: "img_zero", setup: |fx, id| warp_image(fx, id, "png", &png_header(0, 0)) },
+        Case {
+            id: "img_one_pixel",
+            setup: |fx, id| {
+                let p = fx.dir.join(format!("{id}.png"));
+                image::GrayImage::from_pixel(1, 1, image::Luma([7])).save(&p).unwrap();
+                (args(&["colormesh", s(&p), "-o", &fx.out("c.ply")]), p)
+            },
+        },
+        Case {
+            id: "img_huge_png",
+            setup: |fx, id| warp_image(fx, id, "png", &png_header(100_000, 100_000)),
+        },
+        Case {
+            id: "img_huge_tiff",
+            setup: |fx, id| warp_image(fx, id, "tif", &tiff_header(100_000, 100_000, 1, 1)),
+        },
+        Case { id: "img_channels", setup: |fx, id| warp_image(fx, id, "tif", &cmyk_tiff()) },
+        Case {
+            id: "img_huge_background",
+            setup: |fx, id| {
+                let p = fx.file(&format!("{id}.png"), png_header(100_000, 100_000));
+                (args(&["render", s(&fx.def), "--background", s(&p), "-o", &fx.out("r.png")]), p)
+            },
+        },
+        Case {
+            id: "img_huge_frame",
+            setup: |fx, id| {
+                let frames = fx.dir.join(format!("{id}_frames"));
+                fs::create_dir_all(&frames).unwrap();
+                let p = frames.join("f0.png");
+                fs::write(&p, png_header(100_000, 100_000)).unwrap();
+                let lms = fx.file(&format!("{id}.csv"), format!("{LM_HEAD}a,10,10,10,10\n"));
+                let mut a = args(&["fit", "--model", s(&fx.def), "--frames", s(&frames)]);
+                a.extend(args(&["--landmarks", s(&lms), "-o", &fx.out("batch")]));
+                (a, p)
+            },
+        },
+        Case {
+            id: "frames_lost",
+            setup: |fx, id| {
+                let frames = fx.dir.join(format!("{id}_frames"));
+                fs::create_dir_all(&frames).unwrap();
+                for name in ["a.png", "b.png"] {
+                    image::GrayImage::from_pixel(1, 1, image::Luma([9]))
+                        .save(frames.join(name))
+                        .unwrap();
+                }
+                let lms = fx.file(&format!("{id}.csv"), format!("{LM_HEAD}m,0.5,0.5,0.5,0.5\n"));
+                let mut a = args(&["fit", "--model", s(&fx.def), "--frames", s(&frames)]);
+                a.extend(args(&["--landmarks", s(&lms), "--track", "-o", &fx.out("lost")]));
+                (a, frames.join("b.png"))
+            },
+        },
+        Case { id: "img_not_image", setup: |fx, id| warp_image(fx, id, "png", b"hello") },
+        Case {
+            id: "mesh_outside_image",
+            setup: |fx, id| {
+                let pts = fx.file(&format!("{id}.csv"), "1000,1000\n1040,1000\n1000,1040\n");
+                let p = fx.dir.join(format!("{id}.json"));
+                ok(&trimorph(&["mesh", "--points", s(&pts), "-o", s(&p)]));
+                (args(&["warp", s(&p), "--image", s(&fx.image), "-o", &fx.out("w.png")]), p)
+            },
+        },
+        // Edit scripts.
+        Case { id: "edit_malformed", setup: |fx, id| edit(fx, id, "[{\"op\": \"translate\",") },
+        Case { id: "edit_not_array", setup: |fx, id| edit(fx, id, "{\"op\": \"translate\"}") },
+        Case {
+            id: "edit_unknown_op",
+            setup: |fx, id| edit(fx, id, r#"[{"op": "shear", "anchors": [0]}]"#),
+        },
+        Case {
+            id: "edit_empty_anchors",
+            setup: |fx, id| edit(fx, id, r#"[{"op": "translate", "anchors": [], "by": [1, 0]}]"#),
+        },
+        Case {
+            id: "edit_anchor_range",
+            setup: |fx, id| {
+                edit(fx, id, r#"[{"op": "translate", "anchors": [100000], "by": [1, 0]}]"#)
+            },
+        },
+        Case {
+            id: "edit_anchor_derived",
+            setup: |fx, id| {
+                edit(
+                    fx,
+                    id,
+                    r#"[{"op": "translate", "anchors": [3], "derived": [3], "by": [1, 0]}]"#,
+                )
+            },
+        },
+        Case {
+            id: "edit_by_nan",
+            setup: |fx, id| {
+                edit(fx, id, r#"[{"op": "translate", "anchors": [3], "by": ["NaN", 0]}]"#)
+            },
+        },
+        Case {
+            id: "edit_unsolvable",
+            setup: |fx, id| {
+                let text = r#"[{"op": "constrain", "pin": [3]},
+                    {"op": "translate", "anchors": [3], "by": [1, 0]}]"#;
+                edit(fx, id, text)
+            },
+        },
+        // `trimorph solve` problems.
+        Case { id: "solve_malformed", setup: |fx, id| solve(fx, id, "{\"R\": [[1, -1]") },
+        Case {
+            id: "solve_wrong_type",
+            setup: |fx, id| {
+                solve(fx, id, r#"{"R": [[1, -1]], "P": [[0], [1]], "anchors": {"0": ["x"]}}"#)
+            },
+        },
+        Case {
+            id: "solve_unsolvable",
+            setup: |fx, id| {
+                let text = fs::read_to_string(
+                    Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/unsolvable.json"),
+                )
+                .unwrap();
+                solve(fx, id, &text)
+            },
+        },
+    ]
+}
