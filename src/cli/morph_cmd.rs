@@ -81,7 +81,8 @@ pub fn run(a: MorphArgs<'_>) -> Result<()> {
         (Some(l), _) => {
             let lms = read_landmarks(l)
                 .with_context(|| format!("cannot read landmarks {}", l.display()))?;
-            Morph::new(&img_a, &img_b, &lms, &opts)?
+            Morph::new(&img_a, &img_b, &lms, &opts)
+                .with_context(|| format!("landmarks {}", l.display()))?
         }
         (None, Some(p)) => {
             let phi_ab = load(p)?;

@@ -63,7 +63,9 @@ pub enum MorphError {
     /// A landmark outside its image.
     #[error(
         "landmark {index} ({name}): point ({x}, {y}) lies outside image {image} \
-         ({w} x {h} px, pixel centres 0..{w}-1)"
+         ({w} x {h} px: x must lie in 0..={wm}, y in 0..={hm}); correct or remove it",
+        wm = .w.saturating_sub(1),
+        hm = .h.saturating_sub(1)
     )]
     OutsideImage {
         /// Index in the input.

@@ -517,5 +517,32 @@ pub fn cases() -> Vec<Case> {
                 solve(fx, id, &text)
             },
         },
+        // `trimorph morph` and `trimorph editor`.
+        Case {
+            id: "morph_landmark_outside",
+            setup: |fx, id| {
+                let lms = fx.file(
+                    &format!("{id}.csv"),
+                    format!("{LM_HEAD}a,5,5,5,5\nb,30,5,90,5\nc,5,30,5,30\n"),
+                );
+                let img = s(&fx.image);
+                (args(&["morph", img, img, "--landmarks", s(&lms), "-o", &fx.out("m")]), lms)
+            },
+        },
+        Case {
+            id: "morph_phi_ab_bad",
+            setup: |fx, id| {
+                let bad = fx.file(&format!("{id}.json"), "[1, 2]");
+                let img = s(&fx.image);
+                (args(&["morph", img, img, "--phi-ab", s(&bad), "-o", &fx.out("m")]), bad)
+            },
+        },
+        Case {
+            id: "editor_bad_deformation",
+            setup: |fx, id| {
+                let bad = fx.file(&format!("{id}.json"), "{\"format\": \"trimorph-deformation\"");
+                (args(&["editor", s(&bad), "--port", "0"]), bad)
+            },
+        },
     ]
 }
