@@ -15,6 +15,7 @@
 //! * [`morph`]: image morphing through two fitted deformations blended exactly;
 //! * [`render`]: pictures (plots, deformations);
 //! * [`io`]: atomic file output;
+//! * [`server`]: the interactive editor (local HTTP server and embedded page);
 //! * [`cli`]: the `trimorph` command line.
 //!
 //! "The thesis" in these docs is *Mathematical and computational methods for modeling and
