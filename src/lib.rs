@@ -11,6 +11,7 @@
 //! * [`mesh`], [`spline`], [`edit`]: 2DSD spline deformations and their editing -- thesis
 //!   Part II;
 //! * [`warp`]: points and images through a deformation (forward and inverse);
+//! * [`prism`]: 2.5D deformations of 3D models in a layer of prisms (PrisMystic);
 //! * [`fit`]: deformations fitted to matched landmarks (argmin over ECLES);
 //! * [`morph`]: image morphing through two fitted deformations blended exactly;
 //! * [`render`]: pictures (plots, deformations);
