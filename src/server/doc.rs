@@ -258,26 +258,27 @@ impl Doc {
 
     /// Undoes the last change (an edit, a load over the same mesh, or a refit).
     pub fn undo(&mut self) -> Result<(), ServerError> {
-        let prev = self.undo.pop().ok_or(ServerError::Unprocessable("nothing to undo".into()))?;
-        let cur = self.editor.spline().clone();
-        if let Err(e) = self.editor.replace_spline(prev.clone()) {
-            self.undo.push(prev);
-            return Err(edit_err(e));
-        }
-        self.redo.push(cur);
-        self.before_drag = None;
-        Ok(())
+        self.step_history(true)
     }
 
     /// Redoes the last undone change.
     pub fn redo(&mut self) -> Result<(), ServerError> {
-        let next = self.redo.pop().ok_or(ServerError::Unprocessable("nothing to redo".into()))?;
+        self.step_history(false)
+    }
+
+    /// Moves one state from one history stack to the spline, pushing the current spline on
+    /// the other stack; on failure both stacks and the spline stay as they were.
+    fn step_history(&mut self, undo: bool) -> Result<(), ServerError> {
+        let (from, to) =
+            if undo { (&mut self.undo, &mut self.redo) } else { (&mut self.redo, &mut self.undo) };
+        let what = if undo { "nothing to undo" } else { "nothing to redo" };
+        let target = from.pop().ok_or(ServerError::Unprocessable(what.into()))?;
         let cur = self.editor.spline().clone();
-        if let Err(e) = self.editor.replace_spline(next.clone()) {
-            self.redo.push(next);
+        if let Err(e) = self.editor.replace_spline(target.clone()) {
+            from.push(target);
             return Err(edit_err(e));
         }
-        self.undo.push(cur);
+        to.push(cur);
         self.before_drag = None;
         Ok(())
     }
