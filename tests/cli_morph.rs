@@ -223,9 +223,9 @@ fn morph_from_a_fitted_deformation_starts_at_a_and_ends_near_b() {
 
     // Landmarks and --phi-ab together are refused; --phi-ba needs --phi-ab.
     let o = trimorph(&["morph", &a, &b, "--landmarks", &l, "--phi-ab", &s(&phi), "-o", &s(&out)]);
-    assert_eq!(o.status.code(), Some(2), "clap usage error");
+    assert_eq!(o.status.code(), Some(1), "usage error exits 1, not 2 (unsolvable)");
     let o = trimorph(&["morph", &a, &b, "--phi-ba", &s(&phi), "-o", &s(&out)]);
-    assert_eq!(o.status.code(), Some(2), "clap usage error");
+    assert_eq!(o.status.code(), Some(1), "usage error exits 1, not 2 (unsolvable)");
     let o = trimorph(&["morph", &a, &b, "--phi-ab", &l, "-o", &s(&out)]);
     assert_eq!(o.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&o.stderr).contains("cannot read deformation"));

@@ -227,3 +227,21 @@ fn closed_stdout_is_not_a_crash() {
     let out = child.wait_with_output().unwrap();
     assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
 }
+
+/// Bug found in review: clap's usage errors exited 2, the code reserved for unsolvable edits,
+/// so a script testing `$? == 2` took a typo for an unsolvable edit. Usage errors exit 1 now;
+/// `--help` and `--version` exit 0.
+#[test]
+fn usage_errors_exit_1_not_the_unsolvable_code() {
+    for args in [&["solve"][..], &["no-such-command"], &["solve", "x.json", "--no-such-flag"], &[]]
+    {
+        let o = trimorph(args);
+        assert_eq!(o.status.code(), Some(1), "{args:?}");
+        assert!(!o.stderr.is_empty(), "{args:?}: a usage message on stderr");
+    }
+    for args in [&["--help"][..], &["--version"], &["solve", "--help"]] {
+        let o = trimorph(args);
+        assert_eq!(o.status.code(), Some(0), "{args:?}");
+        assert!(!o.stdout.is_empty(), "{args:?}: printed on stdout");
+    }
+}

@@ -1,6 +1,7 @@
 //! Nothing is lost: a failed command leaves earlier outputs byte for byte as they were, and a
 //! batch killed (SIGKILL) at random moments never leaves a half-written output, resumes where
-//! it stopped, and ends with the same results as an uninterrupted run.
+//! it stopped, ends with the same results as an uninterrupted run, and removes the temporary
+//! files the killed runs left.
 
 mod common;
 use common::{ok, s, trimorph};
@@ -198,8 +199,27 @@ fn a_batch_killed_at_random_moments_resumes_and_never_leaves_a_half_written_outp
         eprintln!("round {round}: {what} {at:?} (seed {})", seed.as_nanos());
     }
     assert!(kills > 0, "no run was interrupted");
+    // The killed runs' temporary files, made older than `io::STALE_AFTER`: the next run
+    // removes them (their processes are gone).
+    let an_hour_ago = std::time::SystemTime::now() - std::time::Duration::from_secs(3600);
+    let mut aged = 0;
+    for e in fs::read_dir(&out).unwrap() {
+        let p = e.unwrap().path();
+        if p.to_string_lossy().ends_with(".tmp") {
+            let f = fs::File::options().write(true).open(&p).unwrap();
+            f.set_modified(an_hour_ago).unwrap();
+            aged += 1;
+        }
+    }
+    eprintln!("{aged} temporary files left by the killed runs");
     assert!(batch.command(&out).status().unwrap().success());
     assert_consistent(&out);
+    let left: Vec<_> = fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".tmp"))
+        .collect();
+    assert!(left.is_empty(), "temporary files left behind: {left:?}");
     let got = results(&out);
     assert_eq!(got.keys().collect::<Vec<_>>(), want.keys().collect::<Vec<_>>());
     for (name, bytes) in &want {

@@ -273,6 +273,8 @@ pub fn run(a: BatchArgs) -> Result<()> {
     };
     std::fs::create_dir_all(a.output)
         .with_context(|| format!("cannot create {}", a.output.display()))?;
+    // Leftovers of an earlier run that was killed mid-write.
+    crate::io::remove_stale_temps(a.output, crate::io::STALE_AFTER);
     let done = |k: usize| a.output.join(format!("{}.report.json", frames[k].stem)).exists();
     let bar = super::warp_cmd::progress_bar((hi - lo) as u64, hi - lo > 1, "fit");
     let fit_one = |k: usize, warm: &Spline| -> Result<Option<(Spline, FitReport)>> {

@@ -470,7 +470,10 @@ fn error_text(e: &anyhow::Error) -> String {
 
 /// Parses the arguments, runs the command and returns the exit code.
 pub fn run() -> i32 {
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => return usage_exit(&e),
+    };
     let result = match cli.command {
         Command::Solve { system, output } => solve::run(&system, output.as_deref()),
         Command::Demo { output } => demo::run(&output),
@@ -669,6 +672,25 @@ pub fn run() -> i32 {
             bench::bitgrowth(&output, trials, quick, seed, only.as_deref())
         }
     };
+    exit_code(result)
+}
+
+/// Prints a command-line parse failure (or `--help` / `--version`) and returns its exit code:
+/// 0 for `--help` and `--version`, [`EXIT_INPUT`] for a malformed or missing command line. clap's own default
+/// (2) would be mistaken for [`EXIT_UNSOLVABLE`] by scripts.
+fn usage_exit(e: &clap::Error) -> i32 {
+    // Printing can fail only on a closed stream; the exit code is what matters then.
+    let _ = e.print();
+    // clap prints help and version to stdout and errors (including bare `trimorph`) to stderr.
+    if e.use_stderr() {
+        EXIT_INPUT
+    } else {
+        0
+    }
+}
+
+/// Maps a command's result to the process exit code, printing the error.
+fn exit_code(result: anyhow::Result<()>) -> i32 {
     match result {
         Ok(()) => 0,
         Err(e) => match e.downcast_ref::<Exit>() {

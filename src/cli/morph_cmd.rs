@@ -102,6 +102,8 @@ pub fn run(a: MorphArgs<'_>) -> Result<()> {
     };
     std::fs::create_dir_all(a.output)
         .with_context(|| format!("cannot create {}", a.output.display()))?;
+    // Leftovers of an earlier run that was killed mid-write.
+    crate::io::remove_stale_temps(a.output, crate::io::STALE_AFTER);
 
     let exact_times = times_between(a.frames, t0, t1)?;
     let times: Vec<f64> = exact_times.iter().map(rat_to_f64).collect();

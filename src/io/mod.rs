@@ -35,16 +35,24 @@ pub enum IoError {
     },
 }
 
-/// Writes `bytes` to `path` atomically: a temporary file in the same folder, flushed and
-/// synced, then renamed over `path`. On error the temporary file is removed and `path` is
-/// untouched.
+/// Writes `bytes` to `path` atomically: a temporary file in the same folder
+/// (`.NAME.PID-N.tmp`), flushed and synced, then renamed over `path`. On error the temporary
+/// file is removed and `path` is untouched.
+///
+/// A process killed between creating and renaming its temporary file leaves it behind. The
+/// first write into a folder in each process removes such leftovers (see
+/// [`remove_stale_temps`]), so an interrupted batch that is run again tidies up after itself.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), IoError> {
     let werr = |source| IoError::Write { path: path.to_path_buf(), source };
     let dir = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => PathBuf::from("."),
     };
-    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let Some(name) = path.file_name().map(|n| n.to_string_lossy().into_owned()) else {
+        let e = std::io::Error::new(std::io::ErrorKind::InvalidInput, "not a file name");
+        return Err(werr(e));
+    };
+    tidy_once(&dir);
     // Unique per process and call, so concurrent writers never share a temporary file.
     static COUNTER: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
     let n = COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
@@ -60,6 +68,69 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), IoError> {
         return Err(werr(e));
     }
     Ok(())
+}
+
+/// How long a leftover temporary file must have been untouched before
+/// [`remove_stale_temps`] removes it, even when its writer is gone.
+pub const STALE_AFTER: std::time::Duration = std::time::Duration::from_secs(60);
+
+/// Runs [`remove_stale_temps`] on `dir` the first time this process writes there.
+fn tidy_once(dir: &Path) {
+    use std::collections::HashSet;
+    use std::sync::{Mutex, OnceLock};
+    static DONE: OnceLock<Mutex<HashSet<PathBuf>>> = OnceLock::new();
+    let key = fs::canonicalize(dir).unwrap_or_else(|_| dir.to_path_buf());
+    let first =
+        DONE.get_or_init(Default::default).lock().map(|mut done| done.insert(key)).unwrap_or(false);
+    if first {
+        remove_stale_temps(dir, STALE_AFTER);
+    }
+}
+
+/// The writer's process id if `file_name` has the form of a [`write_atomic`] temporary file,
+/// `.NAME.PID-N.tmp`.
+fn temp_writer(file_name: &str) -> Option<u32> {
+    let stem = file_name.strip_prefix('.')?.strip_suffix(".tmp")?;
+    let (_, tail) = stem.rsplit_once('.')?;
+    let (pid, n) = tail.split_once('-')?;
+    n.parse::<u64>().ok()?;
+    pid.parse().ok()
+}
+
+/// Removes the temporary files that [`write_atomic`] calls left in `dir` when their process
+/// was killed: files named `.NAME.PID-N.tmp` whose process no longer runs and that nobody
+/// modified for `min_age`. The age check keeps files of a live writer on another machine
+/// (a shared folder) safe. Only Linux can tell whether a process runs (`/proc/PID`);
+/// elsewhere nothing is removed. Returns the number of files removed; errors (an unreadable
+/// folder, a file removed meanwhile) are ignored, as tidying must never fail a write.
+pub fn remove_stale_temps(dir: &Path, min_age: std::time::Duration) -> usize {
+    let Ok(entries) = fs::read_dir(dir) else { return 0 };
+    let me = std::process::id();
+    let mut removed = 0;
+    for entry in entries.flatten() {
+        let name = entry.file_name();
+        let Some(pid) = name.to_str().and_then(temp_writer) else { continue };
+        if pid == me || process_runs(pid) {
+            continue;
+        }
+        let age = entry.metadata().and_then(|m| m.modified()).ok().and_then(|t| t.elapsed().ok());
+        if age.is_some_and(|a| a >= min_age)
+            && entry.file_type().is_ok_and(|t| t.is_file())
+            && fs::remove_file(entry.path()).is_ok()
+        {
+            removed += 1;
+        }
+    }
+    removed
+}
+
+/// Whether process `pid` runs on this machine; `true` when that cannot be told.
+fn process_runs(pid: u32) -> bool {
+    if cfg!(target_os = "linux") && Path::new("/proc/self").exists() {
+        Path::new("/proc").join(pid.to_string()).exists()
+    } else {
+        true
+    }
 }
 
 /// JSON text that stays readable for matrices: objects have one key per line, arrays of
@@ -120,6 +191,39 @@ mod tests {
         write_atomic(&p, b"two").unwrap();
         assert_eq!(fs::read_to_string(&p).unwrap(), "two");
         assert_eq!(fs::read_dir(dir.path()).unwrap().count(), 1);
+    }
+
+    /// Leftovers of a killed run (`tests/nothing_lost.rs` kills batches with SIGKILL) were
+    /// never removed; now the next write into the folder removes those of dead processes.
+    #[test]
+    fn stale_temps_of_dead_writers_are_removed() {
+        let dir = tempfile::tempdir().unwrap();
+        // A pid above the kernel's maximum (2^22) never runs.
+        let dead = dir.path().join(".out.json.4194400-3.tmp");
+        let live = dir.path().join(format!(".out.json.{}-9.tmp", std::process::id()));
+        let other = dir.path().join(".notes.txt.tmp");
+        for f in [&dead, &live, &other] {
+            fs::write(f, b"partial").unwrap();
+        }
+        // Too fresh: kept.
+        assert_eq!(remove_stale_temps(dir.path(), std::time::Duration::from_secs(3600)), 0);
+        assert!(dead.exists());
+        let removed = remove_stale_temps(dir.path(), std::time::Duration::ZERO);
+        if cfg!(target_os = "linux") {
+            assert_eq!(removed, 1);
+            assert!(!dead.exists());
+        }
+        assert!(live.exists() && other.exists(), "only dead writers' temporaries go");
+    }
+
+    #[test]
+    fn temp_names_are_recognised() {
+        assert_eq!(temp_writer(".out.json.123-0.tmp"), Some(123));
+        assert_eq!(temp_writer(".a.b.c.png.77-12.tmp"), Some(77));
+        assert_eq!(temp_writer(".out.json.tmp"), None);
+        assert_eq!(temp_writer("out.json.123-0.tmp"), None);
+        assert_eq!(temp_writer(".out.json.x-0.tmp"), None);
+        assert_eq!(temp_writer(".out.json.12-x.tmp"), None);
     }
 
     #[test]

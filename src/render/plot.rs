@@ -15,11 +15,8 @@
 //! plot.save_png(std::path::Path::new("growth.png")).unwrap();
 //! ```
 
-use std::fs::{self, OpenOptions};
-use std::io::{self, Write};
+use std::io;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU64, Ordering};
-use std::time::{SystemTime, UNIX_EPOCH};
 
 use tiny_skia::{
     Color, FillRule, LineCap, LineJoin, Paint, PathBuilder, Pixmap, Rect, Stroke, Transform,
@@ -593,33 +590,22 @@ fn frame_px(pm: &mut Pixmap, x: i32, y: i32, w: i32, h: i32, rgb: [u8; 3]) {
     fill_px(pm, x + w - 1, y, 1, h, rgb);
 }
 
-/// Writes `bytes` to a temporary sibling of `path`, syncs it, then renames it
-/// to `path`; the temporary file is removed if any step fails.
+/// Writes `bytes` through [`crate::io::write_atomic`] (temporary sibling, sync, rename).
 fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), PlotError> {
-    static COUNTER: AtomicU64 = AtomicU64::new(0);
-    let name = (path.file_name()).ok_or_else(|| PlotError::InvalidPath(path.to_path_buf()))?;
-    let dir = path.parent().filter(|p| !p.as_os_str().is_empty());
-    let (pid, n) = (std::process::id(), COUNTER.fetch_add(1, Ordering::Relaxed));
-    let nanos = (SystemTime::now().duration_since(UNIX_EPOCH)).map_or(0, |d| d.subsec_nanos());
-    let tmp_name = format!(".{}.{pid}-{nanos}-{n}.tmp", name.to_string_lossy());
-    let tmp = dir.unwrap_or(Path::new(".")).join(tmp_name);
-    let file = OpenOptions::new().write(true).create_new(true).open(&tmp);
-    let result = file.and_then(|mut file| {
-        let written = file.write_all(bytes).and_then(|()| file.sync_all());
-        drop(file);
-        let renamed = written.and_then(|()| fs::rename(&tmp, path));
-        if renamed.is_err() {
-            let _ = fs::remove_file(&tmp);
+    if path.file_name().is_none() {
+        return Err(PlotError::InvalidPath(path.to_path_buf()));
+    }
+    crate::io::write_atomic(path, bytes).map_err(|e| match e {
+        crate::io::IoError::Write { path, source } | crate::io::IoError::Read { path, source } => {
+            PlotError::Io { path, source }
         }
-        renamed
-    });
-    let path = path.to_path_buf();
-    result.map_err(|source| PlotError::Io { path, source })
+    })
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::fs;
 
     /// Number of opaque pixels exactly equal to `rgb`.
     fn count(pm: &Pixmap, rgb: [u8; 3]) -> usize {
