@@ -99,6 +99,21 @@ fn field_and_jacobian_maps() {
     assert_eq!(bad.status.code(), Some(1));
 }
 
+/// Bug found in review: `field --jacobian J.tif` wrote PNG bytes into a `.tif` file, and a bad
+/// Jacobian name was noticed only after the field was written. Both names are checked first.
+#[test]
+fn field_checks_both_output_names_before_writing() {
+    let dir = tempfile::tempdir().unwrap();
+    let id = dir.path().join("id.json");
+    ok(&trimorph(&["mesh", "--grid", "2x2", "--size", "20,20", "-o", s(&id)]));
+    let npy = dir.path().join("f.npy");
+    let jac = dir.path().join("j.tif");
+    let o = trimorph(&["field", s(&id), "-o", s(&npy), "--jacobian", s(&jac)]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("name it .png"));
+    assert!(!npy.exists() && !jac.exists(), "nothing written");
+}
+
 /// A deformation file whose map is `phi(p) = A p + b` with integer `A` and `b` (C1 and
 /// exact), on a `cols x rows` grid over `[0, w] x [0, h]`.
 fn affine_file(

@@ -2,7 +2,7 @@
 //! RANSAC on an affine model), written as CSV, BigWarp or JSON.
 
 use super::{Exit, EXIT_INPUT};
-use crate::fit::features::{gray8, match_images, MatchOptions};
+use crate::fit::features::{gray8, match_images, FeatureError, MatchOptions, MIN_SIDE};
 use crate::fit::landmarks::LandmarkFormat;
 use crate::io::landmarks::write_landmarks;
 use crate::io::raster::read_stack;
@@ -31,6 +31,31 @@ fn load(path: &Path) -> Result<GrayImage> {
     Ok(gray8(&stack.pages[0]))
 }
 
+/// The message for a failed match: the file at fault when one image is, and what to do.
+fn explain(args: &MatchArgs, e: &FeatureError) -> String {
+    let file = |which: char| if which == 'A' { args.a } else { args.b }.display().to_string();
+    let by_hand = "give landmarks by hand instead (a CSV: name,src_x,src_y,dst_x,dst_y)";
+    match e {
+        FeatureError::TooSmall { which, .. } => {
+            format!("{}: {e}; use an image of at least {MIN_SIDE}x{MIN_SIDE}", file(*which))
+        }
+        FeatureError::NoFeatures { which } => format!(
+            "{}: {e} (it is flat or has no texture at ORB's scales); {by_hand}",
+            file(*which)
+        ),
+        FeatureError::TooFewMatches { .. } | FeatureError::NoConsensus { .. } => format!(
+            "{} vs {}: {e}; the images may not show the same scene: try a larger --ratio \
+             or --threshold, or {by_hand}",
+            args.a.display(),
+            args.b.display()
+        ),
+        FeatureError::Options(_) => {
+            format!("{} vs {}: {e}; see trimorph match --help", args.a.display(), args.b.display())
+        }
+        _ => format!("{} vs {}: {e}", args.a.display(), args.b.display()),
+    }
+}
+
 /// Runs `trimorph match`: landmarks with `src` in A's pixel coordinates and `dst` in B's.
 pub(super) fn run(args: MatchArgs) -> Result<()> {
     let format: LandmarkFormat = args.format.parse().map_err(|e| input_error(format!("{e}")))?;
@@ -39,8 +64,7 @@ pub(super) fn run(args: MatchArgs) -> Result<()> {
     let mut opts =
         MatchOptions { ratio: args.ratio, features: args.features, ..Default::default() };
     opts.ransac.threshold = args.threshold;
-    let r = match_images(&a, &b, &opts)
-        .map_err(|e| input_error(format!("{} vs {}: {e}", args.a.display(), args.b.display())))?;
+    let r = match_images(&a, &b, &opts).map_err(|e| input_error(explain(&args, &e)))?;
     write_landmarks(args.output, &r.landmarks, format)?;
     let st = &r.stats;
     println!(

@@ -288,6 +288,14 @@ pub fn field(
     size: Option<&str>,
 ) -> Result<()> {
     use crate::warp::field as wf;
+    let ext_of = |p: &Path| p.extension().and_then(|e| e.to_str()).unwrap_or("").to_lowercase();
+    let ext = ext_of(output);
+    if !matches!(ext.as_str(), "npy" | "tif" | "tiff") {
+        bail!("{}: use a .npy or .tif output", output.display());
+    }
+    if let Some(jp) = jacobian.filter(|jp| ext_of(jp) != "png") {
+        bail!("{}: the Jacobian map is a PNG picture; name it .png", jp.display());
+    }
     let text = read_text(def)?;
     let (s, _) = crate::io::deformation::from_str(&text)
         .with_context(|| format!("cannot read deformation {}", def.display()))?;
@@ -306,24 +314,26 @@ pub fn field(
         }
     };
     if w == 0 || h == 0 || (w as u64) * (h as u64) > 100_000_000 {
-        bail!("field size {w}x{h} is empty or too large (at most 10^8 pixels)");
+        bail!(
+            "{}: field size {w}x{h} is empty or too large (at most 10^8 pixels); give --size W,H",
+            def.display()
+        );
     }
     let f = if inverse_field {
         wf::inverse_field(&s, w, h, InverseOptions::default())
     } else {
         wf::forward_field(&s, w, h)
     };
-    let ext = output.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
     let bytes = match ext.as_str() {
         "npy" => wf::to_npy(&f),
-        "tif" | "tiff" => {
+        // "tif" | "tiff", checked above.
+        _ => {
             let mut c = std::io::Cursor::new(Vec::new());
             image::DynamicImage::ImageRgb32F(wf::to_rgb32f(&f))
                 .write_to(&mut c, image::ImageFormat::Tiff)
                 .context("cannot encode the float TIFF")?;
             c.into_inner()
         }
-        _ => bail!("{}: use a .npy or .tif output", output.display()),
     };
     write_atomic(output, &bytes)?;
     let undefined = f.data.iter().filter(|v| v[0].is_nan()).count();

@@ -219,7 +219,10 @@ pub fn ransac_affine(
     opts: &RansacOptions,
 ) -> Result<(Affine2, Vec<usize>), FeatureError> {
     if !(opts.threshold > 0.0 && opts.threshold.is_finite()) {
-        return Err(FeatureError::Options(format!("threshold {} is not > 0", opts.threshold)));
+        return Err(FeatureError::Options(format!(
+            "threshold {} is not a finite number > 0",
+            opts.threshold
+        )));
     }
     if !(opts.confidence > 0.0 && opts.confidence <= 1.0) {
         return Err(FeatureError::Options(format!("confidence {} not in (0, 1]", opts.confidence)));

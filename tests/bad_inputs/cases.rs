@@ -517,6 +517,44 @@ pub fn cases() -> Vec<Case> {
                 solve(fx, id, &text)
             },
         },
+        // `trimorph match` and `trimorph field`.
+        Case {
+            id: "match_small",
+            setup: |fx, _| {
+                let cell = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/microscopy/cell.png");
+                (args(&["match", s(&fx.image), s(&cell), "-o", &fx.out("m.csv")]), fx.image.clone())
+            },
+        },
+        Case {
+            id: "match_flat",
+            setup: |fx, id| {
+                let cell = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/microscopy/cell.png");
+                let flat = fx.dir.join(format!("{id}.png"));
+                image::GrayImage::from_pixel(96, 96, image::Luma([128])).save(&flat).unwrap();
+                (args(&["match", s(&cell), s(&flat), "-o", &fx.out("m.csv")]), flat)
+            },
+        },
+        Case {
+            id: "field_output_ext",
+            setup: |fx, id| {
+                let out = fx.dir.join(format!("{id}.png"));
+                (args(&["field", s(&fx.def), "-o", s(&out)]), out)
+            },
+        },
+        Case {
+            id: "field_jacobian_ext",
+            setup: |fx, id| {
+                let jac = fx.dir.join(format!("{id}.tif"));
+                (args(&["field", s(&fx.def), "-o", &fx.out("f.npy"), "--jacobian", s(&jac)]), jac)
+            },
+        },
+        Case {
+            id: "field_size",
+            setup: |fx, _| {
+                let a = args(&["field", s(&fx.def), "-o", &fx.out("f.npy"), "--size", "0,0"]);
+                (a, fx.def.clone())
+            },
+        },
         // `trimorph morph` and `trimorph editor`.
         Case {
             id: "morph_landmark_outside",
