@@ -26,7 +26,10 @@
 //!   [`BORDER`] pixels outside every triangle (an antialiased border pixel) gets the color of
 //!   the nearest point of the nearest triangle, so border pixels are not darkened by a
 //!   transparent field. Where triangles overlap (folds) the **later triangle in the list
-//!   wins**; inside always beats border. Pixels near no triangle stay transparent.
+//!   wins**; inside always beats border. Pixels near no triangle stay transparent. The
+//!   nearest point lies on the union's boundary, hence on the outline (below), so only the
+//!   triangles with an edge on the outline are searched: a few hundred of a fold-free
+//!   mesh's 100,000.
 //!
 //! The field is then painted through the path with a [`Pattern`] shader (nearest filter,
 //! identity transform), so every pixel with full coverage gets exactly its field color.
@@ -81,14 +84,15 @@ pub fn rasterize(
 pub fn rasterize_into(mesh: &ColorMesh, pixmap: &mut Pixmap) -> Result<(), ColorMeshError> {
     mesh.validate()?;
     let (w, h) = (pixmap.width(), pixmap.height());
-    let field =
-        color_field(mesh, w, h).ok_or(ColorMeshError::CanvasSize { width: w, height: h })?;
+    let (loops, border) = outline(mesh, w, h);
+    let field = color_field(mesh, w, h, &border)
+        .ok_or(ColorMeshError::CanvasSize { width: w, height: h })?;
     let pt = |v: u32| {
         let p = mesh.vertices[v as usize];
         ((p[0].clamp(-FAR, FAR) + 0.5) as f32, (p[1].clamp(-FAR, FAR) + 0.5) as f32)
     };
     let mut pb = PathBuilder::new();
-    for lp in outline(mesh, w, h) {
+    for lp in loops {
         let (x, y) = pt(lp[0]);
         pb.move_to(x, y);
         for &v in &lp[1..] {
@@ -119,7 +123,12 @@ pub fn rasterize_into(mesh: &ColorMesh, pixmap: &mut Pixmap) -> Result<(), Color
 /// point, the number of drawn triangles covering it, so filling it (non-zero) fills exactly
 /// the union; a fold-free mesh reduces to its border, which tiny-skia fills far faster than
 /// every triangle.
-fn outline(mesh: &ColorMesh, w: u32, h: u32) -> Vec<Vec<u32>> {
+///
+/// Also returns, per triangle, whether one of its edges is on the outline (a *border
+/// triangle*). The union's boundary lies on the outline (the coverage count changes only
+/// across it), so the point of the union nearest to an uncovered pixel centre lies on a
+/// border triangle: the border pass of [`fill_band`] needs only those.
+fn outline(mesh: &ColorMesh, w: u32, h: u32) -> (Vec<Vec<u32>>, Vec<bool>) {
     // Undirected edges (low, high) with +1 for low -> high and -1 for high -> low, bucketed
     // by `low` (counting sort: offsets `start`).
     let nv = mesh.vertices.len();
@@ -158,6 +167,18 @@ fn outline(mesh: &ColorMesh, w: u32, h: u32) -> Vec<Vec<u32>> {
         }
     }
     left.sort_unstable();
+    let mut on_outline: Vec<(u32, u32)> = left.iter().map(|&(a, b)| (a.min(b), a.max(b))).collect();
+    on_outline.sort_unstable();
+    on_outline.dedup();
+    let border = mesh
+        .triangles
+        .iter()
+        .map(|t| {
+            [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])]
+                .iter()
+                .any(|&(a, b)| on_outline.binary_search(&(a.min(b), a.max(b))).is_ok())
+        })
+        .collect();
     // Every vertex has as many net edges in as out, so a walk along unused edges can only
     // get stuck where it started: each walk is a closed loop.
     let mut used = vec![false; left.len()];
@@ -181,7 +202,7 @@ fn outline(mesh: &ColorMesh, w: u32, h: u32) -> Vec<Vec<u32>> {
         }
         loops.push(lp);
     }
-    loops
+    (loops, border)
 }
 
 /// Edge function `(b - a) x (q - a)`: twice the signed area of `a b q`.
@@ -244,8 +265,8 @@ impl Shade {
 }
 
 /// The color field of a valid mesh on a `w x h` canvas (see the module docs), or `None` if
-/// the size is not a valid pixmap.
-fn color_field(mesh: &ColorMesh, w: u32, h: u32) -> Option<Pixmap> {
+/// the size is not a valid pixmap. `border` flags the border triangles ([`outline`]).
+fn color_field(mesh: &ColorMesh, w: u32, h: u32, border: &[bool]) -> Option<Pixmap> {
     let mut field = Pixmap::new(w, h)?;
     let (wu, hu) = (w as usize, h as usize);
     let nbands = hu.div_ceil(BAND);
@@ -270,17 +291,18 @@ fn color_field(mesh: &ColorMesh, w: u32, h: u32) -> Option<Pixmap> {
         .par_chunks_mut(wu * BAND)
         .zip(bins.par_iter())
         .enumerate()
-        .for_each(|(b, (rows, tris))| fill_band(mesh, &shade, tris, b * BAND, wu, rows));
+        .for_each(|(b, (rows, tris))| fill_band(mesh, &shade, tris, border, b * BAND, wu, rows));
     Some(field)
 }
 
 /// Fills the rows `y0 ..` of the field (`rows`, `w` pixels each) from the triangles `tris`:
 /// first the pixel centres inside triangles (later wins), then the border pixels left (the
-/// nearest triangle wins).
+/// nearest of the border triangles, flagged in `border`, wins).
 fn fill_band(
     mesh: &ColorMesh,
     shade: &Shade,
     tris: &[u32],
+    border: &[bool],
     y0: usize,
     w: usize,
     rows: &mut [PremultipliedColorU8],
@@ -324,7 +346,7 @@ fn fill_band(
     }
     // Squared distance of the border color stored so far.
     let mut dist2 = vec![f64::INFINITY; rows.len()];
-    for (t, tri, p) in tris.iter().map(|&t| triangle(t)) {
+    for (t, tri, p) in tris.iter().filter(|&&t| border[t as usize]).map(|&t| triangle(t)) {
         let (xs, ys) = pixels(&p, BORDER);
         for (y, x) in ys.flat_map(|y| xs.clone().map(move |x| (y, x))) {
             let i = y * w + x;
@@ -538,7 +560,7 @@ mod tests {
     fn outline_is_the_border_without_folds_and_keeps_fold_edges() {
         let m = ColorMesh::from_image(&DynamicImage::ImageRgba8(noisy(6, 5)), 1, ColorMode::Flat)
             .unwrap();
-        let loops = outline(&m, 6, 5);
+        let (loops, _) = outline(&m, 6, 5);
         assert_eq!(loops.len(), 1);
         let mut border = loops[0].clone();
         border.sort_unstable();
@@ -548,8 +570,48 @@ mod tests {
         // A fold: the second triangle is inverted; the shared edge 0-1 is kept (twice).
         let v = vec![[0.0, 0.0], [10.0, 0.0], [0.0, 10.0], [10.0, 10.0]];
         let m = flat(v, vec![[0, 1, 2], [0, 3, 1]], vec![[0; 4]; 2]);
-        let edges: usize = outline(&m, 12, 12).iter().map(Vec::len).sum();
+        let edges: usize = outline(&m, 12, 12).0.iter().map(Vec::len).sum();
         assert_eq!(edges, 6);
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(48))]
+
+        /// The border pass over the border triangles only gives the field of the pass over
+        /// every triangle, also with folds (jittered grids fold often) and off-canvas parts.
+        #[test]
+        fn border_triangles_suffice_for_the_border_pass(
+            jitter in proptest::collection::vec((-4.0f64..4.0, -4.0f64..4.0), 36),
+            shift in (-6.0f64..6.0, -6.0f64..6.0),
+        ) {
+            let vertices: Vec<[f64; 2]> = (0..36)
+                .map(|k| {
+                    let (dx, dy) = jitter[k];
+                    [(k % 6) as f64 * 4.0 + 2.0 + dx + shift.0, (k / 6) as f64 * 4.0 + 2.0 + dy + shift.1]
+                })
+                .collect();
+            let mut triangles = Vec::new();
+            for r in 0..5u32 {
+                for c in 0..5u32 {
+                    let v = r * 6 + c;
+                    triangles.push([v, v + 1, v + 7]);
+                    triangles.push([v, v + 7, v + 6]);
+                }
+            }
+            let colors = (0..36u32).map(|k| [(k * 7) as u8, (k * 31) as u8, (k * 13) as u8, 255]);
+            let m = ColorMesh { vertices, triangles, colors: Colors::PerVertex(colors.collect()) };
+            let (w, h) = (26, 25);
+            let (_, border) = outline(&m, w, h);
+            let fast = color_field(&m, w, h, &border).unwrap();
+            let full = color_field(&m, w, h, &vec![true; m.triangles.len()]).unwrap();
+            for (i, (a, b)) in fast.pixels().iter().zip(full.pixels()).enumerate() {
+                let (a, b) = ([a.red(), a.green(), a.blue(), a.alpha()], [b.red(), b.green(), b.blue(), b.alpha()]);
+                proptest::prop_assert!(
+                    a.iter().zip(&b).all(|(x, y)| x.abs_diff(*y) <= 1),
+                    "pixel ({}, {}): {:?} vs {:?}", i % w as usize, i / w as usize, a, b
+                );
+            }
+        }
     }
 
     #[test]
