@@ -90,7 +90,7 @@ pub fn bind_cmd(a: BindArgs) -> Result<()> {
     let mut v = deformation::to_json(&s, None);
     v["model"] = serde_json::Value::from(scene_relative(a.output, a.model));
     write_atomic(a.output, crate::io::json_rows(&v).as_bytes())?;
-    let z = s.z_layers().expect("set above");
+    let z = s.z_layers().expect("set_z_layers(Some(..)) was called above");
     writeln!(
         std::io::stdout(),
         "{} vertices, {} triangles bound to {} prisms over [{}, {}] in {:.1} ms; {} outside\n-> {}",
