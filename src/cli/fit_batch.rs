@@ -121,7 +121,10 @@ pub fn shard_range(spec: &str, frames: usize) -> Result<(usize, usize)> {
         .and_then(|(i, n)| Some((i.trim().parse::<usize>().ok()?, n.trim().parse::<usize>().ok()?)))
         .filter(|&(i, n)| n >= 1 && i < n)
         .ok_or_else(|| anyhow!("--shard: expected i/n with 0 <= i < n, e.g. 0/4"))?;
-    Ok((i * frames / n, (i + 1) * frames / n))
+    // In u128: `i * frames` overflows usize for huge (but valid) `i/n`; the quotients are
+    // at most `frames`, so they fit back.
+    let at = |k: usize| (k as u128 * frames as u128 / n as u128) as usize;
+    Ok((at(i), at(i + 1)))
 }
 
 /// The scene's model: `--model-file`, else the scene's `"model"` key (relative to the scene).

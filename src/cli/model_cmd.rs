@@ -56,7 +56,7 @@ pub fn bind_cmd(a: BindArgs) -> Result<()> {
                 .and_then(|(c, r)| {
                     Some((c.trim().parse::<usize>().ok()?, r.trim().parse::<usize>().ok()?))
                 })
-                .filter(|&(c, r)| c >= 1 && r >= 1 && c * r <= 10_000)
+                .filter(|&(c, r)| c >= 1 && r >= 1 && c.checked_mul(r).is_some_and(|n| n <= 10_000))
                 .ok_or_else(|| anyhow!("--grid: expected COLSxROWS, e.g. 4x2"))?;
             if !(a.margin >= 0.0 && a.margin <= 10.0) {
                 bail!("--margin is a fraction of the model's size, between 0 and 10");
@@ -90,7 +90,7 @@ pub fn bind_cmd(a: BindArgs) -> Result<()> {
     let mut v = deformation::to_json(&s, None);
     v["model"] = serde_json::Value::from(scene_relative(a.output, a.model));
     write_atomic(a.output, crate::io::json_rows(&v).as_bytes())?;
-    let z = s.z_layers().expect("set above");
+    let z = s.z_layers().expect("set_z_layers(Some(..)) was called above");
     writeln!(
         std::io::stdout(),
         "{} vertices, {} triangles bound to {} prisms over [{}, {}] in {:.1} ms; {} outside\n-> {}",

@@ -42,10 +42,21 @@ fn first_page(path: &Path, which: &str) -> Result<DynamicImage> {
     stack.pages.into_iter().next().ok_or_else(|| anyhow!("image {which} has no pages"))
 }
 
+/// Most frames of a morph (they are all held in memory for the animations).
+const MAX_FRAMES: usize = 1000;
+/// Largest `|t|` of `--range` (a caricature far beyond the landmarks).
+const MAX_TIME: f64 = 100.0;
+/// Largest `--cells`: finer meshes exceed the fit's size limit
+/// ([`crate::fit::solve::MAX_FIT_VARIABLES`]).
+const MAX_CELLS: usize = 48;
+
 /// Runs the command.
 pub fn run(a: MorphArgs<'_>) -> Result<()> {
     if a.frames < 2 {
         bail!("--frames must be at least 2 (the first frame is A, the last B), got {}", a.frames);
+    }
+    if a.frames > MAX_FRAMES {
+        bail!("--frames: at most {MAX_FRAMES} (all frames are held in memory), got {}", a.frames);
     }
     let shape: Schedule = a.shape.parse().map_err(|e: String| anyhow!("--shape: {e}"))?;
     let color: Schedule = a.color.parse().map_err(|e: String| anyhow!("--color: {e}"))?;
@@ -56,10 +67,14 @@ pub fn run(a: MorphArgs<'_>) -> Result<()> {
         .and_then(|(x, y)| Some((x.trim().parse::<f64>().ok()?, y.trim().parse::<f64>().ok()?)))
         .filter(|(x, y)| x.is_finite() && y.is_finite())
         .ok_or_else(|| anyhow!("--range: expected T0,T1 (two numbers), got `{}`", a.range))?;
+    // Far outside 0..1 the blended control points overflow f64 and the warp never ends.
+    if t0.abs() > MAX_TIME || t1.abs() > MAX_TIME {
+        bail!("--range: times must lie within -{MAX_TIME}..{MAX_TIME}, got `{}`", a.range);
+    }
     let img_a = first_page(a.a, "A")?;
     let img_b = first_page(a.b, "B")?;
-    if a.cells == 0 {
-        bail!("--cells must be at least 1");
+    if a.cells == 0 || a.cells > MAX_CELLS {
+        bail!("--cells must be between 1 and {MAX_CELLS}, got {}", a.cells);
     }
     if !(a.background.is_finite() && a.background >= 0.0) {
         bail!("--background must be a number >= 0 (sample units), got {}", a.background);

@@ -223,7 +223,7 @@ fn apply_op(ed: &mut Editor, op: &Value, k: usize) -> Result<LastEdit> {
         None | Some(Value::Null) => Neighborhood::Radius(2),
         Some(Value::String(s)) if s == "all" => Neighborhood::All,
         Some(Value::Number(n)) if n.as_u64().is_some() => {
-            Neighborhood::Radius(n.as_u64().expect("checked") as usize)
+            Neighborhood::Radius(n.as_u64().expect("the match guard checked as_u64") as usize)
         }
         Some(x) => {
             return Err(ctx(format!("neighborhood: expected a whole number or \"all\", found {x}")))
@@ -270,7 +270,7 @@ fn apply_op(ed: &mut Editor, op: &Value, k: usize) -> Result<LastEdit> {
         }
         other => return Err(ctx(format!("unknown op `{other}` (use translate, rotate or scale)"))),
     }
-    let sel = ed.selection().expect("selected");
+    let sel = ed.selection().expect("select succeeded above, so a selection is set");
     Ok(LastEdit { anchors: sel.anchors.clone(), derived: sel.derived.clone() })
 }
 

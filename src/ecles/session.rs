@@ -300,7 +300,7 @@ impl Session {
                 )?;
             self.lsq = Some((weights.to_vec(), lsq));
         }
-        Ok(&self.lsq.as_ref().expect("just set").1)
+        Ok(&self.lsq.as_ref().expect("self.lsq is filled just above when stale").1)
     }
 
     /// Validated weights for the derived parameters (default 1).

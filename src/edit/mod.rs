@@ -448,7 +448,7 @@ impl Editor {
             sessions,
             preview: None,
         });
-        Ok(self.selection.as_ref().expect("just set"))
+        Ok(self.selection.as_ref().expect("the selection is stored just above"))
     }
 
     /// Runs ECLES update with these anchor values and hints, then writes the result.
@@ -651,7 +651,8 @@ impl Editor {
             let gy = eval([0.0, 1.0], true);
             sel.preview = Some((p0, gx, gy));
         }
-        let (p0, gx, gy) = sel.preview.as_ref().expect("built");
+        let (p0, gx, gy) =
+            sel.preview.as_ref().expect("the preview is built just above when missing");
         let mut out: Vec<[f64; 2]> = sel
             .base_anchors
             .iter()

@@ -174,7 +174,7 @@ pub fn lehmer_gcd(mut u: BigUint, mut v: BigUint) -> BigUint {
             return u;
         }
         if u.bits() <= 64 {
-            let (a, b) = (u.to_u64().expect("fits"), v.to_u64().expect("fits"));
+            let (a, b) = (u.to_u64().expect("u has at most 64 bits"), v.to_u64().expect("v <= u"));
             return BigUint::from(gcd_u64(a, b));
         }
         // Leading 62 bits, so that every intermediate fits in i64.

@@ -116,6 +116,16 @@ pub enum FitError {
     /// Invalid options.
     #[error("invalid fit option: {0}")]
     Options(String),
+    /// More variable control points than the dense normal matrix can hold.
+    #[error(
+        "the fit has {variables} variable control points, more than the {max} the solver \
+         handles; use a coarser mesh or a --radius around the landmarks",
+        max = MAX_FIT_VARIABLES
+    )]
+    TooLarge {
+        /// The number of variable control points.
+        variables: usize,
+    },
     /// The optimizer failed.
     #[error("optimizer failed: {0}")]
     Solver(String),
@@ -485,9 +495,16 @@ pub(super) fn fit_soft(
     Ok(Fit { spline: fitted, report })
 }
 
+/// The most variable control points a soft fit takes: its normal matrix is stored densely
+/// (`8 nv^2` bytes, 8.6 GB at this size, touched only along its envelope).
+pub const MAX_FIT_VARIABLES: usize = 32_768;
+
 /// Factors the (reweighted) normal matrix with a tiny ridge.
 fn factor(obj: &Objective, scale: Option<&[f64]>) -> Result<Cholesky, FitError> {
     let nv = obj.param.nv();
+    if nv > MAX_FIT_VARIABLES {
+        return Err(FitError::TooLarge { variables: nv });
+    }
     let mut nm = obj.normal_matrix_weighted(scale);
     let trace: f64 = (0..nv).map(|i| nm[i * nv + i]).sum();
     let ridge = 1e-10 * trace / nv as f64;

@@ -112,6 +112,7 @@ impl Mesh {
     /// `r (cols + 1) + c` is at `(c width / cols, r height / rows)`), each cell split along its
     /// diagonal from the lower-left `(c, r)` to the upper-right `(c + 1, r + 1)` corner into
     /// `2 cols rows` triangles (cell `(c, r)` gives triangles `2 (r cols + c)` and the next).
+    /// At most [`MAX_GRID_CELLS`](super::MAX_GRID_CELLS) cells ([`MeshError::GridTooLarge`]).
     pub fn grid(
         cols: usize,
         rows: usize,
@@ -122,6 +123,9 @@ impl Mesh {
         let grid = check_grid(opts)?;
         if cols == 0 || rows == 0 {
             return Err(MeshError::Empty);
+        }
+        if cols.checked_mul(rows).is_none_or(|n| n > super::MAX_GRID_CELLS) {
+            return Err(MeshError::GridTooLarge { cols, rows });
         }
         let mut verts = Vec::with_capacity((cols + 1) * (rows + 1));
         for r in 0..=rows {

@@ -231,7 +231,19 @@ pub enum MeshError {
     /// The mesh would have no triangles.
     #[error("the mesh has no triangles; give at least one triangle (or grid cell)")]
     Empty,
+    /// A regular grid with more than [`MAX_GRID_CELLS`] cells.
+    #[error("a grid of {cols} x {rows} cells is too large (at most {max} cells); use fewer cells", max = MAX_GRID_CELLS)]
+    GridTooLarge {
+        /// Requested columns.
+        cols: usize,
+        /// Requested rows.
+        rows: usize,
+    },
 }
+
+/// The most cells [`Mesh::grid`] builds (`cols * rows`): larger grids would need tens of
+/// gigabytes once a spline is built over them.
+pub const MAX_GRID_CELLS: usize = 1_000_000;
 
 /// A validated 2D reference triangle mesh with snapped coordinates, adjacency and a point
 /// location index. See the [module documentation](self) for the conventions.

@@ -120,3 +120,15 @@ fn bucket_lookup_matches_brute_force() {
         }
     }
 }
+
+#[test]
+fn grid_too_large_is_an_error_not_an_overflow() {
+    // (cols + 1) * (rows + 1) overflowed usize (a panic), and 100000 x 100000 asked for 160 GB.
+    let o = MeshOptions::default();
+    assert!(matches!(Mesh::grid(usize::MAX, 2, 1.0, 1.0, o), Err(MeshError::GridTooLarge { .. })));
+    assert!(matches!(
+        Mesh::grid(100_000, 100_000, 10.0, 10.0, o),
+        Err(MeshError::GridTooLarge { cols: 100_000, rows: 100_000 })
+    ));
+    assert!(Mesh::grid(1000, 1, 1000.0, 10.0, o).is_ok());
+}
