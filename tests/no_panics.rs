@@ -168,3 +168,23 @@ fn fit_with_too_many_variables_is_an_error() {
     let o = trimorph(&["fit", s(&def), "--landmarks", &lm, "-o", s(&dir.path().join("f.json"))]);
     fails_with(&o, "variable control points");
 }
+
+#[test]
+fn mesh_with_too_many_control_points_is_an_error() {
+    // 300 x 300 cells at degree 15: 20 million exact control points, an allocation abort.
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("big.json");
+    let o = trimorph(&[
+        "mesh",
+        "--grid",
+        "300x300",
+        "--size",
+        "300,300",
+        "--degree",
+        "15",
+        "-o",
+        s(&out),
+    ]);
+    fails_with(&o, "use a coarser mesh or a lower degree");
+    assert!(!out.exists());
+}

@@ -145,7 +145,12 @@ pub fn run_single(
     } else {
         (lms, Vec::new())
     };
-    let in_file = |e: FitError| in_landmarks(fit_error(e), landmarks);
+    // A fit too large for the solver is the deformation's doing (its mesh and degree);
+    // every other fit error is about the landmarks.
+    let in_file = |e: FitError| match e {
+        FitError::TooLarge { .. } => anyhow::anyhow!("{}: {e}", def.display()),
+        e => in_landmarks(fit_error(e), landmarks),
+    };
     let f = fit(&s, &fitted, &opts).map_err(in_file)?;
     let rep = with_holdout(f.report, &f.spline, &held).map_err(in_file)?;
     write_atomic(output, deformation::to_string(&f.spline, None).as_bytes())?;

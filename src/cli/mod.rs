@@ -187,7 +187,7 @@ enum Command {
         /// --phi-ab).
         #[arg(long, value_name = "DEF", requires = "phi_ab")]
         phi_ba: Option<PathBuf>,
-        /// Mesh cells per side of the fitted deformations.
+        /// Mesh cells per side of the fitted deformations (1 to 48).
         #[arg(long, default_value_t = 8)]
         cells: usize,
         /// Background where neither image has a preimage: one value for every channel, in
@@ -195,11 +195,11 @@ enum Command {
         /// alpha is 0 there when the images have alpha).
         #[arg(long, default_value_t = 0.0)]
         background: f64,
-        /// Number of frames (t = k / (frames - 1)).
+        /// Number of frames (t = k / (frames - 1)), 2 to 1000.
         #[arg(long, default_value_t = 30)]
         frames: usize,
         /// Times T0,T1 of the first and last frame; outside 0,1 is a caricature
-        /// (e.g. `-0.25,1.25`).
+        /// (e.g. `-0.25,1.25`); times lie within -100..100.
         #[arg(long, default_value = "0,1", allow_hyphen_values = true)]
         range: String,
         /// Output folder.

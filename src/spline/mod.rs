@@ -39,6 +39,21 @@ pub struct ZLayers {
     pub z1: Vec<Rat>,
 }
 
+/// The most control points a spline may have (2^22). Each exact control point takes a few
+/// hundred bytes with its C1 conditions, so this caps a spline at about a gigabyte; a
+/// 200 x 200 grid at degree 7 has 2 million.
+pub const MAX_CONTROL_POINTS: usize = 1 << 22;
+
+/// Number of control points of a degree-`d` spline over `mesh`: one per vertex, `d - 1` per
+/// edge and `(d - 1)(d - 2) / 2` inside each triangle (thesis ch. 12-13).
+pub fn control_point_count(mesh: &Mesh, d: usize) -> u128 {
+    let (nv, ne, nf) =
+        (mesh.num_vertices() as u128, mesh.num_edges() as u128, mesh.num_triangles() as u128);
+    let d = d as u128;
+    let inner = if d >= 3 { (d - 1) * (d - 2) / 2 } else { 0 };
+    nv + ne * d.saturating_sub(1) + nf * inner
+}
+
 /// Errors of spline construction and evaluation.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum SplineError {
@@ -62,6 +77,18 @@ pub enum SplineError {
         edge: usize,
         /// Its number along the edge.
         index: usize,
+    },
+    /// More control points than [`MAX_CONTROL_POINTS`].
+    #[error(
+        "a degree-{degree} spline over this mesh has {points} control points, more than the \
+         {max} trimorph handles; use a coarser mesh or a lower degree",
+        max = MAX_CONTROL_POINTS
+    )]
+    TooLarge {
+        /// The degree asked for.
+        degree: usize,
+        /// The number of control points it would have.
+        points: u128,
     },
     /// A point is outside the mesh.
     #[error("point ({x}, {y}) is outside the reference mesh")]
@@ -94,6 +121,10 @@ impl Spline {
     pub fn identity(mesh: Mesh, degree: usize) -> Result<Spline, SplineError> {
         if degree == 0 || degree > 15 {
             return Err(SplineError::Degree(degree));
+        }
+        let points = control_point_count(&mesh, degree);
+        if points > MAX_CONTROL_POINTS as u128 {
+            return Err(SplineError::TooLarge { degree, points });
         }
         let layout = Layout::new(&mesh, degree);
         let den = Int::from(degree as i64 * mesh.grid_denominator());

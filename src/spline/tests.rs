@@ -32,11 +32,27 @@ fn counts_match_table_19() {
     assert_eq!(s.quads().len(), 40);
 }
 
+/// Bug found in review: `mesh --grid 300x300 --degree 15` tried to build 20 million exact
+/// control points and aborted on allocation; it is a `TooLarge` error now, checked first.
+#[test]
+fn too_many_control_points_is_an_error_before_any_allocation() {
+    let g = Mesh::grid(300, 300, 300.0, 300.0, MeshOptions::default()).unwrap();
+    let want = 301 * 301 + (3 * 300 * 300 + 2 * 300) * 14 + 2 * 300 * 300 * 91;
+    assert_eq!(super::control_point_count(&g, 15), want as u128);
+    match Spline::identity(g.clone(), 15) {
+        Err(SplineError::TooLarge { degree: 15, points }) => assert_eq!(points, want as u128),
+        other => panic!("{other:?}"),
+    }
+    // The same mesh at degree 1 is fine.
+    assert!(Spline::identity(g, 1).is_ok());
+}
+
 #[test]
 fn counts_for_every_degree() {
     let m = strip();
     for d in 1..=8 {
         let s = Spline::identity(m.clone(), d).unwrap();
+        assert_eq!(super::control_point_count(&m, d), s.num_points() as u128);
         let expect = 8 + (d - 1) * 13 + if d >= 3 { (d - 1) * (d - 2) / 2 * 6 } else { 0 };
         assert_eq!(s.num_points(), expect, "degree {d}");
         assert_eq!(s.quads().len(), d * 5);

@@ -333,6 +333,15 @@ pub fn cases() -> Vec<Case> {
             },
         },
         // Landmarks.
+        Case {
+            id: "fit_too_large",
+            setup: |fx, id| {
+                let def = fx.dir.join(format!("{id}.json"));
+                ok(&trimorph(&["mesh", "--grid", "64x64", "--size", "640,640", "-o", s(&def)]));
+                let lms = fx.file("too_large.csv", format!("{LM_HEAD}a,50,50,52,52\n"));
+                (args(&["fit", s(&def), "--landmarks", s(&lms), "-o", &fx.out("f.json")]), def)
+            },
+        },
         Case { id: "lm_empty", setup: |fx, id| fit(fx, id, "csv", "", &[]) },
         Case {
             id: "lm_short_row",
