@@ -64,19 +64,29 @@ pub fn rat_to_string(r: &Rat) -> String {
     }
 }
 
+/// Largest decimal exponent [`parse_rat`] accepts: `1e10000` is a 33,000-bit integer, and
+/// every larger exponent would make the exact arithmetic crawl.
+pub const MAX_DECIMAL_EXPONENT: i64 = 10_000;
+
 /// Error from [`parse_rat`].
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("`{text}` is not an exact number (expected an integer, a decimal like 1.25e-3, or p/q)")]
-pub struct ParseRatError {
-    /// The text that failed to parse.
-    pub text: String,
+pub enum ParseRatError {
+    /// Not an integer, decimal or fraction.
+    #[error("`{0}` is not an exact number (expected an integer, a decimal like 1.25e-3, or p/q)")]
+    Syntax(String),
+    /// A decimal exponent beyond [`MAX_DECIMAL_EXPONENT`].
+    #[error(
+        "`{0}`: the exponent is beyond +-{max}; write the number at a smaller scale",
+        max = MAX_DECIMAL_EXPONENT
+    )]
+    Exponent(String),
 }
 
 /// Parses an exact rational from `"p"`, `"p/q"` or a decimal such as `"-1.25e-3"`.
 ///
 /// Decimals are read exactly (`"0.1"` is 1/10, not the nearest double).
 pub fn parse_rat(text: &str) -> Result<Rat, ParseRatError> {
-    let err = || ParseRatError { text: text.to_string() };
+    let err = || ParseRatError::Syntax(text.to_string());
     let t = text.trim();
     if t.is_empty() {
         return Err(err());
@@ -90,7 +100,16 @@ pub fn parse_rat(text: &str) -> Result<Rat, ParseRatError> {
         return Ok(rat_from_big(&BigRational::new(p, q)));
     }
     let (mant, exp) = match t.find(['e', 'E']) {
-        Some(i) => (&t[..i], t[i + 1..].parse::<i64>().map_err(|_| err())?),
+        Some(i) => {
+            let e = &t[i + 1..];
+            let digits = e.strip_prefix(['-', '+']).unwrap_or(e);
+            if digits.is_empty() || !digits.bytes().all(|b| b.is_ascii_digit()) {
+                return Err(err());
+            }
+            // Any run of digits too long for i64 is beyond the limit too.
+            let exp = e.parse::<i64>().unwrap_or(i64::MAX);
+            (&t[..i], exp)
+        }
         None => (t, 0),
     };
     let (neg, mant) = match mant.strip_prefix('-') {
@@ -104,8 +123,8 @@ pub fn parse_rat(text: &str) -> Result<Rat, ParseRatError> {
     if !ip.bytes().chain(fp.bytes()).all(|b| b.is_ascii_digit()) {
         return Err(err());
     }
-    if exp.abs() > 10_000 {
-        return Err(err());
+    if exp.saturating_abs() > MAX_DECIMAL_EXPONENT {
+        return Err(ParseRatError::Exponent(text.to_string()));
     }
     let digits: BigInt = format!("0{ip}{fp}").parse().map_err(|_| err())?;
     let scale = exp - fp.len() as i64;
@@ -353,8 +372,17 @@ mod tests {
         assert_eq!(parse_rat("-1.25e-3").unwrap(), Rat::new(Int::from(-1), Int::from(800)));
         assert_eq!(parse_rat("2E3").unwrap(), rat_int(2000));
         assert_eq!(parse_rat(".5").unwrap(), Rat::new(Int::from(1), Int::from(2)));
-        for bad in ["", "1/0", "abc", "1.2.3", "NaN", "inf", "1e", "--1", "."] {
-            assert!(parse_rat(bad).is_err(), "{bad}");
+        for bad in ["", "1/0", "abc", "1.2.3", "NaN", "inf", "1e", "--1", ".", "1e-", "1e+-2"] {
+            assert!(matches!(parse_rat(bad), Err(ParseRatError::Syntax(_))), "{bad}");
+        }
+        assert_eq!(parse_rat("1e+2").unwrap(), rat_int(100));
+        assert!(parse_rat("1e10000").is_ok() && parse_rat("1e-10000").is_ok());
+        // Fuzzing (solve_json) made `11e6198`-style inputs; beyond the limit they get their
+        // own message, also when the exponent does not fit an i64.
+        for far in ["1e10001", "1e-10001", "5e99999999999999999999999", "2e-99999999999999999999"] {
+            let e = parse_rat(far).unwrap_err();
+            assert!(matches!(e, ParseRatError::Exponent(_)), "{far}");
+            assert!(e.to_string().contains("exponent is beyond"), "{e}");
         }
     }
 
