@@ -1,8 +1,9 @@
 //! One editor drag step on the bundled scene (worm model in prisms over an 8x8-cell mesh of
 //! a 511 x 511 frame, degree 5, 1681 control points): the API call `POST /api/update`
 //! through [`trimorph::server::handle`], i.e. the exact ECLES update, the deformed model,
-//! mesh polylines and control points, and the JSON answer. The browser adds the HTTP round
-//! trip and the redraw (measured by `tests/editor_e2e.rs`).
+//! mesh polylines and control points, and the JSON answer; also in z1 mode, whose answer
+//! adds the z values and the model in 3D. The browser adds the HTTP round trip and the
+//! redraw (measured by `tests/editor_e2e.rs`).
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use serde_json::json;
@@ -36,6 +37,18 @@ fn bench(c: &mut Criterion) {
         });
         g.bench_function(format!("select_radius{radius}"), |b| {
             b.iter(|| black_box(handle(&mut doc, "POST", "/api/select", sel.as_bytes()).status))
+        });
+        // A z1 drag: the answer also carries z0, z1 and the deformed model in 3D.
+        let sel_z = json!({"anchors": [p], "radius": radius, "mode": "z1"}).to_string();
+        assert_eq!(handle(&mut doc, "POST", "/api/select", sel_z.as_bytes()).status, 200);
+        g.bench_function(format!("z1_drag_step_radius{radius}"), |b| {
+            b.iter(|| {
+                k += 1;
+                let body = json!({"op": "translate", "v": [f64::from(k % 40) * 0.25]}).to_string();
+                let r = handle(&mut doc, "POST", "/api/update", body.as_bytes());
+                assert_eq!(r.status, 200);
+                black_box(r.body.len())
+            })
         });
     }
     g.finish();

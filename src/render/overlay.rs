@@ -6,36 +6,58 @@
 //! the border edges. Landmarks: the target `t_i` as a red ring, `phi(s_i)` as a green dot,
 //! joined by a yellow line (its length is the residual).
 
-use std::collections::HashMap;
 use tiny_skia::{Color, FillRule, Paint, PathBuilder, Pixmap, Stroke, Transform};
 
-/// The silhouette (from `+z`) of a triangle mesh as 2D segments.
+/// The silhouette (from `+z`) of a triangle mesh as 2D segments: the border edges (one
+/// triangle) and the edges whose triangles do not all face the same way (up or down in the
+/// xy projection). Segments come ordered by their vertex pair.
 pub fn silhouette(vertices: &[[f64; 3]], triangles: &[[u32; 3]]) -> Vec<[[f64; 2]; 2]> {
-    let up = |t: &[u32; 3]| {
-        let [a, b, c] = t.map(|i| vertices[i as usize]);
-        (b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1]) > 0.0
-    };
-    let mut edges: HashMap<(u32, u32), (u8, bool)> = HashMap::new();
-    for t in triangles {
-        let u = up(t);
-        for k in 0..3 {
-            let (a, b) = (t[k], t[(k + 1) % 3]);
-            let key = (a.min(b), a.max(b));
-            let e = edges.entry(key).or_insert((0, u));
-            e.0 += 1;
-            if e.1 != u {
-                e.0 = 99; // faces on both sides disagree: a silhouette edge
+    SilhouetteEdges::new(triangles).segments(vertices)
+}
+
+/// The edges of a triangle mesh grouped once, for the [`silhouette`] of many deformations of
+/// the same mesh (the editor draws one per drag step): each query then only computes which
+/// way the triangles face.
+#[derive(Clone, Debug)]
+pub struct SilhouetteEdges {
+    triangles: Vec<[u32; 3]>,
+    /// `(low, high, triangle)` per triangle side, sorted: the sides of one edge are adjacent.
+    sides: Vec<(u32, u32, u32)>,
+}
+
+impl SilhouetteEdges {
+    /// Groups the edges of `triangles`.
+    pub fn new(triangles: &[[u32; 3]]) -> SilhouetteEdges {
+        let mut sides = Vec::with_capacity(3 * triangles.len());
+        for (t, tri) in triangles.iter().enumerate() {
+            for k in 0..3 {
+                let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                sides.push((a.min(b), a.max(b), t as u32));
             }
         }
+        sides.sort_unstable();
+        SilhouetteEdges { triangles: triangles.to_vec(), sides }
     }
-    edges
-        .into_iter()
-        .filter(|(_, (count, _))| *count == 1 || *count >= 99)
-        .map(|((a, b), _)| {
-            let (p, q) = (vertices[a as usize], vertices[b as usize]);
-            [[p[0], p[1]], [q[0], q[1]]]
-        })
-        .collect()
+
+    /// The silhouette segments for the vertex positions `vertices`.
+    pub fn segments(&self, vertices: &[[f64; 3]]) -> Vec<[[f64; 2]; 2]> {
+        let up: Vec<bool> = self
+            .triangles
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| vertices[i as usize]);
+                (b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1]) > 0.0
+            })
+            .collect();
+        self.sides
+            .chunk_by(|x, y| (x.0, x.1) == (y.0, y.1))
+            .filter(|e| e.len() == 1 || e.iter().any(|s| up[s.2 as usize] != up[e[0].2 as usize]))
+            .map(|e| {
+                let (p, q) = (vertices[e[0].0 as usize], vertices[e[0].1 as usize]);
+                [[p[0], p[1]], [q[0], q[1]]]
+            })
+            .collect()
+    }
 }
 
 /// A landmark in the overlay: where the fit sends its source, and its target.

@@ -19,6 +19,7 @@ use crate::io::landmarks::read_landmarks;
 use crate::io::model::{load_model, save_model};
 use crate::io::{deformation, read_text, write_atomic};
 use crate::prism::{bind, deform, Binding, Model};
+use crate::render::overlay::SilhouetteEdges;
 use crate::spline::Spline;
 use image::DynamicImage;
 use serde_json::{json, Value};
@@ -37,6 +38,16 @@ pub struct BoundModel {
     pub model: Model,
     /// Where each vertex sits in the reference prisms.
     pub binding: Binding,
+    /// The model's edges, grouped once for the silhouette of every answer.
+    pub edges: SilhouetteEdges,
+}
+
+impl BoundModel {
+    /// Binds `model` (from `path`) with `binding`.
+    pub fn new(path: PathBuf, model: Model, binding: Binding) -> BoundModel {
+        let edges = SilhouetteEdges::new(&model.triangles);
+        BoundModel { path, model, binding, edges }
+    }
 }
 
 /// The frame to match (the background).
@@ -81,8 +92,44 @@ pub struct Doc {
     before_drag: Option<Spline>,
     root: PathBuf,
     name: Option<String>,
+    /// Per reference mesh edge, where its sample points lie: (triangle, barycentrics).
+    edge_samples: Vec<Vec<(usize, [f64; 3])>>,
     /// Milliseconds of the last exact update.
     pub last_update_ms: f64,
+}
+
+/// Segments per mesh edge in the page's `mesh` polylines.
+pub const EDGE_SAMPLES: usize = 8;
+
+/// Every unique edge of `mesh` (ordered by its vertex pair) as [`EDGE_SAMPLES`] + 1 points,
+/// located once in the reference mesh (the mesh never changes within a document).
+fn locate_edge_samples(mesh: &crate::mesh::Mesh) -> Vec<Vec<(usize, [f64; 3])>> {
+    let mut edges: Vec<(usize, usize)> = Vec::with_capacity(3 * mesh.num_triangles());
+    for t in 0..mesh.num_triangles() {
+        let v = mesh.triangle(t);
+        for k in 0..3 {
+            let (a, b) = (v[k], v[(k + 1) % 3]);
+            edges.push((a.min(b), a.max(b)));
+        }
+    }
+    edges.sort_unstable();
+    edges.dedup();
+    let mut hint = None;
+    edges
+        .iter()
+        .map(|&(a, b)| {
+            let (pa, pb) = (mesh.vertex(a), mesh.vertex(b));
+            (0..=EDGE_SAMPLES)
+                .filter_map(|k| {
+                    let u = k as f64 / EDGE_SAMPLES as f64;
+                    let p = [pa[0] + u * (pb[0] - pa[0]), pa[1] + u * (pb[1] - pa[1])];
+                    let found = mesh.locate(p, hint);
+                    hint = found.map(|f| f.0).or(hint);
+                    found
+                })
+                .collect()
+        })
+        .collect()
 }
 
 fn edit_err(e: EditError) -> ServerError {
@@ -92,7 +139,9 @@ fn edit_err(e: EditError) -> ServerError {
 impl Doc {
     /// A document for `spline`, confined to `root` for file loads and saves.
     pub fn new(spline: Spline, root: &Path) -> Doc {
+        let edge_samples = locate_edge_samples(spline.mesh());
         Doc {
+            edge_samples,
             editor: Editor::new(spline),
             model: None,
             frame: None,
@@ -110,7 +159,7 @@ impl Doc {
     pub fn set_model(&mut self, path: PathBuf, model: Model) -> Result<(), ServerError> {
         let binding = bind(&model, self.editor.spline())
             .map_err(|e| ServerError::Unprocessable(format!("model {}: {e}", path.display())))?;
-        self.model = Some(BoundModel { path, model, binding });
+        self.model = Some(BoundModel::new(path, model, binding));
         Ok(())
     }
 
@@ -347,7 +396,7 @@ impl Doc {
             let bound = match model {
                 Some((p, m)) => {
                     let binding = bind(&m, &s).map_err(|e| bad(format!("model: {e}")))?;
-                    Some(BoundModel { path: p, model: m, binding })
+                    Some(BoundModel::new(p, m, binding))
                 }
                 None => None,
             };
@@ -370,6 +419,11 @@ impl Doc {
         self.name = Some(rel.to_string());
         self.before_drag = None;
         Ok(())
+    }
+
+    /// The sample points of the mesh edges in the reference mesh ([`EDGE_SAMPLES`]).
+    pub fn edge_samples(&self) -> &[Vec<(usize, [f64; 3])>] {
+        &self.edge_samples
     }
 
     /// The deformed model's vertices (`psi`), if a model is bound.

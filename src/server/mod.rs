@@ -158,6 +158,18 @@ pub fn handle(doc: &mut Doc, method: &str, url: &str, body: &[u8]) -> Reply {
             }
             Reply::json(&v)
         }
+        Ok(Answer::Text(mut text)) => {
+            // A JSON object: `server_ms` goes before its closing brace.
+            if text.ends_with('}') {
+                text.pop();
+                let ms = t0.elapsed().as_secs_f64() * 1e3;
+                text.push_str(&format!(
+                    "{}\"server_ms\":{ms}}}",
+                    if text.len() > 1 { "," } else { "" }
+                ));
+            }
+            Reply { status: 200, content_type: "application/json", body: text.into_bytes() }
+        }
         Ok(Answer::Png(bytes)) => Reply { status: 200, content_type: "image/png", body: bytes },
         Err(e) => Reply::error(&e),
     }
@@ -165,16 +177,18 @@ pub fn handle(doc: &mut Doc, method: &str, url: &str, body: &[u8]) -> Reply {
 
 enum Answer {
     Json(Value),
+    /// A JSON object already written as text (the geometry answers).
+    Text(String),
     Png(Vec<u8>),
 }
 
-fn with_geometry(doc: &Doc, mut extra: Value) -> Value {
-    let g = views::geometry(doc, false);
-    if let (Some(o), Value::Object(g)) = (extra.as_object_mut(), g) {
-        o.extend(g);
-    }
-    extra["state"] = doc.state();
-    extra
+/// The entries of the object `extra`, the geometry and the state, as one JSON object.
+fn with_geometry(doc: &Doc, extra: Value) -> Answer {
+    let mut out = views::JsonObject::new();
+    out.extend(&extra);
+    views::write_geometry(doc, false, &mut out);
+    out.value("state", &doc.state());
+    Answer::Text(out.finish())
 }
 
 fn route(
@@ -194,7 +208,7 @@ fn route(
     match (method, path) {
         ("GET", "/api/state") => Ok(Json(doc.state())),
         ("GET", "/api/geometry") => {
-            Ok(Json(views::geometry(doc, query.split('&').any(|q| q == "full=1"))))
+            Ok(Answer::Text(views::geometry(doc, query.split('&').any(|q| q == "full=1"))))
         }
         ("GET", "/api/image.png") => match doc.frame() {
             Some(f) => Ok(Png(f.png.clone())),
@@ -247,7 +261,7 @@ fn route(
                 None => Mode::Xy,
             };
             let sel = doc.select(&anchors, radius, mode)?;
-            Ok(Json(with_geometry(doc, sel)))
+            Ok(with_geometry(doc, sel))
         }
         ("POST", "/api/update") => {
             let b = parse()?;
@@ -268,7 +282,7 @@ fn route(
                 }
             };
             doc.update(&op)?;
-            Ok(Json(with_geometry(doc, json!({ "update_ms": doc.last_update_ms }))))
+            Ok(with_geometry(doc, json!({ "update_ms": doc.last_update_ms })))
         }
         ("POST", "/api/clear") => {
             doc.clear_selection();
@@ -276,11 +290,11 @@ fn route(
         }
         ("POST", "/api/undo") => {
             doc.undo()?;
-            Ok(Json(with_geometry(doc, json!({}))))
+            Ok(with_geometry(doc, json!({})))
         }
         ("POST", "/api/redo") => {
             doc.redo()?;
-            Ok(Json(with_geometry(doc, json!({}))))
+            Ok(with_geometry(doc, json!({})))
         }
         ("POST", "/api/save") => {
             let b = parse()?;
@@ -311,7 +325,7 @@ fn route(
             let b = parse()?;
             let hard = b.get("hard").and_then(Value::as_bool).unwrap_or(false);
             let r = doc.refit(text(&b, "landmarks")?, hard)?;
-            Ok(Json(with_geometry(doc, r)))
+            Ok(with_geometry(doc, r))
         }
         (_, p) if p.starts_with("/api/") => {
             Err(ServerError::NotFound(format!("{method} {p} is not part of the API")))

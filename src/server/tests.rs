@@ -42,7 +42,9 @@ fn select_update_undo_redo_round_trip_exactly() {
             json!({"op": "translate", "v": [step as f64 * 1.5, -1.0]}),
         );
         assert_eq!(st, 200, "{v}");
-        assert_eq!(v["points"][c], json!([50.0 + step as f64 * 1.5, 49.0]));
+        let p: Vec<f64> =
+            v["points"][c].as_array().unwrap().iter().filter_map(Value::as_f64).collect();
+        assert_eq!(p, [50.0 + step as f64 * 1.5, 49.0]);
     }
     let q = d.spline().point_f64(c);
     assert_eq!(q, [54.5, 49.0]);
@@ -338,4 +340,68 @@ fn refit_holds_the_corrected_points_exactly() {
     assert_eq!(call(&mut d, "GET", "/api/state", Value::Null).1["undo"], 2);
     let (st, _) = call(&mut d, "POST", "/api/refit", json!({"landmarks": "../l.csv"}));
     assert_eq!(st, 403);
+}
+
+/// The geometry is written as text without a `Value` tree: it must still be valid JSON, and
+/// the mesh polylines (sample points located once per document) must be phi along each
+/// reference edge after edits.
+#[test]
+fn geometry_text_is_json_and_the_mesh_lines_follow_phi() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut d = doc(dir.path());
+    let c = centre(&d);
+    call(&mut d, "POST", "/api/select", json!({"anchors": [c], "radius": 2}));
+    let (st, v) = call(&mut d, "POST", "/api/update", json!({"op": "translate", "v": [3, -2]}));
+    assert_eq!(st, 200, "{v}");
+    assert!(v["server_ms"].as_f64().is_some() && v["state"]["undo"].is_number(), "{v}");
+    let (_, g) = call(&mut d, "GET", "/api/geometry?full=1", Value::Null);
+    let (s, mesh) = (d.spline(), d.spline().mesh());
+    let mut edges: Vec<(usize, usize)> = (0..mesh.num_triangles())
+        .flat_map(|t| {
+            let v = mesh.triangle(t);
+            [(v[0], v[1]), (v[1], v[2]), (v[2], v[0])].map(|(a, b)| (a.min(b), a.max(b)))
+        })
+        .collect();
+    edges.sort_unstable();
+    edges.dedup();
+    let lines = g["mesh"].as_array().unwrap();
+    assert_eq!(lines.len(), edges.len());
+    for (line, &(a, b)) in lines.iter().zip(&edges) {
+        let line = line.as_array().unwrap();
+        assert_eq!(line.len(), doc::EDGE_SAMPLES + 1);
+        for (k, q) in line.iter().enumerate() {
+            let u = k as f64 / doc::EDGE_SAMPLES as f64;
+            let (pa, pb) = (mesh.vertex(a), mesh.vertex(b));
+            let p = [pa[0] + u * (pb[0] - pa[0]), pa[1] + u * (pb[1] - pa[1])];
+            let want = s.eval(p, None).unwrap();
+            for i in 0..2 {
+                let got = q[i].as_f64().unwrap();
+                assert!((got - want[i]).abs() <= 5e-4 + 1e-9, "edge {a}-{b} sample {k}");
+            }
+        }
+    }
+    assert_eq!(g["points"].as_array().unwrap().len(), s.num_points());
+}
+
+#[test]
+fn json_object_writes_null_for_non_finite_numbers() {
+    let mut o = views::JsonObject::new();
+    o.numbers("a", [1.0, f64::NAN, 2.5, f64::INFINITY]);
+    o.points("p", [[0.1234, -7.0]]);
+    o.value("s", &json!({"k": "x\"y"}));
+    let v: Value = serde_json::from_str(&o.finish()).unwrap();
+    assert_eq!(v["a"].to_string(), "[1,null,2.5,null]");
+    assert_eq!(v["p"][0][0].as_f64(), Some(0.123));
+    assert_eq!(v["s"]["k"], "x\"y");
+    assert_eq!(views::JsonObject::new().finish(), "{}");
+    // Rounded to 1/1000 and written without float formatting: check against it.
+    let samples = [0.0, -0.0, 0.0004, -0.0004, 0.0005, 1.05, -1.05, 12.3456, -0.001, 99.9999];
+    let more = [-7.25, 1e14, -3e15, 123456.789, 0.010, 5e-7];
+    let mut o = views::JsonObject::new();
+    o.numbers("n", samples.iter().chain(&more).copied());
+    let v: Value = serde_json::from_str(&o.finish()).unwrap();
+    for (got, x) in v["n"].as_array().unwrap().iter().zip(samples.iter().chain(&more)) {
+        let want = (x * 1000.0).round() / 1000.0;
+        assert_eq!(got.as_f64().unwrap(), want, "{x} written as {got}");
+    }
 }

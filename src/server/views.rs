@@ -5,7 +5,7 @@
 //! * `points`: the control points `q_m` (xy), and in 2.5D the scalar control values of
 //!   `sigma0` and `sigma1` (`z0`, `z1`);
 //! * `mesh`: the deformed reference mesh, each mesh edge as a polyline of
-//!   [`EDGE_SAMPLES`] + 1 points of `phi` along it;
+//!   [`super::doc::EDGE_SAMPLES`] + 1 points of `phi` along it;
 //! * `model`: the deformed model `psi(v)` (x, y, z per vertex), and `model_outline`, its
 //!   silhouette seen from `+z` as segments;
 //! * static parts (with `full`): the control net (pairs of point indices), the C1
@@ -17,82 +17,183 @@
 use super::doc::Doc;
 use serde_json::{json, Value};
 
-/// Segments per mesh edge in the `mesh` polylines.
-pub const EDGE_SAMPLES: usize = 8;
-
-/// Rounds to 1/1000 pixel to keep the JSON short (far below what a screen shows).
-fn r3(v: f64) -> f64 {
-    (v * 1000.0).round() / 1000.0
+/// A JSON object written straight to text. The big numeric arrays of the geometry go in
+/// without a [`Value`] tree: with serde_json's `arbitrary_precision` every number in a
+/// `Value` is its own heap string, which made building the answer cost more than the exact
+/// update it reports.
+pub struct JsonObject {
+    buf: String,
 }
 
-/// The geometry for the page; `full` adds the parts that do not change during edits.
-pub fn geometry(doc: &Doc, full: bool) -> Value {
-    let s = doc.spline();
-    let n = s.num_points();
-    let points: Vec<[f64; 2]> = (0..n)
-        .map(|i| {
-            let p = s.point_f64(i);
-            [r3(p[0]), r3(p[1])]
-        })
-        .collect();
-    // Unique mesh edges, sampled along the reference edge and mapped by phi.
-    let mesh = s.mesh();
-    let mut edges: Vec<(usize, usize)> = Vec::with_capacity(3 * mesh.num_triangles());
-    for t in 0..mesh.num_triangles() {
-        let v = mesh.triangle(t);
-        for k in 0..3 {
-            let (a, b) = (v[k], v[(k + 1) % 3]);
-            edges.push((a.min(b), a.max(b)));
-        }
+impl JsonObject {
+    /// An empty object.
+    pub fn new() -> JsonObject {
+        JsonObject { buf: String::from("{") }
     }
-    edges.sort_unstable();
-    edges.dedup();
-    let cache = s.eval_cache();
-    let mut polylines: Vec<Vec<[f64; 2]>> = Vec::with_capacity(edges.len());
-    let mut hint = None;
-    for &(a, b) in &edges {
-        let (pa, pb) = (mesh.vertex(a), mesh.vertex(b));
-        let mut line = Vec::with_capacity(EDGE_SAMPLES + 1);
-        for k in 0..=EDGE_SAMPLES {
-            let u = k as f64 / EDGE_SAMPLES as f64;
-            let p = [pa[0] + u * (pb[0] - pa[0]), pa[1] + u * (pb[1] - pa[1])];
-            if let Some((t, beta)) = mesh.locate(p, hint) {
-                hint = Some(t);
-                let q = cache.value(t, beta);
-                line.push([r3(q[0]), r3(q[1])]);
+
+    fn key(&mut self, k: &str) {
+        if self.buf.len() > 1 {
+            self.buf.push(',');
+        }
+        self.buf.push_str(&Value::from(k).to_string());
+        self.buf.push(':');
+    }
+
+    /// Appends `v` rounded to 1/1000 pixel, which keeps the JSON short (far below what a
+    /// screen shows). Non-finite numbers are written as `null`.
+    /// Written as an integer and up to three decimals: shortest-float formatting took half
+    /// of a z-mode drag step.
+    fn num(&mut self, v: f64) {
+        use std::fmt::Write;
+        let m = (v * 1000.0).round();
+        if !m.is_finite() {
+            self.buf.push_str("null");
+        } else if m.abs() >= 1e15 {
+            let _ = write!(self.buf, "{}", m / 1000.0);
+        } else {
+            let m = m as i64;
+            if m < 0 {
+                self.buf.push('-');
+            }
+            let a = m.unsigned_abs();
+            push_digits(&mut self.buf, a / 1000);
+            let frac = a % 1000;
+            if frac != 0 {
+                self.buf.push('.');
+                let d = [frac / 100, frac / 10 % 10, frac % 10];
+                let keep = if d[2] != 0 {
+                    3
+                } else if d[1] != 0 {
+                    2
+                } else {
+                    1
+                };
+                for &x in &d[..keep] {
+                    self.buf.push(char::from(b'0' + x as u8));
+                }
             }
         }
-        polylines.push(line);
     }
-    let mut out = json!({
-        "points": points,
-        "mesh": polylines,
-    });
+
+    /// Appends `"k": value`.
+    pub fn value(&mut self, k: &str, v: &Value) {
+        self.key(k);
+        self.buf.push_str(&v.to_string());
+    }
+
+    /// Appends every entry of the JSON object `v` (nothing if `v` is not an object).
+    pub fn extend(&mut self, v: &Value) {
+        if let Some(o) = v.as_object() {
+            for (k, x) in o {
+                self.value(k, x);
+            }
+        }
+    }
+
+    /// Appends `"k": [v, ...]`, each rounded to 1/1000.
+    pub fn numbers(&mut self, k: &str, vals: impl IntoIterator<Item = f64>) {
+        self.key(k);
+        self.buf.push('[');
+        for (i, v) in vals.into_iter().enumerate() {
+            if i > 0 {
+                self.buf.push(',');
+            }
+            self.num(v);
+        }
+        self.buf.push(']');
+    }
+
+    /// Appends `"k": [[x, y], ...]`, rounded to 1/1000.
+    pub fn points(&mut self, k: &str, pts: impl IntoIterator<Item = [f64; 2]>) {
+        self.key(k);
+        self.push_points(pts);
+    }
+
+    fn push_points(&mut self, pts: impl IntoIterator<Item = [f64; 2]>) {
+        self.buf.push('[');
+        for (i, p) in pts.into_iter().enumerate() {
+            self.buf.push_str(if i > 0 { ",[" } else { "[" });
+            self.num(p[0]);
+            self.buf.push(',');
+            self.num(p[1]);
+            self.buf.push(']');
+        }
+        self.buf.push(']');
+    }
+
+    /// The JSON text.
+    pub fn finish(mut self) -> String {
+        self.buf.push('}');
+        self.buf
+    }
+}
+
+/// Appends the decimal digits of `n` (no `fmt` machinery: this is the answer's hot loop).
+fn push_digits(buf: &mut String, mut n: u64) {
+    let mut tmp = [0u8; 20];
+    let mut i = tmp.len();
+    loop {
+        i -= 1;
+        tmp[i] = b'0' + (n % 10) as u8;
+        n /= 10;
+        if n == 0 {
+            break;
+        }
+    }
+    buf.extend(tmp[i..].iter().map(|&b| char::from(b)));
+}
+
+impl Default for JsonObject {
+    fn default() -> Self {
+        JsonObject::new()
+    }
+}
+
+/// The geometry for the page as a JSON object (see the module docs); `full` adds the parts
+/// that do not change during edits.
+pub fn geometry(doc: &Doc, full: bool) -> String {
+    let mut out = JsonObject::new();
+    write_geometry(doc, full, &mut out);
+    out.finish()
+}
+
+/// Appends the geometry's entries to `out` ([`geometry`]).
+pub fn write_geometry(doc: &Doc, full: bool, out: &mut JsonObject) {
+    let s = doc.spline();
+    out.points("points", (0..s.num_points()).map(|i| s.point_f64(i)));
+    // Mesh edges, sampled along the reference edge and mapped by phi.
+    let cache = s.eval_cache();
+    let lines = doc.edge_samples();
+    out.key("mesh");
+    out.buf.push('[');
+    for (i, line) in lines.iter().enumerate() {
+        if i > 0 {
+            out.buf.push(',');
+        }
+        out.push_points(line.iter().map(|&(t, beta)| cache.value(t, beta)));
+    }
+    out.buf.push(']');
     // The z values and the model in 3D are for the z modes' views: sent with `full`, or
     // when the selection is in a z mode (keeps xy drag answers small).
     let zview =
         full || doc.editor().selection().is_some_and(|sel| sel.mode != crate::edit::Mode::Xy);
     if let Some(z) = s.z_layers().filter(|_| zview) {
-        let f = |v: &[crate::exact::Rat]| -> Vec<f64> {
-            v.iter().map(|x| r3(crate::exact::rat_to_f64(x))).collect()
-        };
-        out["z0"] = json!(f(&z.z0));
-        out["z1"] = json!(f(&z.z1));
-        out["z_range"] =
-            json!([crate::exact::rat_to_f64(&z.range[0]), crate::exact::rat_to_f64(&z.range[1])]);
+        let f =
+            |v: &[crate::exact::Rat]| v.iter().map(crate::exact::rat_to_f64).collect::<Vec<_>>();
+        out.numbers("z0", f(&z.z0));
+        out.numbers("z1", f(&z.z1));
+        out.value(
+            "z_range",
+            &json!([crate::exact::rat_to_f64(&z.range[0]), crate::exact::rat_to_f64(&z.range[1])]),
+        );
     }
-    if let Some(v) = doc.deformed_model() {
+    if let (Some(v), Some(m)) = (doc.deformed_model(), doc.model()) {
         // Top view: the silhouette as segments (x0, y0, x1, y1), cheap to stroke; the
         // vertices (x, y, z) for the oblique view.
-        let tris = &doc.model().expect("a deformed model has a model").model.triangles;
-        let outline: Vec<f64> = crate::render::overlay::silhouette(&v, tris)
-            .iter()
-            .flat_map(|[a, b]| [r3(a[0]), r3(a[1]), r3(b[0]), r3(b[1])])
-            .collect();
-        out["model_outline"] = json!(outline);
+        let segs = m.edges.segments(&v);
+        out.numbers("model_outline", segs.iter().flat_map(|[a, b]| [a[0], a[1], b[0], b[1]]));
         if zview {
-            let flat: Vec<f64> = v.iter().flat_map(|p| [r3(p[0]), r3(p[1]), r3(p[2])]).collect();
-            out["model"] = json!(flat);
+            out.numbers("model", v.iter().flat_map(|p| *p));
         }
     }
     if let Some(sel) = doc.editor().selection() {
@@ -101,11 +202,14 @@ pub fn geometry(doc: &Doc, full: bool) -> Value {
             session.redundant().into_iter().collect();
         let relevant: Vec<usize> =
             session.relevant().iter().copied().filter(|c| !redundant.contains(c)).collect();
-        out["selection"] = json!({
-            "anchors": sel.anchors,
-            "derived": sel.derived,
-            "constraints": relevant,
-        });
+        out.value(
+            "selection",
+            &json!({
+                "anchors": sel.anchors,
+                "derived": sel.derived,
+                "constraints": relevant,
+            }),
+        );
     }
     if full {
         let idx = doc.editor().index();
@@ -114,19 +218,14 @@ pub fn geometry(doc: &Doc, full: bool) -> Value {
             net.extend(nb.iter().filter(|&&b| b > a).map(|&b| [a, b]));
         }
         let quads: Vec<[usize; 4]> = s.quads().iter().map(|q| [q.l, q.p, q.r, q.n]).collect();
-        out["net"] = json!(net);
-        out["quads"] = json!(quads);
-        out["reference"] = json!((0..mesh.num_vertices())
-            .map(|v| {
-                let p = mesh.vertex(v);
-                [r3(p[0]), r3(p[1])]
-            })
-            .collect::<Vec<_>>());
+        out.value("net", &json!(net));
+        out.value("quads", &json!(quads));
+        let mesh = s.mesh();
+        out.points("reference", (0..mesh.num_vertices()).map(|v| mesh.vertex(v)));
         if let Some(m) = doc.model() {
-            out["model_triangles"] = json!(m.model.triangles);
+            out.value("model_triangles", &json!(m.model.triangles));
         }
     }
-    out
 }
 
 /// The Jacobian determinant of `phi` as a colour overlay (PNG, `w x h` pixels of the

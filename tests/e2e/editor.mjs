@@ -130,9 +130,13 @@ try {
     const s = a.slice().sort((x, y) => x - y);
     return { n: s.length, median: s[Math.floor(s.length / 2)], p90: s[Math.floor(0.9 * (s.length - 1))], max: s[s.length - 1] };
   };
+  const ph = await page.evaluate(() => window.trimorph.phases);
+  const part = (a, k) => stats(a.map((p) => p[k]).filter((v) => v !== null)).median;
+  const parts = (a) => ({ request: part(a, 'request'), draw: part(a, 'draw'), update: part(a, 'update') });
   summary = {
     ok: true, anchor: idx, moved, drag_steps: t.length,
     xy_step_ms: stats(t.slice(0, nxy)), z1_step_ms: stats(t.slice(nxy)),
+    xy_median_parts_ms: parts(ph.slice(0, nxy)), z1_median_parts_ms: parts(ph.slice(nxy)),
     exact_update_ms_last: state.last_update_ms,
   };
   console.log(JSON.stringify(summary));
