@@ -102,59 +102,32 @@ fn fit_shard_with_huge_numbers_does_not_overflow() {
     assert!(String::from_utf8_lossy(&o.stdout).contains("frames 0..1 of 2"), "{o:?}");
 }
 
-#[test]
-fn morph_cells_too_many_is_an_error() {
-    // --cells 100000: Mesh::grid asked for 160 GB and the process aborted.
+/// `trimorph morph A A --landmarks L -o OUT` on a 40 x 40 image, with `extra` arguments.
+fn morph_with(extra: &[&str]) -> Output {
     let dir = tempfile::tempdir().unwrap();
     let (a, lm) = (image(dir.path()), landmarks(dir.path()));
     let out = dir.path().join("m");
-    let o = trimorph(&[
-        "morph",
-        &a,
-        &a,
-        "--landmarks",
-        &lm,
-        "--frames",
-        "2",
-        "--cells",
-        "100000",
-        "-o",
-        s(&out),
-    ]);
-    fails_with(&o, "--cells");
+    let mut args = vec!["morph", &a, &a, "--landmarks", &lm, "-o", s(&out)];
+    args.extend_from_slice(extra);
+    trimorph(&args)
+}
+
+#[test]
+fn morph_cells_too_many_is_an_error() {
+    // --cells 100000: Mesh::grid asked for 160 GB and the process aborted.
+    fails_with(&morph_with(&["--frames", "2", "--cells", "100000"]), "--cells");
 }
 
 #[test]
 fn morph_range_far_outside_is_an_error() {
     // --range 1e300,1e301: the blended points overflowed f64 and the warp never ended.
-    let dir = tempfile::tempdir().unwrap();
-    let (a, lm) = (image(dir.path()), landmarks(dir.path()));
-    let out = dir.path().join("m");
-    let o = trimorph(&[
-        "morph",
-        &a,
-        &a,
-        "--landmarks",
-        &lm,
-        "--frames",
-        "2",
-        "--range",
-        "1e300,1e301",
-        "-o",
-        s(&out),
-    ]);
-    fails_with(&o, "--range");
+    fails_with(&morph_with(&["--frames", "2", "--range", "1e300,1e301"]), "--range");
 }
 
 #[test]
 fn morph_frames_too_many_is_an_error() {
     // --frames 100000000: every frame is held in memory for the animations.
-    let dir = tempfile::tempdir().unwrap();
-    let (a, lm) = (image(dir.path()), landmarks(dir.path()));
-    let out = dir.path().join("m");
-    let o =
-        trimorph(&["morph", &a, &a, "--landmarks", &lm, "--frames", "100000000", "-o", s(&out)]);
-    fails_with(&o, "--frames");
+    fails_with(&morph_with(&["--frames", "100000000"]), "--frames");
 }
 
 #[test]
