@@ -677,6 +677,7 @@ pub fn same_layout(a: &Spline, b: &Spline) -> bool {
     let (ma, mb) = (a.mesh(), b.mesh());
     a.degree() == b.degree()
         && a.num_points() == b.num_points()
+        && ma.grid_denominator() == mb.grid_denominator()
         && ma.num_vertices() == mb.num_vertices()
         && ma.num_triangles() == mb.num_triangles()
         && (0..ma.num_triangles()).all(|t| ma.triangle(t) == mb.triangle(t))

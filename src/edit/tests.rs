@@ -447,3 +447,15 @@ fn preview_matches_the_exact_translation() {
         }
     }
 }
+
+/// Found in review: meshes with the same integer vertex coordinates on different snapping
+/// grids (so different vertices) counted as the same layout.
+#[test]
+fn same_layout_compares_the_snapping_grid() {
+    let a = Mesh::grid(2, 2, 4.0, 4.0, MeshOptions { grid: 1 }).unwrap();
+    let b = Mesh::grid(2, 2, 2.0, 2.0, MeshOptions { grid: 2 }).unwrap();
+    assert!((0..a.num_vertices()).all(|v| a.vertex_int(v) == b.vertex_int(v)));
+    let (sa, sb) = (Spline::identity(a, 5).unwrap(), Spline::identity(b, 5).unwrap());
+    assert!(!crate::edit::same_layout(&sa, &sb));
+    assert!(crate::edit::same_layout(&sa, &sa.clone()));
+}
