@@ -110,6 +110,11 @@ fn warp_image(fx: &Fixture, id: &str, ext: &str, bytes: &[u8]) -> (Vec<String>, 
     (args(&["warp", s(&fx.def), "--image", s(&p), "-o", &fx.out("w.png")]), p)
 }
 
+/// The bundled microscope image (550 x 660, textured enough for ORB).
+fn cell_image() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("data/microscopy/cell.png")
+}
+
 /// `trimorph edit OK --script FILE` with `text`.
 fn edit(fx: &Fixture, id: &str, text: &str) -> (Vec<String>, PathBuf) {
     let p = fx.file(&format!("{id}.json"), text);
@@ -530,14 +535,14 @@ pub fn cases() -> Vec<Case> {
         Case {
             id: "match_small",
             setup: |fx, _| {
-                let cell = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/microscopy/cell.png");
+                let cell = cell_image();
                 (args(&["match", s(&fx.image), s(&cell), "-o", &fx.out("m.csv")]), fx.image.clone())
             },
         },
         Case {
             id: "match_flat",
             setup: |fx, id| {
-                let cell = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/microscopy/cell.png");
+                let cell = cell_image();
                 let flat = fx.dir.join(format!("{id}.png"));
                 image::GrayImage::from_pixel(96, 96, image::Luma([128])).save(&flat).unwrap();
                 (args(&["match", s(&cell), s(&flat), "-o", &fx.out("m.csv")]), flat)
