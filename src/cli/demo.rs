@@ -82,7 +82,11 @@ pub fn run(dir: &Path) -> Result<()> {
         size: Some("550,660"),
         obj: None,
         degree: 5,
-        snap: 16,
+        snap: Some(16),
+        landmarks: None,
+        margin: None,
+        max_edge: None,
+        min_angle: 20.0,
         z_range: None,
         output: &id,
     })?;

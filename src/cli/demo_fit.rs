@@ -125,7 +125,7 @@ pub fn run(dir: &Path) -> Result<()> {
         solver: SolverArgs {
             loss: "squares",
             loss_scale: 2.0,
-            bend: 0.05,
+            bend: "auto",
             hard: false,
             radius: None,
             min_det: 0.1,
@@ -138,7 +138,7 @@ pub fn run(dir: &Path) -> Result<()> {
         o = out.display()
     );
     println!(
-        "\nthe same from the command line:\n  trimorph fit --model {sc} --frames {f} --landmarks {l} --bend 0.05 -o {o}\n  (or --landmarks {l}/frame_00.csv --track: follow the nuclei with Lucas-Kanade instead)",
+        "\nthe same from the command line:\n  trimorph fit --model {sc} --frames {f} --landmarks {l} -o {o}\n  (or --landmarks {l}/frame_00.csv --track: follow the nuclei with Lucas-Kanade instead)",
         sc = scene.display(),
         f = frames.display(),
         l = lms.display(),

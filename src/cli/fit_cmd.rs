@@ -1,11 +1,13 @@
 //! `trimorph fit DEF.json --landmarks L -o OUT.json`: one deformation fitted to landmarks.
 
 use super::{Exit, EXIT_UNSOLVABLE};
+use crate::fit::frame::{fit_frame, FrameFitOptions};
 use crate::fit::landmarks::{holdout, Landmark};
 use crate::fit::objective::{Barrier, Loss};
-use crate::fit::solve::{fit, with_holdout, FitError, FitOptions, FitReport};
+use crate::fit::solve::{fit, with_holdout, Bend, FitError, FitOptions, FitReport};
 use crate::io::landmarks::read_landmarks;
 use crate::io::{deformation, read_text, write_atomic};
+use crate::mesh::AdaptOptions;
 use anyhow::{bail, Context, Result};
 use std::io::Write;
 use std::path::Path;
@@ -14,7 +16,7 @@ use std::path::Path;
 pub struct SolverArgs<'a> {
     pub loss: &'a str,
     pub loss_scale: f64,
-    pub bend: f64,
+    pub bend: &'a str,
     pub hard: bool,
     pub radius: Option<usize>,
     pub min_det: f64,
@@ -39,9 +41,16 @@ impl SolverArgs<'_> {
             tau: self.min_det + 0.2,
             mu: 1.0,
         });
+        let bend = match self.bend.trim() {
+            "auto" => Bend::Auto,
+            t => match t.parse::<f64>() {
+                Ok(w) if w.is_finite() && w >= 0.0 => Bend::Weight(w),
+                _ => bail!("--bend: `{t}` is neither `auto` nor a finite number >= 0"),
+            },
+        };
         Ok(FitOptions {
             loss,
-            bend: self.bend,
+            bend,
             barrier,
             radius: self.radius,
             max_iters: self.max_iters,
@@ -82,12 +91,23 @@ pub fn summary(r: &FitReport) -> String {
             h.tre.rms, h.tre.max, h.tre.count
         );
     }
+    if r.bend_auto {
+        s += &format!("; bend {:.2e} (auto", r.bend);
+        if let Some(l) = r.loo_rms {
+            s += &format!(", leave-one-out {l:.3} px");
+        }
+        s += ")";
+    }
     s += &format!(
-        "; min det J {:.3}{}; {} ({} iterations, {} variables) in {:.1} ms; C1 exact: {}",
+        "; min det J {:.3}{}, certified >= {:.3}{}; {} ({} iterations, {}, {} variables) in \
+         {:.1} ms; C1 exact: {}",
         r.min_det_j,
         if r.folds { " (FOLDS)" } else { "" },
+        r.det_j_lower_bound,
+        if r.fold_free { " (fold-free)" } else { "" },
         r.method,
         r.iterations,
+        r.termination,
         r.variables,
         r.time_ms,
         if r.exact_c1 { "yes" } else { "NO" }
@@ -95,10 +115,26 @@ pub fn summary(r: &FitReport) -> String {
     s
 }
 
-/// `trimorph fit DEF --landmarks L -o OUT [--report R] [--holdout k]`.
+/// The frame of a fit with no deformation given.
+pub struct FrameArgs<'a> {
+    pub size: &'a str,
+    pub margin: Option<f64>,
+    pub max_edge: Option<f64>,
+    pub min_angle: f64,
+}
+
+/// Where a single fit starts.
+pub enum Start<'a> {
+    /// A deformation file (its mesh is used).
+    Deformation(&'a Path),
+    /// A frame: the landmark-adapted mesh.
+    Frame(&'a FrameArgs<'a>),
+}
+
+/// `trimorph fit (DEF | --size W,H) --landmarks L -o OUT [--report R] [--holdout k]`.
 #[allow(clippy::too_many_arguments)]
 pub fn run_single(
-    def: &Path,
+    start: Start,
     landmarks: &Path,
     output: &Path,
     report: Option<&Path>,
@@ -108,6 +144,15 @@ pub fn run_single(
     solver: &SolverArgs,
 ) -> Result<()> {
     let mut opts = solver.options()?;
+    let def = match start {
+        Start::Deformation(d) => d,
+        Start::Frame(f) => {
+            if pin.is_some() {
+                bail!("--pin needs a deformation (DEF) whose control points it names");
+            }
+            return run_frame(f, landmarks, output, report, holdout_k, seed, opts);
+        }
+    };
     let text = read_text(def)?;
     let (s, _) = deformation::from_str(&text)
         .with_context(|| format!("cannot read deformation {}", def.display()))?;
@@ -132,19 +177,7 @@ pub fn run_single(
                 .collect::<Result<_>>()?
         };
     }
-    let lms = read_landmarks(landmarks)
-        .with_context(|| format!("cannot read landmarks {}", landmarks.display()))?;
-    let (fitted, held): (Vec<Landmark>, Vec<Landmark>) = if holdout_k > 0 {
-        if holdout_k >= lms.len() {
-            bail!(
-                "--holdout {holdout_k}: only {} landmarks, at least one must be fitted",
-                lms.len()
-            );
-        }
-        holdout(&lms, holdout_k, seed)?
-    } else {
-        (lms, Vec::new())
-    };
+    let (fitted, held) = read_split(landmarks, holdout_k, seed)?;
     // A fit too large for the solver is the deformation's doing (its mesh and degree);
     // every other fit error is about the landmarks.
     let in_file = |e: FitError| match e {
@@ -159,11 +192,87 @@ pub fn run_single(
         write_atomic(r, text.as_bytes())?;
     }
     writeln!(std::io::stdout(), "{}\n-> {}", summary(&rep), output.display())?;
-    if rep.folds {
-        eprintln!(
-            "warning: the fit folds (min det J {:.3}); raise --bend or keep the barrier on",
-            rep.min_det_j
-        );
+    warn_folds(&rep, &opts);
+    Ok(())
+}
+
+/// The landmarks of a file, split into fitted and held-out ones.
+fn read_split(landmarks: &Path, k: usize, seed: u64) -> Result<(Vec<Landmark>, Vec<Landmark>)> {
+    let lms = read_landmarks(landmarks)
+        .with_context(|| format!("cannot read landmarks {}", landmarks.display()))?;
+    if k == 0 {
+        return Ok((lms, Vec::new()));
     }
+    if k >= lms.len() {
+        bail!("--holdout {k}: only {} landmarks, at least one must be fitted", lms.len());
+    }
+    Ok(holdout(&lms, k, seed)?)
+}
+
+/// Warns on stderr when a fit is not certified fold-free, with what to do.
+fn warn_folds(rep: &FitReport, opts: &FitOptions) {
+    if rep.fold_free {
+        return;
+    }
+    let what = if rep.folds { "folds" } else { "is not certified fold-free" };
+    let hint = if opts.barrier.is_none() {
+        "turn the fold barrier on (drop --no-barrier) or raise --bend"
+    } else {
+        "the landmarks demand a fold (crossing pairs?) or a very strong bend: check the \
+         landmarks with the largest residuals, or raise --bend"
+    };
+    eprintln!(
+        "warning: the fit {what} (sampled min det J {:.3}, certified lower bound {:.3}); {hint}",
+        rep.min_det_j, rep.det_j_lower_bound
+    );
+}
+
+/// `trimorph fit --size W,H --landmarks L -o OUT`: a fit over the landmark-adapted mesh.
+#[allow(clippy::too_many_arguments)]
+fn run_frame(
+    f: &FrameArgs,
+    landmarks: &Path,
+    output: &Path,
+    report: Option<&Path>,
+    holdout_k: usize,
+    seed: u64,
+    opts: FitOptions,
+) -> Result<()> {
+    let size = super::spline_cmds::parse_size(f.size)?;
+    let (fitted, held) = read_split(landmarks, holdout_k, seed)?;
+    let fopts = FrameFitOptions {
+        mesh: AdaptOptions {
+            margin: f.margin,
+            max_edge: f.max_edge,
+            min_angle: f.min_angle,
+            grid: 0,
+            extra_points: Vec::new(),
+        },
+        degree: 5,
+        fit: opts.clone(),
+    };
+    let r = fit_frame(&fitted, size, &fopts).map_err(|e| in_landmarks(fit_error(e), landmarks))?;
+    let rep = with_holdout(r.fit.report, &r.fit.spline, &held)
+        .map_err(|e| in_landmarks(fit_error(e), landmarks))?;
+    write_atomic(output, deformation::to_string(&r.fit.spline, None).as_bytes())?;
+    if let Some(path) = report {
+        let mut v = serde_json::to_value(&rep)?;
+        v["frame"] = serde_json::to_value(&r.frame)?;
+        write_atomic(path, serde_json::to_string_pretty(&v)?.as_bytes())?;
+    }
+    writeln!(
+        std::io::stdout(),
+        "adapted mesh: {} vertices, {} triangles ({} added by refinement), margin {} px, grid \
+         1/{}; covers the frame: {}\n{}\n-> {}",
+        r.frame.vertices,
+        r.frame.triangles,
+        r.frame.steiner,
+        r.frame.margin,
+        r.frame.grid,
+        if r.frame.covers_frame { "yes (certified)" } else { "not certified" },
+        summary(&rep),
+        output.display()
+    )?;
+    warn_folds(&rep, &opts);
     Ok(())
 }

@@ -66,12 +66,28 @@ enum Command {
         /// A 2D reference mesh in OBJ (`v` and `f` lines).
         #[arg(long)]
         obj: Option<PathBuf>,
+        /// A mesh adapted to landmarks (CSV, BigWarp or JSON; their sources are vertices),
+        /// over the --size frame grown by --margin, refined by Delaunay refinement.
+        #[arg(long)]
+        landmarks: Option<PathBuf>,
+        /// With --landmarks: pixels added around the frame (default: a tenth of its larger
+        /// side, at least 8).
+        #[arg(long)]
+        margin: Option<f64>,
+        /// With --landmarks: longest edge in pixels (default: a quarter of the larger side).
+        #[arg(long)]
+        max_edge: Option<f64>,
+        /// With --landmarks: the refinement's smallest angle in degrees (at most 33).
+        #[arg(long, default_value_t = 20.0)]
+        min_angle: f64,
         /// Spline degree (5 or more for local edits).
         #[arg(long, default_value_t = 5)]
         degree: usize,
-        /// Vertex coordinates are snapped to multiples of 1/SNAP.
-        #[arg(long, default_value_t = 16)]
-        snap: i64,
+        /// Vertex coordinates are snapped to multiples of 1/SNAP (default 16; with
+        /// --landmarks the smallest of 16, 80, 400, 2000, 10000, 50000 on which every source
+        /// is exact).
+        #[arg(long)]
+        snap: Option<i64>,
         /// Make a 2.5D deformation with prisms over [A, B] (e.g. -10,10).
         #[arg(long, allow_hyphen_values = true)]
         z_range: Option<String>,
@@ -329,9 +345,11 @@ enum Command {
         /// Scale of the huber / cauchy loss (pixels).
         #[arg(long, default_value_t = 2.0)]
         loss_scale: f64,
-        /// Weight of the bending (thin-plate) energy.
-        #[arg(long, default_value_t = 0.01)]
-        bend: f64,
+        /// Weight of the bending (thin-plate) energy: `auto` (chosen by generalized
+        /// cross-validation on the landmarks) or a scale-free number (lambda = bend * sum of
+        /// landmark weights * mesh area; 1e-4 is close to interpolation, 1 is very stiff).
+        #[arg(long, default_value = "auto")]
+        bend: String,
         /// Landmarks become hard constraints phi(s) = t (exact, through ECLES).
         #[arg(long)]
         hard: bool,
@@ -374,6 +392,20 @@ enum Command {
         /// Only the i-th of n contiguous frame ranges (e.g. 0/4), for cluster array jobs.
         #[arg(long)]
         shard: Option<String>,
+        /// With no DEF: the frame W,H in pixels; the fit builds a mesh adapted to the
+        /// landmarks over it (see `trimorph mesh --landmarks`) and covers the whole frame.
+        #[arg(long)]
+        size: Option<String>,
+        /// With --size: pixels added around the frame (default: enough for full coverage,
+        /// at least a tenth of the larger side).
+        #[arg(long)]
+        margin: Option<f64>,
+        /// With --size: the adapted mesh's longest edge in pixels.
+        #[arg(long)]
+        max_edge: Option<f64>,
+        /// With --size: the adapted mesh's smallest angle in degrees.
+        #[arg(long, default_value_t = 20.0)]
+        min_angle: f64,
     },
     /// Measurements and experiments.
     Bench {
@@ -477,19 +509,35 @@ pub fn run() -> i32 {
     let result = match cli.command {
         Command::Solve { system, output } => solve::run(&system, output.as_deref()),
         Command::Demo { output } => demo::run(&output),
-        Command::Mesh { points, outline, grid, size, obj, degree, snap, z_range, output } => {
-            spline_cmds::mesh(spline_cmds::MeshArgs {
-                points: points.as_deref(),
-                outline: outline.as_deref(),
-                grid: grid.as_deref(),
-                size: size.as_deref(),
-                obj: obj.as_deref(),
-                degree,
-                snap,
-                z_range: z_range.as_deref(),
-                output: &output,
-            })
-        }
+        Command::Mesh {
+            points,
+            outline,
+            grid,
+            size,
+            obj,
+            landmarks,
+            margin,
+            max_edge,
+            min_angle,
+            degree,
+            snap,
+            z_range,
+            output,
+        } => spline_cmds::mesh(spline_cmds::MeshArgs {
+            points: points.as_deref(),
+            outline: outline.as_deref(),
+            grid: grid.as_deref(),
+            size: size.as_deref(),
+            obj: obj.as_deref(),
+            landmarks: landmarks.as_deref(),
+            margin,
+            max_edge,
+            min_angle,
+            degree,
+            snap,
+            z_range: z_range.as_deref(),
+            output: &output,
+        }),
         Command::Edit { deformation, script, output, bounded_bits, unbounded } => {
             let bounded = if unbounded { None } else { Some(bounded_bits) };
             spline_cmds::edit(&deformation, &script, &output, bounded)
@@ -631,20 +679,34 @@ pub fn run() -> i32 {
             frames,
             track,
             shard,
+            size,
+            margin,
+            max_edge,
+            min_angle,
         } => {
             let solver = fit_cmd::SolverArgs {
                 loss: &loss,
                 loss_scale,
-                bend,
+                bend: &bend,
                 hard,
                 radius,
                 min_det,
                 no_barrier,
                 max_iters,
             };
+            let frame = size.as_deref().map(|sz| fit_cmd::FrameArgs {
+                size: sz,
+                margin,
+                max_edge,
+                min_angle,
+            });
             match (deformation, model, frames) {
-                (Some(d), None, None) => fit_cmd::run_single(
-                    &d,
+                (d, None, None) if d.is_some() != frame.is_some() => fit_cmd::run_single(
+                    match (&d, &frame) {
+                        (Some(d), _) => fit_cmd::Start::Deformation(d),
+                        (None, Some(f)) => fit_cmd::Start::Frame(f),
+                        (None, None) => unreachable!("the guard requires one of them"),
+                    },
                     &landmarks,
                     &output,
                     report.as_deref(),
@@ -664,7 +726,7 @@ pub fn run() -> i32 {
                     solver,
                 }),
                 _ => Err(anyhow::anyhow!(
-                    "give either DEF.json (one fit) or --model SCENE.json with --frames (a sequence)"
+                    "give DEF.json (one fit), or --size W,H instead of DEF (one fit over a mesh adapted to the landmarks), or --model SCENE.json with --frames (a sequence)"
                 )),
             }
         }

@@ -51,6 +51,15 @@ fn pair(text: &str, what: &str, sep: char) -> Result<(f64, f64)> {
     Ok((a, b))
 }
 
+/// A frame size `W,H` in whole pixels (1 to 1,000,000 each).
+pub fn parse_size(text: &str) -> Result<[f64; 2]> {
+    let (w, h) = pair(text, "--size", ',')?;
+    if w < 1.0 || h < 1.0 || w > 1e6 || h > 1e6 || w.fract() != 0.0 || h.fract() != 0.0 {
+        bail!("--size: width and height must be whole numbers of pixels from 1 to 1000000");
+    }
+    Ok([w, h])
+}
+
 /// Options of `trimorph mesh`.
 pub struct MeshArgs<'a> {
     pub points: Option<&'a Path>,
@@ -58,20 +67,45 @@ pub struct MeshArgs<'a> {
     pub grid: Option<&'a str>,
     pub size: Option<&'a str>,
     pub obj: Option<&'a Path>,
+    pub landmarks: Option<&'a Path>,
+    pub margin: Option<f64>,
+    pub max_edge: Option<f64>,
+    pub min_angle: f64,
     pub degree: usize,
-    pub snap: i64,
+    pub snap: Option<i64>,
     pub z_range: Option<&'a str>,
     pub output: &'a Path,
 }
 
 /// `trimorph mesh`: an identity deformation over a new reference mesh.
 pub fn mesh(a: MeshArgs) -> Result<()> {
-    if a.snap < 1 || a.snap > 1 << 20 {
+    if a.snap.is_some_and(|g| !(1..=1 << 20).contains(&g)) {
         bail!("--snap must be between 1 and 1048576 (grid steps per unit)");
     }
-    let opts = MeshOptions { grid: a.snap };
-    let mesh = match (a.points, a.grid, a.obj) {
-        (Some(p), None, None) => {
+    let opts = MeshOptions { grid: a.snap.unwrap_or(16) };
+    if a.landmarks.is_none() && (a.margin.is_some() || a.max_edge.is_some()) {
+        bail!("--margin and --max-edge go with --landmarks");
+    }
+    let mesh = match (a.points, a.grid, a.obj, a.landmarks) {
+        (None, None, None, Some(l)) => {
+            let size = a.size.ok_or_else(|| anyhow!("--landmarks needs --size W,H (the frame)"))?;
+            let size = parse_size(size)?;
+            let lms = crate::io::landmarks::read_landmarks(l)
+                .with_context(|| format!("cannot read landmarks {}", l.display()))?;
+            let sources: Vec<[f64; 2]> = lms.iter().map(|x| x.src).collect();
+            let grid = a.snap.unwrap_or_else(|| crate::fit::frame::source_grid(&lms));
+            let ao = crate::mesh::AdaptOptions {
+                margin: a.margin,
+                max_edge: a.max_edge,
+                min_angle: a.min_angle,
+                grid,
+                extra_points: Vec::new(),
+            };
+            Mesh::landmark_adapted(&sources, size, &ao)
+                .with_context(|| format!("cannot build a landmark mesh from {}", l.display()))?
+                .mesh
+        }
+        (Some(p), None, None, None) => {
             let mut pts = read_points_csv(&read_text(p)?, &p.display().to_string())?;
             match a.outline {
                 None => Mesh::delaunay(&pts, opts),
@@ -85,7 +119,7 @@ pub fn mesh(a: MeshArgs) -> Result<()> {
             }
             .with_context(|| format!("cannot build a mesh from {}", p.display()))?
         }
-        (None, Some(g), None) => {
+        (None, Some(g), None, None) => {
             let (c, r) = pair(g, "--grid", 'x')?;
             if c < 1.0 || r < 1.0 || c.fract() != 0.0 || r.fract() != 0.0 || c * r > 1e6 {
                 bail!("--grid: expected COLSxROWS with whole numbers of cells, e.g. 6x4");
@@ -97,9 +131,9 @@ pub fn mesh(a: MeshArgs) -> Result<()> {
             }
             Mesh::grid(c as usize, r as usize, w, h, opts)?
         }
-        (None, None, Some(o)) => Mesh::from_obj(&read_text(o)?, opts)
+        (None, None, Some(o), None) => Mesh::from_obj(&read_text(o)?, opts)
             .with_context(|| format!("cannot read the reference mesh {}", o.display()))?,
-        _ => bail!("give exactly one of --points, --grid or --obj"),
+        _ => bail!("give exactly one of --points, --grid, --obj or --landmarks"),
     };
     let mut spline = Spline::identity(mesh, a.degree)?;
     if let Some(z) = a.z_range {

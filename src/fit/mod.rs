@@ -14,12 +14,16 @@
 pub mod basis;
 pub mod chol;
 pub mod features;
+pub mod frame;
 pub mod hard;
 pub mod landmarks;
+pub mod newton;
 pub mod objective;
 pub mod param;
 mod rng;
+pub mod smooth;
 pub mod solve;
+pub mod sparse;
 #[cfg(test)]
 mod tests;
 pub mod track;

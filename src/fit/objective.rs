@@ -83,8 +83,16 @@ impl Barrier {
     /// `(beta, beta')` at `det`.
     #[inline]
     pub fn eval(&self, det: f64) -> (f64, f64) {
+        let (b, d1, _) = self.eval2(det);
+        (b, d1)
+    }
+
+    /// `(beta, beta', beta'')` at `det` (`beta''` > 0 where the barrier is active: it is
+    /// convex).
+    #[inline]
+    pub fn eval2(&self, det: f64) -> (f64, f64, f64) {
         if det >= self.tau {
-            return (0.0, 0.0);
+            return (0.0, 0.0, 0.0);
         }
         let big_u = self.tau - self.floor;
         let ue = big_u / 20.0;
@@ -96,12 +104,11 @@ impl Barrier {
         };
         let u = det - self.floor;
         if u >= ue {
-            let (b, d1, _) = at(u);
-            (b, d1)
+            at(u)
         } else {
             let (b, d1, d2) = at(ue);
             let h = u - ue;
-            (b + d1 * h + 0.5 * d2 * h * h, d1 + d2 * h)
+            (b + d1 * h + 0.5 * d2 * h * h, d1 + d2 * h, d2)
         }
     }
 }
@@ -117,13 +124,17 @@ pub struct DataRow {
     pub weight: f64,
 }
 
+/// One triangle's share of the objective.
 #[derive(Clone, Debug)]
-struct TriTerm {
-    patch: Vec<usize>,
-    k: Vec<f64>,
+pub(super) struct TriTerm {
+    /// The patch's control points (file order).
+    pub(super) patch: Vec<usize>,
+    /// The bending matrix `K_T` (row-major, patch order).
+    pub(super) k: Vec<f64>,
     /// Per sample: `d/dx` and `d/dy` rows over the patch.
-    samples: Vec<[Vec<f64>; 2]>,
-    sample_weight: f64,
+    pub(super) samples: Vec<[Vec<f64>; 2]>,
+    /// Area per sample.
+    pub(super) sample_weight: f64,
 }
 
 /// The terms of `F` at some `x`.
@@ -186,6 +197,11 @@ impl Objective {
             })
             .collect();
         Objective { param, rows, tris, loss, bend, barrier }
+    }
+
+    /// The triangles' terms.
+    pub(super) fn tris(&self) -> &[TriTerm] {
+        &self.tris
     }
 
     /// The data rows.
@@ -329,58 +345,152 @@ impl Objective {
             touched.clear();
         }
         if self.bend > 0.0 {
-            let mut local: Vec<usize> = Vec::new();
-            let mut pos = vec![usize::MAX; nv];
-            for tri in &self.tris {
-                let m = tri.patch.len();
-                local.clear();
-                for &j in &tri.patch {
-                    for &(k, _) in &rows[j] {
-                        if pos[k] == usize::MAX {
-                            pos[k] = local.len();
-                            local.push(k);
-                        }
-                    }
-                }
-                let u = local.len();
-                if u == 0 {
-                    continue;
-                }
-                // S_T (m x u), then K S_T (m x u), then S_T^T (K S_T) (u x u).
-                let mut st = vec![0.0; m * u];
-                for (a, &j) in tri.patch.iter().enumerate() {
-                    for &(k, v) in &rows[j] {
-                        st[a * u + pos[k]] += v;
-                    }
-                }
-                let mut ks = vec![0.0; m * u];
-                for r in 0..m {
-                    for c in 0..m {
-                        let kv = tri.k[r * m + c];
-                        if kv != 0.0 {
-                            for z in 0..u {
-                                ks[r * u + z] += kv * st[c * u + z];
-                            }
-                        }
-                    }
-                }
-                for a in 0..m {
-                    for z1 in 0..u {
-                        let sv = st[a * u + z1];
-                        if sv != 0.0 {
-                            let row = local[z1] * nv;
-                            for z2 in 0..u {
-                                nm[row + local[z2]] += self.bend * sv * ks[a * u + z2];
-                            }
-                        }
-                    }
-                }
-                for &k in &local {
-                    pos[k] = usize::MAX;
-                }
-            }
+            let bend = self.bend;
+            self.bending_entries(|a, b, v| nm[a * nv + b] += bend * v);
         }
         nm
+    }
+
+    /// The domain's area (sum of the triangle areas).
+    pub fn area(&self) -> f64 {
+        self.tris.iter().map(|t| t.sample_weight * t.samples.len() as f64).sum()
+    }
+
+    /// Each data row over the variables: `(a_i, r_i, t_i)` with `phi(s_i) = a_i^T x + r_i`
+    /// per coordinate (`r_i` is the share of the fixed points).
+    pub fn variable_rows(&self) -> Vec<(Vec<(usize, f64)>, [f64; 2], [f64; 2])> {
+        let prow = self.param.rows();
+        let nv = self.param.nv();
+        let mut p0 = vec![[0.0f64; 2]; self.param.var_of.len()];
+        self.param.points_into(&vec![0.0; 2 * nv], &mut p0);
+        let mut acc = vec![0.0; nv];
+        let mut touched: Vec<usize> = Vec::new();
+        self.rows
+            .iter()
+            .map(|r| {
+                let mut r0 = [0.0; 2];
+                for &(j, w) in &r.row {
+                    r0[0] += w * p0[j][0];
+                    r0[1] += w * p0[j][1];
+                    for &(k, v) in &prow[j] {
+                        if acc[k] == 0.0 {
+                            touched.push(k);
+                        }
+                        acc[k] += w * v;
+                    }
+                }
+                touched.sort_unstable();
+                touched.dedup();
+                let row = touched.iter().map(|&k| (k, acc[k])).filter(|e| e.1 != 0.0).collect();
+                for &k in &touched {
+                    acc[k] = 0.0;
+                }
+                touched.clear();
+                (row, r0, r.target)
+            })
+            .collect()
+    }
+
+    /// The bending energy over the variables, `E(x) = x^T K x + 2 b^T x + const` per
+    /// coordinate: `K`'s entries (row, column, value; duplicates to be summed, both
+    /// triangles listed) and `b` per coordinate.
+    #[allow(clippy::type_complexity)]
+    pub fn bending_system(&self) -> (Vec<(usize, usize)>, Vec<f64>, [Vec<f64>; 2]) {
+        let nv = self.param.nv();
+        let (mut entries, mut values) = (Vec::new(), Vec::new());
+        self.bending_entries(|a, b, v| {
+            if a >= b {
+                entries.push((a, b));
+                values.push(v);
+            }
+        });
+        // b = S^T K_T q0 summed over triangles, q0 the points at x = 0.
+        let n = self.param.var_of.len();
+        let mut p0 = vec![[0.0f64; 2]; n];
+        self.param.points_into(&vec![0.0; 2 * nv], &mut p0);
+        let mut g = vec![[0.0f64; 2]; n];
+        for tri in &self.tris {
+            let m = tri.patch.len();
+            for r in 0..m {
+                let mut kq = [0.0; 2];
+                for c in 0..m {
+                    let kv = tri.k[r * m + c];
+                    kq[0] += kv * p0[tri.patch[c]][0];
+                    kq[1] += kv * p0[tri.patch[c]][1];
+                }
+                g[tri.patch[r]][0] += kq[0];
+                g[tri.patch[r]][1] += kq[1];
+            }
+        }
+        let mut gx = vec![0.0; 2 * nv];
+        self.param.backprop(&mut g, &mut gx);
+        let by = gx.split_off(nv);
+        (entries, values, [gx, by])
+    }
+
+    /// Calls `emit(a, b, v)` for every contribution `v` to `K[a][b]` of the bending matrix
+    /// over the variables (`K = sum_T S_T^T K_T S_T`, both triangles, without `lambda`).
+    fn bending_entries(&self, mut emit: impl FnMut(usize, usize, f64)) {
+        let nv = self.param.nv();
+        let rows = self.param.rows();
+        let mut local: Vec<usize> = Vec::new();
+        let mut pos = vec![usize::MAX; nv];
+        for tri in &self.tris {
+            let m = tri.patch.len();
+            local.clear();
+            for &j in &tri.patch {
+                for &(k, _) in &rows[j] {
+                    if pos[k] == usize::MAX {
+                        pos[k] = local.len();
+                        local.push(k);
+                    }
+                }
+            }
+            let u = local.len();
+            if u == 0 {
+                continue;
+            }
+            // S_T (m x u), then K S_T (m x u), then S_T^T (K S_T) (u x u).
+            let mut st = vec![0.0; m * u];
+            for (a, &j) in tri.patch.iter().enumerate() {
+                for &(k, v) in &rows[j] {
+                    st[a * u + pos[k]] += v;
+                }
+            }
+            let mut ks = vec![0.0; m * u];
+            for r in 0..m {
+                for c in 0..m {
+                    let kv = tri.k[r * m + c];
+                    if kv != 0.0 {
+                        for z in 0..u {
+                            ks[r * u + z] += kv * st[c * u + z];
+                        }
+                    }
+                }
+            }
+            let mut block = vec![0.0; u * u];
+            for a in 0..m {
+                for z1 in 0..u {
+                    let sv = st[a * u + z1];
+                    if sv != 0.0 {
+                        for z2 in 0..u {
+                            block[z1 * u + z2] += sv * ks[a * u + z2];
+                        }
+                    }
+                }
+            }
+            for z1 in 0..u {
+                for z2 in 0..u {
+                    let v = block[z1 * u + z2];
+                    if v != 0.0 {
+                        emit(local[z1], local[z2], v);
+                    }
+                }
+            }
+            for &k in &local {
+                pos[k] = usize::MAX;
+            }
+        }
     }
 
     /// `phi(s_i)` for every data row at variables `x`.

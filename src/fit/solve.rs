@@ -1,34 +1,32 @@
-//! The fit: options, the solver runs (Gauss-Newton for squares, L-BFGS through `argmin`
-//! otherwise), exact certification and the report.
+//! The fit: options, the solver runs, exact certification and the report.
 //!
 //! 1. The landmarks' source points are located in the mesh (each gives a fixed row over the
 //!    control points); the variables are the free points of the spline's minimal determining
 //!    set, all of them or those within `radius` control-net steps of the landmarks'
-//!    triangles ([`super::param`]).
-//! 2. The normal matrix `N` of the squares problem (data plus bending, see
-//!    [`super::objective`]) is factored once, `N = L L^T` ([`super::chol`]).
-//! 3. *Squares*: one Gauss-Newton step `x* = x0 - N^-1 grad F(x0) / 2` is the exact minimizer
-//!    of the quadratic. If no `det J` sample of `x*` is below the barrier's threshold the
-//!    barrier is zero around it and `x*` is the fit; otherwise L-BFGS continues from `x*` with
-//!    the barrier on. *Huber, Cauchy*: L-BFGS from the warm start. L-BFGS runs in the
-//!    preconditioned variables `y` with `x = x_c + L^-T y`, in which the squares problem's
-//!    Hessian is the identity, so few iterations are needed whatever the mesh's scale.
+//!    triangles ([`super::param`]), less the pinned ones (and, with
+//!    [`FitOptions::pin_border`], every free point the border depends on).
+//! 2. *Squares*: the exact minimizer of data plus bending, computed in landmark space
+//!    ([`super::smooth`]), with the scale-free bending weight chosen by generalized
+//!    cross-validation ([`Bend::Auto`]) or given. *Huber, Cauchy*: iteratively reweighted
+//!    squares on the same factorization.
+//! 3. *Barrier*: if some `det J` sample of that minimizer is below the barrier's threshold,
+//!    Newton's method with the barrier's Hessian ([`super::newton`]) runs from the best
+//!    start whose `det J > 0` is certified (the minimizer itself, or the warm start); every
+//!    accepted step is certified fold-free, so the result is.
 //! 4. The `f64` result is made exact: variables rounded to multiples of `2^-20`, dependents
 //!    recomputed in rational arithmetic by the MDS formulas, and the C1 conditions checked
 //!    exactly ([`crate::spline::Spline::from_points`]). The saved deformation is therefore C1
 //!    exactly, and can be edited further by hand.
 
 use super::basis::sample_points;
-use super::chol::Cholesky;
 use super::landmarks::Landmark;
+use super::newton::newton;
 use super::objective::{data_row, Barrier, Loss, Objective};
 use super::param::Param;
+use super::smooth::{Smoother, DEFAULT_BEND};
 use crate::edit::select::{neighborhood, Neighborhood, SelectIndex};
 use crate::spline::mds::{Mds, MdsError};
 use crate::spline::{Spline, SplineError};
-use argmin::core::{CostFunction, Executor, Gradient, State};
-use argmin::solver::linesearch::MoreThuenteLineSearch;
-use argmin::solver::quasinewton::LBFGS;
 use serde::Serialize;
 use std::time::Instant;
 
@@ -37,14 +35,14 @@ use std::time::Instant;
 pub struct FitOptions {
     /// Data loss (default squares).
     pub loss: Loss,
-    /// `lambda_bend` (default 0.01).
-    pub bend: f64,
+    /// The scale-free bending weight (default [`Bend::Auto`]; see [`super::smooth`]).
+    pub bend: Bend,
     /// Fold barrier; `None` turns it off (default floor 0.1, threshold 0.3, weight 1).
     pub barrier: Option<Barrier>,
     /// Variables: free points within this many control-net steps of the landmarks'
     /// triangles (`None`: every free point; default).
     pub radius: Option<usize>,
-    /// Iteration cap of L-BFGS (default 200).
+    /// Iteration cap of the barrier's Newton method (default 200).
     pub max_iters: u64,
     /// Landmarks become hard constraints `phi(s_i) = t_i` ([`super::hard`]).
     pub hard: bool,
@@ -58,13 +56,26 @@ pub struct FitOptions {
     /// an ECLES update ([`super::hard`]) makes the result exactly C1 with every pinned point
     /// at its input value (default: none).
     pub pinned: Vec<usize>,
+    /// Hold the spline's border fixed: no free point that a control point of a border edge
+    /// depends on varies, so `phi` on the border stays as in the warm start (default false;
+    /// the landmark-adapted fit sets it, see [`super::frame`]).
+    pub pin_border: bool,
+}
+
+/// The bending weight of a fit.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Bend {
+    /// Chosen by generalized cross-validation on the landmarks ([`super::smooth`]).
+    Auto,
+    /// This scale-free weight (`lambda = bend * sum w * |Omega|`).
+    Weight(f64),
 }
 
 impl Default for FitOptions {
     fn default() -> Self {
         FitOptions {
             loss: Loss::Squares,
-            bend: 0.01,
+            bend: Bend::Auto,
             barrier: Some(Barrier { floor: 0.1, tau: 0.3, mu: 1.0 }),
             radius: None,
             max_iters: 200,
@@ -72,6 +83,7 @@ impl Default for FitOptions {
             grid_bits: 20,
             det_level: 4,
             pinned: Vec::new(),
+            pin_border: false,
         }
     }
 }
@@ -181,12 +193,22 @@ impl Stats {
 /// What a fit did.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct FitReport {
-    /// `gauss-newton`, `gauss-newton+lbfgs`, `lbfgs` or `hard`.
+    /// `gauss-newton` or `irls` (robust losses), `+newton` when the barrier acted, `+hard`
+    /// or `+pinned` after the exact step.
     pub method: String,
     /// Loss name.
     pub loss: String,
-    /// `lambda_bend`.
+    /// The scale-free bending weight used.
     pub bend: f64,
+    /// Whether it was chosen by GCV.
+    pub bend_auto: bool,
+    /// The GCV estimate of the landmarks' prediction error at that weight (pixels; auto only).
+    pub gcv_rms: Option<f64>,
+    /// Leave-one-out error of the landmarks' squares fit at that weight (pixels; auto only).
+    pub loo_rms: Option<f64>,
+    /// Why the solver stopped: `exact` (the squares minimizer, no barrier needed),
+    /// `converged`, `no descent` or `iteration cap` (Newton with the barrier).
+    pub termination: String,
     /// Number of variables (2 per free point that moves).
     pub variables: usize,
     /// Solver iterations (Gauss-Newton counts 1).
@@ -205,6 +227,10 @@ pub struct FitReport {
     pub min_det_j: f64,
     /// Whether some sample has `det J <= 0` (a fold).
     pub folds: bool,
+    /// `det J > 0` is proven on every triangle (certificate, not samples).
+    pub fold_free: bool,
+    /// A certified lower bound of `det J` over the whole mesh.
+    pub det_j_lower_bound: f64,
     /// The result satisfies every C1 condition exactly (checked in rational arithmetic).
     pub exact_c1: bool,
     /// Wall time of the fit (milliseconds).
@@ -333,51 +359,12 @@ pub fn min_det_j(s: &Spline, k: usize) -> f64 {
     best
 }
 
-/// L-BFGS's problem: `F(x_c + L^-T y)` per coordinate block.
-struct Preconditioned<'a> {
-    obj: &'a Objective,
-    chol: &'a Cholesky,
-    center: Vec<f64>,
-}
-
-impl Preconditioned<'_> {
-    fn x_of(&self, y: &[f64]) -> Vec<f64> {
-        let nv = self.chol.n();
-        let mut x = y.to_vec();
-        self.chol.solve_upper(&mut x[..nv]);
-        self.chol.solve_upper(&mut x[nv..]);
-        for (a, c) in x.iter_mut().zip(&self.center) {
-            *a += c;
-        }
-        x
-    }
-}
-
-impl CostFunction for Preconditioned<'_> {
-    type Param = Vec<f64>;
-    type Output = f64;
-    fn cost(&self, y: &Vec<f64>) -> Result<f64, argmin::core::Error> {
-        Ok(self.obj.eval(&self.x_of(y), None).total)
-    }
-}
-
-impl Gradient for Preconditioned<'_> {
-    type Param = Vec<f64>;
-    type Gradient = Vec<f64>;
-    fn gradient(&self, y: &Vec<f64>) -> Result<Vec<f64>, argmin::core::Error> {
-        let nv = self.chol.n();
-        let mut g = vec![0.0; 2 * nv];
-        self.obj.eval(&self.x_of(y), Some(&mut g));
-        self.chol.solve_lower(&mut g[..nv]);
-        self.chol.solve_lower(&mut g[nv..]);
-        Ok(g)
-    }
-}
-
 fn check_options(o: &FitOptions) -> Result<(), FitError> {
     let bad = |s: String| Err(FitError::Options(s));
-    if !(o.bend.is_finite() && o.bend >= 0.0) {
-        return bad(format!("bending weight {} must be finite and >= 0", o.bend));
+    if let Bend::Weight(w) = o.bend {
+        if !(w.is_finite() && w >= 0.0) {
+            return bad(format!("bending weight {w} must be finite and >= 0"));
+        }
     }
     match o.loss {
         Loss::Huber(d) | Loss::Cauchy(d) if !(d.is_finite() && d > 0.0) => {
@@ -459,8 +446,51 @@ pub fn objective_with(
     for &p in &opts.pinned {
         is_var[p] = false;
     }
-    let param = Param::new(s, mds, &is_var);
-    Ok(Objective::new(s, param, rows, opts.loss, opts.bend, opts.barrier, opts.det_level))
+    let param =
+        if opts.pin_border { border_closed(s, mds, is_var) } else { Param::new(s, mds, &is_var) };
+    let mut obj = Objective::new(s, param, rows, opts.loss, 0.0, opts.barrier, opts.det_level);
+    // lambda = bend * sum w * area (see `super::smooth`); with `Bend::Auto` the solver sets it.
+    if let Bend::Weight(w) = opts.bend {
+        obj.bend = w * lms.iter().map(|l| l.weight).sum::<f64>() * obj.area();
+    }
+    Ok(obj)
+}
+
+/// The parameterization in which no control point of a border edge depends on a variable:
+/// free points the border depends on are fixed too, until none is left.
+fn border_closed(s: &Spline, mds: &Mds, mut is_var: Vec<bool>) -> Param {
+    let m = s.mesh();
+    let d = s.degree();
+    let mut border: Vec<usize> = Vec::new();
+    for e in 0..m.num_edges() {
+        if m.is_border_edge(e) {
+            let v = m.edges()[e].v;
+            border.extend(v);
+            border.extend((1..d).map(|k| m.num_vertices() + (d - 1) * e + (k - 1)));
+        }
+    }
+    border.sort_unstable();
+    border.dedup();
+    for &p in &border {
+        is_var[p] = false;
+    }
+    loop {
+        let param = Param::new(s, mds, &is_var);
+        let rows = param.rows();
+        let mut changed = false;
+        for &p in &border {
+            for &(k, _) in &rows[p] {
+                let q = param.vars[k];
+                if is_var[q] {
+                    is_var[q] = false;
+                    changed = true;
+                }
+            }
+        }
+        if !changed {
+            return param;
+        }
+    }
 }
 
 /// Fits `s` to the landmarks (see the module docs). `s` is the warm start; it is not changed.
@@ -480,111 +510,141 @@ pub(super) fn fit_soft(
     start: Instant,
 ) -> Result<Fit, FitError> {
     let mds = Mds::new(s)?;
-    let obj = objective_with(s, &mds, lms, opts)?;
+    let mut obj = objective_with(s, &mds, lms, opts)?;
     let nv = obj.param.nv();
     let x0 = obj.param.x0();
+    let out = if nv == 0 {
+        Solved {
+            x: x0.clone(),
+            method: "none".into(),
+            iterations: 0,
+            bend: bend_weight(opts.bend),
+            choice: None,
+            termination: "exact".into(),
+        }
+    } else {
+        solve(&mut obj, s, &x0, opts)?
+    };
     let cost_initial = obj.eval(&x0, None).total;
-    let (x, method, iterations) =
-        if nv == 0 { (x0.clone(), "none".to_string(), 0) } else { solve(&obj, &x0, opts)? };
-    let cost_final = obj.eval(&x, None).total;
-    let pts = obj.param.exact_points(s, &mds, &x, opts.grid_bits);
+    let cost_final = obj.eval(&out.x, None).total;
+    let pts = obj.param.exact_points(s, &mds, &out.x, opts.grid_bits);
     let mut fitted = s.clone();
     fitted.set_points(pts)?;
-    let report =
-        report(&fitted, lms, opts, method, nv, iterations, cost_initial, cost_final, start)?;
-    Ok(Fit { spline: fitted, report })
+    let mut rep = report(
+        &fitted,
+        lms,
+        opts,
+        out.method,
+        nv,
+        out.iterations,
+        cost_initial,
+        cost_final,
+        start,
+    )?;
+    rep.bend = out.bend;
+    rep.bend_auto = matches!(opts.bend, Bend::Auto);
+    rep.gcv_rms = out.choice.map(|c| c.gcv_rms);
+    rep.loo_rms = out.choice.map(|c| c.loo_rms);
+    rep.termination = out.termination;
+    Ok(Fit { spline: fitted, report: rep })
 }
 
-/// The most variable control points a soft fit takes: its normal matrix is stored densely
-/// (`8 nv^2` bytes, 8.6 GB at this size, touched only along its envelope).
+/// The most variable control points a soft fit takes (a bound on its memory: the landmark
+/// space solver stores `nv x k` numbers, the Newton step a sparse factor).
 pub const MAX_FIT_VARIABLES: usize = 32_768;
 
-/// Factors the (reweighted) normal matrix with a tiny ridge.
-fn factor(obj: &Objective, scale: Option<&[f64]>) -> Result<Cholesky, FitError> {
+/// The weight of a fixed [`Bend`], or the default where GCV cannot choose.
+fn bend_weight(b: Bend) -> f64 {
+    match b {
+        Bend::Weight(w) => w,
+        Bend::Auto => DEFAULT_BEND,
+    }
+}
+
+/// What [`solve`] found.
+struct Solved {
+    x: Vec<f64>,
+    method: String,
+    iterations: u64,
+    bend: f64,
+    choice: Option<super::smooth::Choice>,
+    termination: String,
+}
+
+/// Iterations of reweighted squares for the robust losses.
+pub const IRLS_ITERATIONS: usize = 50;
+/// IRLS stops when no variable moves more than this (pixels).
+pub const IRLS_TOL: f64 = 1e-7;
+
+/// The solver runs of a soft fit (see the module docs). Sets `obj.bend` to `lambda`.
+fn solve(
+    obj: &mut Objective,
+    s: &Spline,
+    x0: &[f64],
+    opts: &FitOptions,
+) -> Result<Solved, FitError> {
     let nv = obj.param.nv();
     if nv > MAX_FIT_VARIABLES {
         return Err(FitError::TooLarge { variables: nv });
     }
-    let mut nm = obj.normal_matrix_weighted(scale);
-    let trace: f64 = (0..nv).map(|i| nm[i * nv + i]).sum();
-    let ridge = 1e-10 * trace / nv as f64;
-    for i in 0..nv {
-        nm[i * nv + i] += ridge;
-    }
-    Cholesky::factor(nv, nm).map_err(FitError::Singular)
-}
-
-/// One Gauss-Newton step of the squares problem with data weights scaled by `scale`:
-/// the exact minimizer of that quadratic.
-fn gauss_newton(obj: &Objective, chol: &Cholesky, x: &[f64], scale: Option<&[f64]>) -> Vec<f64> {
-    let nv = obj.param.nv();
-    let mut quad = obj.clone();
-    quad.loss = Loss::Squares;
-    quad.barrier = None;
-    if let Some(sc) = scale {
-        quad.scale_weights(sc);
-    }
-    let mut g = vec![0.0; 2 * nv];
-    quad.eval(x, Some(&mut g));
-    chol.solve(&mut g[..nv]);
-    chol.solve(&mut g[nv..]);
-    x.iter().zip(&g).map(|(a, b)| a - 0.5 * b).collect()
-}
-
-/// Gauss-Newton (squares) or iteratively reweighted Gauss-Newton (robust losses), then
-/// L-BFGS with the barrier where the barrier is active. Returns `(x, method, iterations)`.
-fn solve(
-    obj: &Objective,
-    x0: &[f64],
-    opts: &FitOptions,
-) -> Result<(Vec<f64>, String, u64), FitError> {
-    let nv = obj.param.nv();
-    let squares = opts.loss == Loss::Squares;
-    let mut chol = factor(obj, None)?;
-    let mut x = gauss_newton(obj, &chol, x0, None);
+    let sm = Smoother::new(obj)?;
+    let choice = match opts.bend {
+        Bend::Auto => sm.choose()?,
+        Bend::Weight(_) => None,
+    };
+    let bend = choice.map_or(bend_weight(opts.bend), |c| c.bend);
+    obj.bend = sm.lambda(bend);
+    let mut x = sm.solve(bend, None)?;
     let mut iterations = 1u64;
     let mut method = "gauss-newton".to_string();
-    if !squares {
-        // IRLS: data weight w_i psi(r_i)/2 (psi = rho'(r)/r), from the warm start.
+    if opts.loss != Loss::Squares {
+        // IRLS: data weight w_i psi(r_i) / 2 (psi = rho'(r) / r), from the squares fit.
         method = "irls".into();
-        x = x0.to_vec();
-        for _ in 0..50 {
+        for _ in 0..IRLS_ITERATIONS {
             let scale: Vec<f64> =
                 obj.residual_lengths(&x).iter().map(|&r| 0.5 * obj.loss.eval(r).1).collect();
-            chol = factor(obj, Some(&scale))?;
-            let next = gauss_newton(obj, &chol, &x, Some(&scale));
+            let next = sm.solve(bend, Some(&scale))?;
             iterations += 1;
             let step = next.iter().zip(&x).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
             x = next;
-            if step < 1e-7 {
+            if step < IRLS_TOL {
                 break;
             }
         }
     }
-    let quiet = match opts.barrier {
-        None => true,
-        Some(b) => obj.eval(&x, None).min_det >= b.tau,
+    let Some(barrier) = opts.barrier else {
+        return Ok(Solved { x, method, iterations, bend, choice, termination: "exact".into() });
     };
-    if quiet {
-        return Ok((x, method, iterations));
+    if obj.eval(&x, None).min_det >= barrier.tau {
+        return Ok(Solved { x, method, iterations, bend, choice, termination: "exact".into() });
     }
-    let problem = Preconditioned { obj, chol: &chol, center: x.clone() };
-    let solver = LBFGS::new(MoreThuenteLineSearch::new(), 8)
-        .with_tolerance_grad(1e-9)
-        .and_then(|s| s.with_tolerance_cost(1e-12))
-        .map_err(|e| FitError::Solver(e.to_string()))?;
-    let res = Executor::new(problem, solver)
-        .configure(|st| st.param(vec![0.0; 2 * nv]).max_iters(opts.max_iters))
-        .run()
-        .map_err(|e| FitError::Solver(e.to_string()))?;
-    iterations += res.state().get_iter();
-    let y = res
-        .state()
-        .get_best_param()
-        .cloned()
-        .ok_or_else(|| FitError::Solver("no result".into()))?;
-    let x = Preconditioned { obj, chol: &chol, center: x }.x_of(&y);
-    Ok((x, format!("{method}+lbfgs"), iterations))
+    // Newton with the barrier from a certified start: the minimizer if it is fold-free,
+    // else the warm start.
+    let certify = |p: &[[f64; 2]]| certified(s, p);
+    let mut pts = vec![[0.0f64; 2]; obj.param.var_of.len()];
+    obj.param.points_into(&x, &mut pts);
+    let start = if certify(&pts) {
+        Some(x.clone())
+    } else {
+        obj.param.points_into(x0, &mut pts);
+        certify(&pts).then(|| x0.to_vec())
+    };
+    let require = start.is_some();
+    let start = start.unwrap_or(x);
+    let out = newton(obj, &start, opts.max_iters, require, &certify)?;
+    Ok(Solved {
+        x: out.x,
+        method: format!("{method}+newton"),
+        iterations: iterations + out.iterations,
+        bend,
+        choice,
+        termination: out.termination,
+    })
+}
+
+/// Whether `det J > 0` is proven on every triangle for control points `p` (`f64`).
+fn certified(s: &Spline, p: &[[f64; 2]]) -> bool {
+    crate::spline::jacobian::certify_points(s, p)
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -601,10 +661,15 @@ pub(super) fn report(
 ) -> Result<FitReport, FitError> {
     let res = residuals(fitted, lms)?;
     let min_det = min_det_j(fitted, 2 * opts.det_level);
+    let cert = crate::spline::jacobian::certify(fitted);
     Ok(FitReport {
         method,
         loss: opts.loss.name().into(),
-        bend: opts.bend,
+        bend: bend_weight(opts.bend),
+        bend_auto: false,
+        gcv_rms: None,
+        loo_rms: None,
+        termination: "exact".into(),
         variables: 2 * nv,
         iterations,
         cost_initial,
@@ -614,6 +679,8 @@ pub(super) fn report(
         holdout: None,
         min_det_j: min_det,
         folds: min_det <= 0.0,
+        fold_free: cert.fold_free,
+        det_j_lower_bound: cert.lower_bound,
         // Every caller built `fitted` with `set_points` / `from_points`, which check each C1
         // condition exactly and fail otherwise (a second check would only repeat it).
         exact_c1: true,

@@ -3,7 +3,7 @@
 
 use super::landmarks::Landmark;
 use super::objective::{Barrier, Loss};
-use super::solve::{fit, objective, FitError, FitOptions};
+use super::solve::{fit, objective, Bend, FitError, FitOptions};
 use crate::exact::rat_int;
 use crate::mesh::{Mesh, MeshOptions};
 use crate::spline::Spline;
@@ -37,7 +37,7 @@ fn gradient_matches_finite_differences_for_every_loss_and_the_barrier() {
     for loss in [Loss::Squares, Loss::Huber(2.0), Loss::Cauchy(3.0)] {
         let opts = FitOptions {
             loss,
-            bend: 0.5,
+            bend: Bend::Weight(0.5),
             barrier: Some(Barrier { floor: 0.1, tau: 1.2, mu: 3.0 }),
             ..FitOptions::default()
         };
@@ -83,7 +83,8 @@ fn smooth_map_is_recovered_at_held_out_points() {
     let s = grid_spline();
     let lms = landmarks(50, 4, smooth_map);
     let held = landmarks(30, 5, smooth_map);
-    let f = fit(&s, &lms, &FitOptions { bend: 1e-3, ..FitOptions::default() }).unwrap();
+    let f =
+        fit(&s, &lms, &FitOptions { bend: Bend::Weight(1e-3), ..FitOptions::default() }).unwrap();
     let tre = super::solve::residuals(&f.spline, &held).unwrap();
     let worst = tre.iter().map(|r| r.residual).fold(0.0, f64::max);
     eprintln!("{:?} fit rms {} tre max {worst}", f.report.method, f.report.fit.rms);
@@ -104,7 +105,9 @@ fn robust_losses_ignore_gross_outliers() {
     let err = |loss| {
         // A stiff spline: fitting one bad match would cost more bending than its (bounded)
         // robust loss, so the robust fits drop them; squares cannot.
-        let f = fit(&s, &lms, &FitOptions { loss, bend: 10.0, ..FitOptions::default() }).unwrap();
+        // (lambda = 10 px^2: the scale-free weight is lambda / (sum w * area).)
+        let bend = Bend::Weight(10.0 / (50.0 * 500.0 * 250.0));
+        let f = fit(&s, &lms, &FitOptions { loss, bend, ..FitOptions::default() }).unwrap();
         eprintln!("{loss:?}: {} iterations, {:.1} ms", f.report.iterations, f.report.time_ms);
         let r = super::solve::residuals(&f.spline, &held).unwrap();
         (r.iter().map(|x| x.residual * x.residual).sum::<f64>() / r.len() as f64).sqrt()
@@ -125,13 +128,16 @@ fn barrier_keeps_det_j_above_its_floor_where_squares_fold() {
         Landmark { name: None, src: [50.0, 50.0], dst: [50.0, 50.0], weight: 1.0 },
         Landmark { name: None, src: [450.0, 200.0], dst: [450.0, 200.0], weight: 1.0 },
     ];
+    // (lambda = 1e-3 px^2 as a scale-free weight.)
+    let bend = Bend::Weight(1e-3 / (4.0 * 500.0 * 250.0));
     let plain =
-        fit(&s, &lms, &FitOptions { barrier: None, bend: 1e-3, ..FitOptions::default() }).unwrap();
+        fit(&s, &lms, &FitOptions { barrier: None, bend, ..FitOptions::default() }).unwrap();
     assert!(plain.report.folds, "min det {}", plain.report.min_det_j);
-    let guarded = fit(&s, &lms, &FitOptions { bend: 1e-3, ..FitOptions::default() }).unwrap();
-    eprintln!("{:?}", guarded.report.min_det_j);
+    let guarded = fit(&s, &lms, &FitOptions { bend, ..FitOptions::default() }).unwrap();
+    eprintln!("{:?} {}", guarded.report.min_det_j, guarded.report.termination);
     assert!(!guarded.report.folds && guarded.report.min_det_j > 0.05);
-    assert!(guarded.report.method.contains("lbfgs"));
+    assert!(guarded.report.fold_free, "certified: {}", guarded.report.det_j_lower_bound);
+    assert!(guarded.report.method.contains("newton"));
 }
 
 #[test]
@@ -246,7 +252,7 @@ mod props {
                 .map(|&(x, y, dx, dy)| Landmark { name: None, src: [x, y], dst: [x + dx, y + dy], weight: 1.0 })
                 .collect();
             let loss = [Loss::Squares, Loss::Huber(2.0), Loss::Cauchy(2.0)][robust];
-            let f = fit(&s, &lms, &FitOptions { loss, bend, ..FitOptions::default() }).unwrap();
+            let f = fit(&s, &lms, &FitOptions { loss, bend: Bend::Weight(bend), ..FitOptions::default() }).unwrap();
             prop_assert!(f.spline.check_c1().is_ok());
             prop_assert!(f.report.exact_c1);
             prop_assert!(f.report.cost_final <= f.report.cost_initial + 1e-9);

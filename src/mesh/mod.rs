@@ -51,6 +51,7 @@
 //! (border vertex); no vertex inside or on a triangle that does not use it; and no two border
 //! edges touching except at a common vertex. Meshes may have holes and several components.
 
+mod adapt;
 mod build;
 mod check;
 mod locate;
@@ -59,6 +60,7 @@ mod obj;
 mod tests;
 mod validate;
 
+pub use adapt::{default_margin, AdaptOptions, AdaptedMesh};
 use locate::Locator;
 
 /// Options shared by all mesh builders.
@@ -228,6 +230,23 @@ pub enum MeshError {
         /// What is wrong.
         message: String,
     },
+    /// A landmark source outside the frame of a landmark-adapted mesh.
+    #[error("landmark {index}: source point ({x}, {y}) lies outside the {w} x {h} frame (pixel centres run from 0 to width - 1 and height - 1); check --size and the landmark file's columns")]
+    OutsideFrame {
+        /// Index of the source.
+        index: usize,
+        /// Source x.
+        x: f64,
+        /// Source y.
+        y: f64,
+        /// Frame width.
+        w: f64,
+        /// Frame height.
+        h: f64,
+    },
+    /// Invalid options of [`Mesh::landmark_adapted`].
+    #[error("landmark mesh: {0}")]
+    BadAdapt(String),
     /// The mesh would have no triangles.
     #[error("the mesh has no triangles; give at least one triangle (or grid cell)")]
     Empty,

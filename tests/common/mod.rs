@@ -1,6 +1,8 @@
 //! Helpers shared by the CLI integration tests.
 #![allow(dead_code)]
 
+pub mod tps;
+
 use std::path::Path;
 use std::process::{Command, Output};
 

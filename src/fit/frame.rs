@@ -1,0 +1,371 @@
+//! Fitting a frame from its landmarks alone: the landmark-adapted mesh, an affine warm
+//! start whose border is held, and full coverage of the frame.
+//!
+//! Given landmarks (sources and targets in pixels) and the frame size `w x h`:
+//!
+//! 1. `A` is the weighted least-squares affine map of the landmarks,
+//!    `A = argmin sum_i w_i |A s_i - t_i|^2` (6 unknowns; at least 3 landmarks not on one
+//!    line, and `det A > 0`: a mirror image is refused).
+//! 2. The mesh is [`Mesh::landmark_adapted`] with a margin large enough that `A` maps the
+//!    domain over the whole frame: every frame corner `c` has `A^-1 c` inside the domain
+//!    (the default margin grows when it does not).
+//! 3. The warm start is `A` itself, exactly (its coefficients rounded to multiples of
+//!    [`AFFINE_BITS`] bits). The border is free (natural boundary): beyond the landmarks
+//!    the fit continues as smoothly as the bending energy allows, which is how a thin-plate
+//!    spline extrapolates (towards an affine map). Holding the border at `A` instead
+//!    ([`FitOptions::pin_border`]) biases every landmark near the border and is not the
+//!    default.
+//!
+//! **Coverage.** If the border curve `phi(dD)` avoids the frame and winds once around it,
+//! every frame point `q` has degree `deg(phi, D, q) = 1`, hence a preimage: warping a frame
+//! through the fit leaves no background pixel in the frame. [`covers_frame`] proves this
+//! from the border edges' Bezier control points; when it fails with the automatic margin,
+//! the margin is doubled and the fit run again (up to [`MAX_MARGIN_DOUBLINGS`] times), and
+//! the report's `covers_frame` says whether it was proven.
+
+use super::landmarks::Landmark;
+use super::solve::{fit, validate, Fit, FitError, FitOptions};
+use crate::exact::Rat;
+use crate::mesh::{default_margin, AdaptOptions, Mesh, MeshError};
+use crate::spline::mds::{Mds, MdsError};
+use crate::spline::Spline;
+use serde::Serialize;
+
+/// The affine warm start's coefficients are multiples of `2^-AFFINE_BITS`.
+pub const AFFINE_BITS: u32 = 24;
+
+/// Snapping grids tried for the mesh (smallest first): `16 * 5^k`, which represent every
+/// source given with up to `k` decimals (in pixels) exactly.
+const GRIDS: [i64; 6] = [16, 80, 400, 2000, 10_000, 50_000];
+
+/// Attempts at breaking up a vertex that has no local determining set.
+const MAX_MDS_RETRIES: usize = 8;
+
+/// Options of [`fit_frame`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct FrameFitOptions {
+    /// The mesh (its `grid` is chosen from the sources when left at 0).
+    pub mesh: AdaptOptions,
+    /// The spline's degree (default 5).
+    pub degree: usize,
+    /// The fit.
+    pub fit: FitOptions,
+}
+
+impl Default for FrameFitOptions {
+    fn default() -> Self {
+        FrameFitOptions {
+            mesh: AdaptOptions { grid: 0, ..AdaptOptions::default() },
+            degree: 5,
+            fit: FitOptions::default(),
+        }
+    }
+}
+
+/// What [`fit_frame`] adds to a fit.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct FrameReport {
+    /// The frame size.
+    pub size: [f64; 2],
+    /// The margin used (pixels).
+    pub margin: f64,
+    /// The mesh's snapping grid.
+    pub grid: i64,
+    /// Mesh vertices, triangles, and vertices added by the refinement.
+    pub vertices: usize,
+    /// Triangles.
+    pub triangles: usize,
+    /// Refinement points.
+    pub steiner: usize,
+    /// The affine map held on the border: `[[a, b, c], [d, e, f]]`, `A(x, y) = (a x + b y +
+    /// c, d x + e y + f)`.
+    pub affine: [[f64; 3]; 2],
+    /// The fitted map is certified to cover the whole frame (see the module docs).
+    pub covers_frame: bool,
+}
+
+/// A fit over a landmark-adapted mesh.
+#[derive(Clone, Debug)]
+pub struct FrameFit {
+    /// The fitted spline and its report.
+    pub fit: Fit,
+    /// Mesh, border and coverage.
+    pub frame: FrameReport,
+}
+
+/// The weighted least-squares affine map of the landmarks, or why there is none.
+pub fn affine_fit(lms: &[Landmark]) -> Result<[[f64; 3]; 2], FitError> {
+    if lms.is_empty() {
+        return Err(FitError::NoLandmarks);
+    }
+    if lms.len() < 3 {
+        return Err(FitError::Options(format!(
+            "{} landmark{}: a fit without a given deformation needs at least 3 landmarks not \
+             on one line",
+            lms.len(),
+            if lms.len() == 1 { "" } else { "s" }
+        )));
+    }
+    // Centre for conditioning, then solve the 3x3 normal equations per coordinate.
+    let sw: f64 = lms.iter().map(|l| l.weight).sum();
+    let c = [0, 1].map(|a| lms.iter().map(|l| l.weight * l.src[a]).sum::<f64>() / sw);
+    let mut n = [[0.0f64; 2]; 2];
+    let mut r = [[0.0f64; 2]; 2];
+    let mut tbar = [0.0f64; 2];
+    for l in lms {
+        let u = [l.src[0] - c[0], l.src[1] - c[1]];
+        for a in 0..2 {
+            tbar[a] += l.weight * l.dst[a] / sw;
+            for b in 0..2 {
+                n[a][b] += l.weight * u[a] * u[b];
+            }
+        }
+    }
+    for l in lms {
+        let u = [l.src[0] - c[0], l.src[1] - c[1]];
+        for k in 0..2 {
+            for a in 0..2 {
+                r[k][a] += l.weight * (l.dst[k] - tbar[k]) * u[a];
+            }
+        }
+    }
+    let det = n[0][0] * n[1][1] - n[0][1] * n[1][0];
+    let scale = n[0][0] + n[1][1];
+    if !(det > 1e-9 * scale * scale) {
+        return Err(FitError::Options(
+            "all landmark sources lie on one line, so they determine no map of the plane; \
+             add landmarks off that line"
+                .into(),
+        ));
+    }
+    let inv = [[n[1][1] / det, -n[0][1] / det], [-n[1][0] / det, n[0][0] / det]];
+    let mut a = [[0.0f64; 3]; 2];
+    for k in 0..2 {
+        for j in 0..2 {
+            a[k][j] = r[k][0] * inv[0][j] + r[k][1] * inv[1][j];
+        }
+        a[k][2] = tbar[k] - a[k][0] * c[0] - a[k][1] * c[1];
+    }
+    let da = a[0][0] * a[1][1] - a[0][1] * a[1][0];
+    if !(da > 0.0) {
+        return Err(FitError::Options(format!(
+            "the landmarks' best affine map reverses orientation (determinant {da:.3}): the \
+             targets are a mirror image of the sources; flip the image or fix the landmark \
+             columns"
+        )));
+    }
+    Ok(a)
+}
+
+/// The margin that makes `A` map the domain over the whole frame (at least `base`).
+fn covering_margin(a: &[[f64; 3]; 2], w: f64, h: f64, base: f64) -> f64 {
+    let det = a[0][0] * a[1][1] - a[0][1] * a[1][0];
+    let mut need: f64 = 0.0;
+    for c in [[-0.5, -0.5], [w - 0.5, -0.5], [-0.5, h - 0.5], [w - 0.5, h - 0.5]] {
+        let v = [c[0] - a[0][2], c[1] - a[1][2]];
+        let p = [(a[1][1] * v[0] - a[0][1] * v[1]) / det, (-a[1][0] * v[0] + a[0][0] * v[1]) / det];
+        need = need.max(-0.5 - p[0]).max(-0.5 - p[1]).max(p[0] - (w - 0.5)).max(p[1] - (h - 0.5));
+    }
+    // Two pixels of slack beyond the corners' preimages.
+    base.max((need + 2.0).ceil())
+}
+
+/// The smallest grid of [`GRIDS`] on which every source is exact.
+pub fn source_grid(lms: &[Landmark]) -> i64 {
+    GRIDS
+        .iter()
+        .copied()
+        .find(|&g| {
+            lms.iter().all(|l| {
+                l.src.iter().all(|&v| {
+                    let s = v * g as f64;
+                    s.abs() < 1e12 && (s - s.round()).abs() <= 1e-9 * s.abs().max(1.0)
+                })
+            })
+        })
+        .unwrap_or(GRIDS[0])
+}
+
+/// The exact spline of the affine map `a` over `mesh`.
+fn affine_spline(mesh: Mesh, degree: usize, a: &[[f64; 3]; 2]) -> Result<Spline, FitError> {
+    let id = Spline::identity(mesh, degree)?;
+    let coef: Vec<Vec<Rat>> = a
+        .iter()
+        .map(|row| {
+            row.iter().map(|&v| super::param::grid_rat(v, AFFINE_BITS)).collect::<Vec<Rat>>()
+        })
+        .collect();
+    let pts: Vec<Vec<Rat>> = id
+        .points()
+        .iter()
+        .map(|p| (0..2).map(|k| &coef[k][0] * &p[0] + &coef[k][1] * &p[1] + &coef[k][2]).collect())
+        .collect();
+    let mut s = id;
+    s.set_points(pts)?;
+    Ok(s)
+}
+
+/// Margin doublings tried when a fit does not cover the frame.
+const MAX_MARGIN_DOUBLINGS: usize = 3;
+
+/// Fits a `size = [w, h]` frame to landmarks with no deformation given (see the module
+/// docs).
+pub fn fit_frame(
+    lms: &[Landmark],
+    size: [f64; 2],
+    opts: &FrameFitOptions,
+) -> Result<FrameFit, FitError> {
+    validate(lms)?;
+    let a = affine_fit(lms)?;
+    let [w, h] = size;
+    let base = opts.mesh.margin.unwrap_or_else(|| default_margin(w, h));
+    let mut margin =
+        if opts.mesh.margin.is_some() { base } else { covering_margin(&a, w, h, base) };
+    let grid = if opts.mesh.grid > 0 { opts.mesh.grid } else { source_grid(lms) };
+    let mut doublings = 0;
+    loop {
+        let (adapted, f) = fit_on_mesh(lms, size, &a, margin, grid, opts)?;
+        let covered = covers_frame(&f.spline, [-0.5, -0.5], [w - 0.5, h - 0.5]);
+        if covered || opts.mesh.margin.is_some() || doublings == MAX_MARGIN_DOUBLINGS {
+            let frame = FrameReport {
+                size,
+                margin,
+                grid,
+                vertices: adapted.mesh.num_vertices(),
+                triangles: adapted.mesh.num_triangles(),
+                steiner: adapted.steiner,
+                affine: a,
+                covers_frame: covered,
+            };
+            return Ok(FrameFit { fit: f, frame });
+        }
+        margin *= 2.0;
+        doublings += 1;
+    }
+}
+
+/// The adapted mesh with this margin and the fit over it.
+fn fit_on_mesh(
+    lms: &[Landmark],
+    size: [f64; 2],
+    a: &[[f64; 3]; 2],
+    margin: f64,
+    grid: i64,
+    opts: &FrameFitOptions,
+) -> Result<(crate::mesh::AdaptedMesh, Fit), FitError> {
+    let sources: Vec<[f64; 2]> = lms.iter().map(|l| l.src).collect();
+    let mut mesh_opts = AdaptOptions { margin: Some(margin), grid, ..opts.mesh.clone() };
+    let mut tries = 0;
+    let (adapted, spline) = loop {
+        let adapted = Mesh::landmark_adapted(&sources, size, &mesh_opts).map_err(|e| match e {
+            MeshError::OutsideFrame { index, x, y, w, h } => FitError::BadLandmark {
+                index,
+                name: lms[index].name.clone().unwrap_or_else(|| "-".into()),
+                why: format!(
+                    "source point ({x}, {y}) lies outside the {w} x {h} frame (pixel centres \
+                     run from 0 to width - 1 and height - 1); check --size and the columns"
+                ),
+            },
+            e => FitError::Options(e.to_string()),
+        })?;
+        let spline = affine_spline(adapted.mesh.clone(), opts.degree, a)?;
+        match Mds::new(&spline) {
+            Ok(_) => break (adapted, spline),
+            Err(MdsError::Singular(v)) if tries < MAX_MDS_RETRIES => {
+                // Break the vertex's symmetric star with a point inside one of its triangles.
+                let m = &adapted.mesh;
+                let t = m.vertex_triangles(v)[0];
+                let c = m.triangle(t).map(|i| m.vertex(i));
+                mesh_opts.extra_points.push([
+                    (c[0][0] + c[1][0] + c[2][0]) / 3.0,
+                    (c[0][1] + c[1][1] + c[2][1]) / 3.0,
+                ]);
+                tries += 1;
+            }
+            Err(e) => return Err(e.into()),
+        }
+    };
+    let f = fit(&spline, lms, &opts.fit)?;
+    Ok((adapted, f))
+}
+
+/// Separation (pixels) by which the border curve must clear the frame in [`covers_frame`]:
+/// far above the `f64` rounding of the control points (about `1e-13` px).
+pub const COVER_CLEARANCE: f64 = 1e-6;
+
+/// Subdivision depth of a border curve piece in [`covers_frame`].
+const COVER_DEPTH: usize = 8;
+
+/// Whether `phi` certainly covers the frame `[lo, hi]`: its border curve `phi(dD)` stays
+/// outside the frame and winds once around it, so every frame point has degree 1, hence a
+/// preimage (the degree argument of the module docs). Each border edge's image is the
+/// Bezier curve of the edge's control points, inside their convex hull: a piece whose points
+/// all lie beyond one side of the frame (by [`COVER_CLEARANCE`]) clears it; others are split
+/// by de Casteljau's algorithm, up to [`COVER_DEPTH`] times. The winding number is that of the
+/// control polygons (homotopic to the curve within the hulls, which miss the frame).
+pub fn covers_frame(s: &Spline, lo: [f64; 2], hi: [f64; 2]) -> bool {
+    let m = s.mesh();
+    let d = s.degree();
+    let c = [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0];
+    let clear = |q: &[[f64; 2]]| {
+        q.iter().all(|p| p[0] < lo[0] - COVER_CLEARANCE)
+            || q.iter().all(|p| p[0] > hi[0] + COVER_CLEARANCE)
+            || q.iter().all(|p| p[1] < lo[1] - COVER_CLEARANCE)
+            || q.iter().all(|p| p[1] > hi[1] + COVER_CLEARANCE)
+    };
+    let mut angle = 0.0;
+    for e in 0..m.num_edges() {
+        if !m.is_border_edge(e) {
+            continue;
+        }
+        let ed = m.edges()[e];
+        // The border runs counter-clockwise along the edge as its one triangle traverses it.
+        let forward = ed.tris[0].is_some();
+        let mut ids: Vec<usize> = std::iter::once(ed.v[0])
+            .chain((1..d).map(|k| m.num_vertices() + (d - 1) * e + (k - 1)))
+            .chain(std::iter::once(ed.v[1]))
+            .collect();
+        if !forward {
+            ids.reverse();
+        }
+        let q: Vec<[f64; 2]> = ids.iter().map(|&p| s.point_f64(p)).collect();
+        let mut stack = vec![(q, 0usize)];
+        let mut pieces: Vec<Vec<[f64; 2]>> = Vec::new();
+        while let Some((q, depth)) = stack.pop() {
+            if clear(&q) {
+                pieces.push(q);
+            } else if depth == COVER_DEPTH {
+                return false;
+            } else {
+                let (l, r) = split_half(&q);
+                // Left half first in traversal order: push the right half first.
+                stack.push((r, depth + 1));
+                stack.push((l, depth + 1));
+            }
+        }
+        for q in pieces {
+            for w in q.windows(2) {
+                let (a, b) = ([w[0][0] - c[0], w[0][1] - c[1]], [w[1][0] - c[0], w[1][1] - c[1]]);
+                angle += (a[0] * b[1] - a[1] * b[0]).atan2(a[0] * b[0] + a[1] * b[1]);
+            }
+        }
+    }
+    (angle / std::f64::consts::TAU - 1.0).abs() < 0.25
+}
+
+/// De Casteljau's split of a Bezier curve at its parameter midpoint.
+fn split_half(q: &[[f64; 2]]) -> (Vec<[f64; 2]>, Vec<[f64; 2]>) {
+    let mut work = q.to_vec();
+    let mut left = vec![work[0]];
+    let mut right = vec![work[work.len() - 1]];
+    while work.len() > 1 {
+        work = work
+            .windows(2)
+            .map(|w| [0.5 * (w[0][0] + w[1][0]), 0.5 * (w[0][1] + w[1][1])])
+            .collect();
+        left.push(work[0]);
+        right.push(work[work.len() - 1]);
+    }
+    right.reverse();
+    (left, right)
+}

@@ -1,0 +1,347 @@
+//! Newton's method for the fit with the fold barrier on, with a certified line search.
+//!
+//! The objective `F` ([`super::objective`]) is the data term, the bending energy and the
+//! barrier `mu sum_s w_s beta(det J(s))` over the `det J` samples. Its Gauss-Newton Hessian
+//! in the variables `x` (both coordinates, `2 nv x 2 nv`) is
+//!
+//! ```text
+//!   H = sum_i w_i psi(r_i) a_i a_i^T (per coordinate)  +  2 lambda K (per coordinate)
+//!     + mu sum_s w_s beta''(det_s) g_s g_s^T,          g_s = d det_s / d x,
+//! ```
+//!
+//! with `psi = rho'(r) / r` (2 for squares: the data and bending parts are exact) and the
+//! barrier's term kept to its positive semidefinite part (`beta` is convex; the dropped
+//! `beta' d^2 det / dx^2` is indefinite). `H` is sparse (a triangle couples only the variables
+//! its patch depends on) and factored by a sparse Cholesky ([`super::sparse`]) with a
+//! pattern built once. Each step `dx = -H^-1 grad F` is searched backwards from length 1
+//! (Armijo, `c = 1e-4`); a trial point is accepted only if the caller's certificate proves
+//! `det J > 0` on every triangle, so every accepted iterate, and the result, is certified
+//! fold-free when the start is. The run stops when the Newton decrement
+//! `-grad F . dx / 2` falls below `NEWTON_TOL * max(1, F)`, when no step length decreases
+//! `F`, or at the iteration cap; [`Outcome::termination`] says which.
+
+use super::objective::Objective;
+use super::solve::FitError;
+use super::sparse::Pattern;
+
+/// Relative size of the Newton decrement at which the run stops.
+pub const NEWTON_TOL: f64 = 1e-10;
+
+/// Halvings of the step before the line search gives up.
+const MAX_HALVINGS: usize = 40;
+
+/// How a Newton run ended.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Outcome {
+    /// The result.
+    pub x: Vec<f64>,
+    /// Newton iterations.
+    pub iterations: u64,
+    /// `converged`, `no descent` (no step length decreases F) or `iteration cap`.
+    pub termination: String,
+}
+
+struct TriInfo {
+    /// Variables the patch depends on.
+    local: Vec<usize>,
+    /// `S_T` (patch points x local variables, row-major).
+    st: Vec<f64>,
+    /// `S_T^T K_T S_T` (local x local).
+    bend: Vec<f64>,
+}
+
+/// The Hessian's structure and the fixed parts of its values.
+struct Structure {
+    nv: usize,
+    tris: Vec<TriInfo>,
+    rows: Vec<Vec<(usize, f64)>>,
+    pattern: Pattern,
+}
+
+impl Structure {
+    fn new(obj: &Objective) -> Result<Structure, FitError> {
+        let nv = obj.param.nv();
+        let prow = obj.param.rows();
+        let mut pos = vec![usize::MAX; nv];
+        let tris: Vec<TriInfo> = obj
+            .tris()
+            .iter()
+            .map(|tri| {
+                let mut local = Vec::new();
+                for &j in &tri.patch {
+                    for &(k, _) in &prow[j] {
+                        if pos[k] == usize::MAX {
+                            pos[k] = local.len();
+                            local.push(k);
+                        }
+                    }
+                }
+                let (m, u) = (tri.patch.len(), local.len());
+                let mut st = vec![0.0; m * u];
+                for (a, &j) in tri.patch.iter().enumerate() {
+                    for &(k, v) in &prow[j] {
+                        st[a * u + pos[k]] += v;
+                    }
+                }
+                let mut ks = vec![0.0; m * u];
+                for r in 0..m {
+                    for c in 0..m {
+                        let kv = tri.k[r * m + c];
+                        if kv != 0.0 {
+                            for z in 0..u {
+                                ks[r * u + z] += kv * st[c * u + z];
+                            }
+                        }
+                    }
+                }
+                let mut bend = vec![0.0; u * u];
+                for a in 0..m {
+                    for z1 in 0..u {
+                        let sv = st[a * u + z1];
+                        if sv != 0.0 {
+                            for z2 in 0..u {
+                                bend[z1 * u + z2] += sv * ks[a * u + z2];
+                            }
+                        }
+                    }
+                }
+                for &k in &local {
+                    pos[k] = usize::MAX;
+                }
+                TriInfo { local, st, bend }
+            })
+            .collect();
+        let rows: Vec<Vec<(usize, f64)>> =
+            obj.variable_rows().into_iter().map(|(row, _, _)| row).collect();
+        let mut entries = Vec::new();
+        Self::visit(nv, &tris, &rows, |r, c| entries.push((r, c)));
+        let pattern =
+            Pattern::new(2 * nv, &entries).map_err(|e| FitError::Solver(e.to_string()))?;
+        Ok(Structure { nv, tris, rows, pattern })
+    }
+
+    /// Visits the pattern's entries in their fixed order: per triangle the xx block's lower
+    /// triangle, the yy block's, the yx block; per data row its xx and yy lower triangles;
+    /// the diagonal.
+    fn visit(
+        nv: usize,
+        tris: &[TriInfo],
+        rows: &[Vec<(usize, f64)>],
+        mut f: impl FnMut(usize, usize),
+    ) {
+        for t in tris {
+            let l = &t.local;
+            for off in [0, nv] {
+                for &a in l {
+                    for &b in l {
+                        if a >= b {
+                            f(a + off, b + off);
+                        }
+                    }
+                }
+            }
+            for &a in l {
+                for &b in l {
+                    f(a + nv, b);
+                }
+            }
+        }
+        for row in rows {
+            for off in [0, nv] {
+                for &(a, _) in row {
+                    for &(b, _) in row {
+                        if a >= b {
+                            f(a + off, b + off);
+                        }
+                    }
+                }
+            }
+        }
+        for i in 0..2 * nv {
+            f(i, i);
+        }
+    }
+
+    /// The Hessian's values at `x` in the pattern's order, with `ridge` on the diagonal.
+    fn values(&self, obj: &Objective, x: &[f64], ridge: f64, out: &mut Vec<f64>) {
+        let nv = self.nv;
+        out.clear();
+        let mut p = vec![[0.0f64; 2]; obj.param.var_of.len()];
+        obj.param.points_into(x, &mut p);
+        let lambda = obj.bend;
+        let (mu, barrier) = match obj.barrier {
+            Some(b) => (b.mu, Some(b)),
+            None => (0.0, None),
+        };
+        let mut q = [[0.0f64; 2]; 64];
+        let mut gx: Vec<f64> = Vec::new();
+        let mut gy: Vec<f64> = Vec::new();
+        let mut bx: Vec<f64> = Vec::new();
+        let mut by: Vec<f64> = Vec::new();
+        let mut bxy: Vec<f64> = Vec::new();
+        for (tri, info) in obj.tris().iter().zip(&self.tris) {
+            let (m, u) = (tri.patch.len(), info.local.len());
+            for (a, &j) in tri.patch.iter().enumerate() {
+                q[a] = p[j];
+            }
+            bx.clear();
+            bx.extend(info.bend.iter().map(|v| 2.0 * lambda * v));
+            by.clear();
+            by.extend_from_slice(&bx);
+            bxy.clear();
+            bxy.resize(u * u, 0.0);
+            if let Some(b) = barrier {
+                for [dx, dy] in &tri.samples {
+                    let mut j = [[0.0f64; 2]; 2];
+                    for a in 0..m {
+                        j[0][0] += dx[a] * q[a][0];
+                        j[0][1] += dy[a] * q[a][0];
+                        j[1][0] += dx[a] * q[a][1];
+                        j[1][1] += dy[a] * q[a][1];
+                    }
+                    let det = j[0][0] * j[1][1] - j[0][1] * j[1][0];
+                    let (_, _, d2) = b.eval2(det);
+                    if d2 == 0.0 {
+                        continue;
+                    }
+                    let f = mu * tri.sample_weight * d2;
+                    gx.clear();
+                    gx.resize(u, 0.0);
+                    gy.clear();
+                    gy.resize(u, 0.0);
+                    for a in 0..m {
+                        let da =
+                            [dx[a] * j[1][1] - dy[a] * j[1][0], dy[a] * j[0][0] - dx[a] * j[0][1]];
+                        for z in 0..u {
+                            let s = info.st[a * u + z];
+                            if s != 0.0 {
+                                gx[z] += s * da[0];
+                                gy[z] += s * da[1];
+                            }
+                        }
+                    }
+                    for z1 in 0..u {
+                        for z2 in 0..u {
+                            bx[z1 * u + z2] += f * gx[z1] * gx[z2];
+                            by[z1 * u + z2] += f * gy[z1] * gy[z2];
+                            bxy[z1 * u + z2] += f * gy[z1] * gx[z2];
+                        }
+                    }
+                }
+            }
+            let l = &info.local;
+            for blk in [&bx, &by] {
+                for (z1, &a) in l.iter().enumerate() {
+                    for (z2, &b) in l.iter().enumerate() {
+                        if a >= b {
+                            out.push(blk[z1 * u + z2]);
+                        }
+                    }
+                }
+            }
+            out.extend_from_slice(&bxy);
+        }
+        let res = obj.residual_lengths(x);
+        for ((row, r), dr) in self.rows.iter().zip(&res).zip(obj.rows()) {
+            let f = dr.weight * obj.loss.eval(*r).1;
+            for _ in 0..2 {
+                for &(a, va) in row {
+                    for &(b, vb) in row {
+                        if a >= b {
+                            out.push(f * va * vb);
+                        }
+                    }
+                }
+            }
+        }
+        out.extend(std::iter::repeat_n(ridge, 2 * nv));
+        debug_assert_eq!(out.len(), self.pattern.len());
+    }
+}
+
+/// Runs Newton's method from `start` (see the module docs). `certify` receives the control
+/// points of a trial iterate and answers whether `det J > 0` is proven on every triangle;
+/// with `require`, trial points it refuses are never accepted.
+pub fn newton(
+    obj: &Objective,
+    start: &[f64],
+    max_iters: u64,
+    require: bool,
+    certify: &dyn Fn(&[[f64; 2]]) -> bool,
+) -> Result<Outcome, FitError> {
+    let nv = obj.param.nv();
+    let st = Structure::new(obj)?;
+    let mut x = start.to_vec();
+    let mut g = vec![0.0; 2 * nv];
+    let mut f = obj.eval(&x, Some(&mut g)).total;
+    let mut vals = Vec::with_capacity(st.pattern.len());
+    let mut pts = vec![[0.0f64; 2]; obj.param.var_of.len()];
+    let mut termination = "iteration cap".to_string();
+    let mut iterations = 0;
+    let mut ridge_scale = 1e-12;
+    let pairs = pattern_pairs(&st);
+    while iterations < max_iters {
+        st.values(obj, &x, 0.0, &mut vals);
+        let mean_diag = {
+            let mut s = 0.0;
+            for (&(r, c), v) in pairs.iter().zip(&vals) {
+                if r == c {
+                    s += v;
+                }
+            }
+            (s / (2 * nv) as f64).max(f64::MIN_POSITIVE)
+        };
+        let n = vals.len();
+        let factor = loop {
+            for v in &mut vals[n - 2 * nv..] {
+                *v = ridge_scale * mean_diag;
+            }
+            match st.pattern.factor(&vals) {
+                Ok(fa) => break fa,
+                Err(_) if ridge_scale < 1e-2 => ridge_scale *= 100.0,
+                Err(e) => return Err(FitError::Solver(e.to_string())),
+            }
+        };
+        let mut dx: Vec<f64> = g.iter().map(|v| -v).collect();
+        factor.solve(&mut dx);
+        let slope: f64 = g.iter().zip(&dx).map(|(a, b)| a * b).sum();
+        iterations += 1;
+        if -slope * 0.5 < NEWTON_TOL * f.abs().max(1.0) {
+            termination = "converged".into();
+            break;
+        }
+        let mut alpha = 1.0;
+        let mut accepted = false;
+        let mut xt = vec![0.0; 2 * nv];
+        for _ in 0..MAX_HALVINGS {
+            for ((t, a), d) in xt.iter_mut().zip(&x).zip(&dx) {
+                *t = a + alpha * d;
+            }
+            let ok = !require || {
+                obj.param.points_into(&xt, &mut pts);
+                certify(&pts)
+            };
+            if ok {
+                let ft = obj.eval(&xt, None).total;
+                if ft.is_finite() && ft <= f + 1e-4 * alpha * slope {
+                    accepted = true;
+                    break;
+                }
+            }
+            alpha *= 0.5;
+        }
+        if !accepted {
+            termination = "no descent".into();
+            break;
+        }
+        x = xt;
+        f = obj.eval(&x, Some(&mut g)).total;
+    }
+    Ok(Outcome { x, iterations, termination })
+}
+
+fn pattern_pairs(st: &Structure) -> Vec<(usize, usize)> {
+    let mut v = Vec::with_capacity(st.pattern.len());
+    Structure::visit(st.nv, &st.tris, &st.rows, |r, c| v.push((r, c)));
+    v
+}

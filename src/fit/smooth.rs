@@ -1,0 +1,293 @@
+//! The squares fit in landmark space, and the smoothing weight chosen by generalized
+//! cross-validation (GCV).
+//!
+//! Per coordinate, with variables `x` (see [`super::param`]), landmark rows `a_i` over the
+//! variables (`phi(s_i) = a_i^T x + r_i`, `r_i` the fixed points' share), weights `w_i` and
+//! the bending energy `E(x) = x^T K x + 2 b^T x + const` ([`super::basis`]), the squares fit
+//! minimizes
+//!
+//! ```text
+//!   sum_i w_i (a_i^T x + r_i - t_i)^2 + lambda E(x),      lambda = bend * sum_i w_i * |Omega|
+//! ```
+//!
+//! `|Omega|` is the mesh's area. Both terms then scale as length^2 (the thin-plate energy is
+//! dimensionless), so `bend` means the same for a 100 px and a 10,000 px image, and for 10 or
+//! 1,000 landmarks.
+//!
+//! **Landmark space.** Let `x0 = -K^-1 b` (the smoothest map for the fixed points),
+//! `y0 = A x0 + r`, `Z = K^-1 A^T` and `M = A Z` (`k x k`, `k` landmarks). The push-through
+//! identity `(A^T W A + lambda K)^-1 A^T W = Z (M + lambda W^-1)^-1` gives the minimizer as
+//!
+//! ```text
+//!   x = x0 + Z c,     c = (M + lambda W^-1)^-1 (t - y0),
+//! ```
+//!
+//! so one sparse factorization of `K` and `k` solves serve every `lambda` and every
+//! reweighting (robust losses). With `M~ = W^1/2 M W^1/2 = U diag(mu) U^T`, the fitted values
+//! are `y = y0 + W^-1/2 H~ W^1/2 (t - y0)` with `H~ = U diag(mu / (mu + lambda)) U^T`, hence in
+//! closed form for any `lambda`:
+//!
+//! ```text
+//!   tr H = sum_j mu_j / (mu_j + lambda),
+//!   RSS_w = sum_coordinates sum_j (lambda / (mu_j + lambda))^2 e_j^2,  e = U^T W^1/2 (t - y0),
+//!   GCV(lambda) = (RSS_w / sum w) / (1 - tr H / k)^2                  (Craven & Wahba 1979),
+//! ```
+//!
+//! and the leave-one-out residuals `(t_i - y_i) / (1 - H_ii)` are exact for this linear
+//! smoother. `K` is positive definite when the border is pinned (its null space is the affine
+//! maps); otherwise a ridge of [`RIDGE`] times its mean diagonal keeps it definite, which
+//! leaves the affine part effectively unpenalized (`M` gets very large eigenvalues there).
+
+use super::objective::Objective;
+use super::solve::FitError;
+use super::sparse::{Factor, Pattern};
+use faer::{Mat, Side};
+
+/// Relative ridge added to the bending matrix's diagonal (see the module docs).
+pub const RIDGE: f64 = 1e-9;
+
+/// Largest `nv * k` (entries of `Z`) the smoother stores: 512 MiB of `f64`.
+pub const MAX_SMOOTHER_ENTRIES: usize = 1 << 26;
+
+/// The bending weights GCV searches: `10^(BEND_LOG_RANGE.0 + i * BEND_LOG_STEP)`.
+const BEND_LOG_RANGE: (f64, f64) = (-11.0, 2.0);
+const BEND_LOG_STEP: f64 = 0.25;
+
+/// Fewest landmarks for which GCV is meaningful (below, the default weight is used).
+pub const MIN_GCV_LANDMARKS: usize = 6;
+
+/// The fixed bending weight used when it cannot be chosen by GCV.
+pub const DEFAULT_BEND: f64 = 1e-3;
+
+/// The squares problem in landmark space (see the module docs).
+pub struct Smoother {
+    nv: usize,
+    k: usize,
+    /// `K^-1 A^T`, column-major `nv x k`.
+    z: Vec<f64>,
+    /// `A K^-1 A^T`, row-major `k x k`.
+    m: Vec<f64>,
+    /// `x0` per coordinate.
+    x0: [Vec<f64>; 2],
+    /// `t - y0` per landmark.
+    gap: Vec<[f64; 2]>,
+    weights: Vec<f64>,
+    /// `sum w |Omega|`: `lambda = bend * scale`.
+    scale: f64,
+}
+
+/// The outcome of the GCV search.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Choice {
+    /// The chosen (scale-free) bending weight.
+    pub bend: f64,
+    /// `sqrt(GCV)` at it (pixels): the GCV estimate of the prediction error.
+    pub gcv_rms: f64,
+    /// Leave-one-out RMS error of the landmarks at it (pixels), exact for the squares fit.
+    pub loo_rms: f64,
+    /// Effective degrees of freedom `tr H` (per coordinate).
+    pub dof: f64,
+}
+
+impl Smoother {
+    /// Builds the landmark-space problem of an objective (its loss and barrier are ignored).
+    pub fn new(obj: &Objective) -> Result<Smoother, FitError> {
+        let nv = obj.param.nv();
+        let rows = obj.variable_rows();
+        let k = rows.len();
+        if nv.saturating_mul(k.max(1)) > MAX_SMOOTHER_ENTRIES {
+            return Err(FitError::TooLarge { variables: nv });
+        }
+        let (entries, values, b) = obj.bending_system();
+        let mean_diag = {
+            let (mut s, mut c) = (0.0, 0usize);
+            for (&(r, cc), &v) in entries.iter().zip(&values) {
+                if r == cc {
+                    s += v;
+                    c += 1;
+                }
+            }
+            if c == 0 {
+                1.0
+            } else {
+                (s / nv as f64).max(f64::MIN_POSITIVE)
+            }
+        };
+        let mut entries = entries;
+        let mut values = values;
+        for i in 0..nv {
+            entries.push((i, i));
+            values.push(RIDGE * mean_diag);
+        }
+        let pattern = Pattern::new(nv, &entries).map_err(|e| FitError::Solver(e.to_string()))?;
+        let factor: Factor = pattern.factor(&values).map_err(|_| FitError::Singular(0))?;
+        let x0 = [0, 1].map(|c| {
+            let mut v: Vec<f64> = b[c].iter().map(|x| -x).collect();
+            factor.solve(&mut v);
+            v
+        });
+        let mut z = vec![0.0; nv * k];
+        for (i, (row, _, _)) in rows.iter().enumerate() {
+            for &(j, w) in row {
+                z[i * nv + j] += w;
+            }
+        }
+        factor.solve_many(&mut z, nv, k);
+        let mut m = vec![0.0; k * k];
+        for (i, (row, _, _)) in rows.iter().enumerate() {
+            for j in 0..k {
+                let col = &z[j * nv..(j + 1) * nv];
+                m[i * k + j] = row.iter().map(|&(a, w)| w * col[a]).sum();
+            }
+        }
+        for i in 0..k {
+            for j in 0..i {
+                let s = 0.5 * (m[i * k + j] + m[j * k + i]);
+                m[i * k + j] = s;
+                m[j * k + i] = s;
+            }
+        }
+        let gap = rows
+            .iter()
+            .map(|(row, r0, t)| {
+                let y = [0, 1].map(|c| r0[c] + row.iter().map(|&(a, w)| w * x0[c][a]).sum::<f64>());
+                [t[0] - y[0], t[1] - y[1]]
+            })
+            .collect();
+        let weights: Vec<f64> = obj.rows().iter().map(|r| r.weight).collect();
+        let scale = weights.iter().sum::<f64>() * obj.area();
+        Ok(Smoother { nv, k, z, m, x0, gap, weights, scale })
+    }
+
+    /// `lambda` for a scale-free weight.
+    pub fn lambda(&self, bend: f64) -> f64 {
+        bend * self.scale
+    }
+
+    /// The minimizer for `bend`, with data weights multiplied by `scale` (robust losses).
+    /// Returns `x` (`2 nv` entries, coordinate-major).
+    pub fn solve(&self, bend: f64, scale: Option<&[f64]>) -> Result<Vec<f64>, FitError> {
+        let (k, nv) = (self.k, self.nv);
+        let lambda = self.lambda(bend);
+        let mut x = [self.x0[0].clone(), self.x0[1].clone()].concat();
+        if k == 0 {
+            return Ok(x);
+        }
+        let a = Mat::<f64>::from_fn(k, k, |i, j| {
+            let mut v = self.m[i * k + j];
+            if i == j {
+                let w = self.weights[i] * scale.map_or(1.0, |s| s[i]);
+                v += lambda / w.max(f64::MIN_POSITIVE);
+            }
+            v
+        });
+        let llt = a.llt(Side::Lower).map_err(|_| FitError::Singular(0))?;
+        let mut rhs = Mat::<f64>::from_fn(k, 2, |i, c| self.gap[i][c]);
+        faer::linalg::solvers::Solve::solve_in_place(&llt, rhs.as_mut());
+        for c in 0..2 {
+            for j in 0..k {
+                let cj = rhs[(j, c)];
+                if cj != 0.0 {
+                    let col = &self.z[j * nv..(j + 1) * nv];
+                    for (xa, za) in x[c * nv..(c + 1) * nv].iter_mut().zip(col) {
+                        *xa += cj * za;
+                    }
+                }
+            }
+        }
+        Ok(x)
+    }
+
+    /// Chooses the bending weight by GCV (see the module docs). `None` when there are too
+    /// few landmarks for GCV ([`MIN_GCV_LANDMARKS`]).
+    pub fn choose(&self) -> Result<Option<Choice>, FitError> {
+        let k = self.k;
+        if k < MIN_GCV_LANDMARKS {
+            return Ok(None);
+        }
+        let sw: Vec<f64> = self.weights.iter().map(|w| w.sqrt()).collect();
+        let mt = Mat::<f64>::from_fn(k, k, |i, j| sw[i] * self.m[i * k + j] * sw[j]);
+        let eig = mt
+            .self_adjoint_eigen(Side::Lower)
+            .map_err(|e| FitError::Solver(format!("eigen decomposition: {e:?}")))?;
+        let u = eig.U();
+        let mu: Vec<f64> = (0..k).map(|j| eig.S().column_vector()[j].max(0.0)).collect();
+        // e = U^T W^1/2 gap, per coordinate.
+        let e: Vec<[f64; 2]> = (0..k)
+            .map(|j| {
+                [0, 1].map(|c| (0..k).map(|i| u[(i, j)] * sw[i] * self.gap[i][c]).sum::<f64>())
+            })
+            .collect();
+        let sum_w: f64 = self.weights.iter().sum();
+        let gcv = |bend: f64| {
+            let lambda = self.lambda(bend);
+            let (mut rss, mut tr) = (0.0, 0.0);
+            for j in 0..k {
+                let f = lambda / (mu[j] + lambda);
+                rss += f * f * (e[j][0] * e[j][0] + e[j][1] * e[j][1]);
+                tr += mu[j] / (mu[j] + lambda);
+            }
+            let den = (1.0 - tr / k as f64).max(1e-12);
+            (rss / sum_w / (den * den), tr)
+        };
+        let mut best = (f64::INFINITY, BEND_LOG_RANGE.0);
+        let mut l = BEND_LOG_RANGE.0;
+        while l <= BEND_LOG_RANGE.1 + 1e-9 {
+            let g = gcv(10f64.powf(l)).0;
+            if g < best.0 {
+                best = (g, l);
+            }
+            l += BEND_LOG_STEP;
+        }
+        // Golden-section refinement of log10(bend) around the best grid point.
+        let (mut a, mut b) = (best.1 - BEND_LOG_STEP, best.1 + BEND_LOG_STEP);
+        let phi = 0.5 * (5f64.sqrt() - 1.0);
+        let f = |l: f64| gcv(10f64.powf(l)).0;
+        let (mut c, mut d) = (b - phi * (b - a), a + phi * (b - a));
+        let (mut fc, mut fd) = (f(c), f(d));
+        for _ in 0..30 {
+            if fc < fd {
+                b = d;
+                d = c;
+                fd = fc;
+                c = b - phi * (b - a);
+                fc = f(c);
+            } else {
+                a = c;
+                c = d;
+                fc = fd;
+                d = a + phi * (b - a);
+                fd = f(d);
+            }
+        }
+        let l = if fc.min(fd) < best.0 {
+            if fc < fd {
+                c
+            } else {
+                d
+            }
+        } else {
+            best.1
+        };
+        let bend = 10f64.powf(l);
+        let (g, tr) = gcv(bend);
+        // Leave-one-out residuals at the choice.
+        let lambda = self.lambda(bend);
+        let mut loo = 0.0;
+        for i in 0..k {
+            let mut h = 0.0;
+            let mut r = [0.0; 2];
+            for j in 0..k {
+                let uij = u[(i, j)];
+                h += uij * uij * mu[j] / (mu[j] + lambda);
+                let f = lambda / (mu[j] + lambda);
+                r[0] += uij * f * e[j][0];
+                r[1] += uij * f * e[j][1];
+            }
+            let den = (1.0 - h).max(1e-6);
+            // r is W^1/2 (t - y); loo_i = (t_i - y_i) / (1 - h_ii).
+            loo += (r[0] * r[0] + r[1] * r[1]) / (den * den);
+        }
+        Ok(Some(Choice { bend, gcv_rms: g.sqrt(), loo_rms: (loo / sum_w).sqrt(), dof: tr }))
+    }
+}

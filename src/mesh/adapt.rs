@@ -1,0 +1,364 @@
+//! Landmark-adapted reference meshes: a refined constrained Delaunay mesh of the frame
+//! rectangle extended by a margin, with every landmark source as a vertex.
+//!
+//! The 2017 thesis builds its reference meshes as Delaunay triangulations of the points the
+//! user cares about (section 18.2); a regular grid ignores the data (landmarks crowding into
+//! one region get no local control there, empty regions carry variables for nothing). Here
+//! the mesh is built from the data:
+//!
+//! 1. The *frame* is the image rectangle `[-1/2, W - 1/2] x [-1/2, H - 1/2]` (pixel `(i, j)`
+//!    is centred at `(i, j)`), the *domain* the frame grown by `margin` pixels on every side.
+//!    The margin lets the fitted map pull the frame's border inwards without leaving part of
+//!    the frame uncovered.
+//! 2. The domain's border (split into pieces of at most `max_edge`), the landmark sources
+//!    (snapped to the mesh grid; coinciding sources share one vertex) and any extra points
+//!    are triangulated by spade's constrained Delaunay triangulation with the border as
+//!    constraint edges, then refined by spade's Delaunay refinement (Ruppert / Chew) until no
+//!    angle is below `min_angle` and no triangle is larger than an equilateral triangle of
+//!    side `max_edge`. Refinement adds Steiner points only where triangles are skinny, that
+//!    is around clustered landmarks; regions without landmarks stay coarse.
+//! 3. The refined points are snapped to the grid and triangulated again (constrained Delaunay
+//!    of the snapped points inside the snapped border), so the result is a valid mesh in the
+//!    sense of [`Mesh`] whatever the rounding.
+//!
+//! Each landmark source that is representable on the snapping grid is a mesh vertex
+//! exactly, so its image `phi(s)` is that vertex's control point: the spline has a value of
+//! its own at every landmark (local control).
+
+use std::collections::HashMap;
+
+use spade::{
+    AngleLimit, ConstrainedDelaunayTriangulation, Point2, RefinementParameters, Triangulation,
+};
+
+use super::{Mesh, MeshError, MeshOptions};
+
+/// Options of [`Mesh::landmark_adapted`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct AdaptOptions {
+    /// Pixels added to the frame on every side (`None`: [`default_margin`]).
+    pub margin: Option<f64>,
+    /// Longest allowed edge (pixels; `None`: a quarter of the frame's larger side).
+    pub max_edge: Option<f64>,
+    /// Smallest angle the refinement aims for (degrees, in `(0, 33]`; default 20).
+    pub min_angle: f64,
+    /// Snapping denominator of the mesh (see the [module docs](super)).
+    pub grid: i64,
+    /// Further points to insert as vertices (e.g. to break up a singular vertex).
+    pub extra_points: Vec<[f64; 2]>,
+}
+
+impl Default for AdaptOptions {
+    fn default() -> Self {
+        AdaptOptions {
+            margin: None,
+            max_edge: None,
+            min_angle: 20.0,
+            grid: 16,
+            extra_points: Vec::new(),
+        }
+    }
+}
+
+/// The default margin for a `w x h` frame: a tenth of the larger side, at least 8 px,
+/// rounded up to whole pixels.
+pub fn default_margin(w: f64, h: f64) -> f64 {
+    (0.1 * w.max(h)).max(8.0).ceil()
+}
+
+/// A landmark-adapted mesh and where its parts are.
+#[derive(Clone, Debug)]
+pub struct AdaptedMesh {
+    /// The mesh.
+    pub mesh: Mesh,
+    /// For each input source, its vertex.
+    pub landmark_vertex: Vec<usize>,
+    /// The domain rectangle `(lo, hi)` (the frame grown by the margin).
+    pub domain: ([f64; 2], [f64; 2]),
+    /// The margin used (pixels).
+    pub margin: f64,
+    /// Vertices added by the refinement (not landmarks, not border corners).
+    pub steiner: usize,
+    /// Whether spade's refinement met every angle and size limit.
+    pub refinement_complete: bool,
+}
+
+impl AdaptedMesh {
+    /// Whether vertex `v` lies on the domain's border.
+    pub fn on_border(&self, v: usize) -> bool {
+        self.mesh.is_border_vertex(v)
+    }
+}
+
+/// The most points the refinement may add per input point (a bound on the mesh size).
+const STEINER_PER_POINT: usize = 8;
+
+impl Mesh {
+    /// The landmark-adapted mesh of a `size = [w, h]` frame (see the module docs). Every
+    /// source must lie in the frame `[-1/2, w - 1/2] x [-1/2, h - 1/2]`.
+    pub fn landmark_adapted(
+        sources: &[[f64; 2]],
+        size: [f64; 2],
+        opts: &AdaptOptions,
+    ) -> Result<AdaptedMesh, MeshError> {
+        let bad = |m: String| Err(MeshError::BadAdapt(m));
+        let [w, h] = size;
+        if !(w.is_finite() && h.is_finite() && w >= 1.0 && h >= 1.0 && w <= 1e6 && h <= 1e6) {
+            return bad(format!("frame size {w} x {h}: width and height must be from 1 to 1e6"));
+        }
+        let margin = opts.margin.unwrap_or_else(|| default_margin(w, h));
+        if !(margin.is_finite() && (0.0..=1e6).contains(&margin)) {
+            return bad(format!("margin {margin} must be a finite number from 0 to 1e6"));
+        }
+        let max_edge = opts.max_edge.unwrap_or(0.25 * w.max(h)).max(0.0);
+        if !(max_edge.is_finite() && max_edge >= 1.0) {
+            return bad(format!("max edge {max_edge} must be at least 1 pixel"));
+        }
+        if !(opts.min_angle.is_finite() && opts.min_angle > 0.0 && opts.min_angle <= 33.0) {
+            return bad(format!(
+                "min angle {} must be above 0 and at most 33 degrees (refinement does not \
+                 terminate beyond)",
+                opts.min_angle
+            ));
+        }
+        let grid = super::validate::check_grid(MeshOptions { grid: opts.grid })?;
+        for (index, p) in sources.iter().enumerate() {
+            if !(p[0].is_finite() && p[1].is_finite()) {
+                return Err(MeshError::NotFinite { vertex: index });
+            }
+            if p[0] < -0.5 || p[1] < -0.5 || p[0] > w - 0.5 || p[1] > h - 0.5 {
+                return Err(MeshError::OutsideFrame { index, x: p[0], y: p[1], w, h });
+            }
+        }
+        let g = grid as f64;
+        let snap = |v: f64| (v * g).round() / g;
+        let lo = [snap(-0.5 - margin), snap(-0.5 - margin)];
+        let hi = [snap(w - 0.5 + margin), snap(h - 0.5 + margin)];
+
+        // Input points: sources (deduplicated after snapping), extra points, border points.
+        let mut pts: Vec<[f64; 2]> = Vec::new();
+        let mut at: HashMap<[i64; 2], usize> = HashMap::new();
+        let mut landmark_vertex = Vec::with_capacity(sources.len());
+        let key = |p: [f64; 2]| [(p[0] * g).round() as i64, (p[1] * g).round() as i64];
+        for &p in sources {
+            let k = key(p);
+            let i = *at.entry(k).or_insert_with(|| {
+                pts.push(p);
+                pts.len() - 1
+            });
+            landmark_vertex.push(i);
+        }
+        {
+            for &p in &opts.extra_points {
+                if p[0].is_finite()
+                    && p[1].is_finite()
+                    && p[0] > lo[0]
+                    && p[1] > lo[1]
+                    && p[0] < hi[0]
+                    && p[1] < hi[1]
+                {
+                    at.entry(key(p)).or_insert_with(|| {
+                        pts.push(p);
+                        pts.len() - 1
+                    });
+                }
+            }
+        }
+        let border = border_points(lo, hi, max_edge);
+        let first_border = pts.len();
+        for &p in &border {
+            if at.insert(key(p), pts.len()).is_some() {
+                // A source on the domain border cannot happen (sources are inside the frame,
+                // the border is a margin away) unless the margin is 0: keep the source there.
+                continue;
+            }
+            pts.push(p);
+        }
+
+        // Refine in floating point with spade.
+        let mut cdt = ConstrainedDelaunayTriangulation::<Point2<f64>>::new();
+        let mut handles = Vec::with_capacity(pts.len());
+        for p in &pts {
+            let hnd = cdt
+                .insert(Point2::new(p[0], p[1]))
+                .map_err(|e| MeshError::BadAdapt(format!("spade refused a point: {e:?}")))?;
+            handles.push(hnd);
+        }
+        let ring: Vec<usize> = {
+            let mut r: Vec<usize> = (first_border..pts.len()).collect();
+            r.extend(
+                landmark_vertex
+                    .iter()
+                    .copied()
+                    .filter(|&i| on_rect(pts[i], lo, hi))
+                    .collect::<Vec<_>>(),
+            );
+            r.sort_by(|&a, &b| {
+                perimeter_pos(pts[a], lo, hi).total_cmp(&perimeter_pos(pts[b], lo, hi))
+            });
+            r.dedup();
+            r
+        };
+        for k in 0..ring.len() {
+            let (a, b) = (handles[ring[k]], handles[ring[(k + 1) % ring.len()]]);
+            cdt.add_constraint(a, b);
+        }
+        let max_area = max_edge * max_edge * 3f64.sqrt() / 4.0;
+        let params = RefinementParameters::<f64>::new()
+            .exclude_outer_faces(true)
+            .with_angle_limit(AngleLimit::from_deg(opts.min_angle))
+            .with_max_allowed_area(max_area)
+            // Triangles below a quarter pixel are not refined further (clustered landmarks
+            // would otherwise draw points without end).
+            .with_min_required_area(0.25)
+            .with_max_additional_vertices(STEINER_PER_POINT * pts.len() + 64);
+        let result = cdt.refine(params);
+
+        // Every vertex of the refined triangulation, snapped; the inputs keep their indices.
+        let mut all: Vec<[f64; 2]> = pts.clone();
+        for v in cdt.vertices().skip(pts.len()) {
+            let p = v.position();
+            let mut q = [p.x, p.y];
+            // Points spade put on the border stay on it exactly.
+            for a in 0..2 {
+                if (q[a] - lo[a]).abs() < 1e-9 {
+                    q[a] = lo[a];
+                }
+                if (q[a] - hi[a]).abs() < 1e-9 {
+                    q[a] = hi[a];
+                }
+            }
+            if q[0] < lo[0] || q[1] < lo[1] || q[0] > hi[0] || q[1] > hi[1] {
+                continue;
+            }
+            if at.insert(key(q), all.len()).is_none() {
+                all.push(q);
+            }
+        }
+        let steiner = all.len() - pts.len();
+        let mut outline: Vec<usize> = (0..all.len()).filter(|&i| on_rect(all[i], lo, hi)).collect();
+        outline.sort_by(|&a, &b| {
+            perimeter_pos(all[a], lo, hi).total_cmp(&perimeter_pos(all[b], lo, hi))
+        });
+        let mesh = Mesh::constrained_delaunay(&all, &outline, MeshOptions { grid })?;
+        Ok(AdaptedMesh {
+            mesh,
+            landmark_vertex,
+            domain: (lo, hi),
+            margin,
+            steiner,
+            refinement_complete: result.refinement_complete,
+        })
+    }
+}
+
+/// Points along the border of `[lo, hi]`, corners included, no piece longer than `max_edge`.
+fn border_points(lo: [f64; 2], hi: [f64; 2], max_edge: f64) -> Vec<[f64; 2]> {
+    let mut out = Vec::new();
+    let corners = [[lo[0], lo[1]], [hi[0], lo[1]], [hi[0], hi[1]], [lo[0], hi[1]]];
+    for k in 0..4 {
+        let (a, b) = (corners[k], corners[(k + 1) % 4]);
+        let len = (b[0] - a[0]).abs() + (b[1] - a[1]).abs();
+        let n = (len / max_edge).ceil().max(1.0) as usize;
+        for i in 0..n {
+            let t = i as f64 / n as f64;
+            out.push([a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])]);
+        }
+    }
+    out
+}
+
+fn on_rect(p: [f64; 2], lo: [f64; 2], hi: [f64; 2]) -> bool {
+    p[0] == lo[0] || p[0] == hi[0] || p[1] == lo[1] || p[1] == hi[1]
+}
+
+/// Position along the perimeter (counter-clockwise in x-right, y-up coordinates, starting
+/// at `lo`): bottom side, right side, top side, left side.
+fn perimeter_pos(p: [f64; 2], lo: [f64; 2], hi: [f64; 2]) -> f64 {
+    let (wx, wy) = (hi[0] - lo[0], hi[1] - lo[1]);
+    if p[1] == lo[1] && p[0] < hi[0] {
+        p[0] - lo[0]
+    } else if p[0] == hi[0] && p[1] < hi[1] {
+        wx + (p[1] - lo[1])
+    } else if p[1] == hi[1] && p[0] > lo[0] {
+        wx + wy + (hi[0] - p[0])
+    } else {
+        2.0 * wx + wy + (hi[1] - p[1])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cluster() -> Vec<[f64; 2]> {
+        // 30 landmarks crowded into one corner of a 200 x 150 frame, 4 spread elsewhere.
+        let mut v: Vec<[f64; 2]> = (0..30)
+            .map(|i| {
+                let a = i as f64 * 0.7;
+                [20.0 + 12.0 * (a.cos() + 1.0) + i as f64 * 0.3, 25.0 + 10.0 * (a.sin() + 1.0)]
+            })
+            .collect();
+        v.extend([[150.0, 30.0], [180.0, 120.0], [40.0, 130.0], [100.0, 75.0]]);
+        v
+    }
+
+    #[test]
+    fn adapted_mesh_has_every_landmark_as_a_vertex_and_covers_the_margin() {
+        let src = cluster();
+        let a = Mesh::landmark_adapted(&src, [200.0, 150.0], &AdaptOptions::default()).unwrap();
+        a.mesh.sanity_check().unwrap();
+        for (i, &v) in a.landmark_vertex.iter().enumerate() {
+            let p = a.mesh.vertex(v);
+            assert!(
+                (p[0] - src[i][0]).abs() <= 1.0 / 32.0 && (p[1] - src[i][1]).abs() <= 1.0 / 32.0
+            );
+        }
+        let (lo, hi) = a.mesh.bbox();
+        assert_eq!(lo, [-20.5, -20.5]);
+        assert_eq!(hi, [219.5, 169.5]);
+        let area: f64 = (0..a.mesh.num_triangles())
+            .map(|t| a.mesh.twice_area_int(t) as f64 / (2.0 * 256.0))
+            .sum();
+        assert!((area - 240.0 * 190.0).abs() < 1e-6, "the mesh fills the domain: {area}");
+    }
+
+    #[test]
+    fn refinement_is_local_to_the_landmarks() {
+        let a =
+            Mesh::landmark_adapted(&cluster(), [200.0, 150.0], &AdaptOptions::default()).unwrap();
+        // Triangles near the cluster are much smaller than far away.
+        let m = &a.mesh;
+        let (mut near, mut far) = (Vec::new(), Vec::new());
+        for t in 0..m.num_triangles() {
+            let c = m.triangle(t).map(|v| m.vertex(v));
+            let cx = (c[0][0] + c[1][0] + c[2][0]) / 3.0;
+            let cy = (c[0][1] + c[1][1] + c[2][1]) / 3.0;
+            let area = m.twice_area_int(t) as f64 / 512.0;
+            if cx < 60.0 && cy < 60.0 {
+                near.push(area);
+            } else if cx > 120.0 && cy > 80.0 {
+                far.push(area);
+            }
+        }
+        let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+        assert!(mean(&near) * 5.0 < mean(&far), "near {} far {}", mean(&near), mean(&far));
+    }
+
+    #[test]
+    fn coinciding_sources_share_a_vertex_and_outside_sources_are_refused() {
+        let src = [[10.0, 10.0], [10.0, 10.0], [50.0, 20.0], [30.0, 40.0]];
+        let a = Mesh::landmark_adapted(&src, [64.0, 64.0], &AdaptOptions::default()).unwrap();
+        assert_eq!(a.landmark_vertex[0], a.landmark_vertex[1]);
+        let e = Mesh::landmark_adapted(&[[70.0, 3.0]], [64.0, 64.0], &AdaptOptions::default())
+            .unwrap_err();
+        assert!(matches!(e, MeshError::OutsideFrame { index: 0, .. }), "{e}");
+    }
+
+    #[test]
+    fn no_landmarks_give_a_coarse_mesh_of_the_domain() {
+        let a = Mesh::landmark_adapted(&[], [100.0, 80.0], &AdaptOptions::default()).unwrap();
+        a.mesh.sanity_check().unwrap();
+        assert!(a.mesh.num_triangles() < 80, "{}", a.mesh.num_triangles());
+    }
+}

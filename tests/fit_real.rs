@@ -1,0 +1,157 @@
+//! Fitting from landmarks alone on real images: the landmark-adapted mesh, automatic
+//! smoothing against a thin-plate spline on held-out landmarks (with and without noise on the
+//! targets), certified fold-free fits of crowded landmarks, and full coverage of the frame.
+//!
+//! Print the figures with `cargo test --release --test fit_real -- --nocapture`.
+
+mod common;
+
+use common::tps::Tps;
+use trimorph::fit::frame::{fit_frame, FrameFitOptions};
+use trimorph::fit::landmarks::Landmark;
+use trimorph::fit::solve::residuals;
+
+/// A small deterministic generator (SplitMix64) for splits and noise.
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+    fn uniform(&mut self) -> f64 {
+        (self.next() >> 11) as f64 / (1u64 << 53) as f64
+    }
+    /// A standard normal sample (Box-Muller).
+    fn normal(&mut self) -> f64 {
+        let u = self.uniform().max(1e-300);
+        let v = self.uniform();
+        (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
+    }
+}
+
+/// The known smooth deformation of the cell image (pixels to pixels).
+fn truth(p: [f64; 2]) -> [f64; 2] {
+    use std::f64::consts::TAU;
+    let (x, y) = (p[0], p[1]);
+    [
+        x + 9.0 * (TAU * y / 420.0).sin() + 4.0 * (TAU * (x + y) / 610.0).sin() + 3.0,
+        y + 7.0 * (TAU * x / 380.0).cos() - 3.5 * (TAU * y / 500.0).sin() - 2.0,
+    ]
+}
+
+/// Feature points of an image: pixels of largest gradient, at least `sep` px apart and 20 px
+/// inside the border.
+fn feature_points(img: &image::GrayImage, n: usize, sep: f64) -> Vec<[f64; 2]> {
+    let (w, h) = img.dimensions();
+    let g = |x: u32, y: u32| img.get_pixel(x, y)[0] as f64;
+    let mut cand: Vec<(f64, [f64; 2])> = Vec::new();
+    for y in 20..h - 20 {
+        for x in 20..w - 20 {
+            let gx = g(x + 1, y) - g(x - 1, y);
+            let gy = g(x, y + 1) - g(x, y - 1);
+            cand.push((gx * gx + gy * gy, [x as f64, y as f64]));
+        }
+    }
+    cand.sort_by(|a, b| b.0.total_cmp(&a.0));
+    let mut out: Vec<[f64; 2]> = Vec::new();
+    for (_, p) in cand {
+        if out.iter().all(|q| (q[0] - p[0]).hypot(q[1] - p[1]) >= sep) {
+            out.push(p);
+            if out.len() == n {
+                break;
+            }
+        }
+    }
+    out
+}
+
+fn cell() -> image::GrayImage {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/data/microscopy/cell.png");
+    image::open(path).unwrap().to_luma8()
+}
+
+fn rms(e: &[f64]) -> f64 {
+    (e.iter().map(|x| x * x).sum::<f64>() / e.len() as f64).sqrt()
+}
+
+/// Mean held-out TRE over 5 random splits of `n` feature points `sep` px apart, of which
+/// `n / 4` are held out: (trimorph, TPS).
+fn split_tre(n: usize, sep: f64, noise: f64) -> (f64, f64) {
+    let img = cell();
+    let (w, h) = img.dimensions();
+    let pts = feature_points(&img, n, sep);
+    assert_eq!(pts.len(), n);
+    let k = n - n / 4;
+    let mut rng = Rng(7);
+    let (mut ours, mut base) = (Vec::new(), Vec::new());
+    for split in 0..5 {
+        let mut idx: Vec<usize> = (0..n).collect();
+        for i in (1..n).rev() {
+            idx.swap(i, (rng.next() % (i as u64 + 1)) as usize);
+        }
+        let lm = |i: usize, noisy: bool, rng: &mut Rng| {
+            let p = pts[i];
+            let mut t = truth(p);
+            if noisy {
+                t[0] += noise * rng.normal();
+                t[1] += noise * rng.normal();
+            }
+            Landmark { name: Some(format!("f{i}")), src: p, dst: t, weight: 1.0 }
+        };
+        let fitted: Vec<Landmark> = idx[..k].iter().map(|&i| lm(i, true, &mut rng)).collect();
+        let held: Vec<Landmark> = idx[k..].iter().map(|&i| lm(i, false, &mut rng)).collect();
+        let f = fit_frame(&fitted, [w as f64, h as f64], &FrameFitOptions::default()).unwrap();
+        assert!(f.fit.report.fold_free && f.frame.covers_frame, "split {split}");
+        let r: Vec<f64> =
+            residuals(&f.fit.spline, &held).unwrap().iter().map(|r| r.residual).collect();
+        let tps = Tps::new(&fitted);
+        let b: Vec<f64> = held
+            .iter()
+            .map(|l| {
+                let m = tps.eval(l.src);
+                (m[0] - l.dst[0]).hypot(m[1] - l.dst[1])
+            })
+            .collect();
+        eprintln!(
+            "noise {noise}: split {split}: TRE trimorph {:.3} px (bend {:.2e}, loo {:.3}), TPS {:.3} px; {} triangles",
+            rms(&r),
+            f.fit.report.bend,
+            f.fit.report.loo_rms.unwrap_or(f64::NAN),
+            rms(&b),
+            f.frame.triangles
+        );
+        ours.push(rms(&r));
+        base.push(rms(&b));
+    }
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+    (mean(&ours), mean(&base))
+}
+
+// Measured (release, this data): without noise, 30 landmarks: trimorph 4.55 px, TPS 4.83 px;
+// 60 landmarks: 2.38 vs 2.14. With 1.5 px noise, 30 landmarks: 4.76 vs 4.72; 60 landmarks:
+// 3.10 vs 2.98. The bounds below hold those figures with a little room; being better than
+// TPS with noise is the aim, not yet reached with dense landmarks.
+
+#[test]
+fn without_noise_automatic_smoothing_beats_tps_on_sparse_landmarks() {
+    let (ours, tps) = split_tre(40, 45.0, 0.0);
+    eprintln!("no noise, 30 landmarks: mean held-out TRE trimorph {ours:.3} px, TPS {tps:.3} px");
+    assert!(ours <= tps, "trimorph {ours} vs TPS {tps}");
+    let (ours, tps) = split_tre(80, 35.0, 0.0);
+    eprintln!("no noise, 60 landmarks: trimorph {ours:.3} px, TPS {tps:.3} px");
+    assert!(ours <= 1.15 * tps, "trimorph {ours} vs TPS {tps}");
+}
+
+#[test]
+fn with_noise_automatic_smoothing_stays_close_to_tps() {
+    let (ours, tps) = split_tre(40, 45.0, 1.5);
+    eprintln!("1.5 px noise, 30 landmarks: trimorph {ours:.3} px, TPS {tps:.3} px");
+    assert!(ours <= 1.05 * tps, "trimorph {ours} vs TPS {tps}");
+    let (ours, tps) = split_tre(80, 35.0, 1.5);
+    eprintln!("1.5 px noise, 60 landmarks: trimorph {ours:.3} px, TPS {tps:.3} px");
+    assert!(ours <= 1.10 * tps, "trimorph {ours} vs TPS {tps}");
+}
