@@ -4,6 +4,8 @@
 //! * [`features`]: automatic landmarks between two images (ORB, ratio + cross check,
 //!   RANSAC on an affine model);
 //! * [`track`]: pyramidal Lucas-Kanade tracking of points between frames;
+//! * [`sequence`]: one scene fitted to every frame of a sequence (tracked or given targets,
+//!   anchoring, held-out landmarks, warm starts, resume keys, shards);
 //! * [`solve`]: the fit itself (objective in [`objective`], bending energy and basis rows in
 //!   [`basis`], the MDS parameterization in [`param`], the envelope Cholesky in [`chol`],
 //!   exact interpolation through ECLES in [`hard`]).
@@ -19,6 +21,7 @@ pub mod landmarks;
 pub mod objective;
 pub mod param;
 mod rng;
+pub mod sequence;
 pub mod solve;
 #[cfg(test)]
 mod tests;
