@@ -155,7 +155,7 @@ pub enum SequenceError {
     NoFrames,
     /// Two frames with one name (their outputs would overwrite each other).
     #[error(
-        "frames {first} and {second} have the same name `{name}`: their outputs \
+        "frames {first} and {second} have the same name \"{name}\": their outputs \
          ({name}.json, {name}.report.json, ...) would overwrite each other; rename one or \
          move it to another folder"
     )]
@@ -434,6 +434,27 @@ fn ident(i: usize, l: &Landmark) -> String {
     l.name.clone().unwrap_or_else(|| format!("#{i}"))
 }
 
+/// Hash of bytes (FNV-1a, 64 bit, 16 hex digits), for [`SequenceOptions::key_extra`]
+/// entries such as a model file's content.
+pub fn content_hash(bytes: &[u8]) -> String {
+    key::Fnv::new().bytes(bytes).hex()
+}
+
+/// Checks that no two frames share a name (their outputs would overwrite each other).
+pub fn check_names(frames: &[Frame]) -> Result<(), SequenceError> {
+    let mut seen: HashMap<&str, &Frame> = HashMap::new();
+    for f in frames {
+        if let Some(g) = seen.insert(&f.name, f) {
+            return Err(SequenceError::SameName {
+                name: f.name.clone(),
+                first: g.source.clone(),
+                second: f.source.clone(),
+            });
+        }
+    }
+    Ok(())
+}
+
 impl<'a> Sequence<'a> {
     /// Checks the inputs: frames with distinct names, one landmark list per frame, a
     /// hold-out that leaves landmarks to fit, a shard in range.
@@ -446,16 +467,7 @@ impl<'a> Sequence<'a> {
         if frames.is_empty() {
             return Err(SequenceError::NoFrames);
         }
-        let mut seen: HashMap<&str, &Frame> = HashMap::new();
-        for f in frames {
-            if let Some(g) = seen.insert(&f.name, f) {
-                return Err(SequenceError::SameName {
-                    name: f.name.clone(),
-                    first: g.source.clone(),
-                    second: f.source.clone(),
-                });
-            }
-        }
+        check_names(frames)?;
         let reference: &[Landmark] = match &targets {
             Targets::Fixed(l) => l,
             Targets::PerFrame(v) if v.len() != frames.len() => {
