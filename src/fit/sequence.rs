@@ -57,7 +57,7 @@ mod key;
 #[cfg(test)]
 mod tests;
 
-pub use anchor::{drift, follow, track_targets, Anchor, Drift, Tracking};
+pub use anchor::{drift, follow, track_targets, Anchor, Drift, Positions, Tracking};
 pub use key::ResumeKey;
 
 use super::landmarks::{holdout, Landmark};

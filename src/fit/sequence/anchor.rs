@@ -68,6 +68,9 @@ pub struct Tracking {
     pub drift: Vec<Option<Drift>>,
 }
 
+/// Every frame's position of every point (`None`: lost), frame by frame.
+pub type Positions = Vec<Vec<Option<[f64; 2]>>>;
+
 /// Every frame's position of every point (`None`: lost), tracked with `anchor`. The error
 /// names the frame being tracked into.
 pub fn follow(
@@ -75,9 +78,9 @@ pub fn follow(
     first: &[[f64; 2]],
     anchor: Anchor,
     opts: &TrackOptions,
-) -> Result<Vec<Vec<Option<[f64; 2]>>>, (usize, TrackError)> {
+) -> Result<Positions, (usize, TrackError)> {
     let m = first.len();
-    let mut pos: Vec<Vec<Option<[f64; 2]>>> = Vec::with_capacity(frames.len());
+    let mut pos: Positions = Vec::with_capacity(frames.len());
     if frames.is_empty() {
         return Ok(pos);
     }
