@@ -404,8 +404,9 @@ fn registered_frames_keep_the_input_type_and_show_the_background_outside() {
     }
     fs::write(q.p("l.csv"), csv).unwrap();
     // 16-bit frames (TIFF) beside 8-bit ones.
+    let f0 = frame(0.0, 0.0);
     let g16 = image::ImageBuffer::from_fn(160, 120, |x, y| {
-        image::Luma([frame(0.0, 0.0).get_pixel(x, y)[0] as u16 * 200 + 7])
+        image::Luma([f0.get_pixel(x, y)[0] as u16 * 200 + 7])
     });
     image::DynamicImage::ImageLuma16(g16.clone()).save(q.p("frames").join("g16.tif")).unwrap();
     let (code, _, err) = q.run("o", &["--background", "77", "--no-barrier"]);
@@ -415,7 +416,6 @@ fn registered_frames_keep_the_input_type_and_show_the_background_outside() {
     assert_eq!(reg8.color(), image::ColorType::L8);
     assert_eq!(reg16.color(), image::ColorType::L16);
     let (r8, r16) = (reg8.to_luma8(), reg16.to_luma16());
-    let f0 = frame(0.0, 0.0);
     for y in [10, 60, 110] {
         for x in 155..160 {
             assert_eq!(r8.get_pixel(x, y)[0], 77, "8-bit ({x}, {y})");
@@ -512,4 +512,32 @@ fn anchored_and_chained_tracking_on_the_bundled_time_lapse() {
             "{anchor}: targets {rms:.3} px RMS from the tracks over {n}"
         );
     }
+}
+
+/// Float frames cannot be PNG: their registered frame is a float TIFF, background included.
+#[test]
+fn float_frames_are_registered_as_float_tiff() {
+    let q = Seq::new();
+    for k in 0..4 {
+        fs::remove_file(q.p("frames").join(format!("f{k}.png"))).unwrap();
+    }
+    let f0 = frame(0.0, 0.0);
+    let f = image::ImageBuffer::from_fn(160, 120, |x, y| {
+        let v = f0.get_pixel(x, y)[0] as f32 / 255.0;
+        image::Rgb([v, 0.5 * v, 0.25])
+    });
+    image::DynamicImage::ImageRgb32F(f).save(q.p("frames").join("h.tif")).unwrap();
+    let mut csv = String::from("name,src_x,src_y,dst_x,dst_y\n");
+    for (i, p) in [[20.0, 20.0], [140.0, 20.0], [20.0, 100.0], [140.0, 100.0]].iter().enumerate() {
+        csv += &format!("m{i},{},{},{},{}\n", p[0], p[1], p[0] + 10.0, p[1]);
+    }
+    fs::write(q.p("l.csv"), csv).unwrap();
+    let (code, _, err) = q.run("o", &["--background", "0.75", "--no-barrier"]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(!q.p("o").join("h.registered.png").exists());
+    let reg = image::open(q.p("o").join("h.registered.tif")).unwrap();
+    assert_eq!(reg.color(), image::ColorType::Rgb32F);
+    let px = reg.to_rgb32f().get_pixel(158, 60).0;
+    assert_eq!(px, [0.75; 3]);
+    assert!(q.report("o", "h")["fit"]["rms"].as_f64().unwrap() < 0.1);
 }
