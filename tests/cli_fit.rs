@@ -244,3 +244,300 @@ fn pin_edited_holds_the_points_an_editor_file_records() {
     let o = trimorph(&["fit", s(&def), "--landmarks", s(&lms), "--pin", "3,x", "-o", s(&out)]);
     assert!(String::from_utf8_lossy(&o.stderr).contains("`x` is not a control point index"));
 }
+
+/// A folder of 4 shifted textured frames, a 160 x 120 scene and 6 named landmarks at rest.
+struct Seq {
+    dir: tempfile::TempDir,
+}
+
+impl Seq {
+    fn new() -> Seq {
+        let dir = tempfile::tempdir().unwrap();
+        let frames = dir.path().join("frames");
+        fs::create_dir_all(&frames).unwrap();
+        for k in 0..4 {
+            frame(1.5 * k as f64, -(k as f64)).save(frames.join(format!("f{k}.png"))).unwrap();
+        }
+        let scene = dir.path().join("scene.json");
+        ok(&trimorph(&["mesh", "--grid", "4x3", "--size", "160,120", "-o", s(&scene)]));
+        let mut csv = String::from("name,src_x,src_y,dst_x,dst_y\n");
+        for (i, p) in
+            [[40.0, 30.0], [120.0, 30.0], [40.0, 90.0], [120.0, 90.0], [80.0, 60.0], [60.0, 45.0]]
+                .iter()
+                .enumerate()
+        {
+            csv += &format!("m{i},{},{},{},{}\n", p[0], p[1], p[0], p[1]);
+        }
+        fs::write(dir.path().join("l.csv"), csv).unwrap();
+        Seq { dir }
+    }
+
+    fn p(&self, name: &str) -> std::path::PathBuf {
+        self.dir.path().join(name)
+    }
+
+    /// `fit --frames` into `out` with `extra` options; (exit code, stdout, stderr).
+    fn run(&self, out: &str, extra: &[&str]) -> (Option<i32>, String, String) {
+        let (scene, frames, lms, out) =
+            (self.p("scene.json"), self.p("frames"), self.p("l.csv"), self.p(out));
+        let mut a =
+            vec!["fit", "--model", s(&scene), "--frames", s(&frames), "--landmarks", s(&lms)];
+        a.extend_from_slice(&["-o", s(&out)]);
+        a.extend_from_slice(extra);
+        let o = trimorph(&a);
+        let text = |b: &[u8]| String::from_utf8_lossy(b).into_owned();
+        (o.status.code(), text(&o.stdout), text(&o.stderr))
+    }
+
+    fn report(&self, out: &str, stem: &str) -> serde_json::Value {
+        let p = self.p(out).join(format!("{stem}.report.json"));
+        serde_json::from_str(&fs::read_to_string(p).unwrap()).unwrap()
+    }
+}
+
+/// Bug (issue 16): `--holdout` was ignored with `--frames`.
+#[test]
+fn holdout_with_frames_holds_the_same_landmarks_out_of_every_frame() {
+    let q = Seq::new();
+    let sum = q.p("sum.json");
+    let (code, out, err) =
+        q.run("o", &["--track", "--holdout", "2", "--seed", "3", "--report", s(&sum)]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(out.contains("held-out TRE over 4 frames"), "{out}");
+    let mut held = None;
+    for k in 0..4 {
+        let r = q.report("o", &format!("f{k}"));
+        assert_eq!(r["holdout"]["tre"]["count"], 2, "f{k}");
+        assert_eq!(r["fit"]["count"], 4, "f{k}");
+        let names: Vec<String> = r["holdout"]["residuals"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x["name"].as_str().unwrap().to_string())
+            .collect();
+        assert_eq!(held.get_or_insert_with(|| names.clone()), &names, "f{k}");
+        // The frames shift by (1.5, -1) per frame and tracking follows: small TRE.
+        assert!(r["holdout"]["tre"]["rms"].as_f64().unwrap() < 1.0, "f{k}: {}", r["holdout"]);
+    }
+    let s: serde_json::Value = serde_json::from_str(&fs::read_to_string(&sum).unwrap()).unwrap();
+    assert_eq!(s["tre"]["count"], 8);
+    assert_eq!(s["frames"].as_array().unwrap().len(), 4);
+}
+
+/// Bugs (issues 16, 23): a rerun with other options said "done before, skipped" and kept
+/// the old results; a deleted `FRAME.json` was never refitted.
+#[test]
+fn resume_refits_after_an_option_change_or_a_deleted_output() {
+    let q = Seq::new();
+    let (code, first, err) = q.run("o", &["--track"]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(first.contains("4 frames fitted, 0 skipped"), "{first}");
+    assert_eq!(
+        q.report("o", "f2")["resume"]["fit"].as_str().map(|t| t.contains("bend: 0.01")),
+        Some(true)
+    );
+    let (_, same, _) = q.run("o", &["--track"]);
+    assert!(same.contains("0 frames fitted, 4 skipped"), "{same}");
+    let (_, changed, _) = q.run("o", &["--track", "--bend", "0.05"]);
+    assert_eq!(
+        changed.matches("options changed, refitting (changed: fit)").count(),
+        4,
+        "{changed}"
+    );
+    assert!(changed.contains("4 frames fitted, 0 skipped"), "{changed}");
+    assert_eq!(q.report("o", "f2")["bend"], 0.05);
+    let (_, anchor, _) = q.run("o", &["--track", "--bend", "0.05", "--anchor", "first"]);
+    assert!(anchor.contains("options changed, refitting"), "{anchor}");
+    fs::remove_file(q.p("o").join("f1.json")).unwrap();
+    let (_, missing, _) = q.run("o", &["--track", "--bend", "0.05", "--anchor", "first"]);
+    assert!(missing.contains("f1: output missing (f1.json), refitting"), "{missing}");
+    assert!(missing.contains("1 frames fitted, 3 skipped"), "{missing}");
+    assert!(q.p("o").join("f1.json").exists());
+    // Another background changes the registered frames: refit.
+    let (_, bg, _) =
+        q.run("o", &["--track", "--bend", "0.05", "--anchor", "first", "--background", "9"]);
+    assert!(bg.contains("4 frames fitted") && bg.contains("changed: registered"), "{bg}");
+}
+
+/// Issue 23: `a.png` and `a.tif` in one folder wrote both to the same outputs.
+#[test]
+fn frames_with_the_same_stem_are_refused_naming_both() {
+    let q = Seq::new();
+    frame(0.0, 0.0).save(q.p("frames").join("f0.tif")).unwrap();
+    let (code, _, err) = q.run("o", &[]);
+    assert_eq!(code, Some(1), "{err}");
+    assert!(err.contains("f0.png") && err.contains("f0.tif") && err.contains("same name"), "{err}");
+    assert!(!q.p("o").exists(), "nothing written");
+}
+
+#[test]
+fn anchor_options_are_checked() {
+    let q = Seq::new();
+    for (extra, msg) in [
+        (&["--track", "--anchor", "middle"][..], "unknown anchor `middle`"),
+        (&["--anchor", "first"], "add --track"),
+        (&["--track", "--anchor", "keyframes"], "needs --key-every"),
+        (&["--track", "--anchor", "keyframes", "--key-every", "0"], "at least 1"),
+        (&["--track", "--key-every", "3"], "goes with --anchor keyframes"),
+    ] {
+        let (code, _, err) = q.run("o", extra);
+        assert_eq!(code, Some(1), "{extra:?}: {err}");
+        assert!(err.contains(msg), "{extra:?}: {err}");
+    }
+    let (code, out, err) = q.run("o", &["--track", "--anchor", "keyframes", "--key-every", "2"]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(out.contains("tracking (keyframes every 2): largest drift"), "{out}");
+}
+
+/// Issue 16: registered frames were RGBA whatever the input, with the frame's edge pixels
+/// smeared where the map leaves the frame. Landmarks that move everything 10 px right make
+/// phi leave the frame in the last 10 columns.
+#[test]
+fn registered_frames_keep_the_input_type_and_show_the_background_outside() {
+    let q = Seq::new();
+    let mut csv = String::from("name,src_x,src_y,dst_x,dst_y\n");
+    for (i, p) in [[20.0, 20.0], [140.0, 20.0], [20.0, 100.0], [140.0, 100.0], [80.0, 60.0]]
+        .iter()
+        .enumerate()
+    {
+        csv += &format!("m{i},{},{},{},{}\n", p[0], p[1], p[0] + 10.0, p[1]);
+    }
+    fs::write(q.p("l.csv"), csv).unwrap();
+    // 16-bit frames (TIFF) beside 8-bit ones.
+    let f0 = frame(0.0, 0.0);
+    let g16 = image::ImageBuffer::from_fn(160, 120, |x, y| {
+        image::Luma([f0.get_pixel(x, y)[0] as u16 * 200 + 7])
+    });
+    image::DynamicImage::ImageLuma16(g16.clone()).save(q.p("frames").join("g16.tif")).unwrap();
+    let (code, _, err) = q.run("o", &["--background", "77", "--no-barrier"]);
+    assert_eq!(code, Some(0), "{err}");
+    let reg8 = image::open(q.p("o").join("f0.registered.png")).unwrap();
+    let reg16 = image::open(q.p("o").join("g16.registered.png")).unwrap();
+    assert_eq!(reg8.color(), image::ColorType::L8);
+    assert_eq!(reg16.color(), image::ColorType::L16);
+    let (r8, r16) = (reg8.to_luma8(), reg16.to_luma16());
+    for y in [10, 60, 110] {
+        for x in 155..160 {
+            assert_eq!(r8.get_pixel(x, y)[0], 77, "8-bit ({x}, {y})");
+            assert_eq!(r16.get_pixel(x, y)[0], 77, "16-bit ({x}, {y})");
+        }
+        // Inside: the frame 10 px to the right.
+        for x in [5u32, 60, 140] {
+            let d = r8.get_pixel(x, y)[0] as i32 - f0.get_pixel(x + 10, y)[0] as i32;
+            assert!(d.abs() <= 8, "8-bit ({x}, {y}): off by {d}");
+            let d16 = r16.get_pixel(x, y)[0] as i32 - g16.get_pixel(x + 10, y)[0] as i32;
+            assert!(d16.abs() <= 8 * 200, "16-bit ({x}, {y}): off by {d16}");
+        }
+    }
+}
+
+/// Ground truth of the bundled time-lapse: `(track id, frame) -> [x, y]`.
+fn timelapse_tracks(dir: &Path) -> std::collections::BTreeMap<(u32, u32), [f64; 2]> {
+    let text = fs::read_to_string(dir.join("tracks.csv")).unwrap();
+    text.lines()
+        .skip(1)
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            (
+                (f[0].parse().unwrap(), f[1].parse().unwrap()),
+                [f[3].parse().unwrap(), f[2].parse().unwrap()],
+            )
+        })
+        .collect()
+}
+
+/// Anchored and chained tracking on the bundled time-lapse (`data/microscopy/timelapse`),
+/// checked against its nucleus tracks; every frame reports its drift.
+#[test]
+fn anchored_and_chained_tracking_on_the_bundled_time_lapse() {
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/microscopy/timelapse");
+    let truth = timelapse_tracks(&data);
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("scene.json");
+    ok(&trimorph(&["mesh", "--grid", "4x4", "--size", "511,511", "-o", s(&scene)]));
+    let mut csv = String::from("name,src_x,src_y,dst_x,dst_y\n");
+    for ((id, k), p) in &truth {
+        if *k == 0 {
+            csv += &format!("t{id},{},{},{},{}\n", p[0], p[1], p[0], p[1]);
+        }
+    }
+    let lms = dir.path().join("l.csv");
+    fs::write(&lms, csv).unwrap();
+    let mut err = std::collections::BTreeMap::new();
+    for anchor in ["chain", "first"] {
+        let out = dir.path().join(anchor);
+        let o = trimorph(&[
+            "fit",
+            "--model",
+            s(&scene),
+            "--frames",
+            s(&data),
+            "--landmarks",
+            s(&lms),
+            "--track",
+            "--anchor",
+            anchor,
+            "--bend",
+            "0.05",
+            "-o",
+            s(&out),
+        ]);
+        ok(&o);
+        let text = String::from_utf8_lossy(&o.stdout);
+        assert!(text.contains("10 frames fitted") && text.contains("largest drift"), "{text}");
+        let (mut sq, mut n) = (0.0, 0);
+        for k in 0..10u32 {
+            let p = out.join(format!("frame_{k:02}.report.json"));
+            let r: serde_json::Value =
+                serde_json::from_str(&fs::read_to_string(p).unwrap()).unwrap();
+            assert_eq!(r["anchor"], anchor);
+            assert!(r["drift"]["points"].as_u64().unwrap() >= 3, "frame {k}: {}", r["drift"]);
+            for x in r["residuals"].as_array().unwrap() {
+                let id: u32 = x["name"].as_str().unwrap()[1..].parse().unwrap();
+                let g = truth[&(id, k)];
+                let d =
+                    [x["dst"][0].as_f64().unwrap() - g[0], x["dst"][1].as_f64().unwrap() - g[1]];
+                sq += d[0] * d[0] + d[1] * d[1];
+                n += 1;
+            }
+        }
+        err.insert(anchor, ((sq / n as f64).sqrt(), n));
+    }
+    // Measured: chained 1.91 px RMS over 105 (frame, nucleus) targets, anchored 1.29 px
+    // over 70 (anchoring drops nuclei whose look changes; on the targets both keep the two
+    // are alike, see fit::sequence's tests).
+    for (anchor, (rms, n)) in &err {
+        assert!(
+            *rms < 2.5 && *n >= 40,
+            "{anchor}: targets {rms:.3} px RMS from the tracks over {n}"
+        );
+    }
+}
+
+/// Float frames cannot be PNG: their registered frame is a float TIFF, background included.
+#[test]
+fn float_frames_are_registered_as_float_tiff() {
+    let q = Seq::new();
+    for k in 0..4 {
+        fs::remove_file(q.p("frames").join(format!("f{k}.png"))).unwrap();
+    }
+    let f0 = frame(0.0, 0.0);
+    let f = image::ImageBuffer::from_fn(160, 120, |x, y| {
+        let v = f0.get_pixel(x, y)[0] as f32 / 255.0;
+        image::Rgb([v, 0.5 * v, 0.25])
+    });
+    image::DynamicImage::ImageRgb32F(f).save(q.p("frames").join("h.tif")).unwrap();
+    let mut csv = String::from("name,src_x,src_y,dst_x,dst_y\n");
+    for (i, p) in [[20.0, 20.0], [140.0, 20.0], [20.0, 100.0], [140.0, 100.0]].iter().enumerate() {
+        csv += &format!("m{i},{},{},{},{}\n", p[0], p[1], p[0] + 10.0, p[1]);
+    }
+    fs::write(q.p("l.csv"), csv).unwrap();
+    let (code, _, err) = q.run("o", &["--background", "0.75", "--no-barrier"]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(!q.p("o").join("h.registered.png").exists());
+    let reg = image::open(q.p("o").join("h.registered.tif")).unwrap();
+    assert_eq!(reg.color(), image::ColorType::Rgb32F);
+    let px = reg.to_rgb32f().get_pixel(158, 60).0;
+    assert_eq!(px, [0.75; 3]);
+    assert!(q.report("o", "h")["fit"]["rms"].as_f64().unwrap() < 0.1);
+}

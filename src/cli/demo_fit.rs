@@ -120,7 +120,13 @@ pub fn run(dir: &Path) -> Result<()> {
         frames: &frames,
         landmarks: &lms,
         track: false,
+        anchor: None,
+        key_every: None,
+        holdout: 0,
+        seed: 1,
+        background: 0.0,
         output: &out,
+        report: None,
         shard: None,
         solver: SolverArgs {
             loss: "squares",

@@ -1,37 +1,48 @@
 //! `trimorph fit --model SCENE.json --frames DIR|STACK.tif --landmarks L -o OUTDIR`: a scene
-//! (a deformation, usually 2.5D, with its model) fitted to every frame of a sequence.
+//! (a deformation, usually 2.5D, with its model) fitted to every frame of a sequence. The
+//! work is [`crate::fit::sequence`]; this layer reads the inputs, writes the outputs and
+//! prints.
 //!
 //! * Landmarks: `L` gives sources in the scene's reference domain and targets in the first
-//!   frame; with `--track` the targets are followed frame to frame by pyramidal Lucas-Kanade
-//!   (points lost by the tracker drop out of later frames). A directory `L` holds one file
-//!   per frame instead (`<frame stem>.csv`, `.json` or BigWarp). Landmarks named like a
-//!   model landmark take their source from that model vertex, projected to xy.
+//!   frame; with `--track` the targets are followed by pyramidal Lucas-Kanade, from the
+//!   previous frame (`--anchor chain`, the default), from the first frame (`--anchor first`)
+//!   or from key frames (`--anchor keyframes --key-every N`); points lost by the tracker drop
+//!   out of later frames. A directory `L` holds one file per frame instead (`<frame
+//!   stem>.csv`, `.json` or BigWarp). Landmarks named like a model landmark take their
+//!   source from that model vertex, projected to xy. `--holdout K` keeps the same K
+//!   landmarks out of every frame's fit and reports their error (TRE).
 //! * Fits: with `--track` in frame order, each warm-started from the previous frame's
 //!   result; without, independent frames run in parallel (rayon).
 //! * Outputs per frame `<stem>`: `<stem>.json` (deformation), `<stem>.registered.png` (the
-//!   frame pulled back onto the reference through phi), `<stem>.obj` (the deformed model),
-//!   `<stem>.overlay.png` (frame, model outline, landmarks) and `<stem>.report.json`
-//!   (written last: residuals, RMS, max, min det J, iterations, time, tracking losses).
-//! * Resumable: a frame whose report exists is skipped (its deformation is read back for
-//!   the warm start). `--shard i/n` takes the `i`-th of `n` contiguous frame ranges, so array
-//!   jobs on a cluster split a sequence with no coordination (tracking always starts from
-//!   the first frame, which is cheap).
+//!   frame pulled back onto the reference through phi, in the frame's type and channels,
+//!   `--background` where phi leaves the frame; `.registered.tif` for float frames),
+//!   `<stem>.obj` (the deformed model), `<stem>.overlay.png` (frame, model outline,
+//!   landmarks) and `<stem>.report.json` (written last: residuals, RMS, max, TRE, min det J,
+//!   iterations, time, tracking losses, drift, and the resume key). `--report FILE` writes a
+//!   summary of the sequence.
+//! * Resumable: a frame is skipped when its report's resume key (inputs and options) equals
+//!   this run's and every output is present; otherwise it is fitted again, saying why.
+//!   `--shard i/n` takes the `i`-th of `n` contiguous frame ranges, so array jobs on a
+//!   cluster split a sequence with no coordination (tracking always starts from the first
+//!   frame, which is cheap).
 
 use super::fit_cmd::{fit_error, summary, SolverArgs};
 use crate::fit::landmarks::Landmark;
-use crate::fit::solve::{fit, FitOptions, FitReport};
-use crate::fit::track::{track_points, TrackOptions};
+use crate::fit::sequence::{
+    check_names, content_hash, Action, Anchor, Event, Frame, FrameResult, Sequence, SequenceError,
+    SequenceOptions, SequenceSummary, Store, StoreError, Stored, Targets,
+};
+use crate::fit::track::TrackOptions;
 use crate::io::landmarks::read_landmarks;
 use crate::io::model::{load_model, save_model};
+use crate::io::raster::{write_stack, Stack};
 use crate::io::{deformation, read_text, write_atomic};
 use crate::prism::{bind, deform, Binding, Model};
 use crate::render::deformation::save_png;
 use crate::render::overlay::{overlay, silhouette, Mark};
-use crate::spline::Spline;
-use crate::warp::pullback::pull_back_gray8;
+use crate::warp::pullback::pull_back;
+use crate::warp::Interp;
 use anyhow::{anyhow, bail, Context, Result};
-use image::GrayImage;
-use rayon::prelude::*;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -43,33 +54,26 @@ pub struct BatchArgs<'a> {
     pub frames: &'a Path,
     pub landmarks: &'a Path,
     pub track: bool,
+    /// `chain`, `first` or `keyframes` (`None`: chain).
+    pub anchor: Option<&'a str>,
+    /// Key frame spacing of `--anchor keyframes`.
+    pub key_every: Option<usize>,
+    pub holdout: usize,
+    pub seed: u64,
+    /// Registered frames' value outside the map (sample units).
+    pub background: f64,
     pub output: &'a Path,
+    /// Sequence summary (JSON).
+    pub report: Option<&'a Path>,
     pub shard: Option<&'a str>,
     pub solver: SolverArgs<'a>,
 }
 
-/// A frame: its name and 8-bit gray pixels.
-struct Frame {
-    stem: String,
-    /// Where it was read from (named in errors): its file, or `STACK.tif, page N`.
-    source: String,
-    img: GrayImage,
-}
-
-fn to_gray8(img: image::DynamicImage) -> GrayImage {
-    match img {
-        image::DynamicImage::ImageLuma16(g) => {
-            let max = g.pixels().map(|p| p[0]).max().unwrap_or(1).max(1) as f64;
-            GrayImage::from_fn(g.width(), g.height(), |x, y| {
-                image::Luma([((g.get_pixel(x, y)[0] as f64) * 255.0 / max).round() as u8])
-            })
-        }
-        other => other.to_luma8(),
-    }
-}
-
-/// The frames of a directory (sorted image files) or of a (multi-page) TIFF.
-fn read_frames(path: &Path) -> Result<Vec<Frame>> {
+/// The frames of a directory (sorted image files) or of a (multi-page) TIFF, and whether
+/// each is float gray (held as RGB float, written back as gray).
+fn read_frames(path: &Path) -> Result<(Vec<Frame>, Vec<bool>)> {
+    let mut frames = Vec::new();
+    let mut gray_float = Vec::new();
     if path.is_dir() {
         let mut files: Vec<PathBuf> = std::fs::read_dir(path)
             .with_context(|| format!("cannot list {}", path.display()))?
@@ -85,46 +89,37 @@ fn read_frames(path: &Path) -> Result<Vec<Frame>> {
         if files.is_empty() {
             bail!("no image files (png, tif, jpg) in {}", path.display());
         }
-        files
-            .iter()
-            .map(|f| {
-                // Through the raster reader: sizes are checked before decoding.
-                let mut stack = crate::io::raster::read_stack(f)
-                    .with_context(|| format!("cannot read frame {}", f.display()))?;
-                let img = stack.pages.swap_remove(0);
-                let stem =
-                    f.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-                Ok(Frame { stem, source: f.display().to_string(), img: to_gray8(img) })
-            })
-            .collect()
+        for f in &files {
+            // Through the raster reader: sizes are checked before decoding.
+            let mut stack = crate::io::raster::read_stack(f)
+                .with_context(|| format!("cannot read frame {}", f.display()))?;
+            let img = stack.pages.swap_remove(0);
+            let stem = f.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+            frames.push(Frame::new(stem, f.display().to_string(), img));
+            gray_float.push(stack.gray_float);
+        }
     } else {
         let stack = crate::io::raster::read_stack(path)
             .with_context(|| format!("cannot read frames {}", path.display()))?;
         let base = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-        Ok(stack
-            .pages
-            .into_iter()
-            .enumerate()
-            .map(|(i, p)| Frame {
-                stem: format!("{base}_{i:03}"),
-                source: format!("{}, page {i}", path.display()),
-                img: to_gray8(p),
-            })
-            .collect())
+        for (i, p) in stack.pages.into_iter().enumerate() {
+            frames.push(Frame::new(
+                format!("{base}_{i:03}"),
+                format!("{}, page {i}", path.display()),
+                p,
+            ));
+            gray_float.push(stack.gray_float);
+        }
     }
+    Ok((frames, gray_float))
 }
 
-/// `i/n` → the half-open frame range of shard `i` (0-based) of `n`.
-pub fn shard_range(spec: &str, frames: usize) -> Result<(usize, usize)> {
-    let (i, n) = spec
-        .split_once('/')
+/// `i/n` -> `(i, n)` with `0 <= i < n`.
+pub fn parse_shard(spec: &str) -> Result<(usize, usize)> {
+    spec.split_once('/')
         .and_then(|(i, n)| Some((i.trim().parse::<usize>().ok()?, n.trim().parse::<usize>().ok()?)))
         .filter(|&(i, n)| n >= 1 && i < n)
-        .ok_or_else(|| anyhow!("--shard: expected i/n with 0 <= i < n, e.g. 0/4"))?;
-    // In u128: `i * frames` overflows usize for huge (but valid) `i/n`; the quotients are
-    // at most `frames`, so they fit back.
-    let at = |k: usize| (k as u128 * frames as u128 / n as u128) as usize;
-    Ok((at(i), at(i + 1)))
+        .ok_or_else(|| anyhow!("--shard: expected i/n with 0 <= i < n, e.g. 0/4"))
 }
 
 /// The scene's model: `--model-file`, else the scene's `"model"` key (relative to the scene).
@@ -163,218 +158,311 @@ fn name_sources(lms: &mut [Landmark], model: Option<&Model>) {
     }
 }
 
-/// Per-frame landmark sets (all frames), and the number of tracked points lost per frame.
-fn frame_landmarks(
-    a: &BatchArgs,
-    frames: &[Frame],
-    model: Option<&Model>,
-) -> Result<(Vec<Vec<Landmark>>, Vec<usize>)> {
+/// `--anchor` and `--key-every`.
+fn anchor(a: &BatchArgs) -> Result<Anchor> {
+    if !a.track && (a.anchor.is_some() || a.key_every.is_some()) {
+        bail!("--anchor and --key-every choose how --track follows the landmarks; add --track");
+    }
+    match (a.anchor.unwrap_or("chain"), a.key_every) {
+        ("chain", None) => Ok(Anchor::Chain),
+        ("first", None) => Ok(Anchor::First),
+        ("keyframes", Some(n)) if n >= 1 => Ok(Anchor::KeyFrames(n)),
+        ("keyframes", Some(_)) => bail!("--key-every must be at least 1"),
+        ("keyframes", None) => {
+            bail!("--anchor keyframes needs --key-every N (a key frame every N frames)")
+        }
+        ("chain" | "first", Some(_)) => bail!("--key-every goes with --anchor keyframes"),
+        (other, _) => bail!("--anchor: unknown anchor `{other}` (use chain, first or keyframes)"),
+    }
+}
+
+/// Where each frame's targets come from.
+fn targets(a: &BatchArgs, frames: &[Frame], model: Option<&Model>) -> Result<Targets> {
+    let anchor = anchor(a)?;
     if a.landmarks.is_dir() {
         let mut out = Vec::with_capacity(frames.len());
         for f in frames {
             let p = ["csv", "json"]
                 .iter()
-                .map(|e| a.landmarks.join(format!("{}.{e}", f.stem)))
+                .map(|e| a.landmarks.join(format!("{}.{e}", f.name)))
                 .find(|p| p.exists())
                 .ok_or_else(|| {
-                    anyhow!("no landmarks for frame {} in {}", f.stem, a.landmarks.display())
+                    anyhow!("no landmarks for frame {} in {}", f.name, a.landmarks.display())
                 })?;
             let mut l =
                 read_landmarks(&p).with_context(|| format!("cannot read {}", p.display()))?;
             name_sources(&mut l, model);
             out.push(l);
         }
-        return Ok((out, vec![0; frames.len()]));
+        return Ok(Targets::PerFrame(out));
     }
     let mut first = read_landmarks(a.landmarks)
         .with_context(|| format!("cannot read landmarks {}", a.landmarks.display()))?;
     name_sources(&mut first, model);
-    if !a.track {
-        return Ok((vec![first; frames.len()], vec![0; frames.len()]));
-    }
-    let mut sets = vec![first];
-    let mut lost = vec![0];
-    for k in 1..frames.len() {
-        let prev = &sets[k - 1];
-        let pts: Vec<[f64; 2]> = prev.iter().map(|l| l.dst).collect();
-        let moved =
-            track_points(&frames[k - 1].img, &frames[k].img, &pts, None, &TrackOptions::default())
-                .with_context(|| format!("tracking into frame {}", frames[k].stem))?;
-        let next: Vec<Landmark> = prev
-            .iter()
-            .zip(moved)
-            .filter_map(|(l, m)| m.map(|d| Landmark { dst: d, ..l.clone() }))
-            .collect();
-        lost.push(prev.len() - next.len());
-        sets.push(next);
-    }
-    Ok((sets, lost))
+    Ok(if a.track {
+        Targets::Tracked { first, anchor, options: TrackOptions::default() }
+    } else {
+        Targets::Fixed(first)
+    })
 }
 
-/// Writes every output of one frame (the report last).
-#[allow(clippy::too_many_arguments)]
-fn write_outputs(
-    out: &Path,
-    frame: &Frame,
-    s: &Spline,
-    report: &FitReport,
-    lost: usize,
-    model: Option<&(PathBuf, Model, Binding)>,
-) -> Result<()> {
-    let stem = &frame.stem;
-    write_atomic(&out.join(format!("{stem}.json")), deformation::to_string(s, None).as_bytes())?;
-    let (w, h) = (frame.img.width() as usize, frame.img.height() as usize);
-    let reg = pull_back_gray8(s, frame.img.as_raw(), w, h, w, h, 0);
-    let mut pm =
-        tiny_skia::Pixmap::new(w as u32, h as u32).ok_or_else(|| anyhow!("empty frame"))?;
-    for (d, &g) in pm.pixels_mut().iter_mut().zip(&reg) {
-        *d = tiny_skia::ColorU8::from_rgba(g, g, g, 255).premultiply();
+/// The output files of a frame.
+struct Files<'a> {
+    out: &'a Path,
+    model: Option<&'a (PathBuf, Model, Binding)>,
+    gray_float: &'a [bool],
+    background: f64,
+}
+
+impl Files<'_> {
+    fn path(&self, stem: &str, ext: &str) -> PathBuf {
+        self.out.join(format!("{stem}.{ext}"))
     }
-    save_png(&pm, &out.join(format!("{stem}.registered.png")))?;
-    let mut outline = Vec::new();
-    if let Some((_, m, b)) = model {
-        let moved = deform(m, b, s);
-        save_model(m, &moved, &out.join(format!("{stem}.obj")))?;
-        outline = silhouette(&moved, &m.triangles);
+
+    fn registered(&self, index: usize, frame: &Frame) -> PathBuf {
+        let float = matches!(
+            frame.image,
+            image::DynamicImage::ImageRgb32F(_) | image::DynamicImage::ImageRgba32F(_)
+        ) || self.gray_float[index];
+        self.path(&frame.name, if float { "registered.tif" } else { "registered.png" })
     }
-    let marks: Vec<Mark> =
-        report.residuals.iter().map(|r| Mark { mapped: r.mapped, target: r.dst }).collect();
-    let ov = overlay(frame.img.as_raw(), w as u32, h as u32, &outline, &marks)
-        .ok_or_else(|| anyhow!("empty frame"))?;
-    save_png(&ov, &out.join(format!("{stem}.overlay.png")))?;
-    let mut v = serde_json::to_value(report)?;
-    v["frame"] = serde_json::Value::from(stem.as_str());
-    v["tracking_lost"] = serde_json::Value::from(lost);
-    write_atomic(
-        &out.join(format!("{stem}.report.json")),
-        serde_json::to_string_pretty(&v)?.as_bytes(),
-    )?;
-    Ok(())
+
+    /// Every output except the report.
+    fn outputs(&self, index: usize, frame: &Frame) -> Vec<PathBuf> {
+        let mut v = vec![
+            self.path(&frame.name, "json"),
+            self.registered(index, frame),
+            self.path(&frame.name, "overlay.png"),
+        ];
+        if self.model.is_some() {
+            v.push(self.path(&frame.name, "obj"));
+        }
+        v
+    }
+
+    fn save(&self, r: &FrameResult, frame: &Frame) -> Result<()> {
+        let stem = &frame.name;
+        let s = &r.spline;
+        write_atomic(&self.path(stem, "json"), deformation::to_string(s, None).as_bytes())?;
+        let (w, h) = (frame.image.width(), frame.image.height());
+        let reg = pull_back(s, &frame.image, w, h, Interp::Bilinear, self.background)?;
+        let stack = Stack { pages: vec![reg], gray_float: self.gray_float[r.index] };
+        write_stack(&self.registered(r.index, frame), &stack)?;
+        let mut outline = Vec::new();
+        if let Some((_, m, b)) = self.model {
+            let moved = deform(m, b, s);
+            save_model(m, &moved, &self.path(stem, "obj"))?;
+            outline = silhouette(&moved, &m.triangles);
+        }
+        let marks: Vec<Mark> =
+            r.report.residuals.iter().map(|x| Mark { mapped: x.mapped, target: x.dst }).collect();
+        let ov = overlay(frame.gray().as_raw(), w, h, &outline, &marks)
+            .ok_or_else(|| anyhow!("empty frame"))?;
+        save_png(&ov, &self.path(stem, "overlay.png"))?;
+        let text = serde_json::to_string_pretty(&r.report_json())?;
+        write_atomic(&self.path(stem, "report.json"), text.as_bytes())?;
+        Ok(())
+    }
+}
+
+impl Store for Files<'_> {
+    fn stored(&self, index: usize, frame: &Frame) -> Result<Stored, StoreError> {
+        let report = read_text(&self.path(&frame.name, "report.json"))
+            .ok()
+            .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok());
+        let missing: Vec<String> = self
+            .outputs(index, frame)
+            .iter()
+            .filter(|p| !p.exists())
+            .map(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default())
+            .collect();
+        let spline = read_text(&self.path(&frame.name, "json"))
+            .ok()
+            .and_then(|t| deformation::from_str(&t).ok())
+            .map(|(s, _)| s);
+        Ok(Stored { report, missing, spline })
+    }
+
+    fn save(&self, result: &FrameResult, frame: &Frame) -> Result<(), StoreError> {
+        Files::save(self, result, frame).map_err(Into::into)
+    }
+}
+
+/// A library error as the CLI reports it (fit errors keep their exit code).
+fn sequence_error(e: SequenceError, a: &BatchArgs, frames: &[Frame]) -> anyhow::Error {
+    match e {
+        SequenceError::Fit { index, source, .. } => fit_error(source).context(format!(
+            "frame {} ({}; landmarks {}{})",
+            frames[index].name,
+            frames[index].source,
+            a.landmarks.display(),
+            if a.track && !a.landmarks.is_dir() { ", tracked from the first frame" } else { "" }
+        )),
+        SequenceError::Store { index, source, .. } => {
+            anyhow::Error::from_boxed(source).context(format!("frame {}", frames[index].name))
+        }
+        other => anyhow::Error::new(other),
+    }
+}
+
+/// The summary file of `--report`.
+fn summary_json(sum: &SequenceSummary, anchor: Option<Anchor>) -> serde_json::Value {
+    let errors = |e: Option<crate::fit::sequence::Errors>| {
+        e.map(|e| serde_json::json!({"count": e.count, "rms": e.rms, "max": e.max}))
+    };
+    let frames: Vec<serde_json::Value> = sum
+        .frames
+        .iter()
+        .map(|f| {
+            let (action, reason) = match &f.action {
+                Action::Skipped => ("skipped", None),
+                Action::Fitted(r) => ("fitted", Some(r.to_string())),
+            };
+            serde_json::json!({
+                "frame": f.name, "action": action, "reason": reason, "fit": errors(f.fit),
+                "tre": errors(f.tre), "drift": f.drift, "tracking_lost": f.lost,
+            })
+        })
+        .collect();
+    serde_json::json!({
+        "frames": frames,
+        "range": [sum.range.0, sum.range.1],
+        "total": sum.total,
+        "anchor": anchor.map(|a| a.to_string()),
+        "tre": sum.tre.map(|t| serde_json::json!({"frames": t.frames, "count": t.count, "rms": t.rms, "max": t.max})),
+        "drift_max": sum.drift_max,
+        "track_ms": sum.track_ms,
+    })
 }
 
 /// Runs the batch fit; see the module docs.
 pub fn run(a: BatchArgs) -> Result<()> {
     let t0 = Instant::now();
-    let opts: FitOptions = a.solver.options()?;
+    let fit_opts = a.solver.options()?;
+    if !a.background.is_finite() {
+        bail!("--background must be a finite number (sample units), got {}", a.background);
+    }
+    let shard = a.shard.map(parse_shard).transpose()?;
     let (scene, _) = deformation::from_str(&read_text(a.scene)?)
         .with_context(|| format!("cannot read scene {}", a.scene.display()))?;
     let model = scene_model(a.scene, a.model)?;
+    let mut key_extra = std::collections::BTreeMap::new();
     let bound = match model {
         Some((p, m)) => {
             let b =
                 bind(&m, &scene).with_context(|| format!("cannot bind model {}", p.display()))?;
+            let bytes =
+                std::fs::read(&p).with_context(|| format!("cannot read model {}", p.display()))?;
+            key_extra.insert("model_hash".to_string(), content_hash(&bytes));
             Some((p, m, b))
         }
         None => None,
     };
-    let frames = read_frames(a.frames)?;
-    let (sets, lost) = frame_landmarks(&a, &frames, bound.as_ref().map(|(_, m, _)| m))?;
-    let t_track = t0.elapsed();
-    let (lo, hi) = match a.shard {
-        Some(spec) => shard_range(spec, frames.len())?,
-        None => (0, frames.len()),
+    key_extra.insert("registered".to_string(), format!("bilinear, background {}", a.background));
+    let (frames, gray_float) = read_frames(a.frames)?;
+    check_names(&frames)?;
+    let targets = targets(&a, &frames, bound.as_ref().map(|(_, m, _)| m))?;
+    let anchor = match &targets {
+        Targets::Tracked { anchor, .. } => Some(*anchor),
+        _ => None,
     };
+    let opts =
+        SequenceOptions { fit: fit_opts, holdout: a.holdout, seed: a.seed, shard, key_extra };
+    let seq = Sequence::new(&scene, &frames, targets, opts)
+        .map_err(|e| sequence_error(e, &a, &frames))?;
+    let (lo, hi) = seq.range();
     std::fs::create_dir_all(a.output)
         .with_context(|| format!("cannot create {}", a.output.display()))?;
     // Leftovers of an earlier run that was killed mid-write.
     crate::io::remove_stale_temps(a.output, crate::io::STALE_AFTER);
-    let done = |k: usize| a.output.join(format!("{}.report.json", frames[k].stem)).exists();
+    let store = Files {
+        out: a.output,
+        model: bound.as_ref(),
+        gray_float: &gray_float,
+        background: a.background,
+    };
     let bar = super::warp_cmd::progress_bar((hi - lo) as u64, hi - lo > 1, "fit");
-    let fit_one = |k: usize, warm: &Spline| -> Result<Option<(Spline, FitReport)>> {
-        if done(k) {
-            bar.inc(1);
-            return Ok(None);
+    let on_event = |e: Event<'_>| {
+        if let Event::Frame(_) = e {
+            bar.inc(1)
         }
-        let f = fit(warm, &sets[k], &opts).map_err(fit_error).with_context(|| {
-            format!(
-                "frame {} ({}; landmarks {}{})",
-                frames[k].stem,
-                frames[k].source,
-                a.landmarks.display(),
-                if a.track { ", tracked from the first frame" } else { "" }
-            )
-        })?;
-        write_outputs(a.output, &frames[k], &f.spline, &f.report, lost[k], bound.as_ref())?;
-        bar.inc(1);
-        Ok(Some((f.spline, f.report)))
     };
-    let results: Vec<(usize, Option<FitReport>)> = if a.track {
-        // In order, warm-started from the previous frame's result (read back when skipped).
-        let mut warm = if lo > 0 {
-            let prev = a.output.join(format!("{}.json", frames[lo - 1].stem));
-            match read_text(&prev).ok().and_then(|t| deformation::from_str(&t).ok()) {
-                Some((s, _)) => s,
-                None => scene.clone(),
-            }
-        } else {
-            scene.clone()
-        };
-        let mut out = Vec::new();
-        for k in lo..hi {
-            match fit_one(k, &warm)? {
-                Some((s, r)) => {
-                    warm = s;
-                    out.push((k, Some(r)));
-                }
-                None => {
-                    let p = a.output.join(format!("{}.json", frames[k].stem));
-                    if let Some((s, _)) =
-                        read_text(&p).ok().and_then(|t| deformation::from_str(&t).ok())
-                    {
-                        warm = s;
-                    }
-                    out.push((k, None));
-                }
-            }
-        }
-        out
-    } else {
-        (lo..hi)
-            .into_par_iter()
-            .map(|k| fit_one(k, &scene).map(|r| (k, r.map(|x| x.1))))
-            .collect::<Result<Vec<_>>>()?
-    };
+    let result = seq.run(&store, &on_event);
     bar.finish_and_clear();
+    let sum = result.map_err(|e| sequence_error(e, &a, &frames))?;
     let mut stdout = std::io::stdout();
-    let mut fitted = 0;
-    for (k, r) in &results {
-        match r {
-            Some(r) => {
-                fitted += 1;
-                writeln!(stdout, "{}: {}", frames[*k].stem, summary(r))?;
+    for f in &sum.frames {
+        let drift = f
+            .drift
+            .map(|d| format!("; drift {:.3} px ({} points)", d.rms, d.points))
+            .unwrap_or_default();
+        match (&f.action, &f.report) {
+            (Action::Skipped, _) => writeln!(stdout, "{}: done before, skipped", f.name)?,
+            (Action::Fitted(crate::fit::sequence::Reason::New), Some(r)) => {
+                writeln!(stdout, "{}: {}{drift}", f.name, summary(r))?
             }
-            None => writeln!(stdout, "{}: done before, skipped", frames[*k].stem)?,
+            (Action::Fitted(why), Some(r)) => {
+                writeln!(stdout, "{}: {why}; {}{drift}", f.name, summary(r))?
+            }
+            (Action::Fitted(why), None) => writeln!(stdout, "{}: {why}", f.name)?,
         }
     }
+    let fitted = sum.fitted();
     writeln!(
         stdout,
         "{fitted} frames fitted, {} skipped, frames {lo}..{hi} of {} (landmarks{} in {:.0} ms; total {:.1} s) -> {}",
-        results.len() - fitted,
+        sum.frames.len() - fitted,
         frames.len(),
-        if a.track { " tracked" } else { "" },
-        t_track.as_secs_f64() * 1e3,
+        if anchor.is_some() { " tracked" } else { "" },
+        sum.track_ms,
         t0.elapsed().as_secs_f64(),
         a.output.display()
     )?;
+    if let Some(t) = &sum.tre {
+        writeln!(
+            stdout,
+            "held-out TRE over {} frames: rms {:.3} px, max {:.3} px ({} residuals; held out: {})",
+            t.frames,
+            t.rms,
+            t.max,
+            t.count,
+            seq.held_out().iter().cloned().collect::<Vec<_>>().join(", ")
+        )?;
+    }
+    if let (Some(an), Some(d)) = (anchor, &sum.drift_max) {
+        let vs =
+            if an == Anchor::Chain { "tracking from the first frame" } else { "chained tracking" };
+        writeln!(
+            stdout,
+            "tracking ({an}): largest drift against {vs} {:.3} px RMS, {:.3} px max ({} points)",
+            d.rms, d.max, d.points
+        )?;
+    }
+    if let Some(p) = a.report {
+        let text = serde_json::to_string_pretty(&summary_json(&sum, anchor))?;
+        write_atomic(p, text.as_bytes())?;
+    }
     Ok(())
 }
 
 #[cfg(test)]
 mod tests {
-    use super::shard_range;
+    use super::parse_shard;
+    use crate::fit::sequence::shard_range;
 
     #[test]
     fn shards_cover_every_frame_once() {
         for n in 1..7 {
             let mut next = 0;
             for i in 0..n {
-                let (lo, hi) = shard_range(&format!("{i}/{n}"), 10).unwrap();
+                let (i, n) = parse_shard(&format!("{i}/{n}")).unwrap();
+                let (lo, hi) = shard_range(i, n, 10);
                 assert_eq!(lo, next);
                 next = hi;
             }
             assert_eq!(next, 10);
         }
-        assert!(shard_range("3/3", 10).is_err());
-        assert!(shard_range("x", 10).is_err());
+        assert!(parse_shard("3/3").is_err());
+        assert!(parse_shard("x").is_err());
     }
 }

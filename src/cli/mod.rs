@@ -336,7 +336,8 @@ enum Command {
         /// Output deformation (single fit) or output folder (with --frames).
         #[arg(short, long)]
         output: PathBuf,
-        /// Report (JSON): residuals, RMS, max, held-out TRE, min det J, iterations, time.
+        /// Report (JSON): residuals, RMS, max, held-out TRE, min det J, iterations, time
+        /// (with --frames: a summary of the sequence; every frame has its own report).
         #[arg(long)]
         report: Option<PathBuf>,
         /// Data loss: squares, huber or cauchy.
@@ -389,6 +390,19 @@ enum Command {
         /// Follow the landmarks from frame to frame (pyramidal Lucas-Kanade).
         #[arg(long)]
         track: bool,
+        /// With --track, which frame each frame is tracked from: chain (the previous frame;
+        /// default), first (the first frame: no drift over long sequences) or keyframes
+        /// (every --key-every N frames a key frame tracked from the first, the others from
+        /// their key frame).
+        #[arg(long, value_name = "chain|first|keyframes")]
+        anchor: Option<String>,
+        /// Key frame spacing of --anchor keyframes.
+        #[arg(long, value_name = "N")]
+        key_every: Option<usize>,
+        /// With --frames: registered frames get this value (in the frame's sample units)
+        /// where the deformation leaves the frame or the mesh.
+        #[arg(long, default_value_t = 0.0)]
+        background: f64,
         /// Only the i-th of n contiguous frame ranges (e.g. 0/4), for cluster array jobs.
         #[arg(long)]
         shard: Option<String>,
@@ -678,6 +692,9 @@ pub fn run() -> i32 {
             model_file,
             frames,
             track,
+            anchor,
+            key_every,
+            background,
             shard,
             size,
             margin,
@@ -721,7 +738,13 @@ pub fn run() -> i32 {
                     frames: &fr,
                     landmarks: &landmarks,
                     track,
+                    anchor: anchor.as_deref(),
+                    key_every,
+                    holdout,
+                    seed,
+                    background,
                     output: &output,
+                    report: report.as_deref(),
                     shard: shard.as_deref(),
                     solver,
                 }),

@@ -4,15 +4,20 @@
 //! * [`features`]: automatic landmarks between two images (ORB, ratio + cross check,
 //!   RANSAC on an affine model);
 //! * [`track`]: pyramidal Lucas-Kanade tracking of points between frames;
+//! * [`sequence`]: one scene fitted to every frame of a sequence (tracked or given targets,
+//!   anchoring, held-out landmarks, warm starts, resume keys, shards);
 //! * [`solve`]: the fit itself (objective in [`objective`], bending energy and basis rows in
-//!   [`basis`], the MDS parameterization in [`param`], the envelope Cholesky in [`chol`],
-//!   exact interpolation through ECLES in [`hard`]).
+//!   [`basis`], the MDS parameterization in [`param`], the squares fit in landmark space and
+//!   the automatic smoothing weight in [`smooth`], Newton's method with the fold barrier in
+//!   [`newton`] on the sparse Cholesky of [`sparse`], exact interpolation through ECLES in
+//!   [`hard`]);
+//! * [`frame`]: a fit from landmarks alone, over a landmark-adapted mesh that covers the
+//!   whole frame.
 //!
 //! Points are pixel coordinates throughout: pixel `(i, j)` is centred at `(i, j)`, `x` to
 //! the right, `y` downwards.
 
 pub mod basis;
-pub mod chol;
 pub mod features;
 pub mod frame;
 pub mod hard;
@@ -21,6 +26,7 @@ pub mod newton;
 pub mod objective;
 pub mod param;
 mod rng;
+pub mod sequence;
 pub mod smooth;
 pub mod solve;
 pub mod sparse;

@@ -135,7 +135,7 @@ pub struct WarpOptions {
 }
 
 /// A page's samples, borrowed, by sample type.
-enum Src<'a> {
+pub(super) enum Src<'a> {
     U8(Source<'a, u8>),
     U16(Source<'a, u16>),
     F32(Source<'a, f32>),
@@ -149,13 +149,13 @@ enum Dst<'a> {
 }
 
 /// A page's output buffer, by sample type.
-enum Buf {
+pub(super) enum Buf {
     U8(Vec<u8>),
     U16(Vec<u16>),
     F32(Vec<f32>),
 }
 
-fn source(img: &DynamicImage) -> Result<Src<'_>, WarpError> {
+pub(super) fn source(img: &DynamicImage) -> Result<Src<'_>, WarpError> {
     let (w, h) = (img.width() as usize, img.height() as usize);
     let nc = img.color().channel_count() as usize;
     Ok(match img {
@@ -173,8 +173,8 @@ fn source(img: &DynamicImage) -> Result<Src<'_>, WarpError> {
     })
 }
 
-fn rebuild(like: &DynamicImage, buf: Buf) -> DynamicImage {
-    let (w, h) = (like.width(), like.height());
+/// `buf` as an image of `like`'s type and `w x h` pixels.
+pub(super) fn rebuild(like: &DynamicImage, w: u32, h: u32, buf: Buf) -> DynamicImage {
     macro_rules! back {
         ($v:ident, $data:expr) => {
             DynamicImage::$v(ImageBuffer::from_raw(w, h, $data).expect("sizes match"))
@@ -195,7 +195,7 @@ fn rebuild(like: &DynamicImage, buf: Buf) -> DynamicImage {
     }
 }
 
-fn fill<T: Texel>(
+pub(super) fn fill<T: Texel>(
     src: &Source<'_, T>,
     pos: &[[f64; 2]],
     out: &mut [T],
@@ -292,7 +292,7 @@ pub fn warp_pages(
             a.merge(&b);
             a
         });
-    let out = pages.iter().zip(bufs).map(|(p, b)| rebuild(p, b)).collect();
+    let out = pages.iter().zip(bufs).map(|(p, b)| rebuild(p, p.width(), p.height(), b)).collect();
     Ok((out, stats))
 }
 

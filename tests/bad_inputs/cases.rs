@@ -596,5 +596,21 @@ pub fn cases() -> Vec<Case> {
                 (args(&["editor", s(&bad), "--port", "0"]), bad)
             },
         },
+        Case {
+            id: "frames_same_name",
+            setup: |fx, id| {
+                let frames = fx.dir.join(format!("{id}_frames"));
+                fs::create_dir_all(&frames).unwrap();
+                for name in ["a.png", "a.tif"] {
+                    image::GrayImage::from_pixel(8, 8, image::Luma([9]))
+                        .save(frames.join(name))
+                        .unwrap();
+                }
+                let lms = fx.file(&format!("{id}.csv"), format!("{LM_HEAD}m,2,2,2,2\n"));
+                let mut a = args(&["fit", "--model", s(&fx.def), "--frames", s(&frames)]);
+                a.extend(args(&["--landmarks", s(&lms), "-o", &fx.out("same")]));
+                (a, frames.join("a.tif"))
+            },
+        },
     ]
 }
