@@ -4,6 +4,10 @@
 //!   loss, bending 0.01, barrier on; the whole `fit` call (objective, factorization, solve,
 //!   exact certification, report). Target 20 ms.
 //! * `fit_cauchy_50_landmarks_100_triangles`: the same with the Cauchy loss (IRLS).
+//! * `fit_frame_50_auto` / `fit_frame_500_auto`: 50 / 500 landmarks over a 511 x 511 frame,
+//!   no deformation given: the landmark-adapted mesh, the GCV choice of the smoothing weight,
+//!   the fit, the fold certificate and the coverage check (`fit::frame::fit_frame`). Targets
+//!   20 ms and 200 ms.
 //! * `track_and_fit_511`: one frame of a sequence: 50 landmarks tracked (pyramidal
 //!   Lucas-Kanade, forward-backward check) from frame 0 to frame 1 of the bundled 511 x 511
 //!   time-lapse, then the fit to the tracked points. Target 100 ms.
@@ -18,6 +22,41 @@ use trimorph::fit::solve::{fit, FitOptions};
 use trimorph::fit::track::{track_points, TrackOptions};
 use trimorph::mesh::{Mesh, MeshOptions};
 use trimorph::spline::Spline;
+
+fn landmarks(n: usize, seed: u64) -> Vec<Landmark> {
+    let mut rng = SmallRng::seed_from_u64(seed);
+    (0..n)
+        .map(|i| {
+            let p: [f64; 2] = [rng.gen_range(5.0..505.0), rng.gen_range(5.0..505.0)];
+            let q = [p[0] + 6.0 * (p[1] / 70.0).sin() + 2.0, p[1] + 5.0 * (p[0] / 90.0).cos()];
+            Landmark { name: Some(format!("l{i}")), src: p, dst: q, weight: 1.0 }
+        })
+        .collect()
+}
+
+fn bench_frame(c: &mut Criterion) {
+    use trimorph::fit::frame::{fit_frame, FrameFitOptions};
+    let mut g = c.benchmark_group("fit_frame");
+    g.sample_size(10);
+    for n in [50usize, 500] {
+        let lms = landmarks(n, 5);
+        let opts = FrameFitOptions::default();
+        let f = fit_frame(&lms, [511.0, 511.0], &opts).unwrap();
+        eprintln!(
+            "{n} landmarks: {} triangles, {} variables, bend {:.2e}, fold-free {}, covers {}, {:.1} ms",
+            f.frame.triangles,
+            f.fit.report.variables,
+            f.fit.report.bend,
+            f.fit.report.fold_free,
+            f.frame.covers_frame,
+            f.fit.report.time_ms
+        );
+        g.bench_function(format!("fit_frame_{n}_auto"), |b| {
+            b.iter(|| black_box(fit_frame(&lms, [511.0, 511.0], &opts).unwrap().fit.report.fit.rms))
+        });
+    }
+    g.finish();
+}
 
 fn setup() -> (Spline, Vec<Landmark>) {
     let mesh = Mesh::grid(10, 5, 511.0, 511.0, MeshOptions::default()).unwrap();
@@ -102,6 +141,6 @@ fn bench_track(c: &mut Criterion) {
 criterion_group! {
     name = benches;
     config = Criterion::default().sample_size(20);
-    targets = bench, bench_track
+    targets = bench, bench_frame, bench_track
 }
 criterion_main!(benches);

@@ -99,7 +99,7 @@ pub fn affine_fit(lms: &[Landmark]) -> Result<[[f64; 3]; 2], FitError> {
         return Err(FitError::NoLandmarks);
     }
     if lms.len() < 3 {
-        return Err(FitError::Options(format!(
+        return Err(FitError::Landmarks(format!(
             "{} landmark{}: a fit without a given deformation needs at least 3 landmarks not \
              on one line",
             lms.len(),
@@ -132,7 +132,7 @@ pub fn affine_fit(lms: &[Landmark]) -> Result<[[f64; 3]; 2], FitError> {
     let det = n[0][0] * n[1][1] - n[0][1] * n[1][0];
     let scale = n[0][0] + n[1][1];
     if !(det > 1e-9 * scale * scale) {
-        return Err(FitError::Options(
+        return Err(FitError::Landmarks(
             "all landmark sources lie on one line, so they determine no map of the plane; \
              add landmarks off that line"
                 .into(),
@@ -148,7 +148,7 @@ pub fn affine_fit(lms: &[Landmark]) -> Result<[[f64; 3]; 2], FitError> {
     }
     let da = a[0][0] * a[1][1] - a[0][1] * a[1][0];
     if !(da > 0.0) {
-        return Err(FitError::Options(format!(
+        return Err(FitError::Landmarks(format!(
             "the landmarks' best affine map reverses orientation (determinant {da:.3}): the \
              targets are a mirror image of the sources; flip the image or fix the landmark \
              columns"

@@ -128,6 +128,10 @@ pub enum FitError {
     /// Invalid options.
     #[error("invalid fit option: {0}")]
     Options(String),
+    /// The landmarks as a whole cannot determine a fit (too few, all on one line, or
+    /// mirrored).
+    #[error("{0}")]
+    Landmarks(String),
     /// More variable control points than the dense normal matrix can hold.
     #[error(
         "the fit has {variables} variable control points, more than the {max} the solver \

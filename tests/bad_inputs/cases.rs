@@ -104,6 +104,12 @@ fn fit(fx: &Fixture, id: &str, ext: &str, text: &str, extra: &[&str]) -> (Vec<St
     (a, p)
 }
 
+/// `trimorph fit --size 40,40 --landmarks FILE -o f.json` (no deformation) with `text`.
+fn fit_size(fx: &Fixture, id: &str, text: &str) -> (Vec<String>, PathBuf) {
+    let p = fx.file(&format!("{id}.csv"), text);
+    (args(&["fit", "--size", "40,40", "--landmarks", s(&p), "-o", &fx.out("f.json")]), p)
+}
+
 /// `trimorph warp OK --image FILE -o out.png` with `bytes`.
 fn warp_image(fx: &Fixture, id: &str, ext: &str, bytes: &[u8]) -> (Vec<String>, PathBuf) {
     let p = fx.file(&format!("{id}.{ext}"), bytes);
@@ -345,6 +351,22 @@ pub fn cases() -> Vec<Case> {
                 ok(&trimorph(&["mesh", "--grid", "64x64", "--size", "640,640", "-o", s(&def)]));
                 let lms = fx.file("too_large.csv", format!("{LM_HEAD}a,50,50,52,52\n"));
                 (args(&["fit", s(&def), "--landmarks", s(&lms), "-o", &fx.out("f.json")]), def)
+            },
+        },
+        Case {
+            id: "fit_size_one_landmark",
+            setup: |fx, id| fit_size(fx, id, &format!("{LM_HEAD}a,10,10,12,11\n")),
+        },
+        Case {
+            id: "fit_size_collinear",
+            setup: |fx, id| {
+                fit_size(fx, id, &format!("{LM_HEAD}a,5,5,6,6\nb,10,10,11,11\nc,20,20,21,21\n"))
+            },
+        },
+        Case {
+            id: "fit_size_outside",
+            setup: |fx, id| {
+                fit_size(fx, id, &format!("{LM_HEAD}a,5,5,6,6\nb,90,5,91,5\nc,20,30,21,31\n"))
             },
         },
         Case { id: "lm_empty", setup: |fx, id| fit(fx, id, "csv", "", &[]) },
