@@ -16,6 +16,7 @@
 
 pub mod c1;
 pub mod eval;
+pub mod jacobian;
 pub mod layout;
 pub mod mds;
 
