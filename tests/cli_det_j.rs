@@ -40,7 +40,10 @@ fn check_field_and_edit_report_the_same_det_j_for_a_fold() {
     );
     ok(&o);
     let stderr = String::from_utf8_lossy(&o.stderr);
-    assert!(stderr.contains("is not certified fold-free") && stderr.contains("folding triangles"), "{stderr}");
+    assert!(
+        stderr.contains("is not certified fold-free") && stderr.contains("folding triangles"),
+        "{stderr}"
+    );
     let (e_sampled, e_lb, e_line) = det_j_numbers(&String::from_utf8_lossy(&o.stdout));
     assert!(e_line.contains("NOT certified fold-free"), "{e_line}");
 
@@ -76,12 +79,8 @@ fn check_field_and_edit_report_the_same_det_j_for_a_fold() {
         assert_eq!(sampled, c_sampled, "{name}: sampled minimum");
         assert_eq!(lb, c_lb, "{name}: lower bound");
     }
-    let folding: Vec<String> = rep["folding_triangles"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|t| t.to_string())
-        .collect();
+    let folding: Vec<String> =
+        rep["folding_triangles"].as_array().unwrap().iter().map(|t| t.to_string()).collect();
     assert!(f_line.contains(&format!("folding triangles [{}]", folding.join(", "))), "{f_line}");
 
     // The identity is certified, with no warning.
@@ -106,5 +105,10 @@ fn check_reports_a_non_finite_control_point() {
     let o = trimorph(&["check", s(&bad)]);
     assert_eq!(o.status.code(), Some(1));
     let err = String::from_utf8_lossy(&o.stderr);
-    assert!(err.contains("control point 7") && err.contains("y coordinate") && err.contains("huge.json"), "{err}");
+    assert!(
+        err.contains("control point 7")
+            && err.contains("y coordinate")
+            && err.contains("huge.json"),
+        "{err}"
+    );
 }

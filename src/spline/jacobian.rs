@@ -171,8 +171,7 @@ impl DetJ {
             // NaN bounds (non-finite input) count as -inf.
             let lb = if b.lower_bound.is_nan() { f64::NEG_INFINITY } else { b.lower_bound };
             out.lower_bound = out.lower_bound.min(lb);
-            if b.sampled_min < out.sampled_min || (b.sampled_min.is_nan() && out.worst.is_none())
-            {
+            if b.sampled_min < out.sampled_min || (b.sampled_min.is_nan() && out.worst.is_none()) {
                 out.sampled_min = b.sampled_min;
                 out.worst = Some((t, b.sampled_at));
             }
@@ -416,7 +415,8 @@ impl Certifier {
                 (smin, sat) = (v, *b);
             }
         }
-        let sampled_at = [0, 1].map(|a| sat[0] * tri[0][a] + sat[1] * tri[1][a] + sat[2] * tri[2][a]);
+        let sampled_at =
+            [0, 1].map(|a| sat[0] * tri[0][a] + sat[1] * tri[1][a] + sat[2] * tri[2][a]);
         // Work with P' = sign(det E) P, so det J has the sign of P'.
         let nk = self.coef.len();
         if de < 0.0 {
@@ -451,7 +451,8 @@ impl Certifier {
                 plow = plow.min(cmin - piece.err);
                 // The rest of the stack is not examined further: their own minima bound it.
                 for (s, p) in self.stack.iter().enumerate() {
-                    let m = self.buf[s * nk..(s + 1) * nk].iter().fold(f64::INFINITY, |a, &x| a.min(x));
+                    let m =
+                        self.buf[s * nk..(s + 1) * nk].iter().fold(f64::INFINITY, |a, &x| a.min(x));
                     plow = plow.min(m - p.err);
                 }
                 break;
@@ -530,11 +531,16 @@ fn det_e(tri: [[f64; 2]; 3]) -> (f64, f64) {
     (x - y, gamma(4) * (x.abs() + y.abs()) * SAFETY)
 }
 
-/// The vertices of triangle `t` and its patch points rounded from the exact ones.
-fn patch(s: &Spline, t: usize, pts: &mut Vec<[f64; 2]>) -> [[f64; 2]; 3] {
+/// Every control point of `s` rounded to `f64` ([`Spline::point_f64`]), in parallel.
+fn rounded_points(s: &Spline) -> Vec<[f64; 2]> {
+    (0..s.num_points()).into_par_iter().map(|p| s.point_f64(p)).collect()
+}
+
+/// The vertices of triangle `t` and its patch points gathered from `q` (all control points).
+fn patch(s: &Spline, q: &[[f64; 2]], t: usize, pts: &mut Vec<[f64; 2]>) -> [[f64; 2]; 3] {
     let m = s.mesh();
     pts.clear();
-    pts.extend(s.layout().patches()[t].iter().map(|&p| s.point_f64(p)));
+    pts.extend(s.layout().patches()[t].iter().map(|&p| q[p]));
     m.triangle(t).map(|v| m.vertex(v))
 }
 
@@ -555,12 +561,16 @@ pub fn triangle_bound(
 /// The certificate of every triangle of `s`, from its exact control points (rounded to
 /// `f64` with [`RAT_ROUNDING`] accounted for), in parallel.
 pub fn certify_triangles(s: &Spline, opts: &CertifyOptions) -> Vec<TriangleBound> {
+    certify_rounded(s, &rounded_points(s), opts)
+}
+
+fn certify_rounded(s: &Spline, q: &[[f64; 2]], opts: &CertifyOptions) -> Vec<TriangleBound> {
     (0..s.mesh().num_triangles())
         .into_par_iter()
         .map_init(
             || (Certifier::new(s.degree()), Vec::new()),
             |(c, pts), t| {
-                let tri = patch(s, t, pts);
+                let tri = patch(s, q, t, pts);
                 c.triangle(tri, pts, RAT_ROUNDING, opts)
             },
         )
@@ -581,6 +591,8 @@ pub struct CertCache {
     /// For each control point, the triangles whose patch contains it.
     point_tris: Vec<Vec<u32>>,
     certifier: Certifier,
+    /// Every control point rounded to `f64` (only the changed ones are converted again).
+    q: Vec<[f64; 2]>,
     pts: Vec<[f64; 2]>,
     mark: Vec<bool>,
 }
@@ -596,8 +608,10 @@ impl CertCache {
                 }
             }
         }
+        let q = rounded_points(s);
         CertCache {
-            bounds: certify_triangles(s, &opts),
+            bounds: certify_rounded(s, &q, &opts),
+            q,
             opts,
             point_tris,
             certifier: Certifier::new(s.degree()),
@@ -608,7 +622,8 @@ impl CertCache {
 
     /// Re-certifies every triangle (after a change of unknown extent).
     pub fn refresh_all(&mut self, s: &Spline) {
-        self.bounds = certify_triangles(s, &self.opts);
+        self.q = rounded_points(s);
+        self.bounds = certify_rounded(s, &self.q, &self.opts);
     }
 
     /// Re-certifies the triangles containing any of `points` (control point indices);
@@ -616,6 +631,7 @@ impl CertCache {
     pub fn refresh_points(&mut self, s: &Spline, points: &[usize]) -> usize {
         let mut todo = Vec::new();
         for &p in points {
+            self.q[p] = s.point_f64(p);
             for &t in &self.point_tris[p] {
                 if !std::mem::replace(&mut self.mark[t as usize], true) {
                     todo.push(t as usize);
@@ -623,7 +639,7 @@ impl CertCache {
             }
         }
         for &t in &todo {
-            let tri = patch(s, t, &mut self.pts);
+            let tri = patch(s, &self.q, t, &mut self.pts);
             self.bounds[t] = self.certifier.triangle(tri, &self.pts, RAT_ROUNDING, &self.opts);
             self.mark[t] = false;
         }

@@ -16,7 +16,7 @@ fn spline_with(mesh: Mesh, d: usize, a: [[[i64; 2]; 2]; 2], b: [[i64; 2]; 2]) ->
 
 fn patch_of(s: &Spline, t: usize) -> ([[f64; 2]; 3], Vec<[f64; 2]>) {
     let mut pts = Vec::new();
-    let tri = patch(s, t, &mut pts);
+    let tri = patch(s, &rounded_points(s), t, &mut pts);
     (tri, pts)
 }
 
@@ -92,7 +92,10 @@ fn folds_are_proven() {
     let det = |x: f64| 36.0 * (1.0 - x / 3.0);
     for (t, b) in bounds.iter().enumerate() {
         let xs = mesh.triangle(t).map(|v| mesh.vertex(v)[0]);
-        let (lo, hi) = (xs.iter().cloned().fold(f64::INFINITY, f64::min), xs.iter().cloned().fold(0.0, f64::max));
+        let (lo, hi) = (
+            xs.iter().cloned().fold(f64::INFINITY, f64::min),
+            xs.iter().cloned().fold(0.0, f64::max),
+        );
         assert!(b.lower_bound <= det(hi) + 1e-9, "triangle {t}");
         if hi < 3.0 {
             assert_eq!(b.status, Status::Certified, "triangle {t} in x {lo}..{hi}");
@@ -138,7 +141,8 @@ fn cubic_spline() -> Spline {
     let vr: Vec<[Rat; 2]> = v.iter().map(|p| p.map(|x| rat_from_f64(x).unwrap())).collect();
     let mut pts = vec![Vec::new(); id.num_points()];
     for mi in multi_indices(3) {
-        let args: Vec<&[Rat; 2]> = (0..3).flat_map(|i| std::iter::repeat_n(&vr[i], mi[i])).collect();
+        let args: Vec<&[Rat; 2]> =
+            (0..3).flat_map(|i| std::iter::repeat_n(&vr[i], mi[i])).collect();
         let mut prod = rat_int(1);
         let (mut sx, mut sy) = (Rat::zero(), Rat::zero());
         for a in &args {
@@ -193,7 +197,8 @@ fn the_cache_redoes_only_the_triangles_of_changed_points() {
     pts[p][0] = &pts[p][0] + rat_int(25);
     let s2 = Spline::from_points_unchecked(mesh.clone(), 5, pts, None).unwrap();
     let redone = cache.refresh_points(&s2, &[p]);
-    let around = (0..mesh.num_triangles()).filter(|&t| s.layout().patches()[t].contains(&p)).count();
+    let around =
+        (0..mesh.num_triangles()).filter(|&t| s.layout().patches()[t].contains(&p)).count();
     assert_eq!(redone, around);
     assert_eq!(cache.summary(), certify(&s2, &CertifyOptions::default()));
     assert!(!cache.summary().fold_free);
