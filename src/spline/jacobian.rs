@@ -104,11 +104,15 @@ pub struct CertifyOptions {
     /// Most bisection levels per triangle (the pieces at this depth that are neither
     /// certified nor folded make the triangle [`Status::Undecided`]).
     pub max_depth: usize,
+    /// Most pieces examined per triangle: bounds the time on degenerate maps (`det J`
+    /// identically 0 would otherwise visit all `2^(max_depth + 1)` pieces). Beyond it the
+    /// triangle is undecided, with the minima of the pieces left as its bound.
+    pub max_pieces: usize,
 }
 
 impl Default for CertifyOptions {
     fn default() -> Self {
-        CertifyOptions { max_depth: 12 }
+        CertifyOptions { max_depth: 12, max_pieces: 400 }
     }
 }
 
@@ -450,6 +454,16 @@ impl Certifier {
                 fold_at = Some(piece.verts[i]);
                 plow = plow.min(cmin - piece.err);
                 // The rest of the stack is not examined further: their own minima bound it.
+                for (s, p) in self.stack.iter().enumerate() {
+                    let m =
+                        self.buf[s * nk..(s + 1) * nk].iter().fold(f64::INFINITY, |a, &x| a.min(x));
+                    plow = plow.min(m - p.err);
+                }
+                break;
+            }
+            if pieces >= opts.max_pieces {
+                status = Status::Undecided;
+                plow = plow.min(cmin - piece.err);
                 for (s, p) in self.stack.iter().enumerate() {
                     let m =
                         self.buf[s * nk..(s + 1) * nk].iter().fold(f64::INFINITY, |a, &x| a.min(x));

@@ -123,7 +123,7 @@ fn det_j_zero_on_an_edge_is_undecided_never_certified() {
     // zero on the edge x = 2.
     let mesh = Mesh::grid(2, 1, 4.0, 2.0, MeshOptions::default()).unwrap();
     let s = spline_with(mesh.clone(), 5, [[[-1, 0], [0, 0]], [[0; 2]; 2]], [[4, 0], [0, 4]]);
-    let opts = CertifyOptions { max_depth: 8 };
+    let opts = CertifyOptions { max_depth: 8, ..Default::default() };
     for (t, b) in certify_triangles(&s, &opts).iter().enumerate() {
         let hi = mesh.triangle(t).map(|v| mesh.vertex(v)[0]).into_iter().fold(0.0, f64::max);
         let want = if hi <= 2.0 { Status::Undecided } else { Status::Fold };
@@ -295,5 +295,20 @@ proptest! {
                 Status::Undecided => {}
             }
         }
+    }
+}
+
+#[test]
+fn a_collapsed_map_is_undecided_within_the_piece_budget() {
+    // Every control point at one place: det J is 0 everywhere, never conclusive.
+    let mesh = Mesh::grid(1, 1, 8.0, 8.0, MeshOptions::default()).unwrap();
+    let id = Spline::identity(mesh.clone(), 5).unwrap();
+    let pts = vec![vec![rat_int(3), rat_int(4)]; id.num_points()];
+    let s = Spline::from_points_unchecked(mesh, 5, pts, None).unwrap();
+    let opts = CertifyOptions::default();
+    for b in certify_triangles(&s, &opts) {
+        assert_eq!(b.status, Status::Undecided);
+        assert_eq!(b.pieces, opts.max_pieces);
+        assert!(b.lower_bound <= 0.0 && b.sampled_min == 0.0);
     }
 }

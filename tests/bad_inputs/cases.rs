@@ -596,5 +596,12 @@ pub fn cases() -> Vec<Case> {
                 (args(&["editor", s(&bad), "--port", "0"]), bad)
             },
         },
+        Case {
+            id: "def_point_not_finite",
+            setup: |fx, id| {
+                let huge = format!("1{}", "0".repeat(400));
+                check_doc(fx, id, |v| v["exact"]["points"][3][0] = huge.into())
+            },
+        },
     ]
 }
