@@ -4,6 +4,10 @@
 //!   first translate for one anchor on a ~1,000-triangle Delaunay mesh; target 2 ms.
 //! * `drag_update_1000`: each further translate (dragging); target 0.2 ms.
 //! * `eval_1e6`: phi at 10^6 points (coherent scan lines) on all cores; target 20 M points/s.
+//! * `certify`: the det J certificate ([`trimorph::spline::jacobian`]) of a 200-triangle
+//!   degree-5 spline (a 10 x 10 grid with two vertices dragged): `certify_200_deg5` from the
+//!   exact points on all cores, `triangle_deg5` one triangle from `f64` points with a reused
+//!   [`Certifier`] (the optimizer's call), per triangle.
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
 use rand::rngs::SmallRng;
@@ -14,6 +18,7 @@ use trimorph::edit::select::Neighborhood;
 use trimorph::edit::{Editor, Mode};
 use trimorph::exact::{rat_int, Int, Rat};
 use trimorph::mesh::{Mesh, MeshOptions};
+use trimorph::spline::jacobian::{certify, Certifier, CertifyOptions, RAT_ROUNDING};
 use trimorph::spline::Spline;
 
 fn mesh_1000() -> Mesh {
@@ -128,6 +133,54 @@ fn bench(c: &mut Criterion) {
     g.throughput(Throughput::Elements(pts.len() as u64));
     g.sample_size(10);
     g.bench_function("phi_grid_scan", |b| b.iter(|| spline.eval_many(black_box(&pts), &mut out)));
+    g.finish();
+    bench_certify(c);
+}
+
+/// A 10 x 10 grid (200 triangles) of 511 x 511, degree 5, two interior vertices dragged.
+fn dragged_200() -> Spline {
+    let mesh = Mesh::grid(10, 10, 511.0, 511.0, MeshOptions::default()).unwrap();
+    let mut ed = Editor::new(Spline::identity(mesh.clone(), 5).unwrap());
+    let inner: Vec<usize> =
+        (0..mesh.num_vertices()).filter(|&v| !mesh.is_border_vertex(v)).collect();
+    for (k, &v) in [inner[20], inner[50]].iter().enumerate() {
+        ed.select(&[v], &[], &Neighborhood::Radius(2), Mode::Xy).unwrap();
+        ed.translate(&[rat_int(12 * (k as i64 * 2 - 1)), rat_int(6)]).unwrap();
+    }
+    ed.into_spline()
+}
+
+fn bench_certify(c: &mut Criterion) {
+    let s = dragged_200();
+    let opts = CertifyOptions::default();
+    assert_eq!(s.mesh().num_triangles(), 200);
+    let cert = certify(&s, &opts);
+    eprintln!(
+        "certify: fold-free {}, lower bound {}, sampled minimum {}",
+        cert.fold_free, cert.lower_bound, cert.sampled_min
+    );
+    type Patch = ([[f64; 2]; 3], Vec<[f64; 2]>);
+    let patches: Vec<Patch> = (0..200)
+        .map(|t| {
+            let m = s.mesh();
+            let tri = m.triangle(t).map(|v| m.vertex(v));
+            (tri, s.layout().patches()[t].iter().map(|&p| s.point_f64(p)).collect())
+        })
+        .collect();
+    let mut g = c.benchmark_group("certify");
+    g.sample_size(20);
+    g.bench_function("certify_200_deg5", |b| b.iter(|| black_box(certify(&s, &opts).lower_bound)));
+    g.throughput(Throughput::Elements(200));
+    let mut cer = Certifier::new(5);
+    g.bench_function("triangle_deg5", |b| {
+        b.iter(|| {
+            let mut lb = f64::INFINITY;
+            for (tri, pts) in &patches {
+                lb = lb.min(cer.triangle(*tri, pts, RAT_ROUNDING, &opts).lower_bound);
+            }
+            black_box(lb)
+        })
+    });
     g.finish();
 }
 

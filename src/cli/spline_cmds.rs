@@ -8,6 +8,7 @@ use crate::exact::{parse_rat, rat_to_string, Rat};
 use crate::io::deformation::{self, LastEdit};
 use crate::io::{read_text, write_atomic};
 use crate::mesh::{Mesh, MeshOptions};
+use crate::spline::jacobian::{certify, CertifyOptions, DetJ, SAMPLE_LEVEL};
 use crate::spline::{Spline, ZLayers};
 use anyhow::{anyhow, bail, Context, Result};
 use num_traits::Zero;
@@ -443,7 +444,51 @@ pub fn edit(def: &Path, script: &Path, output: &Path, bounded: Option<u32>) -> R
         deformation::to_string_with(ed.spline(), last.as_ref(), ed.constraints()).as_bytes(),
     )?;
     writeln!(out, "{n_ops} operations applied; C1 holds exactly -> {}", output.display())?;
+    let cert = certify(ed.spline(), &CertifyOptions::default());
+    writeln!(out, "{}", det_j_line(&cert))?;
+    if !cert.fold_free {
+        eprintln!(
+            "warning: {} is not certified fold-free (det J lower bound {}, sampled minimum {}): folding triangles {:?}, undecided triangles {:?}",
+            output.display(),
+            cert.lower_bound,
+            cert.sampled_min,
+            cert.folding,
+            cert.undecided
+        );
+    }
     Ok(())
+}
+
+/// The first control point with a coordinate that is not a finite `f64` (an exact value
+/// beyond the `f64` range): `(point, axis, value)`.
+pub fn non_finite_point(s: &Spline) -> Option<(usize, usize, f64)> {
+    (0..s.num_points()).find_map(|p| {
+        let q = s.point_f64(p);
+        (0..2).find(|&a| !q[a].is_finite()).map(|a| (p, a, q[a]))
+    })
+}
+
+/// One line with the certificate's numbers: the sampled minimum, the certified lower bound
+/// and whether phi is certified fold-free (with the folding and undecided triangles).
+pub fn det_j_line(c: &DetJ) -> String {
+    let list = |v: &[usize]| {
+        let shown: Vec<String> = v.iter().take(20).map(|t| t.to_string()).collect();
+        let more = if v.len() > 20 { format!(", ... ({} in all)", v.len()) } else { String::new() };
+        format!("[{}{more}]", shown.join(", "))
+    };
+    let verdict = if c.fold_free {
+        "certified fold-free".to_string()
+    } else {
+        format!(
+            "NOT certified fold-free: folding triangles {}, undecided triangles {}",
+            list(&c.folding),
+            list(&c.undecided)
+        )
+    };
+    format!(
+        "det J: sampled minimum {} (level-{} lattice of every triangle), certified lower bound {}; {verdict}",
+        c.sampled_min, SAMPLE_LEVEL, c.lower_bound
+    )
 }
 
 /// The `trimorph check` report of a spline.
@@ -459,9 +504,9 @@ pub fn check_report(s: &Spline, samples_per_side: usize) -> Value {
     let m = s.mesh();
     let cache = s.eval_cache();
     let k = samples_per_side.max(1);
-    let mut min_det = f64::INFINITY;
+    // The --samples scan counts folded samples; the minimum reported is the common one of
+    // the certificate (the same number as `field --jacobian`, `edit` and the editor).
     let (mut folds, mut samples) = (0usize, 0usize);
-    let mut worst = None;
     for t in 0..m.num_triangles() {
         for i in 0..=k {
             for j in 0..=k - i {
@@ -472,15 +517,11 @@ pub fn check_report(s: &Spline, samples_per_side: usize) -> Value {
                 if det <= 0.0 {
                     folds += 1;
                 }
-                if det < min_det {
-                    min_det = det;
-                    let v = m.triangle(t).map(|x| m.vertex(x));
-                    let p = [0, 1].map(|a| b[0] * v[0][a] + b[1] * v[1][a] + b[2] * v[2][a]);
-                    worst = Some(json!({"triangle": t, "point": p}));
-                }
             }
         }
     }
+    let cert = certify(s, &CertifyOptions::default());
+    let worst = cert.worst.map(|(t, p)| json!({"triangle": t, "point": p}));
     json!({
         "degree": s.degree(),
         "vertices": m.num_vertices(),
@@ -493,10 +534,14 @@ pub fn check_report(s: &Spline, samples_per_side: usize) -> Value {
         "c1_holds": nonzero == 0,
         "c1_residuals": res.iter().map(|r| [rat_to_string(&r[0]), rat_to_string(&r[1])]).collect::<Vec<_>>(),
         "jacobian_samples": samples,
-        "min_jacobian_det": min_det,
+        "min_jacobian_det": cert.sampled_min,
         "min_jacobian_det_at": worst,
         "fold_samples": folds,
-        "folds": folds > 0,
+        "folds": folds > 0 || !cert.folding.is_empty(),
+        "det_j_lower_bound": cert.lower_bound,
+        "fold_free": cert.fold_free,
+        "folding_triangles": cert.folding,
+        "undecided_triangles": cert.undecided,
         "z_layers": s.z_layers().is_some(),
     })
 }
@@ -511,6 +556,13 @@ pub fn check(def: &Path, samples: usize) -> Result<()> {
     let text = read_text(def)?;
     let (s, _) = deformation::from_str_unchecked(&text)
         .with_context(|| format!("cannot read deformation {}", def.display()))?;
+    if let Some((p, a, v)) = non_finite_point(&s) {
+        bail!(
+            "{}: control point {p}: its {} coordinate {v} is not a finite double (the exact value is beyond the f64 range); correct that point",
+            def.display(),
+            ["x", "y"][a]
+        );
+    }
     let rep = check_report(&s, samples);
     writeln!(std::io::stdout(), "{}", serde_json::to_string_pretty(&rep)?)?;
     if rep["c1_holds"] != json!(true) {

@@ -363,6 +363,7 @@ pub fn field(
                 .map(|b| format!(", in x {}..{}, y {}..{}", b[0], b[2], b[1], b[3]))
                 .unwrap_or_default()
         )?;
+        writeln!(out, "{}", super::spline_cmds::det_j_line(&rep.certificate))?;
     }
     Ok(())
 }

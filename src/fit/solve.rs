@@ -25,6 +25,7 @@ use super::objective::{data_row, Barrier, Loss, Objective};
 use super::param::Param;
 use super::smooth::{Smoother, DEFAULT_BEND};
 use crate::edit::select::{neighborhood, Neighborhood, SelectIndex};
+use crate::spline::jacobian::CertifyOptions;
 use crate::spline::mds::{Mds, MdsError};
 use crate::spline::{Spline, SplineError};
 use serde::Serialize;
@@ -648,7 +649,7 @@ fn solve(
 
 /// Whether `det J > 0` is proven on every triangle for control points `p` (`f64`).
 fn certified(s: &Spline, p: &[[f64; 2]]) -> bool {
-    crate::spline::jacobian::certify_points(s, p)
+    crate::spline::jacobian::certify_points(s, p, &CertifyOptions::default())
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -664,8 +665,9 @@ pub(super) fn report(
     start: Instant,
 ) -> Result<FitReport, FitError> {
     let res = residuals(fitted, lms)?;
-    let min_det = min_det_j(fitted, 2 * opts.det_level);
-    let cert = crate::spline::jacobian::certify(fitted);
+    // The common sampled minimum of every command (`spline::jacobian::SAMPLE_LEVEL`).
+    let min_det = min_det_j(fitted, crate::spline::jacobian::SAMPLE_LEVEL);
+    let cert = crate::spline::jacobian::certify(fitted, &CertifyOptions::default());
     Ok(FitReport {
         method,
         loss: opts.loss.name().into(),

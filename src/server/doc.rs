@@ -20,6 +20,7 @@ use crate::io::model::{load_model, save_model};
 use crate::io::{deformation, read_text, write_atomic};
 use crate::prism::{bind, deform, Binding, Model};
 use crate::render::overlay::SilhouetteEdges;
+use crate::spline::jacobian::{CertCache, CertifyOptions, DetJ};
 use crate::spline::Spline;
 use image::DynamicImage;
 use serde_json::{json, Value};
@@ -94,6 +95,8 @@ pub struct Doc {
     name: Option<String>,
     /// Per reference mesh edge, where its sample points lie: (triangle, barycentrics).
     edge_samples: Vec<Vec<(usize, [f64; 3])>>,
+    /// The det J certificate per triangle, redone for the triangles a drag moves.
+    cert: CertCache,
     /// Milliseconds of the last exact update.
     pub last_update_ms: f64,
 }
@@ -140,8 +143,10 @@ impl Doc {
     /// A document for `spline`, confined to `root` for file loads and saves.
     pub fn new(spline: Spline, root: &Path) -> Doc {
         let edge_samples = locate_edge_samples(spline.mesh());
+        let cert = CertCache::new(&spline, CertifyOptions::default());
         Doc {
             edge_samples,
+            cert,
             editor: Editor::new(spline),
             model: None,
             frame: None,
@@ -208,12 +213,17 @@ impl Doc {
     pub fn root(&self) -> &Path {
         &self.root
     }
+    /// The det J certificate of the current spline
+    /// ([`crate::spline::jacobian`]; the numbers `trimorph check` prints for the saved file).
+    pub fn det_j(&self) -> DetJ {
+        self.cert.summary()
+    }
 
     /// Summary for the page.
     pub fn state(&self) -> Value {
         let s = self.spline();
         let sel = self.editor.selection();
-        json!({
+        let mut v = json!({
             "name": self.name,
             "degree": s.degree(),
             "points": s.num_points(),
@@ -232,7 +242,9 @@ impl Doc {
                 "mode": mode_name(s.mode)
             })),
             "last_update_ms": self.last_update_ms,
-        })
+        });
+        add_det_j(&mut v, &self.det_j());
+        v
     }
 
     /// 2DSD.Select: anchors, a neighbourhood radius (`None`: all points) and the mode.
@@ -281,6 +293,12 @@ impl Doc {
             }
         };
         r.map_err(edit_err)?;
+        // Only the anchors and derived points moved (xy mode; z modes leave phi alone).
+        if let Some(sel) = self.editor.selection().filter(|s| s.mode == Mode::Xy) {
+            let s = self.editor.spline();
+            self.cert.refresh_points(s, &sel.anchors);
+            self.cert.refresh_points(s, &sel.derived);
+        }
         self.last_update_ms = t0.elapsed().as_secs_f64() * 1e3;
         if let Some(before) = self.before_drag.take() {
             self.push_undo(before);
@@ -329,6 +347,7 @@ impl Doc {
         }
         to.push(cur);
         self.before_drag = None;
+        self.cert.refresh_all(self.editor.spline());
         Ok(())
     }
 
@@ -404,6 +423,7 @@ impl Doc {
             self.editor.replace_spline(s).map_err(edit_err)?;
             self.push_undo(cur);
             self.model = bound;
+            self.cert.refresh_all(self.editor.spline());
         } else {
             let mut next = Doc::new(s, &self.root);
             if let Some((p, m)) = model {
@@ -479,6 +499,7 @@ impl Doc {
         self.editor.replace_spline(f.spline).map_err(edit_err)?;
         self.push_undo(cur);
         self.before_drag = None;
+        self.cert.refresh_all(self.editor.spline());
         Ok(json!({
             "method": f.report.method,
             "rms": f.report.fit.rms,
@@ -487,6 +508,16 @@ impl Doc {
             "min_det_j": f.report.min_det_j,
         }))
     }
+}
+
+/// Adds the certificate's keys to a JSON object: `fold_free` (certified), `folding_triangles`,
+/// `undecided_triangles`, `det_j_lower_bound` and `det_j_sampled_min`.
+pub fn add_det_j(v: &mut Value, c: &DetJ) {
+    v["fold_free"] = json!(c.fold_free);
+    v["folding_triangles"] = json!(c.folding);
+    v["undecided_triangles"] = json!(c.undecided);
+    v["det_j_lower_bound"] = json!(c.lower_bound);
+    v["det_j_sampled_min"] = json!(c.sampled_min);
 }
 
 /// The mode's name in the API.

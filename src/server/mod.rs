@@ -24,6 +24,12 @@
 //! | `POST /api/export` | `{kind: obj / warped, path}` | `{saved}` |
 //! | `POST /api/refit` | `{landmarks, hard?}` | fit summary |
 //!
+//! The state and every geometry answer (select, update, undo, redo) also carry the det J
+//! certificate ([`crate::spline::jacobian`]): `fold_free` (certified), `folding_triangles`,
+//! `undecided_triangles`, `det_j_lower_bound`, `det_j_sampled_min`, and in geometry answers
+//! `folding_outline` (the deformed corners of each folding triangle, 6 numbers each). A drag
+//! re-certifies only the triangles around the points it moved.
+//!
 //! Errors answer `{"error": message}` with 400 (bad request), 403 (path outside the
 //! folder), 404, 413 (body over [`MAX_BODY`] bytes) or 422 (an edit or file the engine
 //! refuses; the document is unchanged).

@@ -405,3 +405,32 @@ fn json_object_writes_null_for_non_finite_numbers() {
         assert_eq!(got.as_f64().unwrap(), want, "{x} written as {got}");
     }
 }
+
+#[test]
+fn drag_answers_carry_the_det_j_certificate_of_the_whole_spline() {
+    use crate::spline::jacobian::{certify, CertifyOptions};
+    let dir = tempfile::tempdir().unwrap();
+    let mut d = doc(dir.path());
+    let (_, st) = call(&mut d, "GET", "/api/state", Value::Null);
+    assert_eq!(st["fold_free"], true);
+    assert_eq!(st["folding_triangles"], json!([]));
+    let c = centre(&d);
+    let (st, _) = call(&mut d, "POST", "/api/select", json!({"anchors": [c], "radius": 1}));
+    assert_eq!(st, 200);
+    // Small steps stay fold-free; dragging past the neighbour vertex (25 away) folds.
+    for (dx, fold_free) in [(3.0, true), (35.0, false), (2.0, true)] {
+        let (st, v) =
+            call(&mut d, "POST", "/api/update", json!({"op": "translate", "v": [dx, 0.0]}));
+        assert_eq!(st, 200, "{v}");
+        let full = certify(d.spline(), &CertifyOptions::default());
+        assert_eq!(v["fold_free"], fold_free, "drag by {dx}");
+        assert_eq!(v["folding_triangles"], json!(full.folding), "the cache agrees with a full run");
+        assert_eq!(v["det_j_lower_bound"].as_f64(), Some(full.lower_bound));
+        assert_eq!(v["det_j_sampled_min"].as_f64(), Some(full.sampled_min));
+        assert_eq!(v["state"]["fold_free"], fold_free);
+        assert_eq!(v["folding_outline"].as_array().unwrap().len(), 6 * full.folding.len());
+    }
+    call(&mut d, "POST", "/api/update", json!({"op": "translate", "v": [35.0, 0.0]}));
+    let (_, v) = call(&mut d, "POST", "/api/undo", Value::Null);
+    assert_eq!(v["fold_free"], true, "undo restores the identity");
+}

@@ -196,6 +196,20 @@ pub fn write_geometry(doc: &Doc, full: bool, out: &mut JsonObject) {
             out.numbers("model", v.iter().flat_map(|p| *p));
         }
     }
+    // The certificate, and each folding triangle's deformed corners (x0, y0, x1, y1, x2, y2)
+    // for the page to outline.
+    let det_j = doc.det_j();
+    let mut cert = json!({});
+    super::doc::add_det_j(&mut cert, &det_j);
+    out.extend(&cert);
+    out.numbers(
+        "folding_outline",
+        det_j.folding.iter().flat_map(|&t| {
+            [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
+                .into_iter()
+                .flat_map(move |b| cache.value(t, b))
+        }),
+    );
     if let Some(sel) = doc.editor().selection() {
         let session = sel.session();
         let redundant: std::collections::BTreeSet<usize> =

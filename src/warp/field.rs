@@ -12,6 +12,7 @@
 
 use super::inverse::InverseOptions;
 use super::remap::{preimage_grid, RemapOptions};
+use crate::spline::jacobian::{certify, CertifyOptions, DetJ};
 use crate::spline::Spline;
 use rayon::prelude::*;
 
@@ -37,6 +38,9 @@ pub struct FoldReport {
     pub min_det: f64,
     /// Bounding box `[x0, y0, x1, y1]` of the folded samples, if any.
     pub fold_bbox: Option<[f64; 4]>,
+    /// The certificate over whole triangles ([`crate::spline::jacobian::certify`]): the
+    /// certified lower bound, `fold_free`, and the sampled minimum every command reports.
+    pub certificate: DetJ,
 }
 
 /// The forward displacement field `phi(p) - p` on a `w x h` pixel grid.
@@ -76,7 +80,7 @@ pub fn inverse_field(s: &Spline, w: u32, h: u32, opts: InverseOptions) -> Field 
 }
 
 /// `det J` of phi at every pixel of a `w x h` grid (`NaN` outside the mesh) and the fold
-/// report.
+/// report (per-pixel counts and the certificate of the whole spline).
 pub fn jacobian_det(s: &Spline, w: u32, h: u32) -> (Vec<f64>, FoldReport) {
     let m = s.mesh();
     let cache = s.eval_cache();
@@ -94,7 +98,11 @@ pub fn jacobian_det(s: &Spline, w: u32, h: u32) -> (Vec<f64>, FoldReport) {
             })
         })
         .collect();
-    let mut rep = FoldReport { min_det: f64::INFINITY, ..Default::default() };
+    let mut rep = FoldReport {
+        min_det: f64::INFINITY,
+        certificate: certify(s, &CertifyOptions::default()),
+        ..Default::default()
+    };
     for (i, &d) in dets.iter().enumerate() {
         if d.is_nan() {
             continue;
@@ -194,6 +202,7 @@ mod tests {
         assert!((d[5 * 32 + 5] - 1.0).abs() < 1e-9);
         assert_eq!(rep.folds, 0);
         assert_eq!(rep.samples, 30 * 20);
+        assert!(rep.certificate.fold_free && rep.certificate.lower_bound <= 1.0);
     }
 
     #[test]
@@ -207,6 +216,7 @@ mod tests {
         let (_, rep) = jacobian_det(&s, 31, 21);
         assert_eq!(rep.folds, rep.samples);
         assert_eq!(rep.fold_bbox, Some([0.0, 0.0, 30.0, 20.0]));
+        assert_eq!(rep.certificate.folding.len(), s.mesh().num_triangles());
         assert_eq!(det_color(-1.0), [220, 0, 0, 255]);
         assert_eq!(det_color(1.0), [255, 255, 255, 255]);
     }

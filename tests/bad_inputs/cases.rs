@@ -634,5 +634,12 @@ pub fn cases() -> Vec<Case> {
                 (a, frames.join("a.tif"))
             },
         },
+        Case {
+            id: "def_point_not_finite",
+            setup: |fx, id| {
+                let huge = format!("1{}", "0".repeat(400));
+                check_doc(fx, id, |v| v["exact"]["points"][3][0] = huge.into())
+            },
+        },
     ]
 }

@@ -107,6 +107,13 @@ function draw() {
     }
     ctx.lineWidth = 1.5 * px; ctx.strokeStyle = 'rgba(90, 200, 255, 0.9)'; ctx.stroke();
   }
+  if (g.folding_outline && g.folding_outline.length) {
+    // Triangles with a proven fold (det J certificate), outlined in red.
+    const o = g.folding_outline;
+    ctx.beginPath();
+    for (let k = 0; k < o.length; k += 6) polygon([[o[k], o[k + 1]], [o[k + 2], o[k + 3]], [o[k + 4], o[k + 5]]]);
+    ctx.lineWidth = 2.5 * px; ctx.strokeStyle = 'rgba(255, 40, 40, 0.95)'; ctx.stroke();
+  }
   const sel = g.selection;
   if (L.constraints && sel && st.quads) {
     ctx.beginPath();
@@ -216,7 +223,7 @@ function drawOblique() {
 
 // ---- data ---------------------------------------------------------------------------
 function applyGeo(r) {
-  for (const k of ['points', 'mesh', 'model', 'model_outline', 'z0', 'z1']) if (r[k] !== undefined) T.geo[k] = r[k];
+  for (const k of ['points', 'mesh', 'model', 'model_outline', 'z0', 'z1', 'folding_outline']) if (r[k] !== undefined) T.geo[k] = r[k];
   T.geo.selection = r.selection;
   if (r.state) T.state = r.state;
 }
@@ -244,7 +251,8 @@ function summary() {
   if (!s) return '';
   const sel = s.selection ? `; ${s.selection.anchors.length} anchors, ${s.selection.derived.length} derived` : '';
   const t = T.timings.length ? `; last drag step ${T.timings[T.timings.length - 1].toFixed(1)} ms (exact update ${s.last_update_ms.toFixed(1)} ms)` : '';
-  return `${s.name || 'untitled'}: degree ${s.degree}, ${s.points} control points, ${s.triangles} triangles; undo ${s.undo}, redo ${s.redo}; ${s.pinned.length} corrected${sel}${t}`;
+  const folds = s.fold_free ? '; certified fold-free' : `; NOT certified fold-free (${s.folding_triangles.length} folding, ${s.undecided_triangles.length} undecided triangles)`;
+  return `${s.name || 'untitled'}: degree ${s.degree}, ${s.points} control points, ${s.triangles} triangles; undo ${s.undo}, redo ${s.redo}; ${s.pinned.length} corrected${sel}${folds}${t}`;
 }
 
 async function refreshJacobian() {
