@@ -4,7 +4,7 @@ use super::{Exit, EXIT_UNSOLVABLE};
 use crate::fit::landmarks::{holdout, Landmark};
 use crate::fit::objective::{Barrier, Loss};
 use crate::fit::solve::{fit, with_holdout, FitError, FitOptions, FitReport};
-use crate::io::landmarks::read_landmarks;
+use crate::io::landmarks::read_landmarks_noted;
 use crate::io::{deformation, read_text, write_atomic};
 use anyhow::{bail, Context, Result};
 use std::io::Write;
@@ -54,7 +54,9 @@ impl SolverArgs<'_> {
 /// Maps a fit error to the CLI's exit codes: unsolvable hard constraints exit 2.
 pub fn fit_error(e: FitError) -> anyhow::Error {
     match e {
-        FitError::Unsolvable(_) => anyhow::Error::new(Exit {
+        FitError::Unsolvable(_)
+        | FitError::Conflicting { .. }
+        | FitError::TooManyConstraints { .. } => anyhow::Error::new(Exit {
             code: EXIT_UNSOLVABLE,
             message: e.to_string(),
             printed: false,
@@ -132,8 +134,14 @@ pub fn run_single(
                 .collect::<Result<_>>()?
         };
     }
-    let lms = read_landmarks(landmarks)
+    let (lms, notes) = read_landmarks_noted(landmarks)
         .with_context(|| format!("cannot read landmarks {}", landmarks.display()))?;
+    if opts.hard {
+        // Hard constraints hold for the decimals as written; say which ones an f64 changed.
+        for n in &notes {
+            eprintln!("warning: {}: {n}", landmarks.display());
+        }
+    }
     let (fitted, held): (Vec<Landmark>, Vec<Landmark>) = if holdout_k > 0 {
         if holdout_k >= lms.len() {
             bail!(

@@ -6,7 +6,7 @@
 //! * [`track`]: pyramidal Lucas-Kanade tracking of points between frames;
 //! * [`solve`]: the fit itself (objective in [`objective`], bending energy and basis rows in
 //!   [`basis`], the MDS parameterization in [`param`], the envelope Cholesky in [`chol`],
-//!   exact interpolation through ECLES in [`hard`]).
+//!   exact interpolation in MDS coordinates in [`hard`] and [`hard_solve`]).
 //!
 //! Points are pixel coordinates throughout: pixel `(i, j)` is centred at `(i, j)`, `x` to
 //! the right, `y` downwards.
@@ -15,6 +15,9 @@ pub mod basis;
 pub mod chol;
 pub mod features;
 pub mod hard;
+pub mod hard_solve;
+#[cfg(test)]
+mod hard_tests;
 pub mod landmarks;
 pub mod objective;
 pub mod param;
