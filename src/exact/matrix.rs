@@ -406,7 +406,8 @@ mod tests {
     #[test]
     fn exact_decimal_reads_back_the_typed_text() {
         let r = |t: &str| parse_rat(t).unwrap();
-        for text in ["0.1", "123.4567", "-0.0001", "510.9999", "1e21", "1e-300", "0.30000000000000004"]
+        for text in
+            ["0.1", "123.4567", "-0.0001", "510.9999", "1e23", "1e-300", "0.30000000000000004"]
         {
             let v: f64 = text.parse().unwrap();
             assert_eq!(exact_decimal(v).unwrap(), r(text), "{text}");

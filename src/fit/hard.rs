@@ -66,6 +66,9 @@ use num_traits::{One, Signed, Zero};
 use std::collections::HashMap;
 use std::time::Instant;
 
+/// Exact weights over control points.
+type WeightRow = Vec<(usize, Rat)>;
+
 /// An integer constraint row over control points and its integer-scaled target.
 pub type ExactRow = (Vec<(usize, Int)>, [Rat; 2]);
 
@@ -91,11 +94,7 @@ pub fn barycentric_exact(s: &Spline, t: usize, p: &[Rat; 2]) -> [Rat; 3] {
         (&b[0] - &a[0]) * (&c[1] - &a[1]) - (&c[0] - &a[0]) * (&b[1] - &a[1])
     };
     let area = cross(&v[0], &v[1], &v[2]);
-    [
-        cross(p, &v[1], &v[2]) / &area,
-        cross(&v[0], p, &v[2]) / &area,
-        cross(&v[0], &v[1], p) / &area,
-    ]
+    [cross(p, &v[1], &v[2]) / &area, cross(&v[0], p, &v[2]) / &area, cross(&v[0], &v[1], p) / &area]
 }
 
 /// The triangle holding the exact point `p` and its exact barycentric coordinates there (all
@@ -254,7 +253,7 @@ pub(super) fn fit_hard(
         values[p] = s.points()[p].clone();
     }
     // Exact landmark rows over control points (in control-point space, for the final check).
-    let mut checks: Vec<(Vec<(usize, Rat)>, [Rat; 2])> = Vec::new();
+    let mut checks: Vec<(WeightRow, [Rat; 2])> = Vec::new();
     let mut sources: Vec<Source> = Vec::new();
     if opts.hard {
         let mut seen: HashMap<[Rat; 2], (usize, [Rat; 2])> = HashMap::new();
@@ -289,7 +288,8 @@ pub(super) fn fit_hard(
             per_triangle.into_iter().filter(|(_, v)| v.len() > cap).collect();
         crowded.sort();
         if let Some((t, members)) = crowded.first() {
-            let names: Vec<String> = members.iter().take(4).map(|&i| landmark_text(lms, i)).collect();
+            let names: Vec<String> =
+                members.iter().take(4).map(|&i| landmark_text(lms, i)).collect();
             return Err(too_many(
                 s,
                 format!(
@@ -340,7 +340,11 @@ pub(super) fn fit_hard(
         let mut detail = format!(
             "the constraints of {}{} cannot hold together",
             lm[..shown].join(", "),
-            if lm.len() > shown { format!(" and {} more landmarks", lm.len() - shown) } else { String::new() }
+            if lm.len() > shown {
+                format!(" and {} more landmarks", lm.len() - shown)
+            } else {
+                String::new()
+            }
         );
         if !pins.is_empty() {
             let p: Vec<String> = pins.iter().map(|p| p.to_string()).collect();

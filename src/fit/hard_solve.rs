@@ -367,8 +367,11 @@ pub fn solve_rows(
                 group.iter().flat_map(|&i| l.a[i].iter().map(|(k, _)| *k)).collect();
             support.sort_unstable();
             support.dedup();
-            let safe: Vec<usize> =
-                support.iter().copied().filter(|&k| l.col_rows[k].iter().all(|&i| in_group[i])).collect();
+            let safe: Vec<usize> = support
+                .iter()
+                .copied()
+                .filter(|&k| l.col_rows[k].iter().all(|&i| in_group[i]))
+                .collect();
             if reduce_group(&l, values, &group, &safe).is_ok() {
                 first_failure = None;
                 break;
@@ -377,7 +380,8 @@ pub fn solve_rows(
             if round == MAX_GROWTH || group.len() == m {
                 break;
             }
-            let mut grown: Vec<usize> = support.iter().flat_map(|&k| l.col_rows[k].clone()).collect();
+            let mut grown: Vec<usize> =
+                support.iter().flat_map(|&k| l.col_rows[k].clone()).collect();
             grown.extend(&group);
             grown.sort_unstable();
             grown.dedup();

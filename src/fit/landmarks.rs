@@ -709,7 +709,8 @@ mod tests {
     #[test]
     fn approximated_coordinates_are_reported_in_every_format() {
         let long = "12.34567890123456789";
-        let csv = format!("name,src_x,src_y,dst_x,dst_y\nk,1.5,2.0001,3,4\na,0.1,0.2,{long},4.25\n");
+        let csv =
+            format!("name,src_x,src_y,dst_x,dst_y\nk,1.5,2.0001,3,4\na,0.1,0.2,{long},4.25\n");
         let (l, notes) = parse_noted(&csv, LandmarkFormat::Csv).unwrap();
         assert_eq!(l.len(), 2);
         assert_eq!(notes.len(), 1, "{notes:?}");
@@ -728,9 +729,11 @@ mod tests {
         assert_eq!(notes[0].field, "dst_x");
         let (_, notes) = parse_bigwarp_noted(&bw, true).unwrap();
         assert_eq!(notes[0].field, "src_x");
-        let json = format!(r#"{{"landmarks":[{{"src":[1,2]," dst":[0,0]}}]}}"#);
-        assert!(parse_noted(&json, LandmarkFormat::Json).is_err());
-        let json = format!(r#"{{"landmarks":[{{"src":[1,2.5],"dst":[3,4]}},{{"src":[1e-400,2],"dst":[3,{long}]}}]}}"#);
+        let json = r#"{"landmarks":[{"src":[1,2]," dst":[0,0]}]}"#;
+        assert!(parse_noted(json, LandmarkFormat::Json).is_err());
+        let json = format!(
+            r#"{{"landmarks":[{{"src":[1,2.5],"dst":[3,4]}},{{"src":[1e-400,2],"dst":[3,{long}]}}]}}"#
+        );
         let (_, notes) = parse_noted(&json, LandmarkFormat::Json).unwrap();
         let got: Vec<_> = notes.iter().map(|n| (n.index, n.field)).collect();
         assert_eq!(got, vec![(1, "src_x"), (1, "dst_y")]);

@@ -596,5 +596,17 @@ pub fn cases() -> Vec<Case> {
                 (args(&["editor", s(&bad), "--port", "0"]), bad)
             },
         },
+        Case {
+            id: "lm_too_many",
+            setup: |fx, id| {
+                // 22 landmarks below the diagonal of the first 20 px cell: one triangle.
+                let mut text = LM_HEAD.to_string();
+                for i in 0..22 {
+                    let (x, y) = (2.0 + 0.75 * i as f64, 1.0 + 0.2 * (i % 5) as f64);
+                    text += &format!("p{i},{x},{y},{},{y}\n", x + 1.0);
+                }
+                fit(fx, id, "csv", &text, &["--hard"])
+            },
+        },
     ]
 }
