@@ -54,7 +54,7 @@
 //! polynomial has coefficients (`(d+1)(d+2)/2`), or rows that stay dependent after the
 //! grown reduction, give [`FitError::TooManyConstraints`], naming the landmarks involved.
 
-use super::hard_solve::{solve_rows, Row};
+use super::hard_solve::{solve_rows, Row, Unmet, MAX_GROUP};
 use super::landmarks::Landmark;
 use super::solve::{fit_soft, report, Fit, FitError, FitOptions};
 use crate::exact::{exact_decimal, rat_to_f64, Int, Rat};
@@ -327,7 +327,11 @@ pub(super) fn fit_hard(
     }
     let is_var: Vec<bool> =
         (0..n).map(|p| !is_pinned[p] && matches!(mds.role(p), Role::Free)).collect();
-    solve_rows(&rows, &mut values, &is_var, opts.grid_bits).map_err(|bad| {
+    solve_rows(&rows, &mut values, &is_var, opts.grid_bits).map_err(|unmet| {
+        let (bad, coupled) = match unmet {
+            Unmet::Dependent(b) => (b, false),
+            Unmet::Coupled(b) => (b, true),
+        };
         let mut lm: Vec<String> = Vec::new();
         let mut pins: Vec<usize> = Vec::new();
         for &r in &bad {
@@ -337,8 +341,16 @@ pub(super) fn fit_hard(
             }
         }
         let shown = lm.len().min(6);
+        let what = if coupled {
+            format!(
+                "are coupled through shared control points into one group of {} (more than {MAX_GROUP} at once; the landmarks are too dense for this mesh)",
+                bad.len()
+            )
+        } else {
+            "cannot hold together".to_string()
+        };
         let mut detail = format!(
-            "the constraints of {}{} cannot hold together",
+            "the constraints of {}{} {what}",
             lm[..shown].join(", "),
             if lm.len() > shown {
                 format!(" and {} more landmarks", lm.len() - shown)

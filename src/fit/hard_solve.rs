@@ -14,6 +14,8 @@
 //!    solved by Gaussian elimination over the rationals. A singular group is re-solved by
 //!    an exact row reduction over every variable only its rows use, merged with the groups
 //!    around it up to [`MAX_GROWTH`] times; rows still inconsistent then are reported.
+//!    Groups beyond [`MAX_GROUP`] rows are refused: the landmarks are too dense for the
+//!    mesh (every row coupled to the next through shared free points).
 
 use super::chol::Cholesky;
 use super::param::grid_rat;
@@ -27,6 +29,19 @@ pub const RIDGE: f64 = 1e-12;
 pub const PIVOT_SHARE: f64 = 0.25;
 /// How many times a dependent group is merged with its neighbours before giving up.
 pub const MAX_GROWTH: usize = 3;
+/// The most rows one exact group may hold: larger groups (landmarks so dense that their
+/// rows are all coupled through shared free points) would make the exact elimination's
+/// numbers grow without bound, so they are refused ([`Unmet::Coupled`]).
+pub const MAX_GROUP: usize = 64;
+
+/// Why [`solve_rows`] could not meet every row (row indices into its input).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Unmet {
+    /// These rows are dependent and inconsistent (the smallest such group found).
+    Dependent(Vec<usize>),
+    /// These rows are coupled into one group larger than [`MAX_GROUP`].
+    Coupled(Vec<usize>),
+}
 
 /// One constraint `sum c_j P_j = rhs` (both coordinates) over free points `P_j`.
 #[derive(Clone, Debug)]
@@ -252,14 +267,13 @@ fn find(parent: &mut [usize], mut i: usize) -> usize {
 }
 
 /// Meets every row exactly by changing variable free points (`is_var`) in `values` (see
-/// the module docs). `Err` lists the rows (indices into `rows`) of the smallest group found
-/// dependent and inconsistent.
+/// the module docs). On `Err`, `values` may be partly changed.
 pub fn solve_rows(
     rows: &[Row],
     values: &mut [Vec<Rat>],
     is_var: &[bool],
     bits: u32,
-) -> Result<(), Vec<usize>> {
+) -> Result<(), Unmet> {
     if rows.is_empty() {
         return Ok(());
     }
@@ -321,6 +335,9 @@ pub fn solve_rows(
     }
     let mut groups: Vec<Vec<usize>> = groups.into_values().collect();
     groups.sort();
+    if let Some(g) = groups.iter().find(|g| g.len() > MAX_GROUP) {
+        return Err(Unmet::Coupled(g.clone()));
+    }
     let mut singular: Vec<Vec<usize>> = Vec::new();
     for g in &groups {
         let rhs = residuals(&l, values, g);
@@ -377,7 +394,7 @@ pub fn solve_rows(
                 break;
             }
             first_failure.get_or_insert_with(|| group.clone());
-            if round == MAX_GROWTH || group.len() == m {
+            if round == MAX_GROWTH || group.len() == m || group.len() > MAX_GROUP {
                 break;
             }
             let mut grown: Vec<usize> =
@@ -388,7 +405,7 @@ pub fn solve_rows(
             group = grown;
         }
         if let Some(bad) = first_failure {
-            return Err(bad);
+            return Err(Unmet::Dependent(bad));
         }
     }
     debug_assert!(residuals(&l, values, &all).iter().all(|e| e[0].is_zero() && e[1].is_zero()));

@@ -181,3 +181,17 @@ fn collinear_landmarks_beyond_the_degree_are_too_many_constraints() {
     let f = fit(&s, &lms[..6], &FitOptions { hard: true, ..FitOptions::default() }).unwrap();
     assert_exact(&f.spline, &lms[..6]);
 }
+
+/// Issue 23: 1,000 landmarks on a 288-triangle mesh took 27 s and then blamed "landmark 0".
+/// Their rows are all coupled through shared free points; the fit says the landmarks are
+/// too dense for the mesh, naming them, instead of grinding through one huge elimination.
+#[test]
+fn landmarks_too_dense_for_the_mesh_are_refused_as_too_many_constraints() {
+    let s = grid_511();
+    let lms = landmarks4(1000, 27, 3.0, 508.0);
+    let e = fit(&s, &lms, &FitOptions { hard: true, ..FitOptions::default() }).unwrap_err();
+    assert!(matches!(e, FitError::TooManyConstraints { .. }), "{e}");
+    let msg = e.to_string();
+    assert!(msg.contains("too dense for this mesh") && msg.contains("more landmarks"), "{msg}");
+    assert!(msg.contains("finer mesh, fewer landmarks, or the soft fit"), "{msg}");
+}
