@@ -11,6 +11,11 @@
 //! * `track_and_fit_511`: one frame of a sequence: 50 landmarks tracked (pyramidal
 //!   Lucas-Kanade, forward-backward check) from frame 0 to frame 1 of the bundled 511 x 511
 //!   time-lapse, then the fit to the tracked points. Target 100 ms.
+//! * `hard_100_grid`: `fit --hard` with 100 landmarks (4-decimal sources and targets) on a
+//!   12 x 12 grid mesh over 511 x 511, degree 5: the soft fit, then the exact solve in MDS
+//!   coordinates and the exact checks. Target 1 s.
+//! * `hard_100_delaunay`: the same landmarks on a Delaunay mesh through their sources
+//!   (snapping grid 10000, so each source is a vertex exactly).
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use rand::rngs::SmallRng;
@@ -138,9 +143,57 @@ fn bench_track(c: &mut Criterion) {
     c.bench_function("track_and_fit_511", |b| b.iter(|| black_box(run().report.fit.rms)));
 }
 
+/// 100 landmarks with 4-decimal coordinates (as typed in a landmark file).
+fn landmarks4(n: usize) -> Vec<Landmark> {
+    let dec4 = |v: f64| format!("{v:.4}").parse::<f64>().unwrap();
+    let mut rng = SmallRng::seed_from_u64(21);
+    (0..n)
+        .map(|i| {
+            let p = [dec4(rng.gen_range(3.0..508.0)), dec4(rng.gen_range(3.0..508.0))];
+            let q = [p[0] + 6.0 * (p[1] / 70.0).sin() + 2.0, p[1] + 5.0 * (p[0] / 90.0).cos()];
+            Landmark { name: Some(format!("l{i}")), src: p, dst: q.map(dec4), weight: 1.0 }
+        })
+        .collect()
+}
+
+fn bench_hard(c: &mut Criterion) {
+    let lms = landmarks4(100);
+    let grid =
+        Spline::identity(Mesh::grid(12, 12, 511.0, 511.0, MeshOptions::default()).unwrap(), 5)
+            .unwrap();
+    let mut pts: Vec<[f64; 2]> = vec![[0.0, 0.0], [511.0, 0.0], [0.0, 511.0], [511.0, 511.0]];
+    pts.extend(lms.iter().map(|l| l.src));
+    let delaunay =
+        Spline::identity(Mesh::delaunay(&pts, MeshOptions { grid: 10000 }).unwrap(), 5).unwrap();
+    let hard = FitOptions { hard: true, ..FitOptions::default() };
+    for (name, s) in [("hard_100_grid", &grid), ("hard_100_delaunay", &delaunay)] {
+        let size = |f: &trimorph::fit::solve::Fit| {
+            trimorph::io::deformation::to_string(&f.spline, None).len()
+        };
+        let h = fit(s, &lms, &hard).unwrap();
+        let soft = fit(s, &lms, &FitOptions::default()).unwrap();
+        eprintln!(
+            "{name}: {} triangles; hard {:.1} ms, file {} bytes; soft {:.1} ms, file {} bytes",
+            s.mesh().num_triangles(),
+            h.report.time_ms,
+            size(&h),
+            soft.report.time_ms,
+            size(&soft)
+        );
+        c.bench_function(name, |b| {
+            b.iter(|| black_box(fit(s, &lms, &hard).unwrap().report.fit.max))
+        });
+    }
+}
+
 criterion_group! {
     name = benches;
     config = Criterion::default().sample_size(20);
     targets = bench, bench_frame, bench_track
 }
-criterion_main!(benches);
+criterion_group! {
+    name = hard_benches;
+    config = Criterion::default().sample_size(10);
+    targets = bench_hard
+}
+criterion_main!(benches, hard_benches);

@@ -118,6 +118,62 @@ fn bad_inputs_exit_1_contradictions_exit_2_and_nothing_is_overwritten() {
     assert_eq!(o.status.code(), Some(1));
 }
 
+/// Issue 16 point 4: `--hard` meets the decimals as written, says which ones an f64 cannot
+/// hold, and tells contradictory from too many constraints (issue 23), both exit 2.
+#[test]
+fn hard_fit_reports_approximated_values_and_its_diagnostics() {
+    let dir = tempfile::tempdir().unwrap();
+    let def = reference(dir.path());
+    let lms = dir.path().join("l.csv");
+    let mut csv = String::from("name,src_x,src_y,dst_x,dst_y\n");
+    for i in 0..12 {
+        let p = [15.1234 + (i * 37 % 170) as f64, 12.5678 + (i * 53 % 120) as f64];
+        let q = smooth(p);
+        csv += &format!("p{i},{:.4},{:.4},{:.4},{:.4}\n", p[0], p[1], q[0], q[1]);
+    }
+    csv += "long,100.5,60.25,101.12345678901234567890,61\n";
+    fs::write(&lms, &csv).unwrap();
+    let out = dir.path().join("o.json");
+    let rep = dir.path().join("r.json");
+    let o = trimorph(&[
+        "fit",
+        s(&def),
+        "--landmarks",
+        s(&lms),
+        "-o",
+        s(&out),
+        "--report",
+        s(&rep),
+        "--hard",
+    ]);
+    ok(&o);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("landmark 12 (long): dst_x 101.12345678901234567890 is approximated by 101.12345678901235 (difference"),
+        "{err}"
+    );
+    assert_eq!(err.matches("is approximated").count(), 1, "{err}");
+    let r: serde_json::Value = serde_json::from_str(&fs::read_to_string(&rep).unwrap()).unwrap();
+    assert!(r["fit"]["max"].as_f64().unwrap() < 1e-9, "{r}");
+    ok(&trimorph(&["check", s(&out)]));
+    // The soft fit does not print the notes.
+    let o = trimorph(&["fit", s(&def), "--landmarks", s(&lms), "-o", s(&out)]);
+    ok(&o);
+    assert!(!String::from_utf8_lossy(&o.stderr).contains("approximated"));
+    // Too many constraints: 7 landmarks on one segment in one triangle (a quintic takes 6).
+    let mut csv = String::from("name,src_x,src_y,dst_x,dst_y\n");
+    for i in 0..7 {
+        let x = 10.0 + 2.5 * i as f64;
+        csv += &format!("s{i},{x},4,{},4\n", x + if i % 2 == 0 { 1.0 } else { -1.0 });
+    }
+    fs::write(&lms, &csv).unwrap();
+    let o = trimorph(&["fit", s(&def), "--landmarks", s(&lms), "-o", s(&out), "--hard"]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("too many constraints for the mesh") && err.contains("(s"), "{err}");
+    assert!(err.contains("finer mesh, fewer landmarks, or the soft fit"), "{err}");
+}
+
 /// A textured frame and the same frame shifted by (dx, dy).
 fn frame(dx: f64, dy: f64) -> image::GrayImage {
     image::GrayImage::from_fn(160, 120, |x, y| {

@@ -5,7 +5,7 @@ use crate::fit::frame::{fit_frame, FrameFitOptions};
 use crate::fit::landmarks::{holdout, Landmark};
 use crate::fit::objective::{Barrier, Loss};
 use crate::fit::solve::{fit, with_holdout, Bend, FitError, FitOptions, FitReport};
-use crate::io::landmarks::read_landmarks;
+use crate::io::landmarks::read_landmarks_noted;
 use crate::io::{deformation, read_text, write_atomic};
 use crate::mesh::AdaptOptions;
 use anyhow::{bail, Context, Result};
@@ -63,7 +63,9 @@ impl SolverArgs<'_> {
 /// Maps a fit error to the CLI's exit codes: unsolvable hard constraints exit 2.
 pub fn fit_error(e: FitError) -> anyhow::Error {
     match e {
-        FitError::Unsolvable(_) => anyhow::Error::new(Exit {
+        FitError::Unsolvable(_)
+        | FitError::Conflicting { .. }
+        | FitError::TooManyConstraints { .. } => anyhow::Error::new(Exit {
             code: EXIT_UNSOLVABLE,
             message: e.to_string(),
             printed: false,
@@ -177,7 +179,7 @@ pub fn run_single(
                 .collect::<Result<_>>()?
         };
     }
-    let (fitted, held) = read_split(landmarks, holdout_k, seed)?;
+    let (fitted, held) = read_split(landmarks, holdout_k, seed, opts.hard)?;
     // A fit too large for the solver is the deformation's doing (its mesh and degree);
     // every other fit error is about the landmarks.
     let in_file = |e: FitError| match e {
@@ -197,9 +199,21 @@ pub fn run_single(
 }
 
 /// The landmarks of a file, split into fitted and held-out ones.
-fn read_split(landmarks: &Path, k: usize, seed: u64) -> Result<(Vec<Landmark>, Vec<Landmark>)> {
-    let lms = read_landmarks(landmarks)
+/// With `hard`, the coordinates an `f64` cannot hold as written are reported on stderr (hard
+/// constraints hold for the values used).
+fn read_split(
+    landmarks: &Path,
+    k: usize,
+    seed: u64,
+    hard: bool,
+) -> Result<(Vec<Landmark>, Vec<Landmark>)> {
+    let (lms, notes) = read_landmarks_noted(landmarks)
         .with_context(|| format!("cannot read landmarks {}", landmarks.display()))?;
+    if hard {
+        for n in &notes {
+            eprintln!("warning: {}: {n}", landmarks.display());
+        }
+    }
     if k == 0 {
         return Ok((lms, Vec::new()));
     }
@@ -239,7 +253,7 @@ fn run_frame(
     opts: FitOptions,
 ) -> Result<()> {
     let size = super::spline_cmds::parse_size(f.size)?;
-    let (fitted, held) = read_split(landmarks, holdout_k, seed)?;
+    let (fitted, held) = read_split(landmarks, holdout_k, seed, opts.hard)?;
     let fopts = FrameFitOptions {
         mesh: AdaptOptions {
             margin: f.margin,

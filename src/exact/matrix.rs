@@ -137,6 +137,23 @@ pub fn parse_rat(text: &str) -> Result<Rat, ParseRatError> {
     Ok(rat_from_big(&if neg { -v } else { v }))
 }
 
+/// The exact value of the decimal text that `v` was read from: the shortest decimal that
+/// reads back to `v` (Rust's `{}` formatting of `f64`), parsed exactly.
+///
+/// Every decimal text with at most 15 significant digits (and an exponent within the
+/// `f64` range) *is* that shortest decimal, so `exact_decimal("0.1".parse()?)` is `1/10`,
+/// not the dyadic rational [`rat_from_f64`] gives. Texts with more digits than an `f64`
+/// holds come back as the shortest round-trip decimal, which differs from the text (the
+/// landmark readers report such fields, `crate::fit::landmarks::Approximation`).
+/// `None` for a non-finite `v`.
+pub fn exact_decimal(v: f64) -> Option<Rat> {
+    if !v.is_finite() {
+        return None;
+    }
+    // `{}` never writes an exponent: large and tiny values come out in full digits.
+    parse_rat(&format!("{v}")).ok()
+}
+
 /// A dense row-major matrix of exact integers.
 #[derive(Clone, PartialEq, Eq)]
 pub struct IntMatrix {
@@ -384,6 +401,24 @@ mod tests {
             assert!(matches!(e, ParseRatError::Exponent(_)), "{far}");
             assert!(e.to_string().contains("exponent is beyond"), "{e}");
         }
+    }
+
+    #[test]
+    fn exact_decimal_reads_back_the_typed_text() {
+        let r = |t: &str| parse_rat(t).unwrap();
+        for text in
+            ["0.1", "123.4567", "-0.0001", "510.9999", "1e23", "1e-300", "0.30000000000000004"]
+        {
+            let v: f64 = text.parse().unwrap();
+            assert_eq!(exact_decimal(v).unwrap(), r(text), "{text}");
+            assert_ne!(exact_decimal(v).unwrap(), rat_from_f64(v).unwrap(), "{text}");
+        }
+        assert_eq!(exact_decimal(-7.25).unwrap(), r("-29/4"));
+        assert_eq!(exact_decimal(0.0).unwrap(), rat_int(0));
+        assert!(exact_decimal(f64::NAN).is_none() && exact_decimal(f64::INFINITY).is_none());
+        // More digits than an f64 holds: the shortest round-trip decimal, not the text.
+        let v: f64 = "12.34567890123456789".parse().unwrap();
+        assert_eq!(exact_decimal(v).unwrap(), r("12.345678901234567"));
     }
 
     #[test]

@@ -18,6 +18,6 @@ pub use int::Int;
 pub use ldu::{Ldu, LduOptions, Pivoting, Simplification};
 pub use lsq::WeightedLsq;
 pub use matrix::{
-    parse_rat, rat_from_big, rat_from_f64, rat_int, rat_to_big, rat_to_f64, rat_to_string,
-    IntMatrix, ParseRatError, Rat, ScaledVec, SparseIntMatrix,
+    exact_decimal, parse_rat, rat_from_big, rat_from_f64, rat_int, rat_to_big, rat_to_f64,
+    rat_to_string, IntMatrix, ParseRatError, Rat, ScaledVec, SparseIntMatrix,
 };

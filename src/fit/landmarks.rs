@@ -48,6 +48,68 @@ pub struct Landmark {
     pub weight: f64,
 }
 
+/// Names of the coordinate fields, in landmark order.
+pub const COORDS: [&str; 4] = ["src_x", "src_y", "dst_x", "dst_y"];
+
+/// A landmark coordinate whose decimal text an `f64` cannot hold: the fit uses `used` (the
+/// shortest decimal of the `f64` read from `text`), which differs from the text.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Approximation {
+    /// 0-based landmark index (in the parsed list).
+    pub index: usize,
+    /// The landmark's name.
+    pub name: Option<String>,
+    /// `src_x`, `src_y`, `dst_x` or `dst_y` (after BigWarp's moving/fixed mapping).
+    pub field: &'static str,
+    /// The text in the file.
+    pub text: String,
+    /// The value used, as the exact decimal `{}` writes for the `f64`.
+    pub used: String,
+    /// `|text - used|`, computed exactly then rounded; `None` when the text's exponent is
+    /// beyond what [`crate::exact::parse_rat`] reads exactly.
+    pub difference: Option<f64>,
+}
+
+impl std::fmt::Display for Approximation {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let name = self.name.as_deref().unwrap_or("-");
+        write!(
+            f,
+            "landmark {} ({name}): {} {} is approximated by {}",
+            self.index, self.field, self.text, self.used
+        )?;
+        match self.difference {
+            Some(d) => write!(f, " (difference {d:.1e})"),
+            None => write!(f, " (difference not computable: exponent too large)"),
+        }
+    }
+}
+
+/// The approximation note of one coordinate read as `v` from `text`, if `v`'s shortest
+/// decimal is not the text's exact value.
+fn approximation(
+    index: usize,
+    name: &Option<String>,
+    field: &'static str,
+    text: &str,
+    v: f64,
+) -> Option<Approximation> {
+    use crate::exact::{exact_decimal, parse_rat, rat_to_f64};
+    let used = exact_decimal(v)?;
+    let typed = parse_rat(text.trim());
+    if typed.as_ref().is_ok_and(|t| *t == used) {
+        return None;
+    }
+    Some(Approximation {
+        index,
+        name: name.clone(),
+        field,
+        text: text.trim().to_string(),
+        used: format!("{v}"),
+        difference: typed.ok().map(|t| rat_to_f64(&(t - used)).abs()),
+    })
+}
+
 /// Errors of the landmark text formats.
 #[derive(Debug, thiserror::Error)]
 pub enum LandmarkError {
@@ -144,6 +206,21 @@ pub fn parse(text: &str, format: LandmarkFormat) -> Result<Vec<Landmark>, Landma
     }
 }
 
+/// [`parse`], also returning the coordinates whose decimal text an `f64` cannot hold
+/// exactly (more significant digits than it keeps, or beyond its range), in landmark and
+/// field order. Every other coordinate's text is recovered exactly from the `f64` by
+/// [`crate::exact::exact_decimal`].
+pub fn parse_noted(
+    text: &str,
+    format: LandmarkFormat,
+) -> Result<(Vec<Landmark>, Vec<Approximation>), LandmarkError> {
+    match format {
+        LandmarkFormat::Csv => parse_csv_noted(text),
+        LandmarkFormat::BigWarp => parse_bigwarp_noted(text, false),
+        LandmarkFormat::Json => parse_json_noted(text),
+    }
+}
+
 /// Writes landmarks in `format` (BigWarp with `src` -> moving). Fails on a non-finite
 /// coordinate or a weight `<= 0`.
 pub fn to_string(lms: &[Landmark], format: LandmarkFormat) -> Result<String, LandmarkError> {
@@ -217,7 +294,13 @@ const CSV_COLUMNS: [&str; 6] = ["name", "src_x", "src_y", "dst_x", "dst_y", "wei
 
 /// Parses the CSV format (see the module documentation).
 pub fn parse_csv(text: &str) -> Result<Vec<Landmark>, LandmarkError> {
+    parse_csv_noted(text).map(|(l, _)| l)
+}
+
+/// [`parse_csv`] with the approximated coordinates (see [`parse_noted`]).
+pub fn parse_csv_noted(text: &str) -> Result<(Vec<Landmark>, Vec<Approximation>), LandmarkError> {
     let mut out = Vec::new();
+    let mut notes = Vec::new();
     let mut first = true;
     for (k, raw) in text.lines().enumerate() {
         let line = k + 1;
@@ -245,9 +328,12 @@ pub fn parse_csv(text: &str) -> Result<Vec<Landmark>, LandmarkError> {
             return Err(err(format!("weight {weight} is not > 0")));
         }
         let name = if f[0].is_empty() { None } else { Some(f[0].clone()) };
+        for c in 0..4 {
+            notes.extend(approximation(out.len(), &name, COORDS[c], &f[c + 1], v[c]));
+        }
         out.push(Landmark { name, src: [v[0], v[1]], dst: [v[2], v[3]], weight });
     }
-    Ok(out)
+    Ok((out, notes))
 }
 
 /// Checks that every landmark can be written: finite coordinates, weight finite and > 0.
@@ -294,7 +380,16 @@ pub fn to_csv(lms: &[Landmark]) -> Result<String, LandmarkError> {
 /// Parses a BigWarp landmark table: moving -> `src`, fixed -> `dst`, or the reverse when
 /// `swap`. Inactive rows and rows with an unset (infinite) point are skipped.
 pub fn parse_bigwarp(text: &str, swap: bool) -> Result<Vec<Landmark>, LandmarkError> {
+    parse_bigwarp_noted(text, swap).map(|(l, _)| l)
+}
+
+/// [`parse_bigwarp`] with the approximated coordinates (see [`parse_noted`]).
+pub fn parse_bigwarp_noted(
+    text: &str,
+    swap: bool,
+) -> Result<(Vec<Landmark>, Vec<Approximation>), LandmarkError> {
     let mut out = Vec::new();
+    let mut notes = Vec::new();
     for (k, raw) in text.lines().enumerate() {
         let line = k + 1;
         let err = |message: String| LandmarkError::Line { line, message };
@@ -328,9 +423,15 @@ pub fn parse_bigwarp(text: &str, swap: bool) -> Result<Vec<Landmark>, LandmarkEr
         let (moving, fixed) = ([v[0], v[1]], [v[2], v[3]]);
         let (src, dst) = if swap { (fixed, moving) } else { (moving, fixed) };
         let name = if f[0].is_empty() { None } else { Some(f[0].clone()) };
+        for c in 0..4 {
+            // Fields 3-4 are the moving point, 5-6 the fixed one.
+            let field = COORDS[if swap { (c + 2) % 4 } else { c }];
+            notes.extend(approximation(out.len(), &name, field, f[c + 2].trim(), v[c]));
+        }
         out.push(Landmark { name, src, dst, weight: 1.0 });
     }
-    Ok(out)
+    notes.sort_by_key(|n| (n.index, COORDS.iter().position(|&c| c == n.field)));
+    Ok((out, notes))
 }
 
 /// Writes a BigWarp landmark table (all rows active): `src` -> moving, `dst` -> fixed, or
@@ -379,6 +480,27 @@ pub fn parse_json(text: &str) -> Result<Vec<Landmark>, LandmarkError> {
         .collect();
     validate(&lms)?;
     Ok(lms)
+}
+
+/// [`parse_json`] with the approximated coordinates (see [`parse_noted`]). The number
+/// texts come from `serde_json`'s arbitrary-precision numbers, as written in the file.
+pub fn parse_json_noted(text: &str) -> Result<(Vec<Landmark>, Vec<Approximation>), LandmarkError> {
+    let lms = parse_json(text)?;
+    let value: serde_json::Value = serde_json::from_str(text)?;
+    let mut notes = Vec::new();
+    let items = value.get("landmarks").and_then(|v| v.as_array());
+    for (index, (l, item)) in lms.iter().zip(items.into_iter().flatten()).enumerate() {
+        for (k, key) in ["src", "dst"].iter().enumerate() {
+            for c in 0..2 {
+                if let Some(serde_json::Value::Number(n)) = item.get(key).and_then(|p| p.get(c)) {
+                    let v = if k == 0 { l.src[c] } else { l.dst[c] };
+                    let field = COORDS[2 * k + c];
+                    notes.extend(approximation(index, &l.name, field, &n.to_string(), v));
+                }
+            }
+        }
+    }
+    Ok((lms, notes))
 }
 
 /// Writes the JSON format (pretty-printed, one key per line).
@@ -582,6 +704,43 @@ mod tests {
             let text = to_string(&sample(), f).unwrap();
             assert_eq!(LandmarkFormat::detect(Some(ext), &text), f);
         }
+    }
+
+    #[test]
+    fn approximated_coordinates_are_reported_in_every_format() {
+        let long = "12.34567890123456789";
+        let csv =
+            format!("name,src_x,src_y,dst_x,dst_y\nk,1.5,2.0001,3,4\na,0.1,0.2,{long},4.25\n");
+        let (l, notes) = parse_noted(&csv, LandmarkFormat::Csv).unwrap();
+        assert_eq!(l.len(), 2);
+        assert_eq!(notes.len(), 1, "{notes:?}");
+        let n = &notes[0];
+        assert_eq!((n.index, n.field, n.text.as_str()), (1, "dst_x", long));
+        assert_eq!(n.used, "12.345678901234567");
+        let d = n.difference.unwrap();
+        assert!((d - 8.9e-16).abs() < 1e-17, "{d}");
+        assert_eq!(
+            n.to_string(),
+            format!("landmark 1 (a): dst_x {long} is approximated by 12.345678901234567 (difference 8.9e-16)")
+        );
+        // BigWarp: fields 5-6 are the fixed point (dst unless swapped).
+        let bw = format!("\"p\",\"true\",\"1\",\"2\",\"{long}\",\"4\"\n");
+        let (_, notes) = parse_noted(&bw, LandmarkFormat::BigWarp).unwrap();
+        assert_eq!(notes[0].field, "dst_x");
+        let (_, notes) = parse_bigwarp_noted(&bw, true).unwrap();
+        assert_eq!(notes[0].field, "src_x");
+        let json = r#"{"landmarks":[{"src":[1,2]," dst":[0,0]}]}"#;
+        assert!(parse_noted(json, LandmarkFormat::Json).is_err());
+        let json = format!(
+            r#"{{"landmarks":[{{"src":[1,2.5],"dst":[3,4]}},{{"src":[1e-400,2],"dst":[3,{long}]}}]}}"#
+        );
+        let (_, notes) = parse_noted(&json, LandmarkFormat::Json).unwrap();
+        let got: Vec<_> = notes.iter().map(|n| (n.index, n.field)).collect();
+        assert_eq!(got, vec![(1, "src_x"), (1, "dst_y")]);
+        assert_eq!(notes[0].used, "0");
+        // 15 significant digits are always exact.
+        let csv = "a,123456.789012345,0.000123456789012345,1e5,-9.87654321098765\n";
+        assert!(parse_noted(csv, LandmarkFormat::Csv).unwrap().1.is_empty());
     }
 
     #[test]

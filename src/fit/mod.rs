@@ -9,8 +9,8 @@
 //! * [`solve`]: the fit itself (objective in [`objective`], bending energy and basis rows in
 //!   [`basis`], the MDS parameterization in [`param`], the squares fit in landmark space and
 //!   the automatic smoothing weight in [`smooth`], Newton's method with the fold barrier in
-//!   [`newton`] on the sparse Cholesky of [`sparse`], exact interpolation through ECLES in
-//!   [`hard`]);
+//!   [`newton`] on the sparse Cholesky of [`sparse`], exact interpolation in
+//!   MDS coordinates in [`hard`] and [`hard_solve`]);
 //! * [`frame`]: a fit from landmarks alone, over a landmark-adapted mesh that covers the
 //!   whole frame.
 //!
@@ -21,6 +21,9 @@ pub mod basis;
 pub mod features;
 pub mod frame;
 pub mod hard;
+pub mod hard_solve;
+#[cfg(test)]
+mod hard_tests;
 pub mod landmarks;
 pub mod newton;
 pub mod objective;

@@ -149,6 +149,28 @@ pub enum FitError {
     /// The exact result is not C1 (a bug if it ever happens).
     #[error(transparent)]
     Spline(#[from] SplineError),
+    /// Two landmarks with the same source (exactly, as written) and different targets.
+    #[error("{first} and {second} have the same source ({x}, {y}) but different targets, so no deformation can meet both; correct or remove one of them, or fit without hard constraints")]
+    Conflicting {
+        /// `landmark i (name)` of the first.
+        first: String,
+        /// `landmark j (name)` of the second.
+        second: String,
+        /// Source x.
+        x: f64,
+        /// Source y.
+        y: f64,
+    },
+    /// More hard constraints than the spline's local freedom.
+    #[error("too many constraints for the mesh: {detail}; a degree-{degree} triangle takes at most {per_triangle} landmarks in general position (fewer on one line, at most degree + 1 on a segment); use a finer mesh, fewer landmarks, or the soft fit (without --hard)")]
+    TooManyConstraints {
+        /// Which landmarks (and pinned points) are involved.
+        detail: String,
+        /// The spline's degree.
+        degree: usize,
+        /// `(d + 1)(d + 2) / 2`.
+        per_triangle: usize,
+    },
     /// Hard constraints that cannot be met.
     #[error("the landmarks cannot be interpolated exactly: {0}; correct or remove that landmark, or fit without hard constraints")]
     Unsolvable(String),

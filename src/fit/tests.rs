@@ -229,7 +229,7 @@ fn hard_mode_reports_contradictory_landmarks() {
         Landmark { name: None, src: [300.0, 100.0], dst: [300.0, 100.0], weight: 1.0 },
     ];
     let e = fit(&s, &lms, &FitOptions { hard: true, ..FitOptions::default() }).unwrap_err();
-    assert!(matches!(e, FitError::Unsolvable(_)), "{e}");
+    assert!(matches!(e, FitError::Conflicting { .. }), "{e}");
 }
 
 mod props {

@@ -3,7 +3,7 @@
 //! writing is atomic.
 
 use super::{read_text, write_atomic, IoError};
-use crate::fit::landmarks::{self, Landmark, LandmarkError, LandmarkFormat};
+use crate::fit::landmarks::{self, Approximation, Landmark, LandmarkError, LandmarkFormat};
 use std::path::{Path, PathBuf};
 
 /// Errors of landmark files, with the path.
@@ -43,9 +43,17 @@ pub fn detect_format(path: &Path, text: &str) -> LandmarkFormat {
 /// Reads landmarks from `path` (`-` for standard input), detecting the format. Names must
 /// be unique (unnamed landmarks are allowed).
 pub fn read_landmarks(path: &Path) -> Result<Vec<Landmark>, LandmarkIoError> {
+    read_landmarks_noted(path).map(|(l, _)| l)
+}
+
+/// [`read_landmarks`], also returning the coordinates whose decimal text an `f64` cannot
+/// hold exactly ([`landmarks::parse_noted`]).
+pub fn read_landmarks_noted(
+    path: &Path,
+) -> Result<(Vec<Landmark>, Vec<Approximation>), LandmarkIoError> {
     let text = read_text(path)?;
     let format = detect_format(path, &text);
-    let lms = landmarks::parse(&text, format)
+    let (lms, notes) = landmarks::parse_noted(&text, format)
         .map_err(|source| LandmarkIoError::Format { path: path.to_path_buf(), source })?;
     let mut seen = std::collections::HashMap::new();
     for (i, l) in lms.iter().enumerate() {
@@ -60,7 +68,7 @@ pub fn read_landmarks(path: &Path) -> Result<Vec<Landmark>, LandmarkIoError> {
             }
         }
     }
-    Ok(lms)
+    Ok((lms, notes))
 }
 
 /// Writes landmarks to `path` in `format`, atomically (nothing is written when a landmark

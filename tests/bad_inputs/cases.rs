@@ -639,6 +639,15 @@ pub fn cases() -> Vec<Case> {
             setup: |fx, id| {
                 let huge = format!("1{}", "0".repeat(400));
                 check_doc(fx, id, |v| v["exact"]["points"][3][0] = huge.into())
+            id: "lm_too_many",
+            setup: |fx, id| {
+                // 22 landmarks below the diagonal of the first 20 px cell: one triangle.
+                let mut text = LM_HEAD.to_string();
+                for i in 0..22 {
+                    let (x, y) = (2.0 + 0.75 * i as f64, 1.0 + 0.2 * (i % 5) as f64);
+                    text += &format!("p{i},{x},{y},{},{y}\n", x + 1.0);
+                }
+                fit(fx, id, "csv", &text, &["--hard"])
             },
         },
     ]
