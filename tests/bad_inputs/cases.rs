@@ -639,6 +639,9 @@ pub fn cases() -> Vec<Case> {
             setup: |fx, id| {
                 let huge = format!("1{}", "0".repeat(400));
                 check_doc(fx, id, |v| v["exact"]["points"][3][0] = huge.into())
+            },
+        },
+        Case {
             id: "lm_too_many",
             setup: |fx, id| {
                 // 22 landmarks below the diagonal of the first 20 px cell: one triangle.
