@@ -261,7 +261,8 @@ impl Structure {
 
 /// Runs Newton's method from `start` (see the module docs). `certify` receives the control
 /// points of a trial iterate and answers whether `det J > 0` is proven on every triangle;
-/// with `require`, trial points it refuses are never accepted.
+/// with `require`, trial points it refuses, or whose sampled `det J` is not above the
+/// barrier's floor, are never accepted (the start must satisfy both).
 pub fn newton(
     obj: &Objective,
     start: &[f64],
@@ -322,8 +323,12 @@ pub fn newton(
                 certify(&pts)
             };
             if ok {
-                let ft = obj.eval(&xt, None).total;
-                if ft.is_finite() && ft <= f + 1e-4 * alpha * slope {
+                let t = obj.eval(&xt, None);
+                // With a certified start the iterates also stay above the barrier's floor
+                // (its finite continuation below is for uncertified starts only).
+                let inside = !require || obj.barrier.is_none_or(|b| t.min_det > b.floor);
+                let ft = t.total;
+                if inside && ft.is_finite() && ft <= f + 1e-4 * alpha * slope {
                     accepted = true;
                     break;
                 }

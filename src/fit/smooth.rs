@@ -35,8 +35,9 @@
 //!
 //! and the leave-one-out residuals `(t_i - y_i) / (1 - H_ii)` are exact for this linear
 //! smoother. `K` is positive definite when the border is pinned (its null space is the affine
-//! maps); otherwise a ridge of [`RIDGE`] times its mean diagonal keeps it definite, which
-//! leaves the affine part effectively unpenalized (`M` gets very large eigenvalues there).
+//! maps); otherwise a ridge `r |x - x_warm|^2`, `r` = [`RIDGE`] times `K`'s mean diagonal,
+//! keeps it definite: the affine part is then effectively unpenalized (`M` gets very large
+//! eigenvalues there), and the warm start's cost still bounds the result's.
 
 use super::objective::Objective;
 use super::solve::FitError;
@@ -56,8 +57,9 @@ const BEND_LOG_STEP: f64 = 0.25;
 /// Fewest landmarks for which GCV is meaningful (below, the default weight is used).
 pub const MIN_GCV_LANDMARKS: usize = 6;
 
-/// The fixed bending weight used when it cannot be chosen by GCV.
-pub const DEFAULT_BEND: f64 = 1e-3;
+/// The fixed bending weight used when it cannot be chosen by GCV (few landmarks): close to
+/// interpolation (on a 500 x 250 frame with one landmark, `lambda` is about 0.01 px^2).
+pub const DEFAULT_BEND: f64 = 1e-7;
 
 /// The squares problem in landmark space (see the module docs).
 pub struct Smoother {
@@ -121,8 +123,13 @@ impl Smoother {
         }
         let pattern = Pattern::new(nv, &entries).map_err(|e| FitError::Solver(e.to_string()))?;
         let factor: Factor = pattern.factor(&values).map_err(|_| FitError::Singular(0))?;
+        // The ridge penalizes the distance to the warm start (not to the origin), so the
+        // warm start's cost bounds the result's: x0 = -(K + r I)^-1 (b - r x_warm).
+        let warm = obj.param.x0();
+        let r = RIDGE * mean_diag;
         let x0 = [0, 1].map(|c| {
-            let mut v: Vec<f64> = b[c].iter().map(|x| -x).collect();
+            let mut v: Vec<f64> =
+                b[c].iter().zip(&warm[c * nv..(c + 1) * nv]).map(|(x, w)| r * w - x).collect();
             factor.solve(&mut v);
             v
         });

@@ -49,8 +49,9 @@ pub struct FitOptions {
     pub hard: bool,
     /// Free points are rounded to multiples of `2^-grid_bits` (default 20).
     pub grid_bits: u32,
-    /// Barycentric sample level of `det J` in the barrier (default 4: 15 samples per
-    /// triangle); the report samples at twice this level.
+    /// Barycentric sample level of `det J` in the barrier (default
+    /// [`crate::spline::jacobian::SAMPLE_LEVEL`], 8: 45 samples per triangle, the sample set
+    /// every command reports).
     pub det_level: usize,
     /// Control points pinned at their values in the input spline (e.g. points corrected
     /// by hand in the editor). They are held exactly: the soft fit does not vary them and
@@ -82,7 +83,7 @@ impl Default for FitOptions {
             max_iters: 200,
             hard: false,
             grid_bits: 20,
-            det_level: 4,
+            det_level: crate::spline::jacobian::SAMPLE_LEVEL,
             pinned: Vec::new(),
             pin_border: false,
         }
@@ -645,19 +646,24 @@ fn solve(
     if obj.eval(&x, None).min_det >= barrier.tau {
         return Ok(Solved { x, method, iterations, bend, choice, termination: "exact".into() });
     }
-    // Newton with the barrier from a certified start: the minimizer if it is fold-free,
-    // else the warm start.
+    // Newton with the barrier from the best start that is certified fold-free and above the
+    // barrier's floor: the squares minimizer or the warm start, whichever costs less.
     let certify = |p: &[[f64; 2]]| certified(s, p);
     let mut pts = vec![[0.0f64; 2]; obj.param.var_of.len()];
-    obj.param.points_into(&x, &mut pts);
-    let start = if certify(&pts) {
-        Some(x.clone())
-    } else {
-        obj.param.points_into(x0, &mut pts);
-        certify(&pts).then(|| x0.to_vec())
-    };
+    let mut start: Option<(f64, Vec<f64>)> = None;
+    for cand in [&x[..], x0] {
+        let t = obj.eval(cand, None);
+        obj.param.points_into(cand, &mut pts);
+        if t.total.is_finite()
+            && t.min_det > barrier.floor
+            && start.as_ref().is_none_or(|(f, _)| t.total < *f)
+            && certify(&pts)
+        {
+            start = Some((t.total, cand.to_vec()));
+        }
+    }
     let require = start.is_some();
-    let start = start.unwrap_or(x);
+    let start = start.map_or(x, |(_, v)| v);
     let out = newton(obj, &start, opts.max_iters, require, &certify)?;
     Ok(Solved {
         x: out.x,

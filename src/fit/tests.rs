@@ -83,8 +83,9 @@ fn smooth_map_is_recovered_at_held_out_points() {
     let s = grid_spline();
     let lms = landmarks(50, 4, smooth_map);
     let held = landmarks(30, 5, smooth_map);
-    let f =
-        fit(&s, &lms, &FitOptions { bend: Bend::Weight(1e-3), ..FitOptions::default() }).unwrap();
+    // (lambda = 1e-3 px^2 as a scale-free weight.)
+    let bend = Bend::Weight(1e-3 / (50.0 * 500.0 * 250.0));
+    let f = fit(&s, &lms, &FitOptions { bend, ..FitOptions::default() }).unwrap();
     let tre = super::solve::residuals(&f.spline, &held).unwrap();
     let worst = tre.iter().map(|r| r.residual).fold(0.0, f64::max);
     eprintln!("{:?} fit rms {} tre max {worst}", f.report.method, f.report.fit.rms);

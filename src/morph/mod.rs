@@ -183,7 +183,13 @@ impl Default for MorphOptions {
         MorphOptions {
             cells: 8,
             degree: 5,
-            fit: FitOptions { barrier: None, ..FitOptions::default() },
+            // A fixed weight (not GCV): the fits are then linear in the targets, which the
+            // blend of control points relies on.
+            fit: FitOptions {
+                barrier: None,
+                bend: crate::fit::solve::Bend::Weight(crate::fit::smooth::DEFAULT_BEND),
+                ..FitOptions::default()
+            },
             interp: Interp::Bilinear,
             shape: Schedule::Linear,
             color: Schedule::Linear,
