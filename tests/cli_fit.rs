@@ -389,7 +389,7 @@ fn resume_refits_after_an_option_change_or_a_deleted_output() {
     assert_eq!(code, Some(0), "{err}");
     assert!(first.contains("4 frames fitted, 0 skipped"), "{first}");
     assert_eq!(
-        q.report("o", "f2")["resume"]["fit"].as_str().map(|t| t.contains("bend: 0.01")),
+        q.report("o", "f2")["resume"]["fit"].as_str().map(|t| t.contains("bend: Auto")),
         Some(true)
     );
     let (_, same, _) = q.run("o", &["--track"]);
