@@ -223,8 +223,18 @@ fn read_split(
     Ok(holdout(&lms, k, seed)?)
 }
 
-/// Warns on stderr when a fit is not certified fold-free, with what to do.
+/// Warns on stderr when a fit is not certified fold-free, with what to do, and names the
+/// landmark pairs that cross.
 fn warn_folds(rep: &FitReport, opts: &FitOptions) {
+    if !rep.conflicts.is_empty() {
+        let pairs: Vec<String> =
+            rep.conflicts.iter().map(|[a, b]| format!("{a} and {b}")).collect();
+        eprintln!(
+            "warning: these landmark pairs cross (the targets reverse their order), which \
+             demands a fold between them: {}; check or remove one of each pair",
+            pairs.join(", ")
+        );
+    }
     if rep.fold_free {
         return;
     }

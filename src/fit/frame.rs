@@ -23,6 +23,7 @@
 //! the margin is doubled and the fit run again (up to [`MAX_MARGIN_DOUBLINGS`] times), and
 //! the report's `covers_frame` says whether it was proven.
 
+pub use super::affine::affine_fit;
 use super::landmarks::Landmark;
 use super::solve::{fit, validate, Fit, FitError, FitOptions};
 use crate::exact::Rat;
@@ -91,70 +92,6 @@ pub struct FrameFit {
     pub fit: Fit,
     /// Mesh, border and coverage.
     pub frame: FrameReport,
-}
-
-/// The weighted least-squares affine map of the landmarks, or why there is none.
-pub fn affine_fit(lms: &[Landmark]) -> Result<[[f64; 3]; 2], FitError> {
-    if lms.is_empty() {
-        return Err(FitError::NoLandmarks);
-    }
-    if lms.len() < 3 {
-        return Err(FitError::Landmarks(format!(
-            "{} landmark{}: a fit without a given deformation needs at least 3 landmarks not \
-             on one line",
-            lms.len(),
-            if lms.len() == 1 { "" } else { "s" }
-        )));
-    }
-    // Centre for conditioning, then solve the 3x3 normal equations per coordinate.
-    let sw: f64 = lms.iter().map(|l| l.weight).sum();
-    let c = [0, 1].map(|a| lms.iter().map(|l| l.weight * l.src[a]).sum::<f64>() / sw);
-    let mut n = [[0.0f64; 2]; 2];
-    let mut r = [[0.0f64; 2]; 2];
-    let mut tbar = [0.0f64; 2];
-    for l in lms {
-        let u = [l.src[0] - c[0], l.src[1] - c[1]];
-        for a in 0..2 {
-            tbar[a] += l.weight * l.dst[a] / sw;
-            for b in 0..2 {
-                n[a][b] += l.weight * u[a] * u[b];
-            }
-        }
-    }
-    for l in lms {
-        let u = [l.src[0] - c[0], l.src[1] - c[1]];
-        for k in 0..2 {
-            for a in 0..2 {
-                r[k][a] += l.weight * (l.dst[k] - tbar[k]) * u[a];
-            }
-        }
-    }
-    let det = n[0][0] * n[1][1] - n[0][1] * n[1][0];
-    let scale = n[0][0] + n[1][1];
-    if !(det > 1e-9 * scale * scale) {
-        return Err(FitError::Landmarks(
-            "all landmark sources lie on one line, so they determine no map of the plane; \
-             add landmarks off that line"
-                .into(),
-        ));
-    }
-    let inv = [[n[1][1] / det, -n[0][1] / det], [-n[1][0] / det, n[0][0] / det]];
-    let mut a = [[0.0f64; 3]; 2];
-    for k in 0..2 {
-        for j in 0..2 {
-            a[k][j] = r[k][0] * inv[0][j] + r[k][1] * inv[1][j];
-        }
-        a[k][2] = tbar[k] - a[k][0] * c[0] - a[k][1] * c[1];
-    }
-    let da = a[0][0] * a[1][1] - a[0][1] * a[1][0];
-    if !(da > 0.0) {
-        return Err(FitError::Landmarks(format!(
-            "the landmarks' best affine map reverses orientation (determinant {da:.3}): the \
-             targets are a mirror image of the sources; flip the image or fix the landmark \
-             columns"
-        )));
-    }
-    Ok(a)
 }
 
 /// The margin that makes `A` map the domain over the whole frame (at least `base`).

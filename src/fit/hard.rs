@@ -401,6 +401,7 @@ pub(super) fn fit_hard(
     rep.gcv_rms = soft.report.gcv_rms;
     rep.loo_rms = soft.report.loo_rms;
     rep.termination = soft.report.termination.clone();
+    rep.conflicts = soft.report.conflicts.clone();
     rep.time_ms = start.elapsed().as_secs_f64() * 1e3;
     Ok(Fit { spline, report: rep })
 }

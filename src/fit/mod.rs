@@ -17,6 +17,7 @@
 //! Points are pixel coordinates throughout: pixel `(i, j)` is centred at `(i, j)`, `x` to
 //! the right, `y` downwards.
 
+pub mod affine;
 pub mod basis;
 pub mod features;
 pub mod frame;

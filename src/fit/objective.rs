@@ -113,6 +113,9 @@ impl Barrier {
     }
 }
 
+/// A data row over the variables: `(a_i, r_i, t_i)` with `phi(s_i) = a_i^T x + r_i`.
+pub type VariableRow = (Vec<(usize, f64)>, [f64; 2], [f64; 2]);
+
 /// One landmark's row: `phi(s) = sum w_p P_p`, its target and weight.
 #[derive(Clone, Debug)]
 pub struct DataRow {
@@ -358,7 +361,7 @@ impl Objective {
 
     /// Each data row over the variables: `(a_i, r_i, t_i)` with `phi(s_i) = a_i^T x + r_i`
     /// per coordinate (`r_i` is the share of the fixed points).
-    pub fn variable_rows(&self) -> Vec<(Vec<(usize, f64)>, [f64; 2], [f64; 2])> {
+    pub fn variable_rows(&self) -> Vec<VariableRow> {
         let prow = self.param.rows();
         let nv = self.param.nv();
         let mut p0 = vec![[0.0f64; 2]; self.param.var_of.len()];

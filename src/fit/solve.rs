@@ -259,6 +259,10 @@ pub struct FitReport {
     pub fold_free: bool,
     /// A certified lower bound of `det J` over the whole mesh.
     pub det_j_lower_bound: f64,
+    /// Nearby landmark pairs whose order the targets reverse (names, or `#index`), listed
+    /// when the fold barrier had to act or the result is not certified fold-free: the
+    /// landmarks that demand a fold ([`super::affine::crossing_pairs`]).
+    pub conflicts: Vec<[String; 2]>,
     /// The result satisfies every C1 condition exactly (checked in rational arithmetic).
     pub exact_c1: bool,
     /// Wall time of the fit (milliseconds).
@@ -574,6 +578,12 @@ pub(super) fn fit_soft(
     rep.gcv_rms = out.choice.map(|c| c.gcv_rms);
     rep.loo_rms = out.choice.map(|c| c.loo_rms);
     rep.termination = out.termination;
+    if rep.method.contains("newton") || !rep.fold_free {
+        rep.conflicts = super::affine::crossing_pairs(lms)
+            .into_iter()
+            .map(|(i, j)| [i, j].map(|k| lms[k].name.clone().unwrap_or_else(|| format!("#{k}"))))
+            .collect();
+    }
     Ok(Fit { spline: fitted, report: rep })
 }
 
@@ -715,6 +725,7 @@ pub(super) fn report(
         folds: min_det <= 0.0,
         fold_free: cert.fold_free,
         det_j_lower_bound: cert.lower_bound,
+        conflicts: Vec::new(),
         // Every caller built `fitted` with `set_points` / `from_points`, which check each C1
         // condition exactly and fail otherwise (a second check would only repeat it).
         exact_c1: true,

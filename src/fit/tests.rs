@@ -139,6 +139,8 @@ fn barrier_keeps_det_j_above_its_floor_where_squares_fold() {
     assert!(!guarded.report.folds && guarded.report.min_det_j > 0.05);
     assert!(guarded.report.fold_free, "certified: {}", guarded.report.det_j_lower_bound);
     assert!(guarded.report.method.contains("newton"));
+    // The crossing pair is named.
+    assert_eq!(guarded.report.conflicts, vec![["#0".to_string(), "#1".to_string()]]);
 }
 
 #[test]

@@ -1,0 +1,164 @@
+//! The landmarks' least-squares affine map, and landmark pairs that cross each other.
+//!
+//! `A = argmin sum_i w_i |A s_i - t_i|^2` (6 unknowns, solved from the centred 3 x 3 normal
+//! equations per coordinate). A pair of nearby landmarks *crosses* when its target vector
+//! points against the affine map's image of its source vector,
+//! `(t_j - t_i) . L (s_j - s_i) < 0` (`L` the linear part of `A`): the pair's order along
+//! that direction is reversed, which no map close to `A` achieves without folding between
+//! them. Such pairs are what a fit with the fold barrier cannot follow; [`crossing_pairs`]
+//! names them.
+
+use super::landmarks::Landmark;
+use super::solve::FitError;
+
+/// The weighted least-squares affine map of the landmarks, or why there is none (fewer than
+/// three, or all sources on one line).
+pub fn affine_ls(lms: &[Landmark]) -> Result<[[f64; 3]; 2], FitError> {
+    if lms.is_empty() {
+        return Err(FitError::NoLandmarks);
+    }
+    if lms.len() < 3 {
+        return Err(FitError::Landmarks(format!(
+            "{} landmark{}: a fit without a given deformation needs at least 3 landmarks not \
+             on one line",
+            lms.len(),
+            if lms.len() == 1 { "" } else { "s" }
+        )));
+    }
+    // Centre for conditioning, then solve the 3x3 normal equations per coordinate.
+    let sw: f64 = lms.iter().map(|l| l.weight).sum();
+    let c = [0, 1].map(|a| lms.iter().map(|l| l.weight * l.src[a]).sum::<f64>() / sw);
+    let mut n = [[0.0f64; 2]; 2];
+    let mut r = [[0.0f64; 2]; 2];
+    let mut tbar = [0.0f64; 2];
+    for l in lms {
+        let u = [l.src[0] - c[0], l.src[1] - c[1]];
+        for a in 0..2 {
+            tbar[a] += l.weight * l.dst[a] / sw;
+            for b in 0..2 {
+                n[a][b] += l.weight * u[a] * u[b];
+            }
+        }
+    }
+    for l in lms {
+        let u = [l.src[0] - c[0], l.src[1] - c[1]];
+        for k in 0..2 {
+            for a in 0..2 {
+                r[k][a] += l.weight * (l.dst[k] - tbar[k]) * u[a];
+            }
+        }
+    }
+    let det = n[0][0] * n[1][1] - n[0][1] * n[1][0];
+    let scale = n[0][0] + n[1][1];
+    if det.is_nan() || det <= 1e-9 * scale * scale {
+        return Err(FitError::Landmarks(
+            "all landmark sources lie on one line, so they determine no map of the plane; \
+             add landmarks off that line"
+                .into(),
+        ));
+    }
+    let inv = [[n[1][1] / det, -n[0][1] / det], [-n[1][0] / det, n[0][0] / det]];
+    let mut a = [[0.0f64; 3]; 2];
+    for k in 0..2 {
+        for j in 0..2 {
+            a[k][j] = r[k][0] * inv[0][j] + r[k][1] * inv[1][j];
+        }
+        a[k][2] = tbar[k] - a[k][0] * c[0] - a[k][1] * c[1];
+    }
+    Ok(a)
+}
+
+/// The weighted least-squares affine map of the landmarks (see [`affine_ls`]), refused when
+/// it reverses orientation (a mirror image).
+pub fn affine_fit(lms: &[Landmark]) -> Result<[[f64; 3]; 2], FitError> {
+    let a = affine_ls(lms)?;
+    let da = a[0][0] * a[1][1] - a[0][1] * a[1][0];
+    if da.is_nan() || da <= 0.0 {
+        return Err(FitError::Landmarks(format!(
+            "the landmarks' best affine map reverses orientation (determinant {da:.3}): the \
+             targets are a mirror image of the sources; flip the image or fix the landmark \
+             columns"
+        )));
+    }
+    Ok(a)
+}
+
+/// How many nearest neighbours of each landmark [`crossing_pairs`] examines.
+pub const CROSSING_NEIGHBOURS: usize = 6;
+
+/// Nearby landmark pairs `(i, j)`, `i < j`, that cross each other (see the module docs):
+/// each landmark against its [`CROSSING_NEIGHBOURS`] nearest sources. Empty when the
+/// landmarks have no affine map.
+pub fn crossing_pairs(lms: &[Landmark]) -> Vec<(usize, usize)> {
+    let Ok(mut a) = affine_ls(lms) else { return Vec::new() };
+    // A mirrored least-squares map (the crossing pairs themselves can flip it) says nothing
+    // about the order to keep: compare with the identity then.
+    if a[0][0] * a[1][1] - a[0][1] * a[1][0] <= 0.0 {
+        a = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+    }
+    let mut out = Vec::new();
+    for (i, li) in lms.iter().enumerate() {
+        let mut near: Vec<(f64, usize)> = lms
+            .iter()
+            .enumerate()
+            .filter(|&(j, _)| j != i)
+            .map(|(j, lj)| ((lj.src[0] - li.src[0]).hypot(lj.src[1] - li.src[1]), j))
+            .collect();
+        near.sort_by(|x, y| x.0.total_cmp(&y.0));
+        for &(dist, j) in near.iter().take(CROSSING_NEIGHBOURS) {
+            if dist == 0.0 {
+                continue;
+            }
+            let lj = &lms[j];
+            let ds = [lj.src[0] - li.src[0], lj.src[1] - li.src[1]];
+            let ls = [a[0][0] * ds[0] + a[0][1] * ds[1], a[1][0] * ds[0] + a[1][1] * ds[1]];
+            let dt = [lj.dst[0] - li.dst[0], lj.dst[1] - li.dst[1]];
+            if dt[0] * ls[0] + dt[1] * ls[1] < 0.0 {
+                out.push((i.min(j), i.max(j)));
+            }
+        }
+    }
+    out.sort_unstable();
+    out.dedup();
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn lm(s: [f64; 2], t: [f64; 2]) -> Landmark {
+        Landmark { name: None, src: s, dst: t, weight: 1.0 }
+    }
+
+    #[test]
+    fn a_swapped_pair_crosses_and_a_smooth_field_does_not() {
+        let mut lms = vec![
+            lm([200.0, 120.0], [260.0, 120.0]),
+            lm([240.0, 120.0], [190.0, 120.0]),
+            lm([50.0, 50.0], [50.0, 50.0]),
+            lm([450.0, 200.0], [450.0, 200.0]),
+            lm([60.0, 220.0], [61.0, 221.0]),
+        ];
+        assert_eq!(crossing_pairs(&lms), vec![(0, 1)]);
+        lms[1].dst = [245.0, 121.0];
+        lms[0].dst = [203.0, 119.0];
+        assert!(crossing_pairs(&lms).is_empty());
+    }
+
+    #[test]
+    fn the_affine_map_of_affine_landmarks_is_exact() {
+        let f = |p: [f64; 2]| [1.1 * p[0] - 0.2 * p[1] + 3.0, 0.3 * p[0] + 0.9 * p[1] - 1.0];
+        let lms: Vec<Landmark> = [[0.0, 0.0], [10.0, 0.0], [0.0, 7.0], [5.0, 5.0]]
+            .iter()
+            .map(|&p| lm(p, f(p)))
+            .collect();
+        let a = affine_fit(&lms).unwrap();
+        let want = [[1.1, -0.2, 3.0], [0.3, 0.9, -1.0]];
+        for r in 0..2 {
+            for c in 0..3 {
+                assert!((a[r][c] - want[r][c]).abs() < 1e-12, "{a:?}");
+            }
+        }
+    }
+}
