@@ -597,3 +597,69 @@ fn float_frames_are_registered_as_float_tiff() {
     assert_eq!(px, [0.75; 3]);
     assert!(q.report("o", "h")["fit"]["rms"].as_f64().unwrap() < 0.1);
 }
+
+/// Issue 16: `fit --size` (no deformation) builds the landmark-adapted mesh, reports the
+/// certificate, the chosen smoothing and the frame coverage, and writes an exactly C1 file
+/// that `check` accepts; `mesh --landmarks` writes that mesh with every source a vertex.
+#[test]
+fn fit_with_size_adapts_the_mesh_and_reports_certificate_smoothing_and_coverage() {
+    let dir = tempfile::tempdir().unwrap();
+    let lms = dir.path().join("l.csv");
+    write_landmarks(&lms, 30);
+    let (out, rep) = (dir.path().join("fit.json"), dir.path().join("rep.json"));
+    let o = trimorph(&[
+        "fit",
+        "--size",
+        "200,150",
+        "--landmarks",
+        s(&lms),
+        "-o",
+        s(&out),
+        "--report",
+        s(&rep),
+        "--holdout",
+        "5",
+    ]);
+    ok(&o);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        stdout.contains("adapted mesh:") && stdout.contains("covers the frame: yes"),
+        "{stdout}"
+    );
+    let r: serde_json::Value = serde_json::from_str(&fs::read_to_string(&rep).unwrap()).unwrap();
+    assert_eq!(r["fold_free"], true, "{r}");
+    assert_eq!(r["bend_auto"], true);
+    assert!(r["loo_rms"].as_f64().unwrap() > 0.0);
+    assert!(r["det_j_lower_bound"].as_f64().unwrap() > 0.0);
+    assert_eq!(r["frame"]["covers_frame"], true);
+    assert!(r["frame"]["margin"].as_f64().unwrap() >= 20.0);
+    assert_eq!(r["holdout"]["tre"]["count"], 5);
+    ok(&trimorph(&["check", s(&out)]));
+    // The mesh alone: every landmark source is a vertex of it.
+    let mesh = dir.path().join("mesh.json");
+    let o = trimorph(&["mesh", "--landmarks", s(&lms), "--size", "200,150", "-o", s(&mesh)]);
+    ok(&o);
+    let d: serde_json::Value = serde_json::from_str(&fs::read_to_string(&mesh).unwrap()).unwrap();
+    let verts = d["vertices"].as_array().unwrap();
+    for line in fs::read_to_string(&lms).unwrap().lines().skip(1) {
+        let f: Vec<f64> = line.split(',').skip(1).take(2).map(|v| v.parse().unwrap()).collect();
+        assert!(
+            verts.iter().any(|v| v[0].as_f64() == Some(f[0]) && v[1].as_f64() == Some(f[1])),
+            "source {f:?} is not a vertex"
+        );
+    }
+    // A bad --bend is refused.
+    let o = trimorph(&[
+        "fit",
+        "--size",
+        "200,150",
+        "--landmarks",
+        s(&lms),
+        "-o",
+        s(&out),
+        "--bend",
+        "x",
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--bend"));
+}
