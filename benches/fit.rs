@@ -48,8 +48,9 @@ fn bench_frame(c: &mut Criterion) {
         let opts = FrameFitOptions::default();
         let f = fit_frame(&lms, [511.0, 511.0], &opts).unwrap();
         eprintln!(
-            "{n} landmarks: {} triangles, {} variables, bend {:.2e}, fold-free {}, covers {}, {:.1} ms",
+            "{n} landmarks: {} triangles, margin {}, {} variables, bend {:.2e}, fold-free {}, covers {}, {:.1} ms",
             f.frame.triangles,
+            f.frame.margin,
             f.fit.report.variables,
             f.fit.report.bend,
             f.fit.report.fold_free,

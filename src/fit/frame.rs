@@ -25,7 +25,7 @@
 
 pub use super::affine::affine_fit;
 use super::landmarks::Landmark;
-use super::solve::{fit, validate, Fit, FitError, FitOptions};
+use super::solve::{fit_with, validate, Fit, FitError, FitOptions};
 use crate::exact::Rat;
 use crate::mesh::{default_margin, AdaptOptions, Mesh, MeshError};
 use crate::spline::mds::{Mds, MdsError};
@@ -137,9 +137,9 @@ fn affine_spline(mesh: Mesh, degree: usize, a: &[[f64; 3]; 2]) -> Result<Spline,
         .iter()
         .map(|p| (0..2).map(|k| &coef[k][0] * &p[0] + &coef[k][1] * &p[1] + &coef[k][2]).collect())
         .collect();
-    let mut s = id;
-    s.set_points(pts)?;
-    Ok(s)
+    // An affine map is C1 whatever the mesh, so the exact check is left to the fit's result
+    // (`set_points` checks every condition there).
+    Ok(Spline::from_points_unchecked(id.mesh().clone(), degree, pts, None)?)
 }
 
 /// Margin doublings tried when a fit does not cover the frame.
@@ -193,7 +193,8 @@ fn fit_on_mesh(
     let sources: Vec<[f64; 2]> = lms.iter().map(|l| l.src).collect();
     let mut mesh_opts = AdaptOptions { margin: Some(margin), grid, ..opts.mesh.clone() };
     let mut tries = 0;
-    let (adapted, spline) = loop {
+    let start = std::time::Instant::now();
+    let (adapted, spline, mds) = loop {
         let adapted = Mesh::landmark_adapted(&sources, size, &mesh_opts).map_err(|e| match e {
             MeshError::OutsideFrame { index, x, y, w, h } => FitError::BadLandmark {
                 index,
@@ -207,7 +208,7 @@ fn fit_on_mesh(
         })?;
         let spline = affine_spline(adapted.mesh.clone(), opts.degree, a)?;
         match Mds::new(&spline) {
-            Ok(_) => break (adapted, spline),
+            Ok(mds) => break (adapted, spline, mds),
             Err(MdsError::Singular(v)) if tries < MAX_MDS_RETRIES => {
                 // Break the vertex's symmetric star with a point inside one of its triangles.
                 let m = &adapted.mesh;
@@ -222,7 +223,7 @@ fn fit_on_mesh(
             Err(e) => return Err(e.into()),
         }
     };
-    let f = fit(&spline, lms, &opts.fit)?;
+    let f = fit_with(&spline, &mds, lms, &opts.fit, start)?;
     Ok((adapted, f))
 }
 

@@ -241,12 +241,12 @@ enum Source {
 /// The hard fit; see the module docs.
 pub(super) fn fit_hard(
     s: &Spline,
+    mds: &Mds,
     lms: &[Landmark],
     opts: &FitOptions,
     start: Instant,
 ) -> Result<Fit, FitError> {
-    let soft = fit_soft(s, lms, opts, start)?;
-    let mds = Mds::new(s)?;
+    let soft = fit_soft(s, mds, lms, opts, start)?;
     let n = s.num_points();
     let mut values: Vec<Vec<Rat>> = soft.spline.points().to_vec();
     for &p in &opts.pinned {

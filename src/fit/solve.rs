@@ -528,21 +528,33 @@ fn border_closed(s: &Spline, mds: &Mds, mut is_var: Vec<bool>) -> Param {
 /// Fits `s` to the landmarks (see the module docs). `s` is the warm start; it is not changed.
 pub fn fit(s: &Spline, lms: &[Landmark], opts: &FitOptions) -> Result<Fit, FitError> {
     let start = Instant::now();
+    fit_with(s, &Mds::new(s)?, lms, opts, start)
+}
+
+/// [`fit`] with the spline's determining set already built (it is the costly exact part of
+/// a small fit); `start` is when the caller's timing began.
+pub fn fit_with(
+    s: &Spline,
+    mds: &Mds,
+    lms: &[Landmark],
+    opts: &FitOptions,
+    start: Instant,
+) -> Result<Fit, FitError> {
     if opts.hard || !opts.pinned.is_empty() {
-        return super::hard::fit_hard(s, lms, opts, start);
+        return super::hard::fit_hard(s, mds, lms, opts, start);
     }
-    fit_soft(s, lms, opts, start)
+    fit_soft(s, mds, lms, opts, start)
 }
 
 /// The soft fit (no landmark rows, no ECLES step; pinned free points do not vary).
 pub(super) fn fit_soft(
     s: &Spline,
+    mds: &Mds,
     lms: &[Landmark],
     opts: &FitOptions,
     start: Instant,
 ) -> Result<Fit, FitError> {
-    let mds = Mds::new(s)?;
-    let mut obj = objective_with(s, &mds, lms, opts)?;
+    let mut obj = objective_with(s, mds, lms, opts)?;
     let nv = obj.param.nv();
     let x0 = obj.param.x0();
     let out = if nv == 0 {
@@ -559,7 +571,7 @@ pub(super) fn fit_soft(
     };
     let cost_initial = obj.eval(&x0, None).total;
     let cost_final = obj.eval(&out.x, None).total;
-    let pts = obj.param.exact_points(s, &mds, &out.x, opts.grid_bits);
+    let pts = obj.param.exact_points(s, mds, &out.x, opts.grid_bits);
     let mut fitted = s.clone();
     fitted.set_points(pts)?;
     let mut rep = report(
