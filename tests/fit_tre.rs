@@ -30,32 +30,6 @@ fn truth(p: [f64; 2]) -> [f64; 2] {
     ]
 }
 
-/// Forty feature points: the pixels of largest gradient magnitude (central differences),
-/// at least 45 px apart and 20 px inside the border.
-fn feature_points(img: &image::GrayImage, n: usize) -> Vec<[f64; 2]> {
-    let (w, h) = img.dimensions();
-    let g = |x: u32, y: u32| img.get_pixel(x, y)[0] as f64;
-    let mut cand: Vec<(f64, [f64; 2])> = Vec::new();
-    for y in 20..h - 20 {
-        for x in 20..w - 20 {
-            let gx = g(x + 1, y) - g(x - 1, y);
-            let gy = g(x, y + 1) - g(x, y - 1);
-            cand.push((gx * gx + gy * gy, [x as f64, y as f64]));
-        }
-    }
-    cand.sort_by(|a, b| b.0.total_cmp(&a.0));
-    let mut out: Vec<[f64; 2]> = Vec::new();
-    for (_, p) in cand {
-        if out.iter().all(|q| (q[0] - p[0]).hypot(q[1] - p[1]) >= 45.0) {
-            out.push(p);
-            if out.len() == n {
-                break;
-            }
-        }
-    }
-    out
-}
-
 fn rms(e: &[f64]) -> f64 {
     (e.iter().map(|x| x * x).sum::<f64>() / e.len() as f64).sqrt()
 }
@@ -65,7 +39,7 @@ fn spline_fit_is_no_worse_than_thin_plate_spline_on_held_out_landmarks() {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/data/microscopy/cell.png");
     let img = image::open(path).unwrap().to_luma8();
     assert_eq!(img.dimensions(), (W as u32, H as u32));
-    let pts = feature_points(&img, 40);
+    let pts = common::features::feature_points(&img, 40, 45.0);
     assert_eq!(pts.len(), 40);
     let lms: Vec<Landmark> = pts
         .iter()

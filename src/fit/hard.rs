@@ -306,7 +306,7 @@ pub(super) fn fit_hard(
             ));
         }
     }
-    let mut expand = FreeExpansion::new(&mds);
+    let mut expand = FreeExpansion::new(mds);
     let mut rows: Vec<Row> = Vec::new();
     for (row, dst) in &checks {
         rows.push(Row { coefs: expand.combination(row), rhs: dst.clone() });

@@ -20,7 +20,7 @@
 //! `-grad F . dx / 2` falls below `NEWTON_TOL * max(1, F)`, when no step length decreases
 //! `F`, or at the iteration cap; [`Outcome::termination`] says which.
 
-use super::objective::Objective;
+use super::objective::{Objective, TriangleBlock as TriInfo};
 use super::solve::FitError;
 use super::sparse::Pattern;
 
@@ -41,15 +41,6 @@ pub struct Outcome {
     pub termination: String,
 }
 
-struct TriInfo {
-    /// Variables the patch depends on.
-    local: Vec<usize>,
-    /// `S_T` (patch points x local variables, row-major).
-    st: Vec<f64>,
-    /// `S_T^T K_T S_T` (local x local).
-    bend: Vec<f64>,
-}
-
 /// The Hessian's structure and the fixed parts of its values.
 struct Structure {
     nv: usize,
@@ -61,56 +52,7 @@ struct Structure {
 impl Structure {
     fn new(obj: &Objective) -> Result<Structure, FitError> {
         let nv = obj.param.nv();
-        let prow = obj.param.rows();
-        let mut pos = vec![usize::MAX; nv];
-        let tris: Vec<TriInfo> = obj
-            .tris()
-            .iter()
-            .map(|tri| {
-                let mut local = Vec::new();
-                for &j in &tri.patch {
-                    for &(k, _) in &prow[j] {
-                        if pos[k] == usize::MAX {
-                            pos[k] = local.len();
-                            local.push(k);
-                        }
-                    }
-                }
-                let (m, u) = (tri.patch.len(), local.len());
-                let mut st = vec![0.0; m * u];
-                for (a, &j) in tri.patch.iter().enumerate() {
-                    for &(k, v) in &prow[j] {
-                        st[a * u + pos[k]] += v;
-                    }
-                }
-                let mut ks = vec![0.0; m * u];
-                for r in 0..m {
-                    for c in 0..m {
-                        let kv = tri.k[r * m + c];
-                        if kv != 0.0 {
-                            for z in 0..u {
-                                ks[r * u + z] += kv * st[c * u + z];
-                            }
-                        }
-                    }
-                }
-                let mut bend = vec![0.0; u * u];
-                for a in 0..m {
-                    for z1 in 0..u {
-                        let sv = st[a * u + z1];
-                        if sv != 0.0 {
-                            for z2 in 0..u {
-                                bend[z1 * u + z2] += sv * ks[a * u + z2];
-                            }
-                        }
-                    }
-                }
-                for &k in &local {
-                    pos[k] = usize::MAX;
-                }
-                TriInfo { local, st, bend }
-            })
-            .collect();
+        let tris = obj.triangle_blocks();
         let rows: Vec<Vec<(usize, f64)>> =
             obj.variable_rows().into_iter().map(|(row, _, _)| row).collect();
         let mut entries = Vec::new();

@@ -140,6 +140,16 @@ pub(super) struct TriTerm {
     pub(super) sample_weight: f64,
 }
 
+/// One triangle's bending block over the variables ([`Objective::triangle_blocks`]).
+pub(super) struct TriangleBlock {
+    /// Variables the patch depends on.
+    pub(super) local: Vec<usize>,
+    /// `S_T` (patch points x local variables, row-major).
+    pub(super) st: Vec<f64>,
+    /// `S_T^T K_T S_T` (local x local).
+    pub(super) bend: Vec<f64>,
+}
+
 /// The terms of `F` at some `x`.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Terms {
@@ -434,66 +444,73 @@ impl Objective {
     /// Calls `emit(a, b, v)` for every contribution `v` to `K[a][b]` of the bending matrix
     /// over the variables (`K = sum_T S_T^T K_T S_T`, both triangles, without `lambda`).
     fn bending_entries(&self, mut emit: impl FnMut(usize, usize, f64)) {
-        let nv = self.param.nv();
-        let rows = self.param.rows();
-        let mut local: Vec<usize> = Vec::new();
-        let mut pos = vec![usize::MAX; nv];
-        for tri in &self.tris {
-            let m = tri.patch.len();
-            local.clear();
-            for &j in &tri.patch {
-                for &(k, _) in &rows[j] {
-                    if pos[k] == usize::MAX {
-                        pos[k] = local.len();
-                        local.push(k);
-                    }
-                }
-            }
-            let u = local.len();
-            if u == 0 {
-                continue;
-            }
-            // S_T (m x u), then K S_T (m x u), then S_T^T (K S_T) (u x u).
-            let mut st = vec![0.0; m * u];
-            for (a, &j) in tri.patch.iter().enumerate() {
-                for &(k, v) in &rows[j] {
-                    st[a * u + pos[k]] += v;
-                }
-            }
-            let mut ks = vec![0.0; m * u];
-            for r in 0..m {
-                for c in 0..m {
-                    let kv = tri.k[r * m + c];
-                    if kv != 0.0 {
-                        for z in 0..u {
-                            ks[r * u + z] += kv * st[c * u + z];
-                        }
-                    }
-                }
-            }
-            let mut block = vec![0.0; u * u];
-            for a in 0..m {
-                for z1 in 0..u {
-                    let sv = st[a * u + z1];
-                    if sv != 0.0 {
-                        for z2 in 0..u {
-                            block[z1 * u + z2] += sv * ks[a * u + z2];
-                        }
-                    }
-                }
-            }
+        for blk in self.triangle_blocks() {
+            let u = blk.local.len();
             for z1 in 0..u {
                 for z2 in 0..u {
-                    let v = block[z1 * u + z2];
+                    let v = blk.bend[z1 * u + z2];
                     if v != 0.0 {
-                        emit(local[z1], local[z2], v);
+                        emit(blk.local[z1], blk.local[z2], v);
                     }
                 }
             }
-            for &k in &local {
-                pos[k] = usize::MAX;
-            }
         }
+    }
+
+    /// Per triangle, the variables its patch depends on, `S_T` (patch points x those
+    /// variables) and `S_T^T K_T S_T`.
+    pub(super) fn triangle_blocks(&self) -> Vec<TriangleBlock> {
+        let nv = self.param.nv();
+        let rows = self.param.rows();
+        let mut pos = vec![usize::MAX; nv];
+        self.tris
+            .iter()
+            .map(|tri| {
+                let mut local = Vec::new();
+                for &j in &tri.patch {
+                    for &(k, _) in &rows[j] {
+                        if pos[k] == usize::MAX {
+                            pos[k] = local.len();
+                            local.push(k);
+                        }
+                    }
+                }
+                let (m, u) = (tri.patch.len(), local.len());
+                // S_T (m x u), then K S_T (m x u), then S_T^T (K S_T) (u x u).
+                let mut st = vec![0.0; m * u];
+                for (a, &j) in tri.patch.iter().enumerate() {
+                    for &(k, v) in &rows[j] {
+                        st[a * u + pos[k]] += v;
+                    }
+                }
+                let mut ks = vec![0.0; m * u];
+                for r in 0..m {
+                    for c in 0..m {
+                        let kv = tri.k[r * m + c];
+                        if kv != 0.0 {
+                            for z in 0..u {
+                                ks[r * u + z] += kv * st[c * u + z];
+                            }
+                        }
+                    }
+                }
+                let mut bend = vec![0.0; u * u];
+                for a in 0..m {
+                    for z1 in 0..u {
+                        let sv = st[a * u + z1];
+                        if sv != 0.0 {
+                            for z2 in 0..u {
+                                bend[z1 * u + z2] += sv * ks[a * u + z2];
+                            }
+                        }
+                    }
+                }
+                for &k in &local {
+                    pos[k] = usize::MAX;
+                }
+                TriangleBlock { local, st, bend }
+            })
+            .collect()
     }
 
     /// `phi(s_i)` for every data row at variables `x`.
