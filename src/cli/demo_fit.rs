@@ -131,7 +131,7 @@ pub fn run(dir: &Path) -> Result<()> {
         solver: SolverArgs {
             loss: "squares",
             loss_scale: 2.0,
-            bend: "auto",
+            bend: "1e-6",
             hard: false,
             radius: None,
             min_det: 0.1,
@@ -144,7 +144,7 @@ pub fn run(dir: &Path) -> Result<()> {
         o = out.display()
     );
     println!(
-        "\nthe same from the command line:\n  trimorph fit --model {sc} --frames {f} --landmarks {l} -o {o}\n  (or --landmarks {l}/frame_00.csv --track: follow the nuclei with Lucas-Kanade instead)",
+        "\nthe same from the command line:\n  trimorph fit --model {sc} --frames {f} --landmarks {l} --bend 1e-6 -o {o}\n  (or --landmarks {l}/frame_00.csv --track: follow the nuclei with Lucas-Kanade instead)",
         sc = scene.display(),
         f = frames.display(),
         l = lms.display(),
