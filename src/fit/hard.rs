@@ -56,7 +56,7 @@
 
 use super::hard_solve::{solve_rows, Row, Unmet, MAX_GROUP};
 use super::landmarks::Landmark;
-use super::solve::{fit_soft, report, Fit, FitError, FitOptions};
+use super::solve::{fit_soft, report, Bend, Fit, FitError, FitOptions};
 use crate::exact::{exact_decimal, rat_to_f64, Int, Rat};
 use crate::spline::layout::{local_index, multi_indices};
 use crate::spline::mds::{Mds, Role};
@@ -246,7 +246,16 @@ pub(super) fn fit_hard(
     opts: &FitOptions,
     start: Instant,
 ) -> Result<Fit, FitError> {
-    let soft = fit_soft(s, mds, lms, opts, start)?;
+    // The exact step corrects the soft fit landmark by landmark, so the soft fit should aim
+    // at the targets: with hard landmarks, `Bend::Auto` (which may smooth far away from them)
+    // means the near-interpolating default weight.
+    let soft_opts = match opts.bend {
+        Bend::Auto if opts.hard => {
+            FitOptions { bend: Bend::Weight(super::smooth::DEFAULT_BEND), ..opts.clone() }
+        }
+        _ => opts.clone(),
+    };
+    let soft = fit_soft(s, mds, lms, &soft_opts, start)?;
     let n = s.num_points();
     let mut values: Vec<Vec<Rat>> = soft.spline.points().to_vec();
     for &p in &opts.pinned {
