@@ -20,7 +20,7 @@
 //! `-grad F . dx / 2` falls below `NEWTON_TOL * max(1, F)`, when no step length decreases
 //! `F`, or at the iteration cap; [`Outcome::termination`] says which.
 
-use super::objective::{Objective, TriangleBlock as TriInfo};
+use super::objective::{det_gradient, sample_jacobian, Objective, TriangleBlock as TriInfo};
 use super::solve::FitError;
 use super::sparse::Pattern;
 
@@ -134,14 +134,7 @@ impl Structure {
             bxy.resize(u * u, 0.0);
             if let Some(b) = barrier {
                 for [dx, dy] in &tri.samples {
-                    let mut j = [[0.0f64; 2]; 2];
-                    for a in 0..m {
-                        j[0][0] += dx[a] * q[a][0];
-                        j[0][1] += dy[a] * q[a][0];
-                        j[1][0] += dx[a] * q[a][1];
-                        j[1][1] += dy[a] * q[a][1];
-                    }
-                    let det = j[0][0] * j[1][1] - j[0][1] * j[1][0];
+                    let (j, det) = sample_jacobian(dx, dy, &q[..m]);
                     let (_, _, d2) = b.eval2(det);
                     if d2 == 0.0 {
                         continue;
@@ -152,8 +145,7 @@ impl Structure {
                     gy.clear();
                     gy.resize(u, 0.0);
                     for a in 0..m {
-                        let da =
-                            [dx[a] * j[1][1] - dy[a] * j[1][0], dy[a] * j[0][0] - dx[a] * j[0][1]];
+                        let da = det_gradient(dx[a], dy[a], &j);
                         for z in 0..u {
                             let s = info.st[a * u + z];
                             if s != 0.0 {

@@ -286,14 +286,7 @@ impl Objective {
                 }
             }
             for [dx, dy] in &tri.samples {
-                let mut j = [[0.0f64; 2]; 2];
-                for a in 0..m {
-                    j[0][0] += dx[a] * q[a][0];
-                    j[0][1] += dy[a] * q[a][0];
-                    j[1][0] += dx[a] * q[a][1];
-                    j[1][1] += dy[a] * q[a][1];
-                }
-                let det = j[0][0] * j[1][1] - j[0][1] * j[1][0];
+                let (j, det) = sample_jacobian(dx, dy, q);
                 t.min_det = t.min_det.min(det);
                 if let Some(b) = &self.barrier {
                     let (beta, db) = b.eval(det);
@@ -303,8 +296,9 @@ impl Objective {
                             let f = b.mu * tri.sample_weight * db;
                             for a in 0..m {
                                 let gp = &mut g[tri.patch[a]];
-                                gp[0] += f * (dx[a] * j[1][1] - dy[a] * j[1][0]);
-                                gp[1] += f * (dy[a] * j[0][0] - dx[a] * j[0][1]);
+                                let da = det_gradient(dx[a], dy[a], &j);
+                                gp[0] += f * da[0];
+                                gp[1] += f * da[1];
                             }
                         }
                     }
@@ -529,6 +523,26 @@ impl Objective {
             })
             .collect()
     }
+}
+
+/// `J` and `det J` at a sample whose derivative rows over the patch are `dx`, `dy`, for patch
+/// points `q`.
+#[inline]
+pub(super) fn sample_jacobian(dx: &[f64], dy: &[f64], q: &[[f64; 2]]) -> ([[f64; 2]; 2], f64) {
+    let mut j = [[0.0f64; 2]; 2];
+    for ((a, b), p) in dx.iter().zip(dy).zip(q) {
+        j[0][0] += a * p[0];
+        j[0][1] += b * p[0];
+        j[1][0] += a * p[1];
+        j[1][1] += b * p[1];
+    }
+    (j, j[0][0] * j[1][1] - j[0][1] * j[1][0])
+}
+
+/// `d det J / d q_a` (both coordinates) for a patch point with derivative weights `dx`, `dy`.
+#[inline]
+pub(super) fn det_gradient(dx: f64, dy: f64, j: &[[f64; 2]; 2]) -> [f64; 2] {
+    [dx * j[1][1] - dy * j[1][0], dy * j[0][0] - dx * j[0][1]]
 }
 
 /// The data row of a source point: `Err(())` when it lies outside the mesh.

@@ -18,7 +18,6 @@
 //!    exactly ([`crate::spline::Spline::from_points`]). The saved deformation is therefore C1
 //!    exactly, and can be edited further by hand.
 
-use super::basis::sample_points;
 use super::landmarks::Landmark;
 use super::newton::newton;
 use super::objective::{data_row, Barrier, Loss, Objective};
@@ -336,59 +335,6 @@ pub fn residuals(s: &Spline, lms: &[Landmark]) -> Result<Vec<Residual>, FitError
             })
         })
         .collect()
-}
-
-/// The smallest `det J` over the level-`k` barycentric samples of every triangle.
-pub fn min_det_j(s: &Spline, k: usize) -> f64 {
-    let d = s.degree();
-    let pts = sample_points(k);
-    // Per sample: B^(d-1)_m(b) for every m (shared by all triangles).
-    let bern: Vec<Vec<f64>> = pts.iter().map(|&b| super::basis::bernstein(d - 1, b)).collect();
-    let mi = crate::spline::layout::multi_indices(d - 1);
-    let up: Vec<[usize; 3]> = mi
-        .iter()
-        .map(|m| {
-            [0, 1, 2].map(|c| {
-                let mut u = *m;
-                u[c] += 1;
-                crate::spline::layout::local_index(d, u[0], u[1])
-            })
-        })
-        .collect();
-    let mut best = f64::INFINITY;
-    let mut q: Vec<[f64; 2]> = Vec::new();
-    for t in 0..s.mesh().num_triangles() {
-        let g = super::basis::frame(s, t).gradients();
-        q.clear();
-        q.extend(s.layout().patches()[t].iter().map(|&p| s.point_f64(p)));
-        // Directional differences: e_m = sum_c g_c (x) q_(m+e_c), a 2x2 block per m.
-        let blocks: Vec<[[f64; 2]; 2]> = up
-            .iter()
-            .map(|u| {
-                let mut j = [[0.0; 2]; 2];
-                for c in 0..3 {
-                    for r in 0..2 {
-                        j[r][0] += g[c][0] * q[u[c]][r];
-                        j[r][1] += g[c][1] * q[u[c]][r];
-                    }
-                }
-                j
-            })
-            .collect();
-        for w in &bern {
-            let mut j = [[0.0f64; 2]; 2];
-            for (wm, b) in w.iter().zip(&blocks) {
-                for r in 0..2 {
-                    j[r][0] += wm * b[r][0];
-                    j[r][1] += wm * b[r][1];
-                }
-            }
-            // The common factor d scales both rows: det scales by d^2.
-            let det = (j[0][0] * j[1][1] - j[0][1] * j[1][0]) * (d * d) as f64;
-            best = best.min(det);
-        }
-    }
-    best
 }
 
 fn check_options(o: &FitOptions) -> Result<(), FitError> {
@@ -715,9 +661,10 @@ pub(super) fn report(
     start: Instant,
 ) -> Result<FitReport, FitError> {
     let res = residuals(fitted, lms)?;
-    // The common sampled minimum of every command (`spline::jacobian::SAMPLE_LEVEL`).
-    let min_det = min_det_j(fitted, crate::spline::jacobian::SAMPLE_LEVEL);
+    // The certificate also gives the common sampled minimum of every command (the level-8
+    // lattice, `spline::jacobian::SAMPLE_LEVEL`).
     let cert = crate::spline::jacobian::certify(fitted, &CertifyOptions::default());
+    let min_det = cert.sampled_min;
     Ok(FitReport {
         method,
         loss: opts.loss.name().into(),
