@@ -616,7 +616,10 @@ fn solve(
     }
     // Newton with the barrier from the best start that is certified fold-free and above the
     // barrier's floor: the squares minimizer or the warm start, whichever costs less.
-    let certify = |p: &[[f64; 2]]| certified(s, p);
+    // Accepted iterates are certified with a margin, so that rounding the result to exact
+    // values (about 2^-grid_bits px per point) cannot undo the proof.
+    let margin = CERT_MARGIN * barrier.floor;
+    let certify = |p: &[[f64; 2]]| certified(s, p, margin);
     let mut pts = vec![[0.0f64; 2]; obj.param.var_of.len()];
     let mut start: Option<(f64, Vec<f64>)> = None;
     for cand in [&x[..], x0] {
@@ -643,9 +646,13 @@ fn solve(
     })
 }
 
-/// Whether `det J > 0` is proven on every triangle for control points `p` (`f64`).
-fn certified(s: &Spline, p: &[[f64; 2]]) -> bool {
-    crate::spline::jacobian::certify_points(s, p, &CertifyOptions::default())
+/// The certified lower bound of `det J` that Newton's accepted iterates keep, as a fraction
+/// of the barrier's floor (which holds at the samples only).
+pub const CERT_MARGIN: f64 = 0.1;
+
+/// Whether `det J > margin` is proven on every triangle for control points `p` (`f64`).
+fn certified(s: &Spline, p: &[[f64; 2]], margin: f64) -> bool {
+    crate::spline::jacobian::certify_points_above(s, p, margin, &CertifyOptions::default())
 }
 
 #[allow(clippy::too_many_arguments)]

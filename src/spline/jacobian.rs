@@ -387,6 +387,24 @@ impl Certifier {
         input_rel_err: f64,
         opts: &CertifyOptions,
     ) -> TriangleBound {
+        self.triangle_above(tri, pts, input_rel_err, 0.0, opts)
+    }
+
+    /// [`triangle`](Self::triangle) proving the stronger `det J > floor` (`floor >= 0`):
+    /// a piece is settled only when its Bernstein coefficients, less their error, clear
+    /// `floor` (in the polynomial's units, rounded up), so [`Status::Certified`] comes with
+    /// `lower_bound > floor`. Pieces that cannot clear it are subdivided like undecided
+    /// ones. An optimizer uses a positive floor for the margin that must survive rounding
+    /// its iterate to exact values.
+    pub fn triangle_above(
+        &mut self,
+        tri: [[f64; 2]; 3],
+        pts: &[[f64; 2]],
+        input_rel_err: f64,
+        floor: f64,
+        opts: &CertifyOptions,
+    ) -> TriangleBound {
+        assert!(floor >= 0.0, "the floor is not negative");
         assert_eq!(pts.len(), self.up.len() + self.d + 1, "patch size of degree {}", self.d);
         let undecided = TriangleBound {
             lower_bound: f64::NEG_INFINITY,
@@ -404,6 +422,8 @@ impl Certifier {
             return undecided;
         }
         let dd = (self.d * self.d) as f64;
+        // det J > floor  <=  P' > floor (|det E| + err) / d^2 (rounded up).
+        let pfloor = floor * (de.abs() + de_err) / dd * (1.0 + 4.0 * U);
         // Sampled minimum: det J = d^2 det(sum_m B_m [D1_m D2_m]) / det E.
         let (mut smin, mut sat) = (f64::INFINITY, [0.0; 3]);
         for (b, w) in &self.samples {
@@ -445,7 +465,7 @@ impl Certifier {
                 cmin = cmin.min(x);
                 cmax = cmax.max(x.abs());
             }
-            if cmin - piece.err > 0.0 {
+            if cmin - piece.err > pfloor {
                 plow = plow.min(cmin - piece.err);
                 continue;
             }
@@ -562,6 +582,12 @@ fn patch(s: &Spline, q: &[[f64; 2]], t: usize, pts: &mut Vec<[f64; 2]>) -> [[f64
 /// (global numbering, treated as exact: an optimizer's iterate), in parallel; stops at the
 /// first triangle that is not certified.
 pub fn certify_points(s: &Spline, q: &[[f64; 2]], opts: &CertifyOptions) -> bool {
+    certify_points_above(s, q, 0.0, opts)
+}
+
+/// [`certify_points`] proving `det J > floor` on every triangle
+/// ([`Certifier::triangle_above`]).
+pub fn certify_points_above(s: &Spline, q: &[[f64; 2]], floor: f64, opts: &CertifyOptions) -> bool {
     (0..s.mesh().num_triangles()).into_par_iter().all(|t| {
         let mut pts = Vec::new();
         let tri = patch(s, q, t, &mut pts);
@@ -571,7 +597,7 @@ pub fn certify_points(s: &Spline, q: &[[f64; 2]], opts: &CertifyOptions) -> bool
                 *c = Some(Certifier::new(s.degree()));
             }
             let c = c.as_mut().expect("set above");
-            matches!(c.triangle(tri, &pts, 0.0, opts).status, Status::Certified)
+            matches!(c.triangle_above(tri, &pts, 0.0, floor, opts).status, Status::Certified)
         })
     })
 }

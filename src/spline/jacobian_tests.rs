@@ -174,6 +174,27 @@ fn positive_det_j_with_a_negative_coefficient_is_certified_after_subdivision() {
 }
 
 #[test]
+fn a_floor_is_proven_only_where_det_j_clears_it() {
+    // Affine maps: det J is the constant 6.
+    let mesh = Mesh::grid(3, 2, 30.0, 20.0, MeshOptions::default()).unwrap();
+    let s = spline_with(mesh, 4, ZERO_A, [[2, 1], [0, 3]]);
+    let q = rounded_points(&s);
+    let o = CertifyOptions::default();
+    assert!(certify_points_above(&s, &q, 5.9, &o));
+    assert!(!certify_points_above(&s, &q, 6.1, &o));
+    assert!(certify_points_above(&s, &q, 0.0, &o) == certify_points(&s, &q, &o));
+    // The cubic patch has min det J 0.05 (a negative Bernstein coefficient): a floor below
+    // it is proven after subdivision, with the bound above the floor; one above is not.
+    let s = cubic_spline();
+    let (tri, pts) = patch_of(&s, 0);
+    let mut c = Certifier::new(3);
+    let b = c.triangle_above(tri, &pts, 0.0, 0.03, &o);
+    assert_eq!(b.status, Status::Certified);
+    assert!(b.lower_bound > 0.03 && b.lower_bound <= 0.05, "{}", b.lower_bound);
+    assert_ne!(c.triangle_above(tri, &pts, 0.0, 0.06, &o).status, Status::Certified);
+}
+
+#[test]
 fn non_finite_points_are_undecided() {
     let s = cubic_spline();
     let (tri, mut pts) = patch_of(&s, 0);

@@ -23,11 +23,13 @@
 //! ring-2 system constrains ring 1, such as interior vertices where four edges lie on two
 //! lines (the `sigma` vertices of the dimension formula).
 
+use super::intform::IntPlan;
 use super::layout::Layout;
 use super::Spline;
 use crate::exact::{Int, Rat};
 use crate::mesh::Mesh;
 use num_traits::{One, Signed, Zero};
+use rayon::prelude::*;
 
 /// How a control point is obtained.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -38,6 +40,9 @@ pub enum Role {
     Dependent(Vec<(usize, Rat)>),
 }
 
+/// A dependent's formula: `sum c_j x_j` as `(j, c_j)`.
+type Formula = Vec<(usize, Rat)>;
+
 /// A determining set with its evaluation order.
 #[derive(Clone, Debug)]
 pub struct Mds {
@@ -46,6 +51,8 @@ pub struct Mds {
     order: Vec<usize>,
     /// For each point, the dependents whose formula uses it.
     used_by: Vec<Vec<usize>>,
+    /// The formulas on common denominators ([`IntPlan`]).
+    plan: IntPlan,
 }
 
 /// Why no MDS could be built.
@@ -159,8 +166,9 @@ impl Mds {
                 order.push(c);
             }
         }
-        // Ring 2.
-        for v in 0..mesh.num_vertices() {
+        // Ring 2: one small exact elimination per vertex, independent of the others, so
+        // they run in parallel; results are merged in vertex order (deterministic).
+        let ring2 = |v: usize| -> Result<Vec<(usize, Formula)>, MdsError> {
             let mut cols: Vec<usize> =
                 mesh.vertex_triangles(v).iter().map(|&t| inner_corner(mesh, lay, t, v)).collect();
             let ncorners = cols.len();
@@ -174,7 +182,7 @@ impl Mds {
                 }
             }
             if quads.is_empty() {
-                continue;
+                return Ok(Vec::new());
             }
             let _ = ncorners;
             // Parameter columns: ring-1 members.
@@ -205,13 +213,22 @@ impl Mds {
                     return Err(MdsError::Singular(v));
                 }
             }
-            for &(r, c) in &pivots {
-                let f: Vec<(usize, Rat)> = (0..all.len())
-                    .filter(|&j| j != c && !rows[r][j].is_zero())
-                    .map(|j| (all[j], -rows[r][j].clone()))
-                    .collect();
-                roles[cols[c]] = Role::Dependent(f);
-                order.push(cols[c]);
+            Ok(pivots
+                .iter()
+                .map(|&(r, c)| {
+                    let f: Vec<(usize, Rat)> = (0..all.len())
+                        .filter(|&j| j != c && !rows[r][j].is_zero())
+                        .map(|j| (all[j], -rows[r][j].clone()))
+                        .collect();
+                    (cols[c], f)
+                })
+                .collect())
+        };
+        let per_vertex: Vec<_> = (0..mesh.num_vertices()).into_par_iter().map(ring2).collect();
+        for r in per_vertex {
+            for (p, f) in r? {
+                roles[p] = Role::Dependent(f);
+                order.push(p);
             }
         }
         // Edge middles.
@@ -236,7 +253,11 @@ impl Mds {
                 }
             }
         }
-        Ok(Mds { roles, order, used_by })
+        let plan = IntPlan::new(n, &order, |p| match &roles[p] {
+            Role::Dependent(f) => f.as_slice(),
+            Role::Free => &[],
+        });
+        Ok(Mds { roles, order, used_by, plan })
     }
 
     /// The role of point `p`.
@@ -281,8 +302,20 @@ impl Mds {
     }
 
     /// Recomputes, in evaluation order, the dependents marked in `which` from the current
-    /// values (`values[p]` has one entry per coordinate).
+    /// values (`values[p]` has one entry per coordinate). When every dependent is marked,
+    /// the integer form of the formulas runs ([`IntPlan`]: one common denominator, one gcd
+    /// per value); it gives the same exact values as
+    /// [`recompute_rational`](Self::recompute_rational), which serves partial updates.
     pub fn recompute(&self, values: &mut [Vec<Rat>], which: &[bool]) {
+        if self.order.iter().all(|&p| which[p]) {
+            self.plan.recompute(values, |p| matches!(self.roles[p], Role::Free));
+        } else {
+            self.recompute_rational(values, which);
+        }
+    }
+
+    /// [`recompute`](Self::recompute) in reduced-fraction arithmetic only (the reference).
+    pub fn recompute_rational(&self, values: &mut [Vec<Rat>], which: &[bool]) {
         for &p in &self.order {
             if !which[p] {
                 continue;

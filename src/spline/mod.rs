@@ -16,6 +16,7 @@
 
 pub mod c1;
 pub mod eval;
+mod intform;
 pub mod jacobian;
 pub mod layout;
 pub mod mds;
@@ -345,11 +346,34 @@ impl Spline {
             .collect()
     }
 
-    /// Checks every C1 condition exactly.
+    /// Checks every C1 condition exactly. Each condition is summed on a common denominator
+    /// in `i128` when the numbers fit, else in reduced fractions (same exact answer, see
+    /// `intform`); the first violated condition is reported.
     pub fn check_c1(&self) -> Result<(), SplineError> {
-        match self.system.violations(&self.points).first() {
+        let bad = self.quads.par_iter().position_first(|q| {
+            (0..2).any(|a| {
+                let terms = q.members().map(|m| &self.points[m][a]);
+                let t = [
+                    (q.coef[0], terms[0]),
+                    (q.coef[1], terms[1]),
+                    (q.coef[2], terms[2]),
+                    (q.coef[3], terms[3]),
+                ];
+                match intform::int_comb_is_zero(&t) {
+                    Some(zero) => !zero,
+                    None => {
+                        let mut acc = Rat::zero();
+                        for (c, x) in t {
+                            acc += Rat::from_integer(Int::from(c)) * x;
+                        }
+                        !acc.is_zero()
+                    }
+                }
+            })
+        });
+        match bad {
             None => Ok(()),
-            Some(&(qi, _)) => {
+            Some(qi) => {
                 let q = self.quads[qi];
                 Err(SplineError::NotC1 { quad: qi, edge: q.edge, index: q.index })
             }

@@ -273,7 +273,14 @@ mod determining_set {
                         ]
                     })
                     .collect();
+                let mut reference = vals.clone();
                 mds.recompute(&mut vals, &vec![true; s.num_points()]);
+                // The integer path gives the very same reduced fractions as the rational one.
+                mds.recompute_rational(&mut reference, &vec![true; s.num_points()]);
+                assert_eq!(vals, reference, "seed {seed} degree {d}");
+                for (a, b) in vals.iter().flatten().zip(reference.iter().flatten()) {
+                    assert_eq!((a.numer(), a.denom()), (b.numer(), b.denom()));
+                }
                 Spline::from_points(m.clone(), d, vals, None).expect("C1 from free values");
                 // The identity is reproduced from its own free points.
                 let mut id = s.points().to_vec();
@@ -285,6 +292,38 @@ mod determining_set {
                 mds.recompute(&mut id, &vec![true; s.num_points()]);
                 assert_eq!(id, s.points());
             }
+        }
+    }
+
+    #[test]
+    fn integer_recompute_falls_back_on_huge_values_with_the_same_result() {
+        let m = random_mesh(7, 12);
+        let s = Spline::identity(m.clone(), 5).unwrap();
+        let mds = Mds::new(&s).unwrap();
+        let huge = Rat::new(Int::from_i128(1i128 << 100) * Int::from(3), Int::from(7));
+        let mut vals: Vec<Vec<Rat>> =
+            s.points().iter().map(|p| vec![p[0].clone() + &huge, p[1].clone()]).collect();
+        let mut reference = vals.clone();
+        mds.recompute(&mut vals, &vec![true; s.num_points()]);
+        mds.recompute_rational(&mut reference, &vec![true; s.num_points()]);
+        assert_eq!(vals, reference);
+        Spline::from_points(m, 5, vals, None).expect("a translated identity is C1");
+    }
+
+    #[test]
+    fn check_c1_reports_the_first_violated_condition_with_big_and_small_numbers() {
+        let m = random_mesh(8, 12);
+        let s = Spline::identity(m.clone(), 5).unwrap();
+        let q = s.quads()[s.quads().len() / 2];
+        for shift in [
+            Rat::new(Int::from(1), Int::from(3)),
+            Rat::new(Int::from_i128(1i128 << 110), Int::from(3)),
+        ] {
+            let mut pts = s.points().to_vec();
+            pts[q.l][1] += &shift;
+            let err = Spline::from_points(m.clone(), 5, pts, None).unwrap_err();
+            let first = s.quads().iter().position(|c| c.members().contains(&q.l)).unwrap();
+            assert!(matches!(err, SplineError::NotC1 { quad, .. } if quad == first), "{err:?}");
         }
     }
 
