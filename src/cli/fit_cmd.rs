@@ -63,13 +63,13 @@ impl SolverArgs<'_> {
 /// Maps a fit error to the CLI's exit codes: unsolvable hard constraints exit 2.
 pub fn fit_error(e: FitError) -> anyhow::Error {
     match e {
-        FitError::Unsolvable(_)
-        | FitError::Conflicting { .. }
-        | FitError::TooManyConstraints { .. } => anyhow::Error::new(Exit {
-            code: EXIT_UNSOLVABLE,
-            message: e.to_string(),
-            printed: false,
-        }),
+        FitError::Conflicting { .. } | FitError::TooManyConstraints { .. } => {
+            anyhow::Error::new(Exit {
+                code: EXIT_UNSOLVABLE,
+                message: e.to_string(),
+                printed: false,
+            })
+        }
         other => anyhow::Error::new(other),
     }
 }

@@ -381,17 +381,15 @@ pub(super) fn fit_hard(
             let got = row.iter().fold(Rat::zero(), |a, (p, w)| a + w * &values[*p][c]);
             if got != *target {
                 let Source::Landmark(i) = sources[k] else { unreachable!("landmarks first") };
-                return Err(FitError::Unsolvable(format!(
-                    "internal error: {} is not met exactly after the solve",
+                return Err(FitError::Internal(format!(
+                    "{} is not met exactly after the exact solve",
                     landmark_text(lms, i)
                 )));
             }
         }
     }
     if let Some(p) = opts.pinned.iter().find(|&&p| values[p] != s.points()[p]) {
-        return Err(FitError::Unsolvable(format!(
-            "internal error: pinned control point {p} moved in the solve"
-        )));
+        return Err(FitError::Internal(format!("pinned control point {p} moved in the solve")));
     }
     let spline = Spline::from_points(s.mesh().clone(), s.degree(), values, s.z_layers().cloned())?;
     let mut rep = report(

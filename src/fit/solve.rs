@@ -171,9 +171,10 @@ pub enum FitError {
         /// `(d + 1)(d + 2) / 2`.
         per_triangle: usize,
     },
-    /// Hard constraints that cannot be met.
-    #[error("the landmarks cannot be interpolated exactly: {0}; correct or remove that landmark, or fit without hard constraints")]
-    Unsolvable(String),
+    /// An internal invariant failed (a bug, never the input's fault): reported as such,
+    /// not as unsolvable constraints.
+    #[error("internal error (please report it): {0}")]
+    Internal(String),
 }
 
 /// One landmark's result.
