@@ -16,7 +16,8 @@ use serde_json::{json, Value};
 use std::io::Write;
 use std::path::Path;
 
-/// Reads `x,y` rows from CSV text (a header line and extra columns are allowed).
+/// Reads `x,y` rows from CSV text (extra columns are allowed, and a header line: a first
+/// line with no number in its first two columns).
 pub fn read_points_csv(text: &str, source: &str) -> Result<Vec<[f64; 2]>> {
     let mut out = Vec::new();
     for (i, line) in text.lines().enumerate() {
@@ -28,7 +29,8 @@ pub fn read_points_csv(text: &str, source: &str) -> Result<Vec<[f64; 2]>> {
         let parse = |c: Option<&&str>| c.and_then(|c| c.trim().parse::<f64>().ok());
         match (parse(cols.first()), parse(cols.get(1))) {
             (Some(x), Some(y)) if x.is_finite() && y.is_finite() => out.push([x, y]),
-            _ if out.is_empty() && i == 0 => continue, // header
+            // A header has no number in either column (a typo in one is an error).
+            (None, None) if out.is_empty() && i == 0 => continue,
             _ => bail!("{source}, line {}: expected two numbers `x,y`, found `{line}`", i + 1),
         }
     }

@@ -160,7 +160,9 @@ fn read_optional_points(text: &str, source: &str) -> Result<Vec<Option<[f64; 2]>
             |c: Option<&&str>| c.and_then(|c| c.parse::<f64>().ok()).filter(|v| v.is_finite());
         match (parse(cols.first()), parse(cols.get(1))) {
             (Some(x), Some(y)) => out.push(Some([x, y])),
-            _ if out.is_empty() && i == 0 => continue, // header
+            // A header has no number in either column (a typo in one is an error, so output
+            // rows keep lining up with input rows).
+            (None, None) if out.is_empty() && i == 0 => continue,
             _ => bail!("{source}, line {}: expected `x,y` (finite numbers) or an empty row `,`, found `{line}`", i + 1),
         }
     }

@@ -171,16 +171,42 @@ pub fn rational_approx(v: f64, max_den: i64) -> Rat {
         }
         x = 1.0 / frac;
     }
+    if k1 == 0 {
+        // No convergent: |v| is beyond 1e15 (or not finite). The nearest integer in range.
+        let r = if v.is_nan() { 0 } else { v.clamp(i64::MIN as f64, i64::MAX as f64) as i64 };
+        return Rat::from_integer(Int::from(r));
+    }
     Rat::new(Int::from(h1), Int::from(k1))
 }
 
 /// The exact rational rotation closest to `angle` with `t = tan(angle/2)` approximated with
 /// denominator at most `2^16`: returns `(cos, sin)` with `cos^2 + sin^2 = 1` exactly.
+///
+/// `tan(angle/2)` is unbounded near `angle = pi`, so angles with `|angle| > pi/2` (after
+/// reduction to `(-pi, pi]`) are taken as a half turn composed with `angle - pi`:
+/// `(cos, sin) = -(cos', sin')`, exact, so a rotation by exactly `pi` (or `3 pi`) is
+/// `(-1, 0)`.
 pub fn rational_rotation(angle: f64) -> (Rat, Rat) {
-    let t = rational_approx((angle / 2.0).tan(), 1 << 16);
+    use std::f64::consts::{FRAC_PI_2, PI, TAU};
+    let mut a = angle % TAU;
+    if a > PI {
+        a -= TAU;
+    } else if a <= -PI {
+        a += TAU;
+    }
+    let half_turn = a.abs() > FRAC_PI_2;
+    if half_turn {
+        a -= PI.copysign(a);
+    }
+    let t = rational_approx((a / 2.0).tan(), 1 << 16);
     let t2 = &t * &t;
     let den = Rat::one() + &t2;
-    ((Rat::one() - &t2) / &den, (&t + &t) / den)
+    let (c, s) = ((Rat::one() - &t2) / &den, (&t + &t) / den);
+    if half_turn {
+        (-c, -s)
+    } else {
+        (c, s)
+    }
 }
 
 impl Editor {

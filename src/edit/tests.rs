@@ -459,3 +459,22 @@ fn same_layout_compares_the_snapping_grid() {
     assert!(!crate::edit::same_layout(&sa, &sb));
     assert!(crate::edit::same_layout(&sa, &sa.clone()));
 }
+
+/// Bug (reliability pass): a rotation by exactly pi divided by zero (tan(pi/2) has no
+/// rational approximation with a bounded denominator), so `edit` and the editor panicked.
+#[test]
+fn rotation_by_a_half_turn_is_exact_and_does_not_panic() {
+    use std::f64::consts::PI;
+    let minus_one = (-Rat::one(), Rat::zero());
+    for a in [PI, -PI, 3.0 * PI, -3.0 * PI, 5.0 * PI] {
+        assert_eq!(rational_rotation(a), minus_one, "angle {a}");
+    }
+    for a in [0.3, 1.5, 1.6, 2.9, 3.1, -2.0, 7.0, 100.0, -1e6] {
+        let (c, s) = rational_rotation(a);
+        assert_eq!(&c * &c + &s * &s, Rat::one(), "angle {a}");
+        let (cf, sf) = (crate::exact::rat_to_f64(&c), crate::exact::rat_to_f64(&s));
+        assert!((cf - a.cos()).abs() < 1e-4 && (sf - a.sin()).abs() < 1e-4, "angle {a}");
+    }
+    assert_eq!(rational_approx(1e300, 1 << 16), Rat::from_integer(Int::from(i64::MAX)));
+    assert_eq!(rational_approx(f64::NAN, 1 << 16), Rat::zero());
+}

@@ -12,7 +12,8 @@
 //!
 //! * [`LandmarkFormat::Csv`]: `name,src_x,src_y,dst_x,dst_y[,weight]`, one landmark a line,
 //!   with an optional header line. The header is recognised when, on the first non-empty
-//!   line, some field among columns 2..5 is not a number. An empty name means no name; the
+//!   line, no field among columns 2..5 is a number (a first line with a typo in one number
+//!   is data, and its error is reported). An empty name means no name; the
 //!   weight defaults to 1. A field may be double-quoted (`""` inside is a quote). Values must
 //!   be finite and weights `> 0`; errors give the 1-based line number. The writer emits the
 //!   header `name,src_x,src_y,dst_x,dst_y,weight` and every number with Rust's `{}`
@@ -310,8 +311,10 @@ pub fn parse_csv_noted(text: &str) -> Result<(Vec<Landmark>, Vec<Approximation>)
         }
         let f = split_csv(raw.trim()).map_err(err)?;
         let is_first = std::mem::replace(&mut first, false);
-        if is_first && f.iter().skip(1).any(|x| x.trim().parse::<f64>().is_err()) {
-            continue; // header
+        // A header has no number among the coordinate columns; a first line with some
+        // numbers is data (a typo there is reported, not silently dropped).
+        if is_first && f.iter().skip(1).take(4).all(|x| x.trim().parse::<f64>().is_err()) {
+            continue;
         }
         if f.len() != 5 && f.len() != 6 {
             return Err(err(format!(
@@ -588,6 +591,16 @@ mod tests {
         // A numeric name in the first data line is not a header.
         let l = parse_csv("7,1,2,3,4\n").unwrap();
         assert_eq!(l[0].name.as_deref(), Some("7"));
+    }
+
+    /// Bug (reliability pass): a typo in the first data row made it a "header", silently
+    /// dropped.
+    #[test]
+    fn a_typo_in_the_first_row_is_an_error_not_a_header() {
+        let e = parse_csv("a,1,2x,3,4\nb,5,6,7,8\n").unwrap_err().to_string();
+        assert!(e.contains("line 1"), "{e}");
+        // A real header (no number in the coordinate columns) is still skipped.
+        assert_eq!(parse_csv("name,sx,sy,dx,dy\nb,5,6,7,8\n").unwrap().len(), 1);
     }
 
     #[test]

@@ -170,18 +170,42 @@ pub fn json_rows(v: &serde_json::Value) -> String {
 
 /// Reads a whole text file (or standard input for `-`).
 pub fn read_text(path: &Path) -> Result<String, IoError> {
+    let mut s = String::new();
     if path.as_os_str() == "-" {
-        let mut s = String::new();
         std::io::Read::read_to_string(&mut std::io::stdin(), &mut s)
             .map_err(|source| IoError::Read { path: path.to_path_buf(), source })?;
-        return Ok(s);
+    } else {
+        s = fs::read_to_string(path)
+            .map_err(|source| IoError::Read { path: path.to_path_buf(), source })?;
     }
-    fs::read_to_string(path).map_err(|source| IoError::Read { path: path.to_path_buf(), source })
+    Ok(strip_bom(s))
+}
+
+/// The text without a leading UTF-8 byte-order mark (editors on Windows write one; it is
+/// not part of the JSON or CSV content).
+pub fn strip_bom(s: String) -> String {
+    match s.strip_prefix('\u{feff}') {
+        Some(rest) => rest.to_string(),
+        None => s,
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Bug (reliability pass): a UTF-8 byte-order mark made every JSON file fail with
+    /// "expected value at line 1 column 1".
+    #[test]
+    fn a_byte_order_mark_is_not_content() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("bom.json");
+        fs::write(&p, "\u{feff}{\"a\": 1}").unwrap();
+        let text = read_text(&p).unwrap();
+        assert_eq!(text, "{\"a\": 1}");
+        assert!(serde_json::from_str::<serde_json::Value>(&text).is_ok());
+        assert_eq!(strip_bom("x\u{feff}".into()), "x\u{feff}");
+    }
 
     #[test]
     fn atomic_write_replaces_and_leaves_no_temp() {

@@ -255,6 +255,10 @@ pub fn cases() -> Vec<Case> {
         Case { id: "points_empty", setup: |fx, id| mesh_points(fx, id, "") },
         Case { id: "points_nan", setup: |fx, id| mesh_points(fx, id, "x,y\n0,0\n10,nan\n0,10\n") },
         Case { id: "points_inf", setup: |fx, id| mesh_points(fx, id, "0,0\n10,0\n0,inf\n") },
+        Case {
+            id: "points_first_row_typo",
+            setup: |fx, id| mesh_points(fx, id, "0,0x\n10,0\n0,10\n"),
+        },
         Case { id: "points_off_grid", setup: |fx, id| mesh_points(fx, id, "0,0\n10,0\n0,1e12\n") },
         Case {
             id: "points_duplicate",
@@ -640,6 +644,10 @@ pub fn cases() -> Vec<Case> {
                 let huge = format!("1{}", "0".repeat(400));
                 check_doc(fx, id, |v| v["exact"]["points"][3][0] = huge.into())
             },
+        },
+        Case {
+            id: "lm_first_row_typo",
+            setup: |fx, id| fit(fx, id, "csv", "a,1,2x,3,4\nb,5,6,7,8\nc,9,1,9,2\n", &[]),
         },
         Case {
             id: "lm_too_many",
