@@ -7,7 +7,7 @@ use std::net::TcpStream;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
-fn doc(root: &std::path::Path) -> Doc {
+pub(super) fn doc(root: &std::path::Path) -> Doc {
     let mesh = Mesh::grid(4, 4, 100.0, 100.0, MeshOptions::default()).unwrap();
     Doc::new(Spline::identity(mesh, 5).unwrap(), root)
 }
@@ -182,7 +182,7 @@ fn only_embedded_assets_and_the_api_are_served() {
 }
 
 /// A raw HTTP/1.1 request; returns the status and the body.
-fn http(addr: SocketAddr, head: &str, body: &[u8]) -> (u16, Vec<u8>) {
+pub(super) fn http(addr: SocketAddr, head: &str, body: &[u8]) -> (u16, Vec<u8>) {
     let mut s = TcpStream::connect(addr).unwrap();
     s.write_all(head.as_bytes()).unwrap();
     let _ = s.write_all(body);
@@ -197,45 +197,79 @@ fn http(addr: SocketAddr, head: &str, body: &[u8]) -> (u16, Vec<u8>) {
     (status, body)
 }
 
+/// A server on a free port with `doc` in a thread; stopped and joined on drop.
+pub(super) struct Running {
+    pub addr: SocketAddr,
+    pub token: String,
+    stop: Arc<AtomicBool>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl Running {
+    pub fn start(root: &std::path::Path, read_timeout: std::time::Duration) -> Running {
+        let server =
+            Server::bind(0).unwrap().with_timeouts(read_timeout, std::time::Duration::from_secs(5));
+        let (addr, token) = (server.addr(), server.token().to_string());
+        let stop = Arc::new(AtomicBool::new(false));
+        let stop2 = stop.clone();
+        let root = root.to_path_buf();
+        let thread = std::thread::spawn(move || {
+            let mut d = doc(&root);
+            server.run(&mut d, &|| stop2.load(Ordering::Relaxed));
+        });
+        Running { addr, token, stop, thread: Some(thread) }
+    }
+
+    /// Request headers with the right Host and token.
+    pub fn head(&self, method: &str, path: &str, extra: &str) -> String {
+        format!(
+            "{method} {path} HTTP/1.1\r\nHost: {}\r\nX-Trimorph-Token: {}\r\n{extra}Connection: close\r\n\r\n",
+            self.addr, self.token
+        )
+    }
+}
+
+impl Drop for Running {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
 #[test]
 fn the_server_binds_loopback_and_bounds_request_bodies() {
     let dir = tempfile::tempdir().unwrap();
-    let server = Server::bind(0).unwrap();
-    let addr = server.addr();
+    let srv = Running::start(dir.path(), std::time::Duration::from_secs(5));
+    let addr = srv.addr;
     assert!(addr.ip().is_loopback(), "{addr}");
     assert_eq!(addr.ip().to_string(), "127.0.0.1");
-    let stop = Arc::new(AtomicBool::new(false));
-    let stop2 = stop.clone();
-    let root = dir.path().to_path_buf();
-    let t = std::thread::spawn(move || {
-        let mut d = doc(&root);
-        server.run(&mut d, &|| stop2.load(Ordering::Relaxed));
-    });
-    let (st, body) =
-        http(addr, "GET /api/state HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n", b"");
+    let (st, body) = http(addr, &srv.head("GET", "/api/state", ""), b"");
     assert_eq!(st, 200);
     let v: Value = serde_json::from_slice(&body).unwrap();
     assert_eq!(v["degree"], 5);
     // Declared too large: refused without reading it.
-    let head = format!(
-        "POST /api/select HTTP/1.1\r\nHost: x\r\nContent-Length: {}\r\nConnection: close\r\n\r\n",
-        MAX_BODY + 1
-    );
-    let (st, _) = http(addr, &head, b"{}");
+    let cl = format!("Content-Type: application/json\r\nContent-Length: {}\r\n", MAX_BODY + 1);
+    let (st, _) = http(addr, &srv.head("POST", "/api/select", &cl), b"{}");
     assert_eq!(st, 413);
     // Chunked and too large: cut off after MAX_BODY bytes.
     let big = vec![b' '; MAX_BODY + 10];
     let mut chunked = format!("{:x}\r\n", big.len()).into_bytes();
     chunked.extend(&big);
     chunked.extend(b"\r\n0\r\n\r\n");
-    let head = "POST /api/select HTTP/1.1\r\nHost: x\r\nTransfer-Encoding: chunked\r\nConnection: close\r\n\r\n";
-    let (st, _) = http(addr, head, &chunked);
+    let te = "Content-Type: application/json\r\nTransfer-Encoding: chunked\r\n";
+    let (st, _) = http(addr, &srv.head("POST", "/api/select", te), &chunked);
     assert_eq!(st, 413);
-    let (st, _) =
-        http(addr, "GET /etc/passwd HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n", b"");
+    // A small chunked body is decoded.
+    let body = br#"{"x": 50, "y": 50}"#;
+    let mut small = format!("{:x}\r\n", body.len()).into_bytes();
+    small.extend(body.as_slice());
+    small.extend(b"\r\n0\r\n\r\n");
+    let (st, out) = http(addr, &srv.head("POST", "/api/pick", te), &small);
+    assert_eq!(st, 200, "{}", String::from_utf8_lossy(&out));
+    let (st, _) = http(addr, &srv.head("GET", "/etc/passwd", ""), b"");
     assert_eq!(st, 404);
-    stop.store(true, Ordering::Relaxed);
-    t.join().unwrap();
 }
 
 /// A 2.5D document with a small worm model and a 101 x 101 frame.
