@@ -19,7 +19,8 @@
 //! | `POST /api/update` | `{op: translate, v}` / `{op: rotate, center, angle}` / `{op: scale, center, factor}` | geometry |
 //! | `POST /api/clear` | | state |
 //! | `POST /api/undo`, `/api/redo` | | geometry |
-//! | `POST /api/save` | `{path, scene?}` | `{saved}` |
+//! | `POST /api/save` | `{path, scene?}` | `{saved, written}` (`written`: a scene's copies of its model and frame) |
+//! | `POST /api/stat` | `{path}` | `{exists, same_layout, scene_copies}` (asked before a save or load) |
 //! | `POST /api/load` | `{path}` | state |
 //! | `POST /api/export` | `{kind: obj / warped, path}` | `{saved}` |
 //! | `POST /api/refit` | `{landmarks, hard?}` | fit summary |
@@ -328,8 +329,12 @@ fn route(
         ("POST", "/api/save") => {
             let b = parse()?;
             let scene = b.get("scene").and_then(Value::as_bool).unwrap_or(false);
-            let p = doc.save(text(&b, "path")?, scene)?;
-            Ok(Json(json!({ "saved": p.display().to_string() })))
+            let (p, written) = doc.save(text(&b, "path")?, scene)?;
+            Ok(Json(json!({ "saved": p.display().to_string(), "written": written })))
+        }
+        ("POST", "/api/stat") => {
+            let b = parse()?;
+            Ok(Json(doc.stat(text(&b, "path")?)?))
         }
         ("POST", "/api/load") => {
             let b = parse()?;

@@ -468,3 +468,86 @@ fn drag_answers_carry_the_det_j_certificate_of_the_whole_spline() {
     let (_, v) = call(&mut d, "POST", "/api/undo", Value::Null);
     assert_eq!(v["fold_free"], true, "undo restores the identity");
 }
+
+/// Regression test: the API accepted `translate [1e308, 1e308]` and the next answer had
+/// `null` coordinates.
+#[test]
+fn absurd_values_are_refused_with_422_and_change_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut d = doc(dir.path());
+    let c = centre(&d);
+    call(&mut d, "POST", "/api/select", json!({"anchors": [c], "radius": 2}));
+    let (st, _) = call(&mut d, "POST", "/api/update", json!({"op": "translate", "v": [2.0, 1.0]}));
+    assert_eq!(st, 200);
+    let before = d.spline().points().to_vec();
+    for body in [
+        json!({"op": "translate", "v": [1e308, 1e308]}),
+        json!({"op": "translate", "v": [2e6, 0.0]}),
+        json!({"op": "rotate", "center": [1e300, 0.0], "angle": 0.1}),
+        json!({"op": "rotate", "center": [50.0, 50.0], "angle": 1e9}),
+        json!({"op": "scale", "center": [50.0, 50.0], "factor": 1e9}),
+        json!({"op": "scale", "center": [50.0, 50.0], "factor": 1e-9}),
+        // Arguments within range whose result is not: 5e5 * 3 away from the centre.
+        json!({"op": "scale", "center": [-5e5, 0.0], "factor": 3.0}),
+    ] {
+        let (st, v) = call(&mut d, "POST", "/api/update", body.clone());
+        assert_eq!(st, 422, "{body}: {v}");
+        assert_eq!(d.spline().points(), &before[..], "{body} changed the spline");
+    }
+    // The drag goes on from where it was; one undo step in all.
+    let (st, v) = call(&mut d, "POST", "/api/update", json!({"op": "translate", "v": [3.0, 1.0]}));
+    assert_eq!(st, 200, "{v}");
+    assert_eq!(d.spline().point_f64(c), [53.0, 51.0]);
+    assert!(v["points"].as_array().unwrap().iter().all(|p| p[0].is_number() && p[1].is_number()));
+    assert_eq!(call(&mut d, "GET", "/api/state", Value::Null).1["undo"], 1);
+    // A file with an absurd control point is refused on load.
+    // (All points shifted: an affine map stays C1.)
+    let mut far = d.spline().clone();
+    let shift = crate::exact::rat_int(10_000_000);
+    let pts: Vec<Vec<crate::exact::Rat>> =
+        far.points().iter().map(|p| vec![&p[0] + &shift, p[1].clone()]).collect();
+    far.set_points(pts).unwrap();
+    std::fs::write(dir.path().join("far.json"), crate::io::deformation::to_string(&far, None))
+        .unwrap();
+    let (st, v) = call(&mut d, "POST", "/api/load", json!({"path": "far.json"}));
+    assert_eq!(st, 422, "{v}");
+    assert!(v["error"].as_str().unwrap().contains("control point 0 is at"), "{v}");
+    assert_eq!(d.spline().point_f64(c), [53.0, 51.0]);
+}
+
+/// "Save scene" dropped the bundled model and frame without saying so.
+#[test]
+fn a_scene_keeps_its_model_and_frame_and_stat_answers_before_saves_and_loads() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut d = doc25(dir.path()); // model and frame have no file in the folder
+    let (_, v) = call(&mut d, "POST", "/api/stat", json!({"path": "s.json"}));
+    assert_eq!(v["exists"], false);
+    assert_eq!(v["scene_copies"], json!([]));
+    let (st, v) = call(&mut d, "POST", "/api/save", json!({"path": "s.json", "scene": true}));
+    assert_eq!(st, 200, "{v}");
+    assert_eq!(v["written"], json!(["s.model.obj", "s.frame.png"]));
+    let (_, v) = call(&mut d, "POST", "/api/stat", json!({"path": "s.json"}));
+    assert_eq!(v["exists"], true);
+    assert_eq!(v["same_layout"], true);
+    assert_eq!(v["scene_copies"], json!(["s.model.obj", "s.frame.png"]));
+    let other = Mesh::grid(3, 3, 100.0, 100.0, MeshOptions::default()).unwrap();
+    let mut e = Doc::new(Spline::identity(other, 5).unwrap(), dir.path());
+    let (_, v) = call(&mut e, "POST", "/api/stat", json!({"path": "s.json"}));
+    assert_eq!(v["same_layout"], false, "another mesh: a new document");
+    let (st, v) = call(&mut e, "POST", "/api/load", json!({"path": "s.json"}));
+    assert_eq!(st, 200, "{v}");
+    assert_eq!(e.model().unwrap().model.vertices, d.model().unwrap().model.vertices);
+    let (f, g) = (&e.frame().unwrap().image, &d.frame().unwrap().image);
+    assert_eq!(f.to_luma8().into_raw(), g.to_luma8().into_raw());
+    // In a subfolder, the keys are relative to the scene's folder.
+    std::fs::create_dir(dir.path().join("sub")).unwrap();
+    let (st, v) = call(&mut e, "POST", "/api/save", json!({"path": "sub/t.json", "scene": true}));
+    assert_eq!(st, 200, "{v}");
+    let text = std::fs::read_to_string(dir.path().join("sub/t.json")).unwrap();
+    let j: Value = serde_json::from_str(&text).unwrap();
+    assert_eq!((j["model"].as_str(), j["image"].as_str()), (Some("t.model.obj"), Some("t.frame.png")));
+    let mut f2 = doc(dir.path());
+    let (st, v) = call(&mut f2, "POST", "/api/load", json!({"path": "sub/t.json"}));
+    assert_eq!(st, 200, "{v}");
+    assert!(f2.model().is_some() && f2.frame().is_some());
+}

@@ -7,7 +7,10 @@ const T = {
   state: null, geo: {}, stat: {}, img: null, jac: null, jacVersion: 0,
   view: { s: 1, tx: 0, ty: 0 }, anchors: [], center: null,
   drag: null, busy: false, pending: null, timings: [], phases: [], lastError: null,
-  layers: {},
+  layers: {}, dragId: 0,
+  // The session token from the address `trimorph editor` printed (`/?token=...`); without
+  // it the page relies on the cookie the server set when that address was loaded.
+  token: new URLSearchParams(location.search).get('token'),
 };
 window.trimorph = T;
 
@@ -19,6 +22,7 @@ const octx = obl.getContext('2d');
 
 async function api(method, path, body) {
   const opt = { method, headers: {} };
+  if (T.token) opt.headers['X-Trimorph-Token'] = T.token;
   if (body !== undefined) {
     opt.headers['Content-Type'] = 'application/json';
     opt.body = JSON.stringify(body);
@@ -31,12 +35,18 @@ async function api(method, path, body) {
 }
 T.api = api;
 
-function status(msg, isError) {
-  const f = $('status');
-  f.textContent = msg;
-  f.className = isError ? 'error' : '';
+// Two lines at the bottom: `#status`, the document's summary (refreshed after every
+// change), and `#msg`, the outcome of the last action (success or error), which stays until
+// the next action starts.
+function status(text) { $('status').textContent = text; }
+function message(msg, isError) {
+  const f = $('msg');
+  f.textContent = msg || '';
+  f.className = isError ? 'error' : (msg ? 'ok' : '');
   if (isError) T.lastError = msg;
+  T.lastMessage = msg || '';
 }
+T.message = message;
 
 function mode() { return $('mode').value; }
 function op() { return $('op').value; }
@@ -262,8 +272,10 @@ async function refreshJacobian() {
   try { await img.decode(); T.jac = img; draw(); } catch (e) { /* ignored: next change retries */ }
 }
 
+// One user action: clears the last action's message, runs, shows an error if it failed.
 async function run(fn) {
-  try { await fn(); status(summary()); } catch (e) { status(String(e.message || e), true); }
+  message('');
+  try { await fn(); status(summary()); } catch (e) { message(String(e.message || e), true); status(summary()); }
 }
 
 // ---- editing ------------------------------------------------------------------------
@@ -278,11 +290,10 @@ function nearestOnScreen(X, Y, maxPx) {
   return best;
 }
 
-async function select(anchors) {
-  T.anchors = anchors;
-  const r = await api('POST', '/api/select', { anchors, radius: radius(), mode: mode() });
-  applyGeo(r);
-  draw();
+// Waits until no drag step is queued or in flight (a new selection or a clear must reach
+// the server after the last step of the previous drag).
+async function updatesDone() {
+  while (T.busy || T.pending) await new Promise((r) => setTimeout(r, 2));
 }
 
 function anchorCentroid() {
@@ -314,41 +325,65 @@ function opBody(d, X, Y) {
   return { op: 'scale', center: c, factor: f };
 }
 
-async function sendUpdate(body) {
-  if (T.busy) { T.pending = body; return; }
-  T.busy = true;
-  const t0 = performance.now();
-  try {
-    const r = await api('POST', '/api/update', body);
-    const t1 = performance.now();
-    applyGeo(r);
-    draw();
-    const t2 = performance.now();
-    T.timings.push(t2 - t0);
-    // Where a step's time goes: request and parse, drawing, and the server's exact update.
-    T.phases.push({ request: t1 - t0, draw: t2 - t1, update: r.state ? r.state.last_update_ms : null });
-    status(summary());
-  } catch (e) {
-    status(String(e.message || e), true);
-  } finally {
-    T.busy = false;
-    if (T.pending) { const p = T.pending; T.pending = null; sendUpdate(p); }
+// Drag steps: at most one request in flight; the newest position waits in `pending` (older
+// ones are dropped). A step of a drag is sent only once the drag's selection answered
+// (`d.ready`), and never after it failed.
+function sendUpdate(d, body) {
+  T.pending = { d, body };
+  if (!T.busy) pump();
+}
+
+async function pump() {
+  while (T.pending) {
+    const { d, body } = T.pending;
+    T.pending = null;
+    T.busy = true;
+    const t0 = performance.now();
+    try {
+      if (!(await d.ready)) continue;
+      const r = await api('POST', '/api/update', body);
+      const t1 = performance.now();
+      applyGeo(r);
+      draw();
+      const t2 = performance.now();
+      T.timings.push(t2 - t0);
+      // Where a step's time goes: request and parse, drawing, and the server's exact update.
+      T.phases.push({ request: t1 - t0, draw: t2 - t1, update: r.state ? r.state.last_update_ms : null });
+      status(summary());
+    } catch (e) {
+      message(String(e.message || e), true);
+    } finally {
+      T.busy = false;
+    }
   }
 }
 
 async function idle() {
-  while (T.busy || T.pending) await new Promise((r) => setTimeout(r, 5));
+  while (T.busy || T.pending || T.selecting) await new Promise((r) => setTimeout(r, 5));
 }
 T.idle = idle;
 
+// One coordinate convention for every pointer event: CSS pixels from the canvas's top
+// left corner (`clientX - rect.left`, unrounded), so that a drag ends under the pointer.
+function pointer(e) {
+  const r = canvas.getBoundingClientRect();
+  return [e.clientX - r.left, e.clientY - r.top];
+}
+T.pointer = pointer;
+
 canvas.addEventListener('contextmenu', (e) => {
   e.preventDefault();
-  T.center = toWorld(e.offsetX, e.offsetY);
+  const [X, Y] = pointer(e);
+  T.center = toWorld(X, Y);
   draw();
 });
 
-canvas.addEventListener('mousedown', (e) => run(async () => {
-  const X = e.offsetX, Y = e.offsetY;
+// The press starts the drag at once (the selection request runs in the background; the
+// drag's steps wait for it), and the release ends it whatever the server has answered:
+// a fast tap selects and never edits.
+canvas.addEventListener('mousedown', (e) => {
+  message('');
+  const [X, Y] = pointer(e);
   if (e.button === 1 || (e.button === 0 && mode() === 'view')) {
     T.drag = { pan: true, X0: X, Y0: Y, tx: T.view.tx, ty: T.view.ty };
     return;
@@ -357,11 +392,8 @@ canvas.addEventListener('mousedown', (e) => run(async () => {
   const hit = nearestOnScreen(X, Y, 10);
   if (hit < 0) {
     if (!e.shiftKey) {
-      T.anchors = [];
-      await api('POST', '/api/clear');
-      T.geo.selection = null;
       T.drag = { pan: true, X0: X, Y0: Y, tx: T.view.tx, ty: T.view.ty };
-      draw();
+      clearSelection();
     }
     return;
   }
@@ -371,41 +403,72 @@ canvas.addEventListener('mousedown', (e) => run(async () => {
   } else if (!anchors.includes(hit)) {
     anchors = [hit];
   }
-  if (!anchors.length) { T.anchors = []; await api('POST', '/api/clear'); T.geo.selection = null; draw(); return; }
-  await select(anchors);
+  if (!anchors.length) { clearSelection(); return; }
+  T.anchors = anchors;
   const [wx0, wy0] = toWorld(X, Y);
-  T.drag = { X0: X, Y0: Y, wx0, wy0, op: op(), mode: mode(), anchors, center: T.center || anchorCentroid(), moved: false };
-}));
+  const d = {
+    id: ++T.dragId, X0: X, Y0: Y, wx0, wy0, op: op(), mode: mode(), anchors,
+    center: T.center || anchorCentroid(), moved: false,
+  };
+  T.drag = d;
+  T.selecting = true;
+  d.ready = updatesDone()
+    .then(() => api('POST', '/api/select', { anchors, radius: radius(), mode: d.mode }))
+    .then((r) => { applyGeo(r); draw(); return true; })
+    .catch((err) => { message(String(err.message || err), true); if (T.drag === d) T.drag = null; return false; })
+    .finally(() => { T.selecting = false; });
+  draw();
+});
+
+function clearSelection() {
+  T.anchors = [];
+  T.geo.selection = null;
+  draw();
+  run(async () => { await updatesDone(); await api('POST', '/api/clear'); });
+}
+
+function endDrag(e) {
+  const d = T.drag;
+  T.drag = null;
+  if (!d || d.pan) return;
+  if (d.moved && e) {
+    // The last step is the release point itself.
+    const [X, Y] = pointer(e);
+    sendUpdate(d, opBody(d, X, Y));
+  }
+  run(async () => {
+    await idle();
+    T.state = await api('GET', '/api/state');
+    refreshJacobian();
+    refreshWarp();
+  });
+}
 
 window.addEventListener('mousemove', (e) => {
   const d = T.drag;
   if (!d) return;
-  const r = canvas.getBoundingClientRect();
-  const X = e.clientX - r.left, Y = e.clientY - r.top;
+  // The release happened where no event reached us (outside the window): the drag is over.
+  if (e.buttons === 0) { endDrag(null); return; }
+  const [X, Y] = pointer(e);
   if (d.pan) {
     T.view.tx = d.tx + X - d.X0; T.view.ty = d.ty + Y - d.Y0;
     draw();
     return;
   }
+  if (X === d.X0 && Y === d.Y0 && !d.moved) return;
   d.moved = true;
-  sendUpdate(opBody(d, X, Y));
+  sendUpdate(d, opBody(d, X, Y));
 });
 
-window.addEventListener('mouseup', () => run(async () => {
-  const d = T.drag;
-  T.drag = null;
-  if (!d || d.pan || !d.moved) return;
-  await idle();
-  T.state = await api('GET', '/api/state');
-  refreshJacobian();
-}));
+window.addEventListener('mouseup', (e) => { if (e.button === 0 || e.button === 1) endDrag(e); });
 
 canvas.addEventListener('wheel', (e) => {
   e.preventDefault();
   const k = Math.exp(-e.deltaY / 500);
-  const [wx, wy] = toWorld(e.offsetX, e.offsetY);
+  const [X, Y] = pointer(e);
+  const [wx, wy] = toWorld(X, Y);
   T.view.s *= k;
-  T.view.tx = e.offsetX - T.view.s * wx; T.view.ty = e.offsetY - T.view.s * wy;
+  T.view.tx = X - T.view.s * wx; T.view.ty = Y - T.view.s * wy;
   draw();
 }, { passive: false });
 
@@ -418,18 +481,53 @@ async function undoRedo(which) {
   refreshJacobian();
 }
 
+// Saving asks before overwriting a file and before saving a map that is not certified
+// fold-free; `scene` also keeps the model and the frame (written beside it when they have
+// no file in the folder).
+async function save(scene) {
+  const path = $('path').value;
+  await updatesDone();
+  const st = await api('POST', '/api/stat', { path });
+  if (st.exists && !confirm(`${path} exists. Overwrite it?`)) { message('not saved: ' + path + ' exists'); return; }
+  const s = T.state;
+  if (s && !s.fold_free && !confirm(`The map folds: it is NOT certified fold-free (${s.folding_triangles.length} folding, ${s.undecided_triangles.length} undecided triangles, outlined in red). Save anyway?`)) {
+    message('not saved: the map folds');
+    return;
+  }
+  const r = await api('POST', '/api/save', { path, scene });
+  const also = (r.written || []).length ? ' (also wrote ' + r.written.join(', ') + ')' : '';
+  message((scene ? 'saved scene ' : 'saved ') + r.saved + also);
+}
+
+function toggleHelp() { $('helppanel').hidden = !$('helppanel').hidden; }
+
 const commands = {
+  help: toggleHelp,
   undo: () => run(() => undoRedo('undo')),
   redo: () => run(() => undoRedo('redo')),
-  save: () => run(async () => { const r = await api('POST', '/api/save', { path: $('path').value }); status('saved ' + r.saved); }),
-  savescene: () => run(async () => { const r = await api('POST', '/api/save', { path: $('path').value, scene: true }); status('saved scene ' + r.saved); }),
-  load: () => run(async () => { await api('POST', '/api/load', { path: $('path').value }); T.img = null; T.anchors = []; await reload(false); }),
-  exportobj: () => run(async () => { const r = await api('POST', '/api/export', { kind: 'obj', path: $('path').value.replace(/\.[^.]*$/, '') + '.obj' }); status('exported ' + r.saved); }),
-  exportimg: () => run(async () => { const r = await api('POST', '/api/export', { kind: 'warped', path: $('path').value.replace(/\.[^.]*$/, '') + '.png' }); status('exported ' + r.saved); }),
+  save: () => run(() => save(false)),
+  savescene: () => run(() => save(true)),
+  load: () => run(async () => {
+    const path = $('path').value;
+    await updatesDone();
+    const st = await api('POST', '/api/stat', { path });
+    const steps = T.state ? T.state.undo + T.state.redo : 0;
+    if (st.exists && st.same_layout === false && steps > 0
+        && !confirm(`${path} is over another mesh: loading it starts a new document and clears the undo history (${steps} steps). Load it?`)) {
+      message('not loaded: the undo history is kept');
+      return;
+    }
+    await api('POST', '/api/load', { path });
+    T.img = null; T.anchors = [];
+    await reload(false);
+    message('loaded ' + path + (st.same_layout === false ? ' (new document: the undo history was cleared)' : ' (undo restores the previous state)'));
+  }),
+  exportobj: () => run(async () => { const r = await api('POST', '/api/export', { kind: 'obj', path: $('path').value.replace(/\.[^.]*$/, '') + '.obj' }); message('exported ' + r.saved); }),
+  exportimg: () => run(async () => { const r = await api('POST', '/api/export', { kind: 'warped', path: $('path').value.replace(/\.[^.]*$/, '') + '.png' }); message('exported ' + r.saved); }),
   refit: () => run(async () => {
     const r = await api('POST', '/api/refit', { landmarks: $('landmarks').value, hard: $('hard').checked });
     applyGeo(r); draw(); refreshJacobian();
-    status(`re-fit (${r.method}): rms ${r.rms.toFixed(3)} px, ${r.pinned} pinned points held exactly`);
+    message(`re-fit (${r.method}): rms ${r.rms.toFixed(3)} px, ${r.pinned} pinned points held exactly`);
   }),
 };
 for (const [id, fn] of Object.entries(commands)) $(id).addEventListener('click', fn);
@@ -447,6 +545,8 @@ $('mode').addEventListener('change', () => run(async () => { T.anchors = []; awa
 window.addEventListener('keydown', (e) => {
   if (e.target.tagName === 'INPUT' && e.target.type !== 'checkbox') return;
   const k = e.key, ctrl = e.ctrlKey || e.metaKey;
+  if (k === '?') { toggleHelp(); return; }
+  if (k === 'Escape' && !$('helppanel').hidden) { $('helppanel').hidden = true; return; }
   const setSel = (id, v) => { const el = $(id); if (!el.querySelector(`[value=${v}]`).disabled) { el.value = v; el.dispatchEvent(new Event('change')); } };
   if (ctrl && (k === 'z' || k === 'Z')) { e.preventDefault(); (e.shiftKey ? commands.redo : commands.undo)(); }
   else if (ctrl && k === 'y') { e.preventDefault(); commands.redo(); }
