@@ -14,6 +14,7 @@
 //! | `GET /api/geometry[?full=1]` | | [`views::geometry`] |
 //! | `GET /api/image.png` | | the frame |
 //! | `GET /api/jacobian.png` | | det J overlay ([`views::jacobian_png`]) |
+//! | `GET /api/warp[?step=8]` | | the live warp's coarse inverse map ([`views::inverse_grid`]) |
 //! | `POST /api/pick` | `{x, y, max_dist?}` | `{index, point}` (nearest control point) |
 //! | `POST /api/select` | `{anchors, radius?, mode?}` (`radius` null: all) | selection |
 //! | `POST /api/update` | `{op: translate, v}` / `{op: rotate, center, angle}` / `{op: scale, center, factor}` | geometry |
@@ -244,6 +245,18 @@ fn route(
             Some(f) => Ok(Png(f.png.clone())),
             None => Err(ServerError::NotFound("no image is loaded".into())),
         },
+        ("GET", "/api/warp") => {
+            let step = query
+                .split('&')
+                .find_map(|q| q.strip_prefix("step="))
+                .map(|v| v.parse::<u32>())
+                .transpose()
+                .map_err(|_| ServerError::BadRequest("`step` must be a positive integer".into()))?
+                .unwrap_or(views::WARP_STEP);
+            views::inverse_grid(doc, step)
+                .map(Answer::Text)
+                .ok_or_else(|| ServerError::NotFound("no image is loaded".into()))
+        }
         ("GET", "/api/jacobian.png") => {
             let (w, h) = match doc.frame() {
                 Some(f) => (f.image.width(), f.image.height()),

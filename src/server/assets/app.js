@@ -90,6 +90,12 @@ function draw() {
   const L = T.layers, g = T.geo, st = T.stat;
   ctx.imageSmoothingEnabled = v.s < 2;
   if (L.image && T.img) ctx.drawImage(T.img, -0.5, -0.5);
+  if (L.warp && T.warpCanvas) {
+    // The live warped frame over the frame, mixed by the blend slider (1: warped only).
+    ctx.globalAlpha = +$('blend').value;
+    ctx.drawImage(T.warpCanvas, -0.5, -0.5);
+    ctx.globalAlpha = 1;
+  }
   if (L.jacobian && T.jac) ctx.drawImage(T.jac, -0.5, -0.5);
   if (L.model && g.model_outline) {
     const o = g.model_outline;
@@ -253,6 +259,7 @@ async function reload(keepView) {
   $('mode').querySelector('[value=z1]').disabled = !T.state.z_modes;
   if (!keepView) fitView(); else draw();
   refreshJacobian();
+  refreshWarp();
   status(summary());
 }
 
@@ -263,6 +270,80 @@ function summary() {
   const t = T.timings.length ? `; last drag step ${T.timings[T.timings.length - 1].toFixed(1)} ms (exact update ${s.last_update_ms.toFixed(1)} ms)` : '';
   const folds = s.fold_free ? '; certified fold-free' : `; NOT certified fold-free (${s.folding_triangles.length} folding, ${s.undecided_triangles.length} undecided triangles)`;
   return `${s.name || 'untitled'}: degree ${s.degree}, ${s.points} control points, ${s.triangles} triangles; undo ${s.undo}, redo ${s.redo}; ${s.pinned.length} corrected${sel}${folds}${t}`;
+}
+
+// ---- live warp ----------------------------------------------------------------------
+// The server sends phi^-1 at coarse nodes (`GET /api/warp`); the page pulls the frame
+// through it: O(q) = I(phi^-1(q)), as `trimorph warp` does, with the map interpolated
+// bilinearly in each cell and the frame sampled bilinearly (pixel centres at integers).
+// One request in flight; a change while it runs asks for one more.
+async function refreshWarp() {
+  if (!T.layers.warp || !T.state || !T.state.frame) return;
+  if (T.warpBusy) { T.warpAgain = true; return; }
+  T.warpBusy = true;
+  try {
+    const g = await api('GET', '/api/warp');
+    const t0 = performance.now();
+    buildWarp(g);
+    T.warpMs = performance.now() - t0;
+    T.warpVersion = (T.warpVersion || 0) + 1;
+    draw();
+  } catch (e) {
+    message('live warp: ' + String(e.message || e), true);
+  } finally {
+    T.warpBusy = false;
+    if (T.warpAgain) { T.warpAgain = false; refreshWarp(); }
+  }
+}
+T.refreshWarp = refreshWarp;
+
+function sourcePixels() {
+  if (T.src && T.src.img === T.img) return T.src;
+  const c = document.createElement('canvas');
+  c.width = T.img.naturalWidth; c.height = T.img.naturalHeight;
+  const cx = c.getContext('2d', { willReadFrequently: true });
+  cx.drawImage(T.img, 0, 0);
+  T.src = { img: T.img, w: c.width, h: c.height, data: cx.getImageData(0, 0, c.width, c.height).data };
+  return T.src;
+}
+
+function buildWarp(g) {
+  const src = sourcePixels();
+  const W = g.width, H = g.height, nx = g.nx, ny = g.ny, st = g.step, m = g.map;
+  if (!T.warpCanvas || T.warpCanvas.width !== W || T.warpCanvas.height !== H) {
+    T.warpCanvas = document.createElement('canvas');
+    T.warpCanvas.width = W; T.warpCanvas.height = H;
+    T.warpImage = T.warpCanvas.getContext('2d').createImageData(W, H);
+  }
+  const out = T.warpImage.data, sd = src.data, sw = src.w, sh = src.h;
+  out.fill(0);
+  const node = (i, n, N) => Math.min(i * st, N - 1);
+  for (let y = 0; y < H; y++) {
+    const j = Math.min(Math.floor(y / st), ny - 2);
+    const y0 = node(j, ny, H), y1 = node(j + 1, ny, H);
+    const ty = ny > 1 && y1 > y0 ? (y - y0) / (y1 - y0) : 0;
+    for (let x = 0; x < W; x++) {
+      const i = Math.min(Math.floor(x / st), nx - 2);
+      const x0 = node(i, nx, W), x1 = node(i + 1, nx, W);
+      const tx = nx > 1 && x1 > x0 ? (x - x0) / (x1 - x0) : 0;
+      const k00 = 2 * (j * nx + i), k10 = k00 + 2, k01 = k00 + 2 * nx, k11 = k01 + 2;
+      const a = m[k00], b = m[k10], c = m[k01], d = m[k11];
+      if (a === null || b === null || c === null || d === null) continue;
+      const w00 = (1 - tx) * (1 - ty), w10 = tx * (1 - ty), w01 = (1 - tx) * ty, w11 = tx * ty;
+      let px = w00 * a + w10 * b + w01 * c + w11 * d;
+      let py = w00 * m[k00 + 1] + w10 * m[k10 + 1] + w01 * m[k01 + 1] + w11 * m[k11 + 1];
+      px = Math.min(Math.max(px, 0), sw - 1); py = Math.min(Math.max(py, 0), sh - 1);
+      const ix = Math.min(Math.floor(px), sw - 2 < 0 ? 0 : sw - 2), iy = Math.min(Math.floor(py), sh - 2 < 0 ? 0 : sh - 2);
+      const fx = px - ix, fy = py - iy;
+      const s00 = 4 * (iy * sw + ix), s10 = s00 + 4, s01 = s00 + 4 * sw, s11 = s01 + 4;
+      const o = 4 * (y * W + x);
+      for (let ch = 0; ch < 3; ch++) {
+        out[o + ch] = (1 - fy) * ((1 - fx) * sd[s00 + ch] + fx * sd[s10 + ch]) + fy * ((1 - fx) * sd[s01 + ch] + fx * sd[s11 + ch]);
+      }
+      out[o + 3] = 255;
+    }
+  }
+  T.warpCanvas.getContext('2d').putImageData(T.warpImage, 0, 0);
 }
 
 async function refreshJacobian() {
@@ -350,6 +431,7 @@ async function pump() {
       // Where a step's time goes: request and parse, drawing, and the server's exact update.
       T.phases.push({ request: t1 - t0, draw: t2 - t1, update: r.state ? r.state.last_update_ms : null });
       status(summary());
+      refreshWarp();
     } catch (e) {
       message(String(e.message || e), true);
     } finally {
@@ -479,6 +561,7 @@ async function undoRedo(which) {
   T.anchors = [];
   draw();
   refreshJacobian();
+  refreshWarp();
 }
 
 // Saving asks before overwriting a file and before saving a map that is not certified
@@ -526,7 +609,7 @@ const commands = {
   exportimg: () => run(async () => { const r = await api('POST', '/api/export', { kind: 'warped', path: $('path').value.replace(/\.[^.]*$/, '') + '.png' }); message('exported ' + r.saved); }),
   refit: () => run(async () => {
     const r = await api('POST', '/api/refit', { landmarks: $('landmarks').value, hard: $('hard').checked });
-    applyGeo(r); draw(); refreshJacobian();
+    applyGeo(r); draw(); refreshJacobian(); refreshWarp();
     message(`re-fit (${r.method}): rms ${r.rms.toFixed(3)} px, ${r.pinned} pinned points held exactly`);
   }),
 };
@@ -537,6 +620,7 @@ for (const box of document.querySelectorAll('[data-layer]')) {
   box.addEventListener('change', () => {
     T.layers[box.dataset.layer] = box.checked;
     if (box.dataset.layer === 'jacobian') refreshJacobian();
+    if (box.dataset.layer === 'warp') refreshWarp();
     draw();
   });
 }
@@ -564,9 +648,12 @@ window.addEventListener('keydown', (e) => {
   else if (k === '-') $('radius').value = Math.max(0, +$('radius').value - 1);
   else if (k === 'j') { const b = document.querySelector('[data-layer=jacobian]'); b.checked = !b.checked; b.dispatchEvent(new Event('change')); }
   else if (k === 'f') fitView();
+  else if (k === 'w') { const b = document.querySelector('[data-layer=warp]'); b.checked = !b.checked; b.dispatchEvent(new Event('change')); }
+  else if (k === 'b') { const b = $('blend'); b.value = +b.value > 0.5 ? 0 : 1; draw(); }
   else if (k === 'c') { T.center = null; draw(); }
   else if (k === 'Escape') run(async () => { T.anchors = []; await api('POST', '/api/clear'); T.geo.selection = null; draw(); });
 });
 
 window.addEventListener('resize', draw);
+$('blend').addEventListener('input', draw);
 run(() => reload(false)).then(() => { T.ready = true; });
