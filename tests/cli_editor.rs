@@ -63,3 +63,32 @@ fn editor_refuses_bad_inputs_before_serving() {
         assert!(err.contains(msg), "expected `{msg}` in: {err}");
     }
 }
+
+/// The editor's API refuses absurd values with 422; `trimorph edit` refuses them too
+/// (exit 1, nothing written), and `check` reports non-finite control points as an error.
+#[test]
+fn edit_refuses_absurd_values_like_the_editor() {
+    let dir = tempfile::tempdir().unwrap();
+    let id = dir.path().join("id.json");
+    let o = trimorph(&["mesh", "--grid", "4x3", "--size", "400,300", "-o", id.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let script = dir.path().join("edits.json");
+    std::fs::write(
+        &script,
+        r#"[{"anchors": {"near": [[200, 100]]}, "neighborhood": 2, "op": "translate", "by": [1e308, 1e308]}]"#,
+    )
+    .unwrap();
+    let out = dir.path().join("out.json");
+    let o = trimorph(&[
+        "edit",
+        id.to_str().unwrap(),
+        "--script",
+        script.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("edits.json") && err.contains("beyond"), "{err}");
+    assert!(!out.exists(), "nothing is written");
+}

@@ -551,3 +551,33 @@ fn a_scene_keeps_its_model_and_frame_and_stat_answers_before_saves_and_loads() {
     assert_eq!(st, 200, "{v}");
     assert!(f2.model().is_some() && f2.frame().is_some());
 }
+
+#[test]
+fn the_live_warp_map_is_phi_inverse_at_the_nodes() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut d = doc25(dir.path()); // 101 x 101 frame
+    let c = centre(&d);
+    call(&mut d, "POST", "/api/select", json!({"anchors": [c], "radius": 2}));
+    call(&mut d, "POST", "/api/update", json!({"op": "translate", "v": [6.0, -4.0]}));
+    let (st, g) = call(&mut d, "GET", "/api/warp?step=8", Value::Null);
+    assert_eq!(st, 200, "{g}");
+    let (nx, ny) = (g["nx"].as_u64().unwrap() as usize, g["ny"].as_u64().unwrap() as usize);
+    assert_eq!((nx, ny), (14, 14), "nodes 0, 8, ..., 96, 100");
+    let map = g["map"].as_array().unwrap();
+    assert_eq!(map.len(), 2 * nx * ny);
+    let mut found = 0;
+    for j in 0..ny {
+        for i in 0..nx {
+            let q = [(8 * i).min(100) as f64, (8 * j).min(100) as f64];
+            let (px, py) = (map[2 * (j * nx + i)].as_f64(), map[2 * (j * nx + i) + 1].as_f64());
+            let (Some(px), Some(py)) = (px, py) else { continue };
+            found += 1;
+            let back = d.spline().eval([px, py], None).unwrap();
+            let err = (back[0] - q[0]).hypot(back[1] - q[1]);
+            assert!(err < 0.02, "node {q:?}: phi(phi^-1) = {back:?}");
+        }
+    }
+    assert!(found > nx * ny * 9 / 10, "{found} of {} nodes have a preimage", nx * ny);
+    assert_eq!(call(&mut d, "GET", "/api/warp?step=x", Value::Null).0, 400);
+    assert_eq!(call(&mut doc(dir.path()), "GET", "/api/warp", Value::Null).0, 404);
+}
