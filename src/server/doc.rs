@@ -113,6 +113,10 @@ pub struct Doc {
     pub last_update_ms: f64,
 }
 
+/// A file a scene save writes beside the scene: its path relative to the root, and the
+/// frame's PNG bytes (`None`: the model).
+pub type SceneCopy = (String, Option<Vec<u8>>);
+
 /// Segments per mesh edge in the page's `mesh` polylines.
 pub const EDGE_SAMPLES: usize = 8;
 
@@ -297,11 +301,8 @@ impl Doc {
         if let Err(e) = self.check_moved() {
             // Back to the previous step (or the selection-time positions), exactly.
             let back = self.last_op.clone().unwrap_or_else(|| {
-                let dim = if self.editor.selection().is_some_and(|s| s.mode == Mode::Xy) {
-                    2
-                } else {
-                    1
-                };
+                let dim =
+                    if self.editor.selection().is_some_and(|s| s.mode == Mode::Xy) { 2 } else { 1 };
                 Op::Translate(vec![0.0; dim])
             });
             self.apply(&back)?;
@@ -334,7 +335,7 @@ impl Doc {
                 (Mode::Z0, Some(z)) => vec![crate::exact::rat_to_f64(&z.z0[i])],
                 (Mode::Z1, Some(z)) => vec![crate::exact::rat_to_f64(&z.z1[i])],
             };
-            if v.iter().any(|x| !(x.abs() <= MAX_COORD)) {
+            if v.iter().any(|&x| !within(x)) {
                 return Err(ServerError::Unprocessable(format!(
                     "the edit would move control point {i} to {v:?}, beyond {MAX_COORD} pixels: refused"
                 )));
@@ -411,7 +412,7 @@ impl Doc {
     /// relative to the scene file's folder). Also returns the copies a scene needs
     /// (relative path, the frame's PNG bytes or `None` for the model): a model or frame with no file inside that folder (bundled,
     /// or elsewhere) is written beside the scene as `STEM.model.obj` / `STEM.frame.png`.
-    pub fn to_json(&self, scene: Option<&str>) -> (Value, Vec<(String, Option<Vec<u8>>)>) {
+    pub fn to_json(&self, scene: Option<&str>) -> (Value, Vec<SceneCopy>) {
         let last = self
             .editor
             .selection()
@@ -642,10 +643,15 @@ impl Doc {
     }
 }
 
+/// `x` is finite and at most [`MAX_COORD`] in absolute value.
+fn within(x: f64) -> bool {
+    x.is_finite() && x.abs() <= MAX_COORD
+}
+
 /// Refuses arguments beyond [`MAX_COORD`] or outside [`SCALE_RANGE`] (422).
 fn check_op(op: &Op) -> Result<(), ServerError> {
     let far = |what: &str, v: &[f64]| {
-        if v.iter().all(|x| x.abs() <= MAX_COORD) {
+        if v.iter().all(|&x| within(x)) {
             Ok(())
         } else {
             Err(ServerError::Unprocessable(format!(
@@ -676,14 +682,17 @@ fn check_op(op: &Op) -> Result<(), ServerError> {
 
 /// The first control point (or z value) of `s` beyond [`MAX_COORD`] or not finite.
 pub fn absurd_point(s: &Spline) -> Option<String> {
-    let bad = |x: f64| !(x.abs() <= MAX_COORD);
+    let bad = |x: f64| !within(x);
     if let Some(i) = (0..s.num_points()).find(|&i| s.point_f64(i).into_iter().any(bad)) {
         return Some(format!("control point {i} is at {:?}", s.point_f64(i)));
     }
     let z = s.z_layers()?;
     for (name, vals) in [("z0", &z.z0), ("z1", &z.z1)] {
         if let Some(i) = vals.iter().position(|v| bad(crate::exact::rat_to_f64(v))) {
-            return Some(format!("{name} of control point {i} is {}", crate::exact::rat_to_f64(&vals[i])));
+            return Some(format!(
+                "{name} of control point {i} is {}",
+                crate::exact::rat_to_f64(&vals[i])
+            ));
         }
     }
     None

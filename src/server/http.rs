@@ -170,10 +170,11 @@ impl Guard {
         let name = self.cookie_name();
         let sent = req.header(TOKEN_HEADER).or_else(|| req.cookie(&name));
         if !sent.is_some_and(|t| same_secret(t.as_bytes(), self.token.as_bytes())) {
-            return Err(ServerError::Unauthorized(format!(
+            return Err(ServerError::Unauthorized(
                 "missing or wrong session token: open the address `trimorph editor` printed \
                  (…/?token=…), or send the `X-Trimorph-Token` header"
-            )));
+                    .into(),
+            ));
         }
         if !req.body.is_empty() {
             let ct = req.header("content-type").unwrap_or("");

@@ -545,7 +545,10 @@ fn a_scene_keeps_its_model_and_frame_and_stat_answers_before_saves_and_loads() {
     assert_eq!(st, 200, "{v}");
     let text = std::fs::read_to_string(dir.path().join("sub/t.json")).unwrap();
     let j: Value = serde_json::from_str(&text).unwrap();
-    assert_eq!((j["model"].as_str(), j["image"].as_str()), (Some("t.model.obj"), Some("t.frame.png")));
+    assert_eq!(
+        (j["model"].as_str(), j["image"].as_str()),
+        (Some("t.model.obj"), Some("t.frame.png"))
+    );
     let mut f2 = doc(dir.path());
     let (st, v) = call(&mut f2, "POST", "/api/load", json!({"path": "sub/t.json"}));
     assert_eq!(st, 200, "{v}");
