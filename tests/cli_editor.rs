@@ -1,4 +1,5 @@
-//! `trimorph editor` through the binary: it prints its 127.0.0.1 address and serves the API;
+//! `trimorph editor` through the binary: it prints its 127.0.0.1 address with the session
+//! token and serves the API to requests that carry it;
 //! bad inputs exit 1 with a message naming the file.
 
 mod common;
@@ -20,19 +21,31 @@ fn editor_prints_a_loopback_address_and_serves_the_bundled_scene() {
         .unwrap();
     let mut line = String::new();
     BufReader::new(child.stdout.take().unwrap()).read_line(&mut line).unwrap();
-    let addr = line
-        .split("http://")
-        .nth(1)
-        .and_then(|r| r.split('/').next())
+    let url = line
+        .split_whitespace()
+        .find(|w| w.starts_with("http://"))
         .unwrap_or_else(|| panic!("no address in `{line}`"))
         .to_string();
+    let rest = url.strip_prefix("http://").unwrap();
+    let (addr, query) = rest.split_once("/?token=").unwrap_or_else(|| panic!("no token: {line}"));
     assert!(addr.starts_with("127.0.0.1:"), "{line}");
-    let mut s = TcpStream::connect(&addr).unwrap();
-    s.write_all(b"GET /api/state HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n").unwrap();
-    let mut out = String::new();
-    s.read_to_string(&mut out).unwrap();
+    assert!(query.len() == 32 && query.bytes().all(|c| c.is_ascii_hexdigit()), "{line}");
+    let get = |token: &str| {
+        let mut s = TcpStream::connect(addr).unwrap();
+        write!(
+            s,
+            "GET /api/state HTTP/1.1\r\nHost: {addr}\r\nX-Trimorph-Token: {token}\r\nConnection: close\r\n\r\n"
+        )
+        .unwrap();
+        let mut out = String::new();
+        s.read_to_string(&mut out).unwrap();
+        out
+    };
+    let out = get(query);
+    let refused = get("0");
     child.kill().unwrap();
     let _ = child.wait();
+    assert!(refused.starts_with("HTTP/1.1 401"), "{refused}");
     assert!(out.starts_with("HTTP/1.1 200"), "{out}");
     assert!(out.contains("\"points\":1681") && out.contains("bundled worm scene"), "{out}");
 }
@@ -49,4 +62,33 @@ fn editor_refuses_bad_inputs_before_serving() {
         assert_eq!(o.status.code(), Some(1), "{err}");
         assert!(err.contains(msg), "expected `{msg}` in: {err}");
     }
+}
+
+/// The editor's API refuses absurd values with 422; `trimorph edit` refuses them too
+/// (exit 1, nothing written), and `check` reports non-finite control points as an error.
+#[test]
+fn edit_refuses_absurd_values_like_the_editor() {
+    let dir = tempfile::tempdir().unwrap();
+    let id = dir.path().join("id.json");
+    let o = trimorph(&["mesh", "--grid", "4x3", "--size", "400,300", "-o", id.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let script = dir.path().join("edits.json");
+    std::fs::write(
+        &script,
+        r#"[{"anchors": {"near": [[200, 100]]}, "neighborhood": 2, "op": "translate", "by": [1e308, 1e308]}]"#,
+    )
+    .unwrap();
+    let out = dir.path().join("out.json");
+    let o = trimorph(&[
+        "edit",
+        id.to_str().unwrap(),
+        "--script",
+        script.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("edits.json") && err.contains("beyond"), "{err}");
+    assert!(!out.exists(), "nothing is written");
 }

@@ -1,9 +1,17 @@
 //! The editor end to end in a real headless browser: `tests/e2e/editor.mjs` (playwright-core
-//! driving Debian's Chromium) starts `trimorph editor` on the bundled scene, clicks an
-//! anchor, drags it, checks through the API that it moved, saves and runs `trimorph check`
-//! (exact C1), undoes with Ctrl+Z and takes a screenshot (`target/e2e/editor.png`); then
-//! in z1 mode drags the point up and checks that sigma1 rose there and the oblique view
-//! shows (`target/e2e/editor_z1.png`).
+//! driving Debian's Chromium) starts `trimorph editor` on the bundled scene, checks that the
+//! API refuses requests without the session token, opens the printed address (with the
+//! token), presses on an anchor and drags it at once (before the selection answered),
+//! checks through the API that it moved exactly as the pointer did (the drag ends under
+//! the pointer), that the map folds and saving asked for confirmation, that the save
+//! message stays, that a second save asks before overwriting, toggles the help panel
+//! (`?`), compares the live warped frame with `trimorph warp` of the same state (mean
+//! absolute difference <= 1 gray level, <= 0.5 % of pixels off by more than 8), runs
+//! `trimorph check` (exact C1), takes screenshots (`target/e2e/editor.png`,
+//! `editor_warp.png`), taps another point (press and release at once, then moves without a
+//! button: a selection, no edit), undoes with Ctrl+Z; then in z1 mode drags the point up
+//! and checks that sigma1 rose there and the oblique view shows
+//! (`target/e2e/editor_z1.png`).
 //!
 //! Needs `node`, Chromium (`/usr/bin/chromium` or `$CHROMIUM`) and
 //! `tests/e2e/node_modules` (`npm ci` in `tests/e2e`); `.ci/run` installs them and sets
@@ -54,4 +62,7 @@ fn editor_drag_in_headless_chromium() {
     assert_eq!((png.width(), png.height()), (1100, 800));
     assert!(work.path().join("e2e.json").exists());
     assert!(shots.join("editor_z1.png").exists(), "the z1-mode screenshot");
+    assert!(shots.join("editor_warp.png").exists(), "the live-warp screenshot");
+    assert!(v["drag_error_px"].as_f64().unwrap() < 0.01, "the drag ends under the pointer: {line}");
+    assert!(v["live_warp_vs_cli"]["mean_abs"].as_f64().unwrap() <= 1.0, "{line}");
 }

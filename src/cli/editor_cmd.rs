@@ -102,9 +102,12 @@ pub fn run(a: EditorArgs<'_>) -> Result<()> {
     // has read the address (tests/cli_editor.rs does).
     use std::io::Write;
     let mut out = std::io::stdout();
-    let _ =
-        writeln!(out, "trimorph editor at http://{}/ (files: {})", server.addr(), root.display());
-    let _ = writeln!(out, "Ctrl-C stops it; save first (Ctrl+S in the page).");
+    let _ = writeln!(out, "trimorph editor at {} (files: {})", server.url(), root.display());
+    let _ = writeln!(
+        out,
+        "Open that address (the token in it is this session's key; keep it private). \
+         Ctrl-C stops the editor; save first (Ctrl+S in the page)."
+    );
     let _ = out.flush();
     server.run(&mut doc, &|| false);
     Ok(())

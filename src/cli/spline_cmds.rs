@@ -441,6 +441,19 @@ pub fn edit(def: &Path, script: &Path, output: &Path, bounded: Option<u32>) -> R
     let mut out = std::io::stdout();
     let (n_ops, last) = run_script(&mut ed, &text, &script.display().to_string(), &mut out)?;
     ed.spline().check_c1().context("internal error: the edit broke C1")?;
+    // The editor's bound on coordinates (`trimorph editor` refuses the same with 422).
+    if let Some(what) = crate::server::doc::absurd_point(ed.spline()) {
+        return Err(Exit {
+            code: super::EXIT_INPUT,
+            message: format!(
+                "{}: after the edits {what}, beyond {} pixels: refused (nothing written)",
+                script.display(),
+                crate::server::doc::MAX_COORD
+            ),
+            printed: false,
+        }
+        .into());
+    }
     write_atomic(
         output,
         deformation::to_string_with(ed.spline(), last.as_ref(), ed.constraints()).as_bytes(),

@@ -31,6 +31,15 @@ use std::time::Instant;
 /// Most undo steps kept (older ones are dropped).
 pub const UNDO_LIMIT: usize = 200;
 
+/// Largest accepted absolute coordinate (mesh units = pixels) of an edit's arguments, of a
+/// control point after an edit, and of a loaded file's control points (and z values).
+/// Frames are at most a few 10^4 pixels wide: anything beyond this is a typing error or an
+/// attack, and beyond ~10^308 the page would see `null` coordinates.
+pub const MAX_COORD: f64 = 1e6;
+
+/// Range of an accepted scale factor.
+pub const SCALE_RANGE: [f64; 2] = [1e-3, 1e3];
+
 /// A model bound to the prism layer.
 pub struct BoundModel {
     /// Its file, relative to the root when it was loaded from there.
@@ -91,6 +100,9 @@ pub struct Doc {
     redo: Vec<Spline>,
     pinned: BTreeSet<usize>,
     before_drag: Option<Spline>,
+    /// The last drag step of the selection that succeeded (re-applied to take back a
+    /// step whose result is refused).
+    last_op: Option<Op>,
     root: PathBuf,
     name: Option<String>,
     /// Per reference mesh edge, where its sample points lie: (triangle, barycentrics).
@@ -100,6 +112,10 @@ pub struct Doc {
     /// Milliseconds of the last exact update.
     pub last_update_ms: f64,
 }
+
+/// A file a scene save writes beside the scene: its path relative to the root, and the
+/// frame's PNG bytes (`None`: the model).
+pub type SceneCopy = (String, Option<Vec<u8>>);
 
 /// Segments per mesh edge in the page's `mesh` polylines.
 pub const EDGE_SAMPLES: usize = 8;
@@ -154,6 +170,7 @@ impl Doc {
             redo: Vec::new(),
             pinned: BTreeSet::new(),
             before_drag: None,
+            last_op: None,
             root: root.to_path_buf(),
             name: None,
             last_update_ms: 0.0,
@@ -269,30 +286,29 @@ impl Doc {
             "rank": sel.session().rank(),
         });
         self.before_drag = Some(before);
+        self.last_op = None;
         Ok(out)
     }
 
     /// One drag step: the operation relative to the selection-time positions, exactly.
     /// The first successful step of a selection records an undo step.
+    /// Arguments beyond [`MAX_COORD`] or [`SCALE_RANGE`], and steps that would move a
+    /// point beyond [`MAX_COORD`], are refused (422) and change nothing.
     pub fn update(&mut self, op: &Op) -> Result<(), ServerError> {
         let t0 = Instant::now();
-        let ex = |v: f64| exact(v).map_err(edit_err);
-        let r = match op {
-            Op::Translate(v) => {
-                let v: Vec<Rat> = v.iter().map(|&x| ex(x)).collect::<Result<_, _>>()?;
-                self.editor.translate(&v)
-            }
-            Op::Rotate { center, angle } => {
-                let c = [ex(center[0])?, ex(center[1])?];
-                self.editor.rotate(c, *angle)
-            }
-            Op::Scale { center, factor } => {
-                let c: Vec<Rat> = center.iter().map(|&x| ex(x)).collect::<Result<_, _>>()?;
-                let f = ex(*factor)?;
-                self.editor.scale(&c, &f)
-            }
-        };
-        r.map_err(edit_err)?;
+        check_op(op)?;
+        self.apply(op)?;
+        if let Err(e) = self.check_moved() {
+            // Back to the previous step (or the selection-time positions), exactly.
+            let back = self.last_op.clone().unwrap_or_else(|| {
+                let dim =
+                    if self.editor.selection().is_some_and(|s| s.mode == Mode::Xy) { 2 } else { 1 };
+                Op::Translate(vec![0.0; dim])
+            });
+            self.apply(&back)?;
+            return Err(e);
+        }
+        self.last_op = Some(op.clone());
         // Only the anchors and derived points moved (xy mode; z modes leave phi alone).
         if let Some(sel) = self.editor.selection().filter(|s| s.mode == Mode::Xy) {
             let s = self.editor.spline();
@@ -309,6 +325,45 @@ impl Doc {
         Ok(())
     }
 
+    /// The moved points (anchors and derived) are within [`MAX_COORD`].
+    fn check_moved(&self) -> Result<(), ServerError> {
+        let Some(sel) = self.editor.selection() else { return Ok(()) };
+        let s = self.editor.spline();
+        for &i in sel.anchors.iter().chain(&sel.derived) {
+            let v: Vec<f64> = match (sel.mode, s.z_layers()) {
+                (Mode::Xy, _) | (_, None) => s.point_f64(i).to_vec(),
+                (Mode::Z0, Some(z)) => vec![crate::exact::rat_to_f64(&z.z0[i])],
+                (Mode::Z1, Some(z)) => vec![crate::exact::rat_to_f64(&z.z1[i])],
+            };
+            if v.iter().any(|&x| !within(x)) {
+                return Err(ServerError::Unprocessable(format!(
+                    "the edit would move control point {i} to {v:?}, beyond {MAX_COORD} pixels: refused"
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    fn apply(&mut self, op: &Op) -> Result<(), ServerError> {
+        let ex = |v: f64| exact(v).map_err(edit_err);
+        let r = match op {
+            Op::Translate(v) => {
+                let v: Vec<Rat> = v.iter().map(|&x| ex(x)).collect::<Result<_, _>>()?;
+                self.editor.translate(&v)
+            }
+            Op::Rotate { center, angle } => {
+                let c = [ex(center[0])?, ex(center[1])?];
+                self.editor.rotate(c, *angle)
+            }
+            Op::Scale { center, factor } => {
+                let c: Vec<Rat> = center.iter().map(|&x| ex(x)).collect::<Result<_, _>>()?;
+                let f = ex(*factor)?;
+                self.editor.scale(&c, &f)
+            }
+        };
+        r.map_err(edit_err)
+    }
+
     fn push_undo(&mut self, s: Spline) {
         self.undo.push(s);
         if self.undo.len() > UNDO_LIMIT {
@@ -321,6 +376,7 @@ impl Doc {
     pub fn clear_selection(&mut self) {
         self.editor.clear_selection();
         self.before_drag = None;
+        self.last_op = None;
     }
 
     /// Undoes the last change (an edit, a load over the same mesh, or a refit).
@@ -351,9 +407,12 @@ impl Doc {
         Ok(())
     }
 
-    /// The deformation file's JSON (format v1), with the corrected points (`"pinned"`)
-    /// and, for a scene, the model and frame paths.
-    pub fn to_json(&self, scene: bool) -> Value {
+    /// The deformation file's JSON (format v1), with the corrected points (`"pinned"`),
+    /// and for a scene saved as `rel` the model and frame (`"model"`, `"image"`, paths
+    /// relative to the scene file's folder). Also returns the copies a scene needs
+    /// (relative path, the frame's PNG bytes or `None` for the model): a model or frame with no file inside that folder (bundled,
+    /// or elsewhere) is written beside the scene as `STEM.model.obj` / `STEM.frame.png`.
+    pub fn to_json(&self, scene: Option<&str>) -> (Value, Vec<SceneCopy>) {
         let last = self
             .editor
             .selection()
@@ -361,25 +420,90 @@ impl Doc {
         let mut v =
             deformation::to_json_with(self.spline(), last.as_ref(), self.editor.constraints());
         v["pinned"] = json!(self.pinned.iter().collect::<Vec<_>>());
-        if scene {
-            // Bundled inputs (`bundled:...`) have no file to point to.
-            let real = |p: &Path| !p.to_string_lossy().starts_with("bundled:");
-            if let Some(m) = self.model.as_ref().filter(|m| real(&m.path)) {
-                v["model"] = json!(m.path.display().to_string());
+        let mut copies = Vec::new();
+        let Some(rel) = scene else { return (v, copies) };
+        let rel = Path::new(rel);
+        let folder_rel = rel.parent().unwrap_or(Path::new(""));
+        let stem = rel.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+        let folder = self.root.join(folder_rel).canonicalize().ok();
+        // `p` relative to the scene's folder, if it is a file inside it.
+        let inside = |p: &Path| -> Option<String> {
+            if p.to_string_lossy().starts_with("bundled:") {
+                return None;
             }
-            if let Some(f) = self.frame.as_ref().filter(|f| real(&f.path)) {
-                v["image"] = json!(f.path.display().to_string());
-            }
+            let abs = if p.is_absolute() { p.to_path_buf() } else { self.root.join(p) };
+            let abs = abs.canonicalize().ok()?;
+            let r = abs.strip_prefix(folder.as_ref()?).ok()?;
+            Some(r.to_string_lossy().into_owned())
+        };
+        if let Some(m) = &self.model {
+            let key = inside(&m.path).unwrap_or_else(|| {
+                let name = format!("{stem}.model.obj");
+                copies.push((folder_rel.join(&name).to_string_lossy().into_owned(), None));
+                name
+            });
+            v["model"] = json!(key);
         }
-        v
+        if let Some(f) = &self.frame {
+            let key = inside(&f.path).unwrap_or_else(|| {
+                let name = format!("{stem}.frame.png");
+                let c = folder_rel.join(&name).to_string_lossy().into_owned();
+                copies.push((c, Some(f.png.clone())));
+                name
+            });
+            v["image"] = json!(key);
+        }
+        (v, copies)
     }
 
-    /// Saves the deformation (or the scene) to `rel` inside the root.
-    pub fn save(&self, rel: &str, scene: bool) -> Result<PathBuf, ServerError> {
+    /// Saves the deformation (or the scene, with the copies [`Doc::to_json`] names) to
+    /// `rel` inside the root; returns the file and the copies written.
+    pub fn save(&self, rel: &str, scene: bool) -> Result<(PathBuf, Vec<String>), ServerError> {
         let path = confine(&self.root, rel, true)?;
-        let text = crate::io::json_rows(&self.to_json(scene));
-        write_atomic(&path, text.as_bytes()).map_err(|e| ServerError::Io(e.to_string()))?;
-        Ok(path)
+        let (v, copies) = self.to_json(scene.then_some(rel));
+        let io = |e: crate::io::IoError| ServerError::Io(e.to_string());
+        let mut written = Vec::new();
+        for (c, bytes) in &copies {
+            let p = confine(&self.root, c, true)?;
+            match (bytes, &self.model) {
+                (Some(b), _) => write_atomic(&p, b).map_err(io)?,
+                (None, Some(m)) => {
+                    let e = |e: crate::io::model::ModelIoError| ServerError::Io(e.to_string());
+                    save_model(&m.model, &m.model.vertices, &p).map_err(e)?;
+                    if !m.model.landmarks.is_empty() {
+                        crate::io::model::save_landmarks(&m.model, &m.model.vertices, &p)
+                            .map_err(e)?;
+                    }
+                }
+                (None, None) => {}
+            }
+            written.push(c.clone());
+        }
+        let text = crate::io::json_rows(&v);
+        write_atomic(&path, text.as_bytes()).map_err(io)?;
+        Ok((path, written))
+    }
+
+    /// What the page asks before a save or a load of `rel`: `exists`, `same_layout`
+    /// (a deformation over the same mesh: loading it keeps the undo history; `null` when
+    /// not readable as a deformation), and `scene_copies` (files a scene save would write
+    /// besides, that exist already).
+    pub fn stat(&self, rel: &str) -> Result<Value, ServerError> {
+        let path = confine(&self.root, rel, true)?;
+        let exists = path.exists();
+        let same = exists
+            .then(|| read_text(&path).ok())
+            .flatten()
+            .and_then(|t| deformation::from_str(&t).ok())
+            .map(|(s, _)| crate::edit::same_layout(self.spline(), &s));
+        let copies: Vec<String> = self
+            .to_json(Some(rel))
+            .1
+            .into_iter()
+            .map(|(c, _)| c)
+            .filter(|c| self.root.join(c).exists())
+            .collect();
+        Ok(json!({ "exists": exists, "same_layout": same, "scene_copies": copies }))
     }
 
     /// Loads a deformation or scene from `rel` inside the root. Over the same mesh it
@@ -390,9 +514,18 @@ impl Doc {
         let bad = |e: String| ServerError::Unprocessable(format!("{rel}: {e}"));
         let text = read_text(&path).map_err(|e| bad(e.to_string()))?;
         let (s, _) = deformation::from_str(&text).map_err(|e| bad(e.to_string()))?;
+        if let Some(what) = absurd_point(&s) {
+            return Err(bad(format!(
+                "{what}: not a finite value within {MAX_COORD} pixels; correct that point"
+            )));
+        }
         let pinned = deformation::pinned_from_str(&text).map_err(|e| bad(e.to_string()))?;
         let v: Value = serde_json::from_str(&text).map_err(|e| bad(e.to_string()))?;
-        let key = |k: &str| v.get(k).and_then(Value::as_str).map(str::to_string);
+        // Keys are relative to the scene file's folder (as `trimorph editor SCENE` reads them).
+        let folder = Path::new(rel).parent().unwrap_or(Path::new(""));
+        let key = |k: &str| {
+            v.get(k).and_then(Value::as_str).map(|p| folder.join(p).to_string_lossy().into_owned())
+        };
         // Everything is read before anything changes.
         let model = match key("model") {
             Some(m) => {
@@ -508,6 +641,61 @@ impl Doc {
             "min_det_j": f.report.min_det_j,
         }))
     }
+}
+
+/// `x` is finite and at most [`MAX_COORD`] in absolute value.
+fn within(x: f64) -> bool {
+    x.is_finite() && x.abs() <= MAX_COORD
+}
+
+/// Refuses arguments beyond [`MAX_COORD`] or outside [`SCALE_RANGE`] (422).
+fn check_op(op: &Op) -> Result<(), ServerError> {
+    let far = |what: &str, v: &[f64]| {
+        if v.iter().all(|&x| within(x)) {
+            Ok(())
+        } else {
+            Err(ServerError::Unprocessable(format!(
+                "{what} {v:?} is beyond {MAX_COORD} pixels: refused"
+            )))
+        }
+    };
+    match op {
+        Op::Translate(v) => far("translation", v),
+        Op::Rotate { center, angle } => {
+            far("rotation centre", center)?;
+            if angle.abs() > 1e3 {
+                return Err(ServerError::Unprocessable(format!("angle {angle} rad: refused")));
+            }
+            Ok(())
+        }
+        Op::Scale { center, factor } => {
+            far("scale centre", center)?;
+            if !(SCALE_RANGE[0]..=SCALE_RANGE[1]).contains(&factor.abs()) {
+                return Err(ServerError::Unprocessable(format!(
+                    "scale factor {factor} is outside {SCALE_RANGE:?}: refused"
+                )));
+            }
+            Ok(())
+        }
+    }
+}
+
+/// The first control point (or z value) of `s` beyond [`MAX_COORD`] or not finite.
+pub fn absurd_point(s: &Spline) -> Option<String> {
+    let bad = |x: f64| !within(x);
+    if let Some(i) = (0..s.num_points()).find(|&i| s.point_f64(i).into_iter().any(bad)) {
+        return Some(format!("control point {i} is at {:?}", s.point_f64(i)));
+    }
+    let z = s.z_layers()?;
+    for (name, vals) in [("z0", &z.z0), ("z1", &z.z1)] {
+        if let Some(i) = vals.iter().position(|v| bad(crate::exact::rat_to_f64(v))) {
+            return Some(format!(
+                "{name} of control point {i} is {}",
+                crate::exact::rat_to_f64(&vals[i])
+            ));
+        }
+    }
+    None
 }
 
 /// Adds the certificate's keys to a JSON object: `fold_free` (certified), `folding_triangles`,

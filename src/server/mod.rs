@@ -14,12 +14,14 @@
 //! | `GET /api/geometry[?full=1]` | | [`views::geometry`] |
 //! | `GET /api/image.png` | | the frame |
 //! | `GET /api/jacobian.png` | | det J overlay ([`views::jacobian_png`]) |
+//! | `GET /api/warp[?step=8]` | | the live warp's coarse inverse map ([`views::inverse_grid`]) |
 //! | `POST /api/pick` | `{x, y, max_dist?}` | `{index, point}` (nearest control point) |
 //! | `POST /api/select` | `{anchors, radius?, mode?}` (`radius` null: all) | selection |
 //! | `POST /api/update` | `{op: translate, v}` / `{op: rotate, center, angle}` / `{op: scale, center, factor}` | geometry |
 //! | `POST /api/clear` | | state |
 //! | `POST /api/undo`, `/api/redo` | | geometry |
-//! | `POST /api/save` | `{path, scene?}` | `{saved}` |
+//! | `POST /api/save` | `{path, scene?}` | `{saved, written}` (`written`: a scene's copies of its model and frame) |
+//! | `POST /api/stat` | `{path}` | `{exists, same_layout, scene_copies}` (asked before a save or load) |
 //! | `POST /api/load` | `{path}` | state |
 //! | `POST /api/export` | `{kind: obj / warped, path}` | `{saved}` |
 //! | `POST /api/refit` | `{landmarks, hard?}` | fit summary |
@@ -30,29 +32,36 @@
 //! `folding_outline` (the deformed corners of each folding triangle, 6 numbers each). A drag
 //! re-certifies only the triangles around the points it moved.
 //!
-//! Errors answer `{"error": message}` with 400 (bad request), 403 (path outside the
-//! folder), 404, 413 (body over [`MAX_BODY`] bytes) or 422 (an edit or file the engine
-//! refuses; the document is unchanged).
+//! Errors answer `{"error": message}` with 400 (bad request), 401 (no or wrong session
+//! token), 403 (path outside the folder, foreign `Host` or `Origin`), 404, 408 (request not
+//! sent within the read timeout), 413 (body over [`MAX_BODY`] bytes), 415 (body not
+//! `application/json`), 422 (an edit or file the engine refuses; the document is
+//! unchanged) or 431 (headers too large).
 //!
 //! # Safety
 //!
-//! The server binds 127.0.0.1 only, reads at most [`MAX_BODY`] bytes of a request body,
-//! serves only the embedded assets, and confines every file path to the folder it was
-//! started in ([`paths::confine`]).
+//! The threat model and the checks are in [`http`]: a per-session token on every `/api/`
+//! request (printed in the address, `http://127.0.0.1:P/?token=T`), `Host` and `Origin`
+//! limited to this server, JSON bodies only as `application/json`, a pool of worker threads
+//! with read and write timeouts. Besides, the server binds 127.0.0.1 only, reads at most
+//! [`MAX_BODY`] bytes of a request body, serves only the embedded assets, and confines
+//! every file path to the folder it was started in ([`paths::confine`]).
 
 pub mod doc;
+pub mod http;
 pub mod paths;
 pub mod views;
 
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests_http;
 
 use crate::edit::Mode;
 use doc::{Doc, Op};
 use serde_json::{json, Value};
-use std::io::Read;
-use std::net::SocketAddr;
-use std::time::Instant;
+use std::net::{SocketAddr, TcpStream};
+use std::time::{Duration, Instant};
 
 /// Largest accepted request body (bytes).
 pub const MAX_BODY: usize = 1 << 20;
@@ -76,6 +85,18 @@ pub enum ServerError {
     /// Unknown route or missing file (404).
     #[error("not found: {0}")]
     NotFound(String),
+    /// Missing or wrong session token (401).
+    #[error("unauthorized: {0}")]
+    Unauthorized(String),
+    /// A request body not sent as `application/json` (415).
+    #[error("unsupported media type: {0}")]
+    UnsupportedMediaType(String),
+    /// The request did not arrive within the read timeout (408).
+    #[error("the request did not arrive in time")]
+    Timeout,
+    /// Request line and headers over [`http::MAX_HEAD`] bytes (431).
+    #[error("request headers over {} bytes", http::MAX_HEAD)]
+    HeadTooLarge,
     /// Body too large (413).
     #[error("request body over {MAX_BODY} bytes")]
     TooLarge,
@@ -94,6 +115,10 @@ impl ServerError {
             ServerError::BadRequest(_) => 400,
             ServerError::Forbidden(_) => 403,
             ServerError::NotFound(_) => 404,
+            ServerError::Unauthorized(_) => 401,
+            ServerError::UnsupportedMediaType(_) => 415,
+            ServerError::Timeout => 408,
+            ServerError::HeadTooLarge => 431,
             ServerError::TooLarge => 413,
             ServerError::Unprocessable(_) => 422,
             ServerError::Io(_) => 500,
@@ -220,6 +245,18 @@ fn route(
             Some(f) => Ok(Png(f.png.clone())),
             None => Err(ServerError::NotFound("no image is loaded".into())),
         },
+        ("GET", "/api/warp") => {
+            let step = query
+                .split('&')
+                .find_map(|q| q.strip_prefix("step="))
+                .map(|v| v.parse::<u32>())
+                .transpose()
+                .map_err(|_| ServerError::BadRequest("`step` must be a positive integer".into()))?
+                .unwrap_or(views::WARP_STEP);
+            views::inverse_grid(doc, step)
+                .map(Answer::Text)
+                .ok_or_else(|| ServerError::NotFound("no image is loaded".into()))
+        }
         ("GET", "/api/jacobian.png") => {
             let (w, h) = match doc.frame() {
                 Some(f) => (f.image.width(), f.image.height()),
@@ -305,8 +342,12 @@ fn route(
         ("POST", "/api/save") => {
             let b = parse()?;
             let scene = b.get("scene").and_then(Value::as_bool).unwrap_or(false);
-            let p = doc.save(text(&b, "path")?, scene)?;
-            Ok(Json(json!({ "saved": p.display().to_string() })))
+            let (p, written) = doc.save(text(&b, "path")?, scene)?;
+            Ok(Json(json!({ "saved": p.display().to_string(), "written": written })))
+        }
+        ("POST", "/api/stat") => {
+            let b = parse()?;
+            Ok(Json(doc.stat(text(&b, "path")?)?))
         }
         ("POST", "/api/load") => {
             let b = parse()?;
@@ -342,26 +383,36 @@ fn route(
 
 /// A running editor server.
 pub struct Server {
-    http: tiny_http::Server,
+    listener: std::net::TcpListener,
     addr: SocketAddr,
+    guard: http::Guard,
+    read_timeout: Duration,
+    write_timeout: Duration,
 }
 
 impl Server {
-    /// Binds `127.0.0.1:port` (`0`: any free port).
+    /// Binds `127.0.0.1:port` (`0`: any free port) with a fresh session token.
     pub fn bind(port: u16) -> Result<Server, ServerError> {
         let io = |e: &dyn std::fmt::Display| {
             ServerError::Io(format!("cannot listen on 127.0.0.1:{port}: {e}"))
         };
         let listener = std::net::TcpListener::bind(("127.0.0.1", port)).map_err(|e| io(&e))?;
         // No Nagle delay: a drag step answers ~100 KB, whose last segment would otherwise
-        // wait for the browser's delayed ACK (~40 ms). Accepted sockets inherit the option.
-        socket2::SockRef::from(&listener).set_nodelay(true).map_err(|e| io(&e))?;
-        let http = tiny_http::Server::from_listener(listener, None).map_err(|e| io(&e))?;
-        let addr = http
-            .server_addr()
-            .to_ip()
-            .ok_or_else(|| ServerError::Io("not an IP listener".into()))?;
-        Ok(Server { http, addr })
+        // wait for the browser's delayed ACK (~40 ms). Set again on each accepted socket.
+        let sock = socket2::SockRef::from(&listener);
+        sock.set_nodelay(true).map_err(|e| io(&e))?;
+        // `accept` waits at most this long (Linux honours SO_RCVTIMEO on a listener), so
+        // that `run` sees its stop condition.
+        sock.set_read_timeout(Some(ACCEPT_POLL)).map_err(|e| io(&e))?;
+        let addr = listener.local_addr().map_err(|e| io(&e))?;
+        let guard = http::Guard::random(addr.port());
+        Ok(Server {
+            listener,
+            addr,
+            guard,
+            read_timeout: http::READ_TIMEOUT,
+            write_timeout: http::WRITE_TIMEOUT,
+        })
     }
 
     /// The bound address (always on 127.0.0.1).
@@ -369,40 +420,102 @@ impl Server {
         self.addr
     }
 
-    /// Serves requests one at a time until `stop` returns true (checked between requests
-    /// and every 200 ms).
+    /// The session token every `/api/` request must carry ([`http`]).
+    pub fn token(&self) -> &str {
+        self.guard.token()
+    }
+
+    /// The page's address with the token (`http://127.0.0.1:P/?token=T`).
+    pub fn url(&self) -> String {
+        format!("http://{}/?token={}", self.addr, self.guard.token())
+    }
+
+    /// Sets the read and write timeouts (defaults [`http::READ_TIMEOUT`],
+    /// [`http::WRITE_TIMEOUT`]).
+    pub fn with_timeouts(mut self, read: Duration, write: Duration) -> Server {
+        self.read_timeout = read;
+        self.write_timeout = write;
+        self
+    }
+
+    /// Serves requests on [`http::WORKERS`] threads until `stop` returns true (checked
+    /// at least every [`ACCEPT_POLL`]). The document is locked only while a request is
+    /// handled, never while one is read or answered.
     pub fn run(&self, doc: &mut Doc, stop: &dyn Fn() -> bool) {
-        while !stop() {
-            let req = match self.http.recv_timeout(std::time::Duration::from_millis(200)) {
-                Ok(Some(r)) => r,
-                Ok(None) => continue,
-                Err(_) => break,
-            };
-            serve_one(doc, req);
-        }
+        let doc = std::sync::Mutex::new(doc);
+        let (tx, rx) = std::sync::mpsc::sync_channel::<TcpStream>(64);
+        let rx = std::sync::Mutex::new(rx);
+        std::thread::scope(|scope| {
+            for _ in 0..http::WORKERS {
+                scope.spawn(|| loop {
+                    let next = rx.lock().unwrap_or_else(|e| e.into_inner()).recv();
+                    let Ok(stream) = next else { break };
+                    self.serve_one(&doc, &stream);
+                });
+            }
+            while !stop() {
+                match self.listener.accept() {
+                    Ok((s, _)) => {
+                        let _ = s.set_nodelay(true);
+                        if tx.send(s).is_err() {
+                            break;
+                        }
+                    }
+                    Err(e) if is_timeout(&e) => {}
+                    Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+                    Err(_) => std::thread::sleep(ACCEPT_POLL),
+                }
+            }
+            drop(tx);
+        });
+    }
+
+    fn serve_one(&self, doc: &std::sync::Mutex<&mut Doc>, s: &TcpStream) {
+        let req = match http::read_request(s, self.read_timeout, MAX_BODY) {
+            Ok(r) => r,
+            Err(http::ReadFail::Gone) => return,
+            Err(http::ReadFail::Answer(e)) => {
+                let r = Reply::error(&e);
+                http::respond(s, r.status, r.content_type, &r.body, None, self.write_timeout);
+                return;
+            }
+        };
+        let (reply, cookie) = match self.guard.admit(&req) {
+            Err(e) => (Reply::error(&e), None),
+            Ok(set_cookie) => {
+                let reply = {
+                    let mut d = doc.lock().unwrap_or_else(|e| e.into_inner());
+                    let run = std::panic::AssertUnwindSafe(|| {
+                        handle(&mut d, &req.method, &req.target, &req.body)
+                    });
+                    std::panic::catch_unwind(run).unwrap_or_else(|_| {
+                        Reply::error(&ServerError::Io("internal error (a bug): see stderr".into()))
+                    })
+                };
+                let cookie = set_cookie.then(|| {
+                    format!(
+                        "{}={}; Path=/; HttpOnly; SameSite=Strict",
+                        self.guard.cookie_name(),
+                        self.guard.token()
+                    )
+                });
+                (reply, cookie)
+            }
+        };
+        http::respond(
+            s,
+            reply.status,
+            reply.content_type,
+            &reply.body,
+            cookie.as_deref(),
+            self.write_timeout,
+        );
     }
 }
 
-fn serve_one(doc: &mut Doc, mut req: tiny_http::Request) {
-    let method = req.method().as_str().to_uppercase();
-    let url = req.url().to_string();
-    let reply = if req.body_length().is_some_and(|n| n > MAX_BODY) {
-        Reply::error(&ServerError::TooLarge)
-    } else {
-        let mut body = Vec::new();
-        match req.as_reader().take(MAX_BODY as u64 + 1).read_to_end(&mut body) {
-            Ok(_) if body.len() > MAX_BODY => Reply::error(&ServerError::TooLarge),
-            Ok(_) => handle(doc, &method, &url, &body),
-            Err(e) => Reply::error(&ServerError::BadRequest(format!("reading the body: {e}"))),
-        }
-    };
-    let header = tiny_http::Header::from_bytes(&b"Content-Type"[..], reply.content_type.as_bytes())
-        .expect("static header");
-    let nocache = tiny_http::Header::from_bytes(&b"Cache-Control"[..], &b"no-store"[..])
-        .expect("static header");
-    let resp = tiny_http::Response::from_data(reply.body)
-        .with_status_code(reply.status)
-        .with_header(header)
-        .with_header(nocache);
-    let _ = req.respond(resp);
+/// How long `accept` waits before `run` checks its stop condition again.
+pub const ACCEPT_POLL: Duration = Duration::from_millis(100);
+
+fn is_timeout(e: &std::io::Error) -> bool {
+    matches!(e.kind(), std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut)
 }

@@ -7,7 +7,7 @@ use std::net::TcpStream;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
-fn doc(root: &std::path::Path) -> Doc {
+pub(super) fn doc(root: &std::path::Path) -> Doc {
     let mesh = Mesh::grid(4, 4, 100.0, 100.0, MeshOptions::default()).unwrap();
     Doc::new(Spline::identity(mesh, 5).unwrap(), root)
 }
@@ -182,7 +182,7 @@ fn only_embedded_assets_and_the_api_are_served() {
 }
 
 /// A raw HTTP/1.1 request; returns the status and the body.
-fn http(addr: SocketAddr, head: &str, body: &[u8]) -> (u16, Vec<u8>) {
+pub(super) fn http(addr: SocketAddr, head: &str, body: &[u8]) -> (u16, Vec<u8>) {
     let mut s = TcpStream::connect(addr).unwrap();
     s.write_all(head.as_bytes()).unwrap();
     let _ = s.write_all(body);
@@ -197,45 +197,79 @@ fn http(addr: SocketAddr, head: &str, body: &[u8]) -> (u16, Vec<u8>) {
     (status, body)
 }
 
+/// A server on a free port with `doc` in a thread; stopped and joined on drop.
+pub(super) struct Running {
+    pub addr: SocketAddr,
+    pub token: String,
+    stop: Arc<AtomicBool>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl Running {
+    pub fn start(root: &std::path::Path, read_timeout: std::time::Duration) -> Running {
+        let server =
+            Server::bind(0).unwrap().with_timeouts(read_timeout, std::time::Duration::from_secs(5));
+        let (addr, token) = (server.addr(), server.token().to_string());
+        let stop = Arc::new(AtomicBool::new(false));
+        let stop2 = stop.clone();
+        let root = root.to_path_buf();
+        let thread = std::thread::spawn(move || {
+            let mut d = doc(&root);
+            server.run(&mut d, &|| stop2.load(Ordering::Relaxed));
+        });
+        Running { addr, token, stop, thread: Some(thread) }
+    }
+
+    /// Request headers with the right Host and token.
+    pub fn head(&self, method: &str, path: &str, extra: &str) -> String {
+        format!(
+            "{method} {path} HTTP/1.1\r\nHost: {}\r\nX-Trimorph-Token: {}\r\n{extra}Connection: close\r\n\r\n",
+            self.addr, self.token
+        )
+    }
+}
+
+impl Drop for Running {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
 #[test]
 fn the_server_binds_loopback_and_bounds_request_bodies() {
     let dir = tempfile::tempdir().unwrap();
-    let server = Server::bind(0).unwrap();
-    let addr = server.addr();
+    let srv = Running::start(dir.path(), std::time::Duration::from_secs(5));
+    let addr = srv.addr;
     assert!(addr.ip().is_loopback(), "{addr}");
     assert_eq!(addr.ip().to_string(), "127.0.0.1");
-    let stop = Arc::new(AtomicBool::new(false));
-    let stop2 = stop.clone();
-    let root = dir.path().to_path_buf();
-    let t = std::thread::spawn(move || {
-        let mut d = doc(&root);
-        server.run(&mut d, &|| stop2.load(Ordering::Relaxed));
-    });
-    let (st, body) =
-        http(addr, "GET /api/state HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n", b"");
+    let (st, body) = http(addr, &srv.head("GET", "/api/state", ""), b"");
     assert_eq!(st, 200);
     let v: Value = serde_json::from_slice(&body).unwrap();
     assert_eq!(v["degree"], 5);
     // Declared too large: refused without reading it.
-    let head = format!(
-        "POST /api/select HTTP/1.1\r\nHost: x\r\nContent-Length: {}\r\nConnection: close\r\n\r\n",
-        MAX_BODY + 1
-    );
-    let (st, _) = http(addr, &head, b"{}");
+    let cl = format!("Content-Type: application/json\r\nContent-Length: {}\r\n", MAX_BODY + 1);
+    let (st, _) = http(addr, &srv.head("POST", "/api/select", &cl), b"{}");
     assert_eq!(st, 413);
     // Chunked and too large: cut off after MAX_BODY bytes.
     let big = vec![b' '; MAX_BODY + 10];
     let mut chunked = format!("{:x}\r\n", big.len()).into_bytes();
     chunked.extend(&big);
     chunked.extend(b"\r\n0\r\n\r\n");
-    let head = "POST /api/select HTTP/1.1\r\nHost: x\r\nTransfer-Encoding: chunked\r\nConnection: close\r\n\r\n";
-    let (st, _) = http(addr, head, &chunked);
+    let te = "Content-Type: application/json\r\nTransfer-Encoding: chunked\r\n";
+    let (st, _) = http(addr, &srv.head("POST", "/api/select", te), &chunked);
     assert_eq!(st, 413);
-    let (st, _) =
-        http(addr, "GET /etc/passwd HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n", b"");
+    // A small chunked body is decoded.
+    let body = br#"{"x": 50, "y": 50}"#;
+    let mut small = format!("{:x}\r\n", body.len()).into_bytes();
+    small.extend(body.as_slice());
+    small.extend(b"\r\n0\r\n\r\n");
+    let (st, out) = http(addr, &srv.head("POST", "/api/pick", te), &small);
+    assert_eq!(st, 200, "{}", String::from_utf8_lossy(&out));
+    let (st, _) = http(addr, &srv.head("GET", "/etc/passwd", ""), b"");
     assert_eq!(st, 404);
-    stop.store(true, Ordering::Relaxed);
-    t.join().unwrap();
 }
 
 /// A 2.5D document with a small worm model and a 101 x 101 frame.
@@ -433,4 +467,120 @@ fn drag_answers_carry_the_det_j_certificate_of_the_whole_spline() {
     call(&mut d, "POST", "/api/update", json!({"op": "translate", "v": [35.0, 0.0]}));
     let (_, v) = call(&mut d, "POST", "/api/undo", Value::Null);
     assert_eq!(v["fold_free"], true, "undo restores the identity");
+}
+
+/// Regression test: the API accepted `translate [1e308, 1e308]` and the next answer had
+/// `null` coordinates.
+#[test]
+fn absurd_values_are_refused_with_422_and_change_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut d = doc(dir.path());
+    let c = centre(&d);
+    call(&mut d, "POST", "/api/select", json!({"anchors": [c], "radius": 2}));
+    let (st, _) = call(&mut d, "POST", "/api/update", json!({"op": "translate", "v": [2.0, 1.0]}));
+    assert_eq!(st, 200);
+    let before = d.spline().points().to_vec();
+    for body in [
+        json!({"op": "translate", "v": [1e308, 1e308]}),
+        json!({"op": "translate", "v": [2e6, 0.0]}),
+        json!({"op": "rotate", "center": [1e300, 0.0], "angle": 0.1}),
+        json!({"op": "rotate", "center": [50.0, 50.0], "angle": 1e9}),
+        json!({"op": "scale", "center": [50.0, 50.0], "factor": 1e9}),
+        json!({"op": "scale", "center": [50.0, 50.0], "factor": 1e-9}),
+        // Arguments within range whose result is not: 5e5 * 3 away from the centre.
+        json!({"op": "scale", "center": [-5e5, 0.0], "factor": 3.0}),
+    ] {
+        let (st, v) = call(&mut d, "POST", "/api/update", body.clone());
+        assert_eq!(st, 422, "{body}: {v}");
+        assert_eq!(d.spline().points(), &before[..], "{body} changed the spline");
+    }
+    // The drag goes on from where it was; one undo step in all.
+    let (st, v) = call(&mut d, "POST", "/api/update", json!({"op": "translate", "v": [3.0, 1.0]}));
+    assert_eq!(st, 200, "{v}");
+    assert_eq!(d.spline().point_f64(c), [53.0, 51.0]);
+    assert!(v["points"].as_array().unwrap().iter().all(|p| p[0].is_number() && p[1].is_number()));
+    assert_eq!(call(&mut d, "GET", "/api/state", Value::Null).1["undo"], 1);
+    // A file with an absurd control point is refused on load.
+    // (All points shifted: an affine map stays C1.)
+    let mut far = d.spline().clone();
+    let shift = crate::exact::rat_int(10_000_000);
+    let pts: Vec<Vec<crate::exact::Rat>> =
+        far.points().iter().map(|p| vec![&p[0] + &shift, p[1].clone()]).collect();
+    far.set_points(pts).unwrap();
+    std::fs::write(dir.path().join("far.json"), crate::io::deformation::to_string(&far, None))
+        .unwrap();
+    let (st, v) = call(&mut d, "POST", "/api/load", json!({"path": "far.json"}));
+    assert_eq!(st, 422, "{v}");
+    assert!(v["error"].as_str().unwrap().contains("control point 0 is at"), "{v}");
+    assert_eq!(d.spline().point_f64(c), [53.0, 51.0]);
+}
+
+/// "Save scene" dropped the bundled model and frame without saying so.
+#[test]
+fn a_scene_keeps_its_model_and_frame_and_stat_answers_before_saves_and_loads() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut d = doc25(dir.path()); // model and frame have no file in the folder
+    let (_, v) = call(&mut d, "POST", "/api/stat", json!({"path": "s.json"}));
+    assert_eq!(v["exists"], false);
+    assert_eq!(v["scene_copies"], json!([]));
+    let (st, v) = call(&mut d, "POST", "/api/save", json!({"path": "s.json", "scene": true}));
+    assert_eq!(st, 200, "{v}");
+    assert_eq!(v["written"], json!(["s.model.obj", "s.frame.png"]));
+    let (_, v) = call(&mut d, "POST", "/api/stat", json!({"path": "s.json"}));
+    assert_eq!(v["exists"], true);
+    assert_eq!(v["same_layout"], true);
+    assert_eq!(v["scene_copies"], json!(["s.model.obj", "s.frame.png"]));
+    let other = Mesh::grid(3, 3, 100.0, 100.0, MeshOptions::default()).unwrap();
+    let mut e = Doc::new(Spline::identity(other, 5).unwrap(), dir.path());
+    let (_, v) = call(&mut e, "POST", "/api/stat", json!({"path": "s.json"}));
+    assert_eq!(v["same_layout"], false, "another mesh: a new document");
+    let (st, v) = call(&mut e, "POST", "/api/load", json!({"path": "s.json"}));
+    assert_eq!(st, 200, "{v}");
+    assert_eq!(e.model().unwrap().model.vertices, d.model().unwrap().model.vertices);
+    let (f, g) = (&e.frame().unwrap().image, &d.frame().unwrap().image);
+    assert_eq!(f.to_luma8().into_raw(), g.to_luma8().into_raw());
+    // In a subfolder, the keys are relative to the scene's folder.
+    std::fs::create_dir(dir.path().join("sub")).unwrap();
+    let (st, v) = call(&mut e, "POST", "/api/save", json!({"path": "sub/t.json", "scene": true}));
+    assert_eq!(st, 200, "{v}");
+    let text = std::fs::read_to_string(dir.path().join("sub/t.json")).unwrap();
+    let j: Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(
+        (j["model"].as_str(), j["image"].as_str()),
+        (Some("t.model.obj"), Some("t.frame.png"))
+    );
+    let mut f2 = doc(dir.path());
+    let (st, v) = call(&mut f2, "POST", "/api/load", json!({"path": "sub/t.json"}));
+    assert_eq!(st, 200, "{v}");
+    assert!(f2.model().is_some() && f2.frame().is_some());
+}
+
+#[test]
+fn the_live_warp_map_is_phi_inverse_at_the_nodes() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut d = doc25(dir.path()); // 101 x 101 frame
+    let c = centre(&d);
+    call(&mut d, "POST", "/api/select", json!({"anchors": [c], "radius": 2}));
+    call(&mut d, "POST", "/api/update", json!({"op": "translate", "v": [6.0, -4.0]}));
+    let (st, g) = call(&mut d, "GET", "/api/warp?step=8", Value::Null);
+    assert_eq!(st, 200, "{g}");
+    let (nx, ny) = (g["nx"].as_u64().unwrap() as usize, g["ny"].as_u64().unwrap() as usize);
+    assert_eq!((nx, ny), (14, 14), "nodes 0, 8, ..., 96, 100");
+    let map = g["map"].as_array().unwrap();
+    assert_eq!(map.len(), 2 * nx * ny);
+    let mut found = 0;
+    for j in 0..ny {
+        for i in 0..nx {
+            let q = [(8 * i).min(100) as f64, (8 * j).min(100) as f64];
+            let (px, py) = (map[2 * (j * nx + i)].as_f64(), map[2 * (j * nx + i) + 1].as_f64());
+            let (Some(px), Some(py)) = (px, py) else { continue };
+            found += 1;
+            let back = d.spline().eval([px, py], None).unwrap();
+            let err = (back[0] - q[0]).hypot(back[1] - q[1]);
+            assert!(err < 0.02, "node {q:?}: phi(phi^-1) = {back:?}");
+        }
+    }
+    assert!(found > nx * ny * 9 / 10, "{found} of {} nodes have a preimage", nx * ny);
+    assert_eq!(call(&mut d, "GET", "/api/warp?step=x", Value::Null).0, 400);
+    assert_eq!(call(&mut doc(dir.path()), "GET", "/api/warp", Value::Null).0, 404);
 }

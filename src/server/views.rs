@@ -258,3 +258,48 @@ pub fn jacobian_png(doc: &Doc, w: u32, h: u32) -> Result<Vec<u8>, image::ImageEr
         .write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png)?;
     Ok(bytes)
 }
+
+/// Default node spacing of the live warp's inverse map (pixels).
+pub const WARP_STEP: u32 = 8;
+
+/// The live warp's coarse inverse map: `phi^-1` at the nodes `x_i = min(i * step, w - 1)`,
+/// `y_j = min(j * step, h - 1)` of the `w x h` frame, as
+/// `{step, width, height, nx, ny, map: [px, py, ...]}` (row by row, `null, null` where a
+/// node has no preimage in the mesh). The page draws the warped frame
+/// `O(q) = I(phi^-1(q))` (as `trimorph warp`) by interpolating the map bilinearly inside
+/// each cell and sampling the frame bilinearly (pixel centres at integers). Newton per
+/// node ([`crate::warp::inverse`]), rows in parallel.
+pub fn inverse_grid(doc: &Doc, step: u32) -> Option<String> {
+    use crate::warp::inverse::{InverseMap, InverseOptions};
+    use rayon::prelude::*;
+    let f = doc.frame()?;
+    let (w, h) = (f.image.width().max(1), f.image.height().max(1));
+    let step = step.clamp(1, 64);
+    let nodes = |n: u32| (n.saturating_sub(1)).div_ceil(step) + 1;
+    let (nx, ny) = (nodes(w), nodes(h));
+    let at = |i: u32, n: u32| f64::from((i * step).min(n - 1));
+    let map = InverseMap::new(doc.spline(), InverseOptions::default());
+    let rows: Vec<Vec<[f64; 2]>> = (0..ny)
+        .into_par_iter()
+        .map(|j| {
+            let mut prev = None;
+            (0..nx)
+                .map(|i| match map.invert([at(i, w), at(j, h)], prev.as_ref()) {
+                    Some(p) => {
+                        prev = Some(p);
+                        p.p
+                    }
+                    None => [f64::NAN, f64::NAN],
+                })
+                .collect()
+        })
+        .collect();
+    let mut out = JsonObject::new();
+    out.value("step", &json!(step));
+    out.value("width", &json!(w));
+    out.value("height", &json!(h));
+    out.value("nx", &json!(nx));
+    out.value("ny", &json!(ny));
+    out.numbers("map", rows.iter().flatten().flat_map(|p| *p));
+    Some(out.finish())
+}

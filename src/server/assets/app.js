@@ -7,7 +7,10 @@ const T = {
   state: null, geo: {}, stat: {}, img: null, jac: null, jacVersion: 0,
   view: { s: 1, tx: 0, ty: 0 }, anchors: [], center: null,
   drag: null, busy: false, pending: null, timings: [], phases: [], lastError: null,
-  layers: {},
+  layers: {}, dragId: 0,
+  // The session token from the address `trimorph editor` printed (`/?token=...`); without
+  // it the page relies on the cookie the server set when that address was loaded.
+  token: new URLSearchParams(location.search).get('token'),
 };
 window.trimorph = T;
 
@@ -19,6 +22,7 @@ const octx = obl.getContext('2d');
 
 async function api(method, path, body) {
   const opt = { method, headers: {} };
+  if (T.token) opt.headers['X-Trimorph-Token'] = T.token;
   if (body !== undefined) {
     opt.headers['Content-Type'] = 'application/json';
     opt.body = JSON.stringify(body);
@@ -31,12 +35,18 @@ async function api(method, path, body) {
 }
 T.api = api;
 
-function status(msg, isError) {
-  const f = $('status');
-  f.textContent = msg;
-  f.className = isError ? 'error' : '';
+// Two lines at the bottom: `#status`, the document's summary (refreshed after every
+// change), and `#msg`, the outcome of the last action (success or error), which stays until
+// the next action starts.
+function status(text) { $('status').textContent = text; }
+function message(msg, isError) {
+  const f = $('msg');
+  f.textContent = msg || '';
+  f.className = isError ? 'error' : (msg ? 'ok' : '');
   if (isError) T.lastError = msg;
+  T.lastMessage = msg || '';
 }
+T.message = message;
 
 function mode() { return $('mode').value; }
 function op() { return $('op').value; }
@@ -80,6 +90,12 @@ function draw() {
   const L = T.layers, g = T.geo, st = T.stat;
   ctx.imageSmoothingEnabled = v.s < 2;
   if (L.image && T.img) ctx.drawImage(T.img, -0.5, -0.5);
+  if (L.warp && T.warpCanvas) {
+    // The live warped frame over the frame, mixed by the blend slider (1: warped only).
+    ctx.globalAlpha = +$('blend').value;
+    ctx.drawImage(T.warpCanvas, -0.5, -0.5);
+    ctx.globalAlpha = 1;
+  }
   if (L.jacobian && T.jac) ctx.drawImage(T.jac, -0.5, -0.5);
   if (L.model && g.model_outline) {
     const o = g.model_outline;
@@ -243,6 +259,7 @@ async function reload(keepView) {
   $('mode').querySelector('[value=z1]').disabled = !T.state.z_modes;
   if (!keepView) fitView(); else draw();
   refreshJacobian();
+  refreshWarp();
   status(summary());
 }
 
@@ -255,6 +272,80 @@ function summary() {
   return `${s.name || 'untitled'}: degree ${s.degree}, ${s.points} control points, ${s.triangles} triangles; undo ${s.undo}, redo ${s.redo}; ${s.pinned.length} corrected${sel}${folds}${t}`;
 }
 
+// ---- live warp ----------------------------------------------------------------------
+// The server sends phi^-1 at coarse nodes (`GET /api/warp`); the page pulls the frame
+// through it: O(q) = I(phi^-1(q)), as `trimorph warp` does, with the map interpolated
+// bilinearly in each cell and the frame sampled bilinearly (pixel centres at integers).
+// One request in flight; a change while it runs asks for one more.
+async function refreshWarp() {
+  if (!T.layers.warp || !T.state || !T.state.frame) return;
+  if (T.warpBusy) { T.warpAgain = true; return; }
+  T.warpBusy = true;
+  try {
+    const g = await api('GET', '/api/warp');
+    const t0 = performance.now();
+    buildWarp(g);
+    T.warpMs = performance.now() - t0;
+    T.warpVersion = (T.warpVersion || 0) + 1;
+    draw();
+  } catch (e) {
+    message('live warp: ' + String(e.message || e), true);
+  } finally {
+    T.warpBusy = false;
+    if (T.warpAgain) { T.warpAgain = false; refreshWarp(); }
+  }
+}
+T.refreshWarp = refreshWarp;
+
+function sourcePixels() {
+  if (T.src && T.src.img === T.img) return T.src;
+  const c = document.createElement('canvas');
+  c.width = T.img.naturalWidth; c.height = T.img.naturalHeight;
+  const cx = c.getContext('2d', { willReadFrequently: true });
+  cx.drawImage(T.img, 0, 0);
+  T.src = { img: T.img, w: c.width, h: c.height, data: cx.getImageData(0, 0, c.width, c.height).data };
+  return T.src;
+}
+
+function buildWarp(g) {
+  const src = sourcePixels();
+  const W = g.width, H = g.height, nx = g.nx, ny = g.ny, st = g.step, m = g.map;
+  if (!T.warpCanvas || T.warpCanvas.width !== W || T.warpCanvas.height !== H) {
+    T.warpCanvas = document.createElement('canvas');
+    T.warpCanvas.width = W; T.warpCanvas.height = H;
+    T.warpImage = T.warpCanvas.getContext('2d').createImageData(W, H);
+  }
+  const out = T.warpImage.data, sd = src.data, sw = src.w, sh = src.h;
+  out.fill(0);
+  const node = (i, n, N) => Math.min(i * st, N - 1);
+  for (let y = 0; y < H; y++) {
+    const j = Math.min(Math.floor(y / st), ny - 2);
+    const y0 = node(j, ny, H), y1 = node(j + 1, ny, H);
+    const ty = ny > 1 && y1 > y0 ? (y - y0) / (y1 - y0) : 0;
+    for (let x = 0; x < W; x++) {
+      const i = Math.min(Math.floor(x / st), nx - 2);
+      const x0 = node(i, nx, W), x1 = node(i + 1, nx, W);
+      const tx = nx > 1 && x1 > x0 ? (x - x0) / (x1 - x0) : 0;
+      const k00 = 2 * (j * nx + i), k10 = k00 + 2, k01 = k00 + 2 * nx, k11 = k01 + 2;
+      const a = m[k00], b = m[k10], c = m[k01], d = m[k11];
+      if (a === null || b === null || c === null || d === null) continue;
+      const w00 = (1 - tx) * (1 - ty), w10 = tx * (1 - ty), w01 = (1 - tx) * ty, w11 = tx * ty;
+      let px = w00 * a + w10 * b + w01 * c + w11 * d;
+      let py = w00 * m[k00 + 1] + w10 * m[k10 + 1] + w01 * m[k01 + 1] + w11 * m[k11 + 1];
+      px = Math.min(Math.max(px, 0), sw - 1); py = Math.min(Math.max(py, 0), sh - 1);
+      const ix = Math.min(Math.floor(px), sw - 2 < 0 ? 0 : sw - 2), iy = Math.min(Math.floor(py), sh - 2 < 0 ? 0 : sh - 2);
+      const fx = px - ix, fy = py - iy;
+      const s00 = 4 * (iy * sw + ix), s10 = s00 + 4, s01 = s00 + 4 * sw, s11 = s01 + 4;
+      const o = 4 * (y * W + x);
+      for (let ch = 0; ch < 3; ch++) {
+        out[o + ch] = (1 - fy) * ((1 - fx) * sd[s00 + ch] + fx * sd[s10 + ch]) + fy * ((1 - fx) * sd[s01 + ch] + fx * sd[s11 + ch]);
+      }
+      out[o + 3] = 255;
+    }
+  }
+  T.warpCanvas.getContext('2d').putImageData(T.warpImage, 0, 0);
+}
+
 async function refreshJacobian() {
   if (!T.layers.jacobian) return;
   const img = new Image();
@@ -262,8 +353,10 @@ async function refreshJacobian() {
   try { await img.decode(); T.jac = img; draw(); } catch (e) { /* ignored: next change retries */ }
 }
 
+// One user action: clears the last action's message, runs, shows an error if it failed.
 async function run(fn) {
-  try { await fn(); status(summary()); } catch (e) { status(String(e.message || e), true); }
+  message('');
+  try { await fn(); status(summary()); } catch (e) { message(String(e.message || e), true); status(summary()); }
 }
 
 // ---- editing ------------------------------------------------------------------------
@@ -278,11 +371,10 @@ function nearestOnScreen(X, Y, maxPx) {
   return best;
 }
 
-async function select(anchors) {
-  T.anchors = anchors;
-  const r = await api('POST', '/api/select', { anchors, radius: radius(), mode: mode() });
-  applyGeo(r);
-  draw();
+// Waits until no drag step is queued or in flight (a new selection or a clear must reach
+// the server after the last step of the previous drag).
+async function updatesDone() {
+  while (T.busy || T.pending) await new Promise((r) => setTimeout(r, 2));
 }
 
 function anchorCentroid() {
@@ -314,41 +406,66 @@ function opBody(d, X, Y) {
   return { op: 'scale', center: c, factor: f };
 }
 
-async function sendUpdate(body) {
-  if (T.busy) { T.pending = body; return; }
-  T.busy = true;
-  const t0 = performance.now();
-  try {
-    const r = await api('POST', '/api/update', body);
-    const t1 = performance.now();
-    applyGeo(r);
-    draw();
-    const t2 = performance.now();
-    T.timings.push(t2 - t0);
-    // Where a step's time goes: request and parse, drawing, and the server's exact update.
-    T.phases.push({ request: t1 - t0, draw: t2 - t1, update: r.state ? r.state.last_update_ms : null });
-    status(summary());
-  } catch (e) {
-    status(String(e.message || e), true);
-  } finally {
-    T.busy = false;
-    if (T.pending) { const p = T.pending; T.pending = null; sendUpdate(p); }
+// Drag steps: at most one request in flight; the newest position waits in `pending` (older
+// ones are dropped). A step of a drag is sent only once the drag's selection answered
+// (`d.ready`), and never after it failed.
+function sendUpdate(d, body) {
+  T.pending = { d, body };
+  if (!T.busy) pump();
+}
+
+async function pump() {
+  while (T.pending) {
+    const { d, body } = T.pending;
+    T.pending = null;
+    T.busy = true;
+    const t0 = performance.now();
+    try {
+      if (!(await d.ready)) continue;
+      const r = await api('POST', '/api/update', body);
+      const t1 = performance.now();
+      applyGeo(r);
+      draw();
+      const t2 = performance.now();
+      T.timings.push(t2 - t0);
+      // Where a step's time goes: request and parse, drawing, and the server's exact update.
+      T.phases.push({ request: t1 - t0, draw: t2 - t1, update: r.state ? r.state.last_update_ms : null });
+      status(summary());
+      refreshWarp();
+    } catch (e) {
+      message(String(e.message || e), true);
+    } finally {
+      T.busy = false;
+    }
   }
 }
 
 async function idle() {
-  while (T.busy || T.pending) await new Promise((r) => setTimeout(r, 5));
+  while (T.busy || T.pending || T.selecting) await new Promise((r) => setTimeout(r, 5));
 }
 T.idle = idle;
 
+// One coordinate convention for every pointer event: CSS pixels from the canvas's top
+// left corner (`clientX - rect.left`, unrounded), so that a drag ends under the pointer.
+function pointer(e) {
+  const r = canvas.getBoundingClientRect();
+  return [e.clientX - r.left, e.clientY - r.top];
+}
+T.pointer = pointer;
+
 canvas.addEventListener('contextmenu', (e) => {
   e.preventDefault();
-  T.center = toWorld(e.offsetX, e.offsetY);
+  const [X, Y] = pointer(e);
+  T.center = toWorld(X, Y);
   draw();
 });
 
-canvas.addEventListener('mousedown', (e) => run(async () => {
-  const X = e.offsetX, Y = e.offsetY;
+// The press starts the drag at once (the selection request runs in the background; the
+// drag's steps wait for it), and the release ends it whatever the server has answered:
+// a fast tap selects and never edits.
+canvas.addEventListener('mousedown', (e) => {
+  message('');
+  const [X, Y] = pointer(e);
   if (e.button === 1 || (e.button === 0 && mode() === 'view')) {
     T.drag = { pan: true, X0: X, Y0: Y, tx: T.view.tx, ty: T.view.ty };
     return;
@@ -357,11 +474,8 @@ canvas.addEventListener('mousedown', (e) => run(async () => {
   const hit = nearestOnScreen(X, Y, 10);
   if (hit < 0) {
     if (!e.shiftKey) {
-      T.anchors = [];
-      await api('POST', '/api/clear');
-      T.geo.selection = null;
       T.drag = { pan: true, X0: X, Y0: Y, tx: T.view.tx, ty: T.view.ty };
-      draw();
+      clearSelection();
     }
     return;
   }
@@ -371,41 +485,72 @@ canvas.addEventListener('mousedown', (e) => run(async () => {
   } else if (!anchors.includes(hit)) {
     anchors = [hit];
   }
-  if (!anchors.length) { T.anchors = []; await api('POST', '/api/clear'); T.geo.selection = null; draw(); return; }
-  await select(anchors);
+  if (!anchors.length) { clearSelection(); return; }
+  T.anchors = anchors;
   const [wx0, wy0] = toWorld(X, Y);
-  T.drag = { X0: X, Y0: Y, wx0, wy0, op: op(), mode: mode(), anchors, center: T.center || anchorCentroid(), moved: false };
-}));
+  const d = {
+    id: ++T.dragId, X0: X, Y0: Y, wx0, wy0, op: op(), mode: mode(), anchors,
+    center: T.center || anchorCentroid(), moved: false,
+  };
+  T.drag = d;
+  T.selecting = true;
+  d.ready = updatesDone()
+    .then(() => api('POST', '/api/select', { anchors, radius: radius(), mode: d.mode }))
+    .then((r) => { applyGeo(r); draw(); return true; })
+    .catch((err) => { message(String(err.message || err), true); if (T.drag === d) T.drag = null; return false; })
+    .finally(() => { T.selecting = false; });
+  draw();
+});
+
+function clearSelection() {
+  T.anchors = [];
+  T.geo.selection = null;
+  draw();
+  run(async () => { await updatesDone(); await api('POST', '/api/clear'); });
+}
+
+function endDrag(e) {
+  const d = T.drag;
+  T.drag = null;
+  if (!d || d.pan) return;
+  if (d.moved && e) {
+    // The last step is the release point itself.
+    const [X, Y] = pointer(e);
+    sendUpdate(d, opBody(d, X, Y));
+  }
+  run(async () => {
+    await idle();
+    T.state = await api('GET', '/api/state');
+    refreshJacobian();
+    refreshWarp();
+  });
+}
 
 window.addEventListener('mousemove', (e) => {
   const d = T.drag;
   if (!d) return;
-  const r = canvas.getBoundingClientRect();
-  const X = e.clientX - r.left, Y = e.clientY - r.top;
+  // The release happened where no event reached us (outside the window): the drag is over.
+  if (e.buttons === 0) { endDrag(null); return; }
+  const [X, Y] = pointer(e);
   if (d.pan) {
     T.view.tx = d.tx + X - d.X0; T.view.ty = d.ty + Y - d.Y0;
     draw();
     return;
   }
+  if (X === d.X0 && Y === d.Y0 && !d.moved) return;
   d.moved = true;
-  sendUpdate(opBody(d, X, Y));
+  sendUpdate(d, opBody(d, X, Y));
 });
 
-window.addEventListener('mouseup', () => run(async () => {
-  const d = T.drag;
-  T.drag = null;
-  if (!d || d.pan || !d.moved) return;
-  await idle();
-  T.state = await api('GET', '/api/state');
-  refreshJacobian();
-}));
+window.addEventListener('mouseup', (e) => { if (e.button === 0 || e.button === 1) endDrag(e); });
 
 canvas.addEventListener('wheel', (e) => {
   e.preventDefault();
   const k = Math.exp(-e.deltaY / 500);
-  const [wx, wy] = toWorld(e.offsetX, e.offsetY);
+  const [X, Y] = pointer(e);
+  const [wx, wy] = toWorld(X, Y);
   T.view.s *= k;
-  T.view.tx = e.offsetX - T.view.s * wx; T.view.ty = e.offsetY - T.view.s * wy;
+  T.view.tx = X - T.view.s * wx; T.view.ty = Y - T.view.s * wy;
   draw();
 }, { passive: false });
 
@@ -416,20 +561,56 @@ async function undoRedo(which) {
   T.anchors = [];
   draw();
   refreshJacobian();
+  refreshWarp();
 }
 
+// Saving asks before overwriting a file and before saving a map that is not certified
+// fold-free; `scene` also keeps the model and the frame (written beside it when they have
+// no file in the folder).
+async function save(scene) {
+  const path = $('path').value;
+  await updatesDone();
+  const st = await api('POST', '/api/stat', { path });
+  if (st.exists && !confirm(`${path} exists. Overwrite it?`)) { message('not saved: ' + path + ' exists'); return; }
+  const s = T.state;
+  if (s && !s.fold_free && !confirm(`The map folds: it is NOT certified fold-free (${s.folding_triangles.length} folding, ${s.undecided_triangles.length} undecided triangles, outlined in red). Save anyway?`)) {
+    message('not saved: the map folds');
+    return;
+  }
+  const r = await api('POST', '/api/save', { path, scene });
+  const also = (r.written || []).length ? ' (also wrote ' + r.written.join(', ') + ')' : '';
+  message((scene ? 'saved scene ' : 'saved ') + r.saved + also);
+}
+
+function toggleHelp() { $('helppanel').hidden = !$('helppanel').hidden; }
+
 const commands = {
+  help: toggleHelp,
   undo: () => run(() => undoRedo('undo')),
   redo: () => run(() => undoRedo('redo')),
-  save: () => run(async () => { const r = await api('POST', '/api/save', { path: $('path').value }); status('saved ' + r.saved); }),
-  savescene: () => run(async () => { const r = await api('POST', '/api/save', { path: $('path').value, scene: true }); status('saved scene ' + r.saved); }),
-  load: () => run(async () => { await api('POST', '/api/load', { path: $('path').value }); T.img = null; T.anchors = []; await reload(false); }),
-  exportobj: () => run(async () => { const r = await api('POST', '/api/export', { kind: 'obj', path: $('path').value.replace(/\.[^.]*$/, '') + '.obj' }); status('exported ' + r.saved); }),
-  exportimg: () => run(async () => { const r = await api('POST', '/api/export', { kind: 'warped', path: $('path').value.replace(/\.[^.]*$/, '') + '.png' }); status('exported ' + r.saved); }),
+  save: () => run(() => save(false)),
+  savescene: () => run(() => save(true)),
+  load: () => run(async () => {
+    const path = $('path').value;
+    await updatesDone();
+    const st = await api('POST', '/api/stat', { path });
+    const steps = T.state ? T.state.undo + T.state.redo : 0;
+    if (st.exists && st.same_layout === false && steps > 0
+        && !confirm(`${path} is over another mesh: loading it starts a new document and clears the undo history (${steps} steps). Load it?`)) {
+      message('not loaded: the undo history is kept');
+      return;
+    }
+    await api('POST', '/api/load', { path });
+    T.img = null; T.anchors = [];
+    await reload(false);
+    message('loaded ' + path + (st.same_layout === false ? ' (new document: the undo history was cleared)' : ' (undo restores the previous state)'));
+  }),
+  exportobj: () => run(async () => { const r = await api('POST', '/api/export', { kind: 'obj', path: $('path').value.replace(/\.[^.]*$/, '') + '.obj' }); message('exported ' + r.saved); }),
+  exportimg: () => run(async () => { const r = await api('POST', '/api/export', { kind: 'warped', path: $('path').value.replace(/\.[^.]*$/, '') + '.png' }); message('exported ' + r.saved); }),
   refit: () => run(async () => {
     const r = await api('POST', '/api/refit', { landmarks: $('landmarks').value, hard: $('hard').checked });
-    applyGeo(r); draw(); refreshJacobian();
-    status(`re-fit (${r.method}): rms ${r.rms.toFixed(3)} px, ${r.pinned} pinned points held exactly`);
+    applyGeo(r); draw(); refreshJacobian(); refreshWarp();
+    message(`re-fit (${r.method}): rms ${r.rms.toFixed(3)} px, ${r.pinned} pinned points held exactly`);
   }),
 };
 for (const [id, fn] of Object.entries(commands)) $(id).addEventListener('click', fn);
@@ -439,6 +620,7 @@ for (const box of document.querySelectorAll('[data-layer]')) {
   box.addEventListener('change', () => {
     T.layers[box.dataset.layer] = box.checked;
     if (box.dataset.layer === 'jacobian') refreshJacobian();
+    if (box.dataset.layer === 'warp') refreshWarp();
     draw();
   });
 }
@@ -447,6 +629,8 @@ $('mode').addEventListener('change', () => run(async () => { T.anchors = []; awa
 window.addEventListener('keydown', (e) => {
   if (e.target.tagName === 'INPUT' && e.target.type !== 'checkbox') return;
   const k = e.key, ctrl = e.ctrlKey || e.metaKey;
+  if (k === '?') { toggleHelp(); return; }
+  if (k === 'Escape' && !$('helppanel').hidden) { $('helppanel').hidden = true; return; }
   const setSel = (id, v) => { const el = $(id); if (!el.querySelector(`[value=${v}]`).disabled) { el.value = v; el.dispatchEvent(new Event('change')); } };
   if (ctrl && (k === 'z' || k === 'Z')) { e.preventDefault(); (e.shiftKey ? commands.redo : commands.undo)(); }
   else if (ctrl && k === 'y') { e.preventDefault(); commands.redo(); }
@@ -464,9 +648,12 @@ window.addEventListener('keydown', (e) => {
   else if (k === '-') $('radius').value = Math.max(0, +$('radius').value - 1);
   else if (k === 'j') { const b = document.querySelector('[data-layer=jacobian]'); b.checked = !b.checked; b.dispatchEvent(new Event('change')); }
   else if (k === 'f') fitView();
+  else if (k === 'w') { const b = document.querySelector('[data-layer=warp]'); b.checked = !b.checked; b.dispatchEvent(new Event('change')); }
+  else if (k === 'b') { const b = $('blend'); b.value = +b.value > 0.5 ? 0 : 1; draw(); }
   else if (k === 'c') { T.center = null; draw(); }
   else if (k === 'Escape') run(async () => { T.anchors = []; await api('POST', '/api/clear'); T.geo.selection = null; draw(); });
 });
 
 window.addEventListener('resize', draw);
+$('blend').addEventListener('input', draw);
 run(() => reload(false)).then(() => { T.ready = true; });
