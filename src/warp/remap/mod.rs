@@ -92,6 +92,9 @@ const MIN_SQUARE: f64 = 0.0625;
 /// seeded Newton solve costs about two iterations per pixel.
 const NEWTON_SIDE: f64 = 1.0;
 
+/// About how many local curvature bounds a plan computes (see [`RemapPlan::new`]).
+const CURVATURE_BOUNDS: f64 = 16_000.0;
+
 /// What a preimage computation found.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct RemapStats {
@@ -529,7 +532,14 @@ impl<'a> RemapPlan<'a> {
         let cell = if opts.cell.is_finite() && opts.cell >= MIN_SQUARE { opts.cell } else { 8.0 };
         let opts = RemapOptions { cell, band_rows: opts.band_rows.max(1), ..opts };
         let map = InverseMap::new(s, opts.inverse);
-        let refiner = Refiner { s, curv: CurvatureGrid::new(s, 32.0), tol: opts.inverse.tolerance };
+        // Curvature buckets: as small as 8 px where that costs at most about 16,000 local
+        // bounds over the mesh (a sub-triangle per bucket), never coarser than 32 px. Finer
+        // buckets give tighter local bounds on strongly bent maps, so larger pieces pass.
+        let (blo, bhi) = s.mesh().bbox();
+        let area = ((bhi[0] - blo[0]) * (bhi[1] - blo[1])).max(0.0);
+        let bucket = (2.0 * area / CURVATURE_BOUNDS).sqrt().clamp(8.0, 32.0);
+        let refiner =
+            Refiner { s, curv: CurvatureGrid::new(s, bucket), tol: opts.inverse.tolerance };
         // Lattice over the mesh's bounding box; squares of side `cell`, the last row and
         // column narrower so that the lattice ends exactly on the box.
         let (lo, hi) = s.mesh().bbox();
