@@ -6,9 +6,16 @@
 //! * `warp_4096_gray8_bilinear_mild`: the same with drags of 1% of the image size.
 //! * `preimages_4096`: the inverse map alone (into one full-size buffer).
 //! * `forward_1e6`: 10^6 points forward; target 20 M points/s.
+//! * `warp_2048_{gray8,rgb8,rgba8,gray16,rgb32f}_bilinear`: every pixel type through the
+//!   mild deformation at 2048 x 2048 (inverse map included).
+//! * `warp_2048_gray8_bent` and `warp_2048_gray8_mild`: the strongly bent map of
+//!   `tests/data/warp_bent_2048.json` (60 landmarks, displacements up to 40 px) against a mild
+//!   one; target: bent within 2x of mild (issue 18).
+//! * `warp_150x225_gray8_folded`: the folded map of `tests/data/warp_folded_150x225.json`;
+//!   target under 10 ms (issue 18).
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use image::{DynamicImage, GrayImage, Luma};
+use image::{DynamicImage, GrayImage, ImageBuffer, Luma, Rgb, Rgba};
 use std::hint::black_box;
 use trimorph::edit::select::Neighborhood;
 use trimorph::edit::{Editor, Mode};
@@ -78,6 +85,73 @@ fn bench(c: &mut Criterion) {
         (0..1_000_000).map(|k| [(k % 1000) as f64 * 4.09, (k / 1000) as f64 * 4.09]).collect();
     g.throughput(Throughput::Elements(pts.len() as u64));
     g.bench_function("forward_1e6", |b| b.iter(|| black_box(forward(&s, &pts))));
+    g.finish();
+    by_type_and_hard_maps(c);
+}
+
+/// A map written by `examples/warp_maps.rs`.
+fn test_map(text: &str) -> Spline {
+    trimorph::io::deformation::from_str(text).expect("test map").0
+}
+
+fn by_type_and_hard_maps(c: &mut Criterion) {
+    let n = 2048u32;
+    let v = |x: u32, y: u32| ((x / 7 + y / 5) % 2 * 200 + (x ^ y) % 50) as u8;
+    let gray = DynamicImage::ImageLuma8(GrayImage::from_fn(n, n, |x, y| Luma([v(x, y)])));
+    let images = [
+        ("gray8", gray.clone()),
+        (
+            "rgb8",
+            DynamicImage::ImageRgb8(ImageBuffer::from_fn(n, n, |x, y| {
+                Rgb([v(x, y), v(x, y) / 2 + 60, 255 - v(x, y)])
+            })),
+        ),
+        (
+            "rgba8",
+            DynamicImage::ImageRgba8(ImageBuffer::from_fn(n, n, |x, y| {
+                Rgba([v(x, y), v(x, y) / 2 + 60, 255 - v(x, y), 200])
+            })),
+        ),
+        (
+            "gray16",
+            DynamicImage::ImageLuma16(ImageBuffer::from_fn(n, n, |x, y| {
+                Luma([v(x, y) as u16 * 257])
+            })),
+        ),
+        (
+            "rgb32f",
+            DynamicImage::ImageRgb32F(ImageBuffer::from_fn(n, n, |x, y| {
+                let f = v(x, y) as f32 / 255.0;
+                Rgb([f, 0.5 * f, 1.0 - f])
+            })),
+        ),
+    ];
+    let mild = deformation_with(n as f64, 100.0);
+    let bent = test_map(include_str!("../tests/data/warp_bent_2048.json"));
+    let folded = test_map(include_str!("../tests/data/warp_folded_150x225.json"));
+    let opts = WarpOptions::default();
+    let mut g = c.benchmark_group("warp_types");
+    g.sample_size(10);
+    g.throughput(Throughput::Elements(n as u64 * n as u64));
+    for (name, img) in &images {
+        g.bench_function(format!("warp_2048_{name}_bilinear"), |b| {
+            b.iter(|| black_box(warp_pages(&mild, std::slice::from_ref(img), &opts, &|_| {})))
+        });
+    }
+    for (name, s) in [("mild", &mild), ("bent", &bent)] {
+        let (_, rep) = warp_pages(s, std::slice::from_ref(&gray), &opts, &|_| {}).unwrap();
+        eprintln!("2048^2 {name}: {}", rep.paths_line());
+        g.bench_function(format!("warp_2048_gray8_{name}"), |b| {
+            b.iter(|| black_box(warp_pages(s, std::slice::from_ref(&gray), &opts, &|_| {})))
+        });
+    }
+    let small = DynamicImage::ImageLuma8(GrayImage::from_fn(150, 225, |x, y| Luma([v(x, y)])));
+    let (_, rep) = warp_pages(&folded, std::slice::from_ref(&small), &opts, &|_| {}).unwrap();
+    eprintln!("150x225 folded: {}", rep.paths_line());
+    g.throughput(Throughput::Elements(150 * 225));
+    g.bench_function("warp_150x225_gray8_folded", |b| {
+        b.iter(|| black_box(warp_pages(&folded, std::slice::from_ref(&small), &opts, &|_| {})))
+    });
     g.finish();
 }
 

@@ -113,6 +113,7 @@ pub fn run(dir: &Path) -> Result<()> {
         interp: "bicubic",
         background: Some(0.0),
         tolerance: 0.01,
+        verbose: false,
     })?;
     // The same edit on a colored triangle mesh of the image (the fast preview path).
     let cmesh = dir.join("cell_mesh.ply");
@@ -130,6 +131,7 @@ pub fn run(dir: &Path) -> Result<()> {
         interp: "bilinear",
         background: None,
         tolerance: 0.01,
+        verbose: false,
     })?;
     let mut o = std::io::stdout().lock();
     writeln!(

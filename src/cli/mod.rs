@@ -183,6 +183,10 @@ enum Command {
         /// Largest accepted error of an inverse point (pixels).
         #[arg(long, default_value_t = 0.01)]
         tolerance: f64,
+        /// Images: also print the time of each phase (decode, inverse map and resampling,
+        /// encode) and how many pixels took each path of the inverse map.
+        #[arg(long)]
+        verbose: bool,
     },
     /// Morph image A into image B through landmark pairs (src in A, dst in B): frames
     /// `frame_000.png` ... in the output folder, an animated GIF and APNG, and
@@ -598,6 +602,7 @@ pub fn run() -> i32 {
             interp,
             background,
             tolerance,
+            verbose,
         } => warp_cmd::run(warp_cmd::WarpArgs {
             deformation: &deformation,
             image: image.as_deref(),
@@ -610,6 +615,7 @@ pub fn run() -> i32 {
             interp: &interp,
             background,
             tolerance,
+            verbose,
         }),
         Command::Morph {
             a,

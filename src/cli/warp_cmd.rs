@@ -38,6 +38,8 @@ pub struct WarpArgs<'a> {
     pub interp: &'a str,
     pub background: Option<f64>,
     pub tolerance: f64,
+    /// Print phase times and the pixels of each inverse-map path.
+    pub verbose: bool,
 }
 
 /// `trimorph warp DEF --mesh IN.(obj|ply) -o OUT.(png|obj|ply)`: moves the vertices of a
@@ -195,7 +197,9 @@ pub fn run(a: WarpArgs) -> Result<()> {
             if !background.is_finite() {
                 bail!("--background must be a finite number");
             }
+            let t_decode = std::time::Instant::now();
             let stack = crate::io::raster::read_stack(img_path)?;
+            let decode_s = t_decode.elapsed().as_secs_f64();
             let first = &stack.pages[0];
             let (w, h) = (first.width(), first.height());
             let wo = WarpOptions {
@@ -205,8 +209,10 @@ pub fn run(a: WarpArgs) -> Result<()> {
             };
             let rows = h as u64 * stack.pages.len().max(1) as u64;
             let bar = progress_bar(rows, w as u64 * rows >= 4 << 20, "warping");
+            let t_warp = std::time::Instant::now();
             let (warped, rep) =
                 warp_pages(&s, &stack.pages, &wo, &|n| bar.inc(n * stack.pages.len() as u64))?;
+            let warp_s = t_warp.elapsed().as_secs_f64();
             bar.finish_and_clear();
             if rep.pixels > 0 && rep.outside == rep.pixels {
                 bail!(
@@ -216,7 +222,9 @@ pub fn run(a: WarpArgs) -> Result<()> {
                 );
             }
             let out_stack = Stack { pages: warped, gray_float: stack.gray_float };
+            let t_encode = std::time::Instant::now();
             crate::io::raster::write_stack(a.output, &out_stack)?;
+            let encode_s = t_encode.elapsed().as_secs_f64();
             writeln!(
                 out,
                 "{w}x{h} {:?}{} -> {}: {} pixels outside the deformed mesh (background), max inverse error bound {:.2e} px",
@@ -235,6 +243,26 @@ pub fn run(a: WarpArgs) -> Result<()> {
                     "warning: phi folds over the output: {} pixels in [{}, {}] - [{}, {}] come from pieces with det J <= 0; each shows the layer drawn last (see `trimorph field --jacobian`)",
                     rep.folded, b[0], b[1], b[2], b[3]
                 ),
+            }
+            if a.verbose {
+                let mp = (w as f64 * h as f64 * stack.pages.len().max(1) as f64) / 1e6;
+                writeln!(
+                    out,
+                    "time: decode {:.1} ms, inverse map + resampling {:.1} ms ({:.0} MP/s), encode {:.1} ms",
+                    decode_s * 1e3,
+                    warp_s * 1e3,
+                    mp / warp_s.max(1e-9),
+                    encode_s * 1e3
+                )?;
+                writeln!(out, "inverse map: {}", rep.paths_line())?;
+                let t_plan = std::time::Instant::now();
+                let plan = crate::warp::remap::RemapPlan::new(&s, w, h, wo.remap);
+                writeln!(
+                    out,
+                    "inverse map plan: {} ({:.1} ms to build again)",
+                    plan.debug_counts(),
+                    t_plan.elapsed().as_secs_f64() * 1e3
+                )?;
             }
             if rep.max_error_bound > opts.tolerance {
                 eprintln!(

@@ -141,6 +141,19 @@ impl<'a> InverseMap<'a> {
         None
     }
 
+    /// Newton's method for `phi(p) = q` from the seed `p0` only (`triangle`: a hint for
+    /// locating `p0`), with the same acceptance test and error bound as [`InverseMap::invert`].
+    /// At most [`InverseOptions::max_iter`] iterations; `None` if it leaves the mesh, meets a
+    /// singular Jacobian or does not converge.
+    pub fn invert_from(
+        &self,
+        q: [f64; 2],
+        p0: [f64; 2],
+        triangle: Option<usize>,
+    ) -> Option<Preimage> {
+        self.newton(q, p0, triangle)
+    }
+
     /// `phi^-1(q)`; `hint` is a nearby preimage (e.g. the previous pixel's), tried first.
     pub fn invert(&self, q: [f64; 2], hint: Option<&Preimage>) -> Option<Preimage> {
         if let Some(h) = hint {
@@ -148,6 +161,12 @@ impl<'a> InverseMap<'a> {
                 return Some(s);
             }
         }
+        self.invert_from_buckets(q)
+    }
+
+    /// `phi^-1(q)` from the forward samples alone: Newton from at most 12 samples whose
+    /// images lie in `q`'s bucket or the nearest rings around it, nearest rings first.
+    pub fn invert_from_buckets(&self, q: [f64; 2]) -> Option<Preimage> {
         // Seeds from the bucket of q and its neighbours, nearest images first.
         let (bx, by) = self.bucket(q);
         let mut seeds: Vec<([f64; 2], usize)> = Vec::new();

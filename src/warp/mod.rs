@@ -12,10 +12,12 @@
 //!   other cells are split down to single pixels, each solved by Newton (see [`remap`] and
 //!   [`inverse()`]). Pixels whose preimage is outside the mesh get the background value (and
 //!   alpha 0).
-//! * folds: where `phi` is not injective a pixel has several preimages; cells whose
-//!   corners disagree in the sign of `det J` are split to single pixels, and each pixel
-//!   gets the preimage Newton finds first, starting from its left neighbour's (so a fold
-//!   shows one of its layers, not a blend). [`field::jacobian_det`] (its [`field::FoldReport`]) says where folds are.
+//! * folds: where `phi` is not injective a pixel has several preimages; pieces whose
+//!   orientation disagrees are split down to 1 px, pieces of reversed orientation are drawn
+//!   as folded, and the pixels next to the crease are solved by Newton seeded from the
+//!   piece's affine inverse (so a fold shows one of its layers, not a blend; see [`remap`]
+//!   for the paths and the time bound, [`RemapStats::paths_line`] for the counts).
+//!   [`field::jacobian_det`] (its [`field::FoldReport`]) says where folds are.
 //!
 //! Images keep their type: 8- and 16-bit gray, gray+alpha, RGB, RGBA and 32-bit float RGB
 //! and RGBA; every channel is resampled with the same map (nearest, bilinear or bicubic).

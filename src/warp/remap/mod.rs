@@ -20,8 +20,9 @@
 //! `L` and `|J - A| <= M diam` on the triangle, `|J^-1| <= K = |A^-1| / (1 - |A^-1| M diam)`,
 //! so `|p~ - phi^-1(q)| <= K M (a^2 + b^2) / 8` (to first order in this tiny defect; reported
 //! times 1.01). A triangle is rasterized when its bound is at most the tolerance (0.01 px by
-//! default); otherwise its square is split in four, down to squares of 1/4 px, which are
-//! always accepted and their bound reported. `M` comes from
+//! default); otherwise its square is split in four, down to squares of 1 px
+//! ([`NEWTON_SIDE`]), whose halves that still miss the bound leave their pixels to Newton's
+//! method. `M` comes from
 //! [`EvalCache::second_derivative_bounds_uniform`](crate::spline::eval::EvalCache::second_derivative_bounds_uniform)
 //! over small sub-triangles, kept in a grid of buckets over the reference domain.
 //!
@@ -30,12 +31,26 @@
 //! `phi` does not fold there.
 //!
 //! **Borders and folds.** Squares with a corner outside the mesh are split to the smallest
-//! size; the output pixels around such pieces are then solved by Newton ([`InverseMap`])
-//! one by one, as are smallest pieces that still miss the bound. Pieces with reversed
+//! size (1 px); the output pixels around such pieces are then solved by Newton
+//! ([`InverseMap`]) one by one, as are smallest pieces that still miss the bound. Newton
+//! starts from the piece's affine inverse `L^-1(q)` (within a fraction of a pixel of the
+//! preimage, so it converges in one or two iterations), then from the neighbouring pixel's
+//! preimage, then from the forward samples ([`InverseMap::invert`]). Pieces with reversed
 //! orientation (`det J < 0`) and smallest pieces across a crease (`det J = 0`) are drawn and
 //! counted as folded ([`RemapStats::folded`], [`RemapStats::fold_box`]). Where `phi` is not
 //! injective a pixel has several preimages and shows the layer rasterized last (lattice
 //! order, row by row), never a blend.
+//!
+//! **Time.** A lattice square of side `c` ([`RemapOptions::cell`], 32 px) is split at most
+//! `log2(c)` times, so it yields at most `(4^(log2 c + 1) - 1) / 3 = (4 c^2 - 1) / 3`
+//! squares (1,365 for 32 px), each costing five forward evaluations plus at most one failed
+//! block attempt of `(k + 1)^2 <= (2 s + 1)^2` evaluations for side `s` (stopped at the first
+//! strip that fails); over the `log2 c + 1` levels that is at most about `4 (log2 c + 1)`
+//! evaluations per reference pixel (24 for 32 px), whatever `phi` does. Each output pixel is
+//! then tried by Newton at most once, for at most `max_iter (1 + 1 + 12)` iterations (seed,
+//! neighbour, forward samples; 350 with the default 25); a seeded solve takes one or two. So
+//! the worst case is linear in the pixels, and a fold costs Newton only for the pixels next
+//! to its crease (a band about a pixel wide), not for the folded region.
 //!
 //! Coordinates: output pixel `(i, j)` is the point `q = (i, j)` of the deformed plane;
 //! preimages are in mesh (input pixel) units.
@@ -45,6 +60,7 @@ mod raster;
 
 use super::inverse::{InverseMap, InverseOptions, Preimage};
 use crate::spline::Spline;
+use crate::warp::sample::fast_floor;
 use geometry::{affine_inverse_norm, bbox, clip_box, signed_area, CurvatureGrid};
 use raster::raster;
 use rayon::prelude::*;
@@ -66,8 +82,18 @@ impl Default for RemapOptions {
     }
 }
 
-/// Smallest lattice square (reference pixels).
+/// Smallest lattice square option (reference pixels).
 const MIN_SQUARE: f64 = 0.0625;
+
+/// Side (reference pixels) at or below which a square is not split further: its halves that
+/// miss the bound, and squares across the border of the mesh, leave their output pixels to
+/// Newton's method seeded from the piece's affine inverse. Below a pixel, splitting costs at
+/// least five forward evaluations per square for less than a pixel of output, while a
+/// seeded Newton solve costs about two iterations per pixel.
+const NEWTON_SIDE: f64 = 1.0;
+
+/// About how many local curvature bounds a plan computes (see [`RemapPlan::new`]).
+const CURVATURE_BOUNDS: f64 = 16_000.0;
 
 /// What a preimage computation found.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -78,8 +104,16 @@ pub struct RemapStats {
     pub outside: usize,
     /// Largest error bound over the pixels that have a preimage (pixels).
     pub max_error_bound: f64,
-    /// Pixels solved one by one by Newton (near the border of the deformed mesh).
+    /// Pixels solved one by one by Newton (near the border of the deformed mesh, and where
+    /// the smallest pieces miss the bound).
     pub newton_solves: usize,
+    /// Of [`RemapStats::newton_solves`], those whose Newton iteration started from the
+    /// affine inverse of the piece that needed it (the others needed the neighbour's
+    /// preimage or the forward samples as seeds).
+    pub newton_seeded: usize,
+    /// Pixels that Newton tried and found no preimage for (counted in
+    /// [`RemapStats::outside`] too).
+    pub newton_failed: usize,
     /// Pixels filled from the forward lattice under a proven bound.
     pub interpolated: usize,
     /// Pixels filled from pieces where `phi` folds (orientation reversed); they are not
@@ -96,6 +130,8 @@ impl RemapStats {
         self.outside += o.outside;
         self.max_error_bound = self.max_error_bound.max(o.max_error_bound);
         self.newton_solves += o.newton_solves;
+        self.newton_seeded += o.newton_seeded;
+        self.newton_failed += o.newton_failed;
         self.interpolated += o.interpolated;
         self.folded += o.folded;
         self.fold_box = match (self.fold_box, o.fold_box) {
@@ -105,6 +141,70 @@ impl RemapStats {
             (a, b) => a.or(b),
         };
     }
+
+    /// One line: how many pixels took each path of the inverse map.
+    pub fn paths_line(&self) -> String {
+        format!(
+            "{} pixels: {} interpolated from certified pieces, {} drawn from folded pieces, {} by Newton ({} seeded from the piece's affine inverse, {} from other seeds), {} outside ({} after a failed Newton search)",
+            self.pixels,
+            self.interpolated - self.folded.min(self.interpolated),
+            self.folded,
+            self.newton_solves,
+            self.newton_seeded,
+            self.newton_solves - self.newton_seeded,
+            self.outside,
+            self.newton_failed
+        )
+    }
+}
+
+/// The affine inverse of a piece, `p = c + m q`, as Newton's seed for the pixels around it
+/// (`tri`: a mesh triangle near the preimage, for locating the seed).
+#[derive(Clone, Copy, Debug)]
+struct Seed {
+    c: [f64; 2],
+    m: [[f64; 2]; 2],
+    tri: Option<usize>,
+}
+
+impl Seed {
+    /// `L^-1` of the triangle `p -> q`; a constant seed at `p[0]` if `q` is degenerate.
+    fn affine(p: [[f64; 2]; 3], q: [[f64; 2]; 3], tri: Option<usize>) -> Seed {
+        let (e1, e2) =
+            ([q[1][0] - q[0][0], q[1][1] - q[0][1]], [q[2][0] - q[0][0], q[2][1] - q[0][1]]);
+        let det = e1[0] * e2[1] - e2[0] * e1[1];
+        if det == 0.0 || !det.is_finite() {
+            return Seed::point(p[0], tri);
+        }
+        // lambda_(1,2) = E^-1 (q - q0), p = p0 + [P1 - P0, P2 - P0] lambda.
+        let inv = [[e2[1] / det, -e2[0] / det], [-e1[1] / det, e1[0] / det]];
+        let (f1, f2) =
+            ([p[1][0] - p[0][0], p[1][1] - p[0][1]], [p[2][0] - p[0][0], p[2][1] - p[0][1]]);
+        let m = [0, 1].map(|r| {
+            [0, 1].map(|c| {
+                let (a, b) = if r == 0 { (f1[0], f2[0]) } else { (f1[1], f2[1]) };
+                a * inv[0][c] + b * inv[1][c]
+            })
+        });
+        let c = [0, 1].map(|r| p[0][r] - m[r][0] * q[0][0] - m[r][1] * q[0][1]);
+        Seed { c, m, tri }
+    }
+
+    fn point(p: [f64; 2], tri: Option<usize>) -> Seed {
+        Seed { c: p, m: [[0.0; 2]; 2], tri }
+    }
+
+    #[inline]
+    fn at(&self, q: [f64; 2]) -> [f64; 2] {
+        [0, 1].map(|r| self.c[r] + self.m[r][0] * q[0] + self.m[r][1] * q[1])
+    }
+}
+
+/// Output box `[x0, y0, x1, y1]` whose unfilled pixels Newton solves, from `seed`.
+#[derive(Clone, Copy, Debug)]
+struct NewtonBox {
+    r: [f64; 4],
+    seed: Seed,
 }
 
 /// An accepted lattice triangle (from the splitting path): reference vertices, images.
@@ -135,14 +235,19 @@ struct Block {
 /// A lattice corner's image and the mesh triangle it lies in (`None`: outside the mesh).
 type Corner = Option<([f64; 2], usize)>;
 
+/// The mesh triangle of the first corner of the half `h` that has one.
+fn qt_tri(qt: &[Corner; 4], h: &[usize; 3]) -> Option<usize> {
+    h.iter().find_map(|&i| qt[i].map(|c| c.1))
+}
+
 /// The pieces of one lattice row, with the output rows they span.
 struct Pieces {
     blocks: Vec<Block>,
     /// Images of the blocks' grid points.
     pool: Vec<[f64; 2]>,
     tris: Vec<Tri>,
-    /// Output boxes `[x0, y0, x1, y1]` whose unfilled pixels Newton must solve.
-    newton: Vec<[f64; 4]>,
+    /// Output boxes whose unfilled pixels Newton must solve.
+    newton: Vec<NewtonBox>,
     /// Smallest and largest output `y` of the pieces.
     y: [f64; 2],
 }
@@ -275,6 +380,16 @@ impl Refiner<'_> {
         let off = out.pool.len();
         let step = [sx / k as f64, sy / k as f64];
         let mut hint = qt[0].map(|c| c.1);
+        // Every sub-rectangle's halves have the same reference shape, so what `tri_bound`
+        // derives from it (adj(Pe), its area, diameter, circumradius) is computed once.
+        let halves = [[0, 1, 3], [0, 3, 2]];
+        let pr = [[0.0, 0.0], [step[0], 0.0], [0.0, step[1]], [step[0], step[1]]];
+        let shape = halves.map(|h| HalfShape::new(h.map(|c| pr[c])));
+        let mut worst = 0.0f64;
+        let mut sign = 0.0f64;
+        let n = k + 1;
+        // Row by row: each strip of rectangles is checked as soon as its two rows of grid
+        // points are mapped, so a block that fails costs only the rows up to the failure.
         for j in 0..=k {
             for i in 0..=k {
                 let c = match (i == 0 || i == k, j == 0 || j == k) {
@@ -289,16 +404,7 @@ impl Refiner<'_> {
                 hint = Some(t);
                 out.pool.push(v);
             }
-        }
-        // Every sub-rectangle's halves have the same reference shape, so what `tri_bound`
-        // derives from it (adj(Pe), its area, diameter, circumradius) is computed once.
-        let halves = [[0, 1, 3], [0, 3, 2]];
-        let pr = [[0.0, 0.0], [step[0], 0.0], [0.0, step[1]], [step[0], step[1]]];
-        let shape = halves.map(|h| HalfShape::new(h.map(|c| pr[c])));
-        let mut worst = 0.0f64;
-        let mut sign = 0.0f64;
-        let n = k + 1;
-        for j in 0..k {
+            let Some(j) = j.checked_sub(1) else { continue };
             for i in 0..k {
                 let b = off + j * n + i;
                 let qq = [out.pool[b], out.pool[b + 1], out.pool[b + n], out.pool[b + n + 1]];
@@ -338,7 +444,7 @@ impl Refiner<'_> {
         let side = (p[1][0] - p[0][0]).max(p[2][1] - p[0][1]);
         let (lo, hi) = bbox(&p);
         let m2 = self.curv.bound(lo, hi);
-        let smallest = side <= MIN_SQUARE;
+        let smallest = side <= NEWTON_SIDE;
         let all = q.iter().all(Option::is_some);
         let none = q.iter().all(Option::is_none);
         // Corners inside and no border edge through it: the whole square is in the mesh.
@@ -350,8 +456,9 @@ impl Refiner<'_> {
         if all && !crossing && !smallest && self.block(p, qt, m2, out) {
             return;
         }
-        if all && (!crossing || smallest) {
+        if all && !crossing {
             let qv = q.map(|v| v.unwrap_or([0.0; 2]));
+            let qt_all = qt;
             let halves = [[0, 1, 3], [0, 3, 2]];
             let bounds = halves.map(|h| {
                 let (pt, qt) = (h.map(|i| p[i]), h.map(|i| qv[i]));
@@ -376,7 +483,11 @@ impl Refiner<'_> {
                             folded,
                         }),
                         None => {
-                            out.newton.push([lo[0] - 1.0, lo[1] - 1.0, hi[0] + 1.0, hi[1] + 1.0])
+                            let tri = qt_tri(&qt_all, h);
+                            out.newton.push(NewtonBox {
+                                r: [lo[0] - 1.0, lo[1] - 1.0, hi[0] + 1.0, hi[1] + 1.0],
+                                seed: Seed::affine(pt, qt, tri),
+                            })
                         }
                     }
                 }
@@ -384,11 +495,21 @@ impl Refiner<'_> {
             }
         }
         if smallest {
-            // A piece across the border of the mesh: Newton for the pixels around it.
-            let imgs: Vec<[f64; 2]> = q.iter().flatten().copied().collect();
-            if !imgs.is_empty() {
+            // A piece across the border of the mesh: Newton for the pixels around it, from
+            // the affine inverse of three corners inside, or else from a corner inside.
+            let inside: Vec<usize> = (0..4).filter(|&i| qt[i].is_some()).collect();
+            if let Some(&first) = inside.first() {
+                let imgs: Vec<[f64; 2]> = q.iter().flatten().copied().collect();
                 let (l, h) = bbox(&imgs);
-                out.newton.push([l[0] - 1.0, l[1] - 1.0, h[0] + 1.0, h[1] + 1.0]);
+                let tri = qt[first].map(|c| c.1);
+                let seed = if inside.len() >= 3 {
+                    let c = [inside[0], inside[1], inside[2]];
+                    Seed::affine(c.map(|i| p[i]), c.map(|i| qt[i].map_or([0.0; 2], |v| v.0)), tri)
+                } else {
+                    Seed::point(p[first], tri)
+                };
+                out.newton
+                    .push(NewtonBox { r: [l[0] - 1.0, l[1] - 1.0, h[0] + 1.0, h[1] + 1.0], seed });
             }
             return;
         }
@@ -411,7 +532,14 @@ impl<'a> RemapPlan<'a> {
         let cell = if opts.cell.is_finite() && opts.cell >= MIN_SQUARE { opts.cell } else { 8.0 };
         let opts = RemapOptions { cell, band_rows: opts.band_rows.max(1), ..opts };
         let map = InverseMap::new(s, opts.inverse);
-        let refiner = Refiner { s, curv: CurvatureGrid::new(s, 32.0), tol: opts.inverse.tolerance };
+        // Curvature buckets: as small as 8 px where that costs at most about 16,000 local
+        // bounds over the mesh (a sub-triangle per bucket), never coarser than 32 px. Finer
+        // buckets give tighter local bounds on strongly bent maps, so larger pieces pass.
+        let (blo, bhi) = s.mesh().bbox();
+        let area = ((bhi[0] - blo[0]) * (bhi[1] - blo[1])).max(0.0);
+        let bucket = (2.0 * area / CURVATURE_BOUNDS).sqrt().clamp(8.0, 32.0);
+        let refiner =
+            Refiner { s, curv: CurvatureGrid::new(s, bucket), tol: opts.inverse.tolerance };
         // Lattice over the mesh's bounding box; squares of side `cell`, the last row and
         // column narrower so that the lattice ends exactly on the box.
         let (lo, hi) = s.mesh().bbox();
@@ -453,11 +581,14 @@ impl<'a> RemapPlan<'a> {
                 let (wf, hf) = (w as f64, h as f64);
                 out.tris.retain(|t| t.y[1] >= -0.5 && t.y[0] <= hf);
                 out.blocks.retain(|b| b.y[1] >= -0.5 && b.y[0] <= hf);
-                out.newton.retain(|r| r[3] >= 0.0 && r[1] <= hf && r[2] >= 0.0 && r[0] <= wf);
+                out.newton.retain(|b| {
+                    let r = b.r;
+                    r[3] >= 0.0 && r[1] <= hf && r[2] >= 0.0 && r[0] <= wf
+                });
                 for y in out.tris.iter().map(|t| t.y).chain(out.blocks.iter().map(|b| b.y)) {
                     out.y = [out.y[0].min(y[0]), out.y[1].max(y[1])];
                 }
-                for r in &out.newton {
+                for r in out.newton.iter().map(|b| b.r) {
                     out.y = [out.y[0].min(r[1]), out.y[1].max(r[3])];
                 }
                 out
@@ -494,6 +625,17 @@ impl<'a> RemapPlan<'a> {
     /// Fills the preimages of the pixel rows of band `band` (rows `band * band_rows ..`) into
     /// `out` (row-major, `w` per row; `[NaN, NaN]` where there is none).
     pub fn fill_band(&self, band: usize, out: &mut [[f64; 2]]) -> RemapStats {
+        self.fill_band_folds(band, out, None)
+    }
+
+    /// [`RemapPlan::fill_band`], also marking in `folds` (same layout as `out`) the pixels
+    /// drawn from folded pieces, whose preimages carry no error bound.
+    pub fn fill_band_folds(
+        &self,
+        band: usize,
+        out: &mut [[f64; 2]],
+        folds: Option<&mut [bool]>,
+    ) -> RemapStats {
         let w = self.w as usize;
         let rows_total = self.h as usize;
         let y0 = band * self.opts.band_rows as usize;
@@ -526,6 +668,17 @@ impl<'a> RemapPlan<'a> {
                             qq.iter().map(|v| v[1]).fold(f64::NEG_INFINITY, f64::max),
                         );
                         if qhi < ylo || qlo > yhi {
+                            continue;
+                        }
+                        // No pixel centre in the sub-rectangle's image (both halves are
+                        // inside its bounding box): nothing to draw.
+                        let (xlo, xhi) = (
+                            qq.iter().map(|v| v[0]).fold(f64::INFINITY, f64::min),
+                            qq.iter().map(|v| v[0]).fold(f64::NEG_INFINITY, f64::max),
+                        );
+                        if fast_floor(xhi + 1e-7) < xlo - 1e-7
+                            || fast_floor(qhi + 1e-7) < qlo - 1e-7
+                        {
                             continue;
                         }
                         let px = b.p0[0] + i as f64 * b.step[0];
@@ -579,11 +732,21 @@ impl<'a> RemapPlan<'a> {
             }
         }
         st.folded = mask.as_ref().map_or(0, |m| m.iter().filter(|&&f| f).count());
+        if let Some(f) = folds {
+            match &mask {
+                Some(m) => f[..rows * w].copy_from_slice(m),
+                None => f[..rows * w].fill(false),
+            }
+        }
         // Newton for the unfilled pixels near border pieces (each pixel tried once).
-        let boxes: Vec<&[f64; 4]> =
-            near.iter().flat_map(|r| &r.newton).filter(|r| r[3] >= ylo && r[1] <= yhi).collect();
+        let boxes: Vec<&NewtonBox> = near
+            .iter()
+            .flat_map(|r| &r.newton)
+            .filter(|b| b.r[3] >= ylo && b.r[1] <= yhi)
+            .collect();
         let mut tried = vec![false; if boxes.is_empty() { 0 } else { rows * w }];
-        for r in boxes {
+        for b in boxes {
+            let r = b.r;
             let ya = r[1].ceil().max(y0 as f64) as usize;
             let yb = (r[3].floor() as isize).min((y0 + rows) as isize - 1);
             let xa = r[0].ceil().max(0.0) as usize;
@@ -598,11 +761,19 @@ impl<'a> RemapPlan<'a> {
                         continue;
                     }
                     tried[k] = true;
-                    if let Some(pm) = self.map.invert([x as f64, y as f64], prev.as_ref()) {
-                        *o = pm.p;
-                        st.newton_solves += 1;
-                        st.max_error_bound = st.max_error_bound.max(pm.error_bound);
-                        prev = Some(pm);
+                    let q = [x as f64, y as f64];
+                    let seeded = self.map.invert_from(q, b.seed.at(q), b.seed.tri);
+                    if seeded.is_some() {
+                        st.newton_seeded += 1;
+                    }
+                    match seeded.or_else(|| self.map.invert(q, prev.as_ref())) {
+                        Some(pm) => {
+                            *o = pm.p;
+                            st.newton_solves += 1;
+                            st.max_error_bound = st.max_error_bound.max(pm.error_bound);
+                            prev = Some(pm);
+                        }
+                        None => st.newton_failed += 1,
                     }
                 }
             }
@@ -635,3 +806,6 @@ pub fn preimage_grid(
         });
     (out, stats)
 }
+
+#[cfg(test)]
+mod tests;

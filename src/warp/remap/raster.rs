@@ -22,13 +22,8 @@ pub(super) fn raster(
     mut fold_mask: Option<(&mut [bool], bool)>,
 ) -> usize {
     let rows = out.len() / w;
-    let (e1, e2) = ([q[1][0] - q[0][0], q[1][1] - q[0][1]], [q[2][0] - q[0][0], q[2][1] - q[0][1]]);
-    let det = e1[0] * e2[1] - e2[0] * e1[1];
-    if det == 0.0 || !det.is_finite() {
-        return 0;
-    }
-    let rdet = 1.0 / det;
-    let inv = [[e2[1] * rdet, -e2[0] * rdet], [-e1[1] * rdet, e1[0] * rdet]];
+    // The pixel centres of the bounding box first: most pieces of a finely split block
+    // cover none, and then the setup (a division) is skipped.
     let (lo, hi) = bbox(q);
     let ya = fast_ceil(lo[1] - 1e-7).max(y0 as f64) as usize;
     let yb = (fast_floor(hi[1] + 1e-7) as isize).min((y0 + rows) as isize - 1);
@@ -37,6 +32,13 @@ pub(super) fn raster(
     if yb < ya as isize || xb < xa as isize {
         return 0;
     }
+    let (e1, e2) = ([q[1][0] - q[0][0], q[1][1] - q[0][1]], [q[2][0] - q[0][0], q[2][1] - q[0][1]]);
+    let det = e1[0] * e2[1] - e2[0] * e1[1];
+    if det == 0.0 || !det.is_finite() {
+        return 0;
+    }
+    let rdet = 1.0 / det;
+    let inv = [[e2[1] * rdet, -e2[0] * rdet], [-e1[1] * rdet, e1[0] * rdet]];
     let (pe1, pe2) =
         ([p[1][0] - p[0][0], p[1][1] - p[0][1]], [p[2][0] - p[0][0], p[2][1] - p[0][1]]);
     // lambda_k(x, y) = c_k + bx_k x + by_k y (lambda_0 = 1 - lambda_1 - lambda_2). Where

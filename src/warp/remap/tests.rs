@@ -1,0 +1,124 @@
+//! The certified inverse on hard maps (issue 18): a folded map and a strongly bent one,
+//! checked pixel by pixel against Newton's method, and the seeds of the Newton fallback.
+
+use super::*;
+use crate::warp::inverse::InverseOptions;
+
+/// The maps written by `examples/warp_maps.rs` (see its doc comment).
+fn load(name: &str) -> Spline {
+    let text = match name {
+        "folded" => include_str!("../../../tests/data/warp_folded_150x225.json"),
+        _ => include_str!("../../../tests/data/warp_bent_2048.json"),
+    };
+    crate::io::deformation::from_str(text).expect("test map").0
+}
+
+/// Every band of the plan: preimages, fold mask, statistics.
+fn fill_all(plan: &RemapPlan<'_>) -> (Vec<[f64; 2]>, Vec<bool>, RemapStats) {
+    let (w, h) = plan.size();
+    let n = w as usize * h as usize;
+    let (mut pos, mut folds) = (vec![[0.0; 2]; n], vec![false; n]);
+    let band = plan.band_rows() as usize * w as usize;
+    let mut st = RemapStats::default();
+    for (b, (p, f)) in pos.chunks_mut(band).zip(folds.chunks_mut(band)).enumerate() {
+        st.merge(&plan.fill_band_folds(b, p, Some(f)));
+    }
+    (pos, folds, st)
+}
+
+/// For every `step`-th pixel with a certified preimage `p~` (not drawn from a folded piece),
+/// Newton's method started at `p~` converges to a preimage `p*` with `|p~ - p*| <= tol`
+/// (plus Newton's own bound); pixels without a preimage have none for per-pixel Newton
+/// either, unless their centre is within `2 tol` of the deformed border. Returns the number of
+/// pixels checked.
+fn check_bound(s: &Spline, w: u32, h: u32, step: usize) -> (RemapStats, usize) {
+    let tol = 0.01;
+    let plan = RemapPlan::new(s, w, h, RemapOptions::default());
+    let (pos, folds, st) = fill_all(&plan);
+    assert!(st.max_error_bound <= tol, "{st:?}");
+    let map = InverseMap::new(s, InverseOptions { tolerance: 1e-6, ..Default::default() });
+    let mut checked = 0;
+    for k in (0..pos.len()).step_by(step) {
+        let q = [(k % w as usize) as f64, (k / w as usize) as f64];
+        let f = pos[k];
+        if f[0].is_nan() {
+            if let Some(n) = map.invert(q, None) {
+                // Only next to the deformed border: a nudge of 2 tol loses the preimage.
+                let near =
+                    [[2.0 * tol, 0.0], [-2.0 * tol, 0.0], [0.0, 2.0 * tol], [0.0, -2.0 * tol]]
+                        .iter()
+                        .any(|d| map.invert([q[0] + d[0], q[1] + d[1]], Some(&n)).is_none());
+                assert!(near, "{q:?}: no fast preimage, Newton finds {:?}", n.p);
+            }
+            continue;
+        }
+        if folds[k] {
+            continue;
+        }
+        let n = map.invert_from(q, f, None).unwrap_or_else(|| panic!("{q:?}: Newton from {f:?}"));
+        let e = (f[0] - n.p[0]).hypot(f[1] - n.p[1]);
+        assert!(e <= tol + n.error_bound, "{q:?}: {f:?} vs {:?} ({e})", n.p);
+        checked += 1;
+    }
+    (st, checked)
+}
+
+#[test]
+fn folded_map_meets_the_bound_outside_the_fold() {
+    let s = load("folded");
+    let (st, checked) = check_bound(&s, 150, 225, 1);
+    assert!(st.folded > 0 && st.fold_box.is_some(), "{st:?}");
+    assert!(checked > 15_000, "{checked}");
+}
+
+/// Issue 18: the folded map once left whole regions to per-pixel Newton (0.6 s for
+/// 150 x 225); now Newton only solves the pixels next to the crease, mostly from the
+/// piece's affine inverse.
+#[test]
+fn folded_map_leaves_few_pixels_to_newton() {
+    let s = load("folded");
+    let plan = RemapPlan::new(&s, 150, 225, RemapOptions::default());
+    let (_, _, st) = fill_all(&plan);
+    assert!(st.newton_solves + st.newton_failed <= st.pixels / 10, "{st:?}");
+    assert!(st.newton_seeded * 10 >= st.newton_solves * 9, "{st:?}");
+    assert_eq!(st.interpolated + st.newton_solves + st.outside, st.pixels);
+}
+
+#[test]
+fn bent_map_meets_the_bound_against_per_pixel_newton() {
+    let s = load("bent");
+    // A prime stride samples every row and column phase.
+    let (st, checked) = check_bound(&s, 2048, 2048, 211);
+    assert_eq!(st.folded, 0);
+    assert!(checked > 19_000, "{checked}");
+    // And the fast preimages are the per-pixel Newton solutions from scratch.
+    let plan = RemapPlan::new(&s, 2048, 2048, RemapOptions::default());
+    let mut band = vec![[0.0; 2]; plan.band_rows() as usize * 2048];
+    let map = InverseMap::new(&s, InverseOptions::default());
+    for b in [0, 17, plan.num_bands() - 1] {
+        plan.fill_band(b, &mut band);
+        for (k, f) in band.iter().enumerate().step_by(97) {
+            let q = [(k % 2048) as f64, (b * plan.band_rows() as usize + k / 2048) as f64];
+            match map.invert(q, None) {
+                Some(n) => assert!((f[0] - n.p[0]).hypot(f[1] - n.p[1]) <= 0.02, "{q:?}"),
+                None => assert!(f[0].is_nan() || q[0] < 60.0 || q[0] > 1988.0, "{q:?}"),
+            }
+        }
+    }
+}
+
+#[test]
+fn the_affine_seed_inverts_its_triangle() {
+    let p = [[1.0, 2.0], [4.0, 2.5], [1.5, 6.0]];
+    let q = [[10.0, -3.0], [13.0, -1.0], [9.0, 2.0]];
+    let seed = Seed::affine(p, q, Some(3));
+    for i in 0..3 {
+        let v = seed.at(q[i]);
+        assert!((v[0] - p[i][0]).abs() < 1e-12 && (v[1] - p[i][1]).abs() < 1e-12, "{v:?}");
+    }
+    let mid = seed.at([(q[0][0] + q[1][0]) / 2.0, (q[0][1] + q[1][1]) / 2.0]);
+    assert!((mid[0] - 2.5).abs() < 1e-12 && (mid[1] - 2.25).abs() < 1e-12);
+    // A degenerate image falls back to the first corner.
+    let flat = Seed::affine(p, [[0.0, 0.0], [1.0, 1.0], [2.0, 2.0]], None);
+    assert_eq!(flat.at([5.0, 7.0]), p[0]);
+}
