@@ -166,7 +166,7 @@ pub fn umeyama(x: &[[f64; 2]], y: &[[f64; 2]], w: &[f64]) -> Result<Similarity, 
         return Err(AlignError::TooFew(n));
     }
     let sw: f64 = w[..n].iter().sum();
-    if !(sw > 0.0) || w[..n].iter().any(|&v| !(v > 0.0)) {
+    if sw.is_nan() || sw <= 0.0 || w[..n].iter().any(|&v| v.is_nan() || v <= 0.0) {
         return Err(AlignError::Degenerate);
     }
     let mean = |p: &[[f64; 2]]| [0, 1].map(|k| (0..n).map(|i| w[i] * p[i][k]).sum::<f64>() / sw);
@@ -184,7 +184,7 @@ pub fn umeyama(x: &[[f64; 2]], y: &[[f64; 2]], w: &[f64]) -> Result<Similarity, 
         yy += w[i] * (p * p + q * q);
     }
     let spread = xx.max(yy).max(1.0);
-    if !(xx > 1e-12 * spread) {
+    if xx.is_nan() || xx <= 1e-12 * spread {
         return Err(AlignError::Degenerate);
     }
     // Residual of the best fit: sum |y'|^2 - |sum conj(x') y'|^2 / sum |x'|^2.

@@ -348,7 +348,7 @@ fn similarity_points(s: &Spline, sim: &Similarity) -> Result<Vec<Vec<Rat>>, Morp
 /// C1 when `f` is affine and `s` is: the C1 conditions are linear and affine-invariant).
 fn map_points(s: &Spline, f: impl Fn(&[Rat]) -> Vec<Rat>) -> Result<Spline, MorphError> {
     let mut out = s.clone();
-    out.set_points(s.points().iter().map(|p| f(p)).collect())?;
+    out.set_points(s.points().iter().map(|p| f(p.as_slice())).collect())?;
     Ok(out)
 }
 

@@ -133,9 +133,11 @@ pub fn morph_frame(
 }
 
 /// The crease figure: the mean jump of the gradient magnitude across the interior edges of
-/// `tris` (over `verts`), `|G(p + d n) - G(p - d n)|` with `G = |grad I|` (central
-/// differences) sampled at 9 points per edge (fractions 0.1 .. 0.9), `n` the edge normal,
-/// `d` pixels. Edges with a point closer than `d + 2` px to the frame's border are skipped.
+/// `tris` (over `verts`) in excess of its smooth variation: with `G = |grad I|` (central
+/// differences) at `p + k d n` (`n` the edge normal, `d` pixels),
+/// `|(G_1 - G_-1) - ((G_3 - G_1) + (G_-1 - G_-3)) / 2|`, which is 0 where `G` varies linearly
+/// and the jump where `G` steps at the edge (a piecewise-affine warp's crease); sampled at 9
+/// points per edge (fractions 0.1 .. 0.9). Points closer than 2 px to the border are skipped.
 pub fn crease(img: &Grey, verts: &[[f64; 2]], tris: &[[usize; 3]], d: f64) -> f64 {
     let (w, h) = (img.w, img.h);
     let mut g = Grey { w, h, v: vec![0.0; w * h] };
@@ -154,7 +156,7 @@ pub fn crease(img: &Grey, verts: &[[f64; 2]], tris: &[[usize; 3]], d: f64) -> f6
             *count.entry((i, j)).or_insert(0) += 1;
         }
     }
-    let margin = d + 2.0;
+    let margin = 2.0;
     let inside = |p: [f64; 2]| {
         p[0] >= margin
             && p[1] >= margin
@@ -175,10 +177,13 @@ pub fn crease(img: &Grey, verts: &[[f64; 2]], tris: &[[usize; 3]], d: f64) -> f6
         for k in 1..10 {
             let f = k as f64 / 10.0;
             let m = [p[0] + f * (q[0] - p[0]), p[1] + f * (q[1] - p[1])];
-            let (u, v) =
-                ([m[0] + d * nrm[0], m[1] + d * nrm[1]], [m[0] - d * nrm[0], m[1] - d * nrm[1]]);
-            if inside(u) && inside(v) {
-                sum += f64::from((g.at(u) - g.at(v)).abs());
+            let at = |k: f64| [m[0] + k * d * nrm[0], m[1] + k * d * nrm[1]];
+            let pts = [at(-3.0), at(-1.0), at(1.0), at(3.0)];
+            if pts.iter().all(|&p| inside(p)) {
+                let gv = pts.map(|p| f64::from(g.at(p)));
+                let jump = gv[2] - gv[1];
+                let sides = ((gv[3] - gv[2]) + (gv[1] - gv[0])) / 2.0;
+                sum += (jump - sides).abs();
                 n += 1;
             }
         }
