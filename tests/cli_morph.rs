@@ -1,6 +1,6 @@
 //! `trimorph morph` end to end: outputs, golden frames and refused inputs.
 //!
-//! Golden frames: a 128 x 128 crop (x 272.., y 120..) of time-lapse frames 0 and 9 with the
+//! Golden frames (`--no-align`): a 128 x 128 crop (x 272.., y 120..) of time-lapse frames 0 and 9 with the
 //! three tracks inside it as landmarks, 3 frames. Regenerate after an intended change with
 //! `TRIMORPH_REGENERATE_GOLDEN=1 cargo test --test cli_morph` and review the PNGs.
 //! Tolerance as in `tests/golden.rs`: every channel within `common::GOLDEN_MAX_DIFF` (2) levels, at most
@@ -63,6 +63,8 @@ fn morph_writes_frames_animations_and_sheet_and_matches_golden_frames() {
         out.to_str().unwrap(),
         "--gif",
         gif.to_str().unwrap(),
+        // Raw coordinates: the last frame is B itself (alignment: `real_pair_*` below).
+        "--no-align",
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let mut names: Vec<String> = std::fs::read_dir(&out)
@@ -72,7 +74,15 @@ fn morph_writes_frames_animations_and_sheet_and_matches_golden_frames() {
     names.sort();
     assert_eq!(
         names,
-        ["contact-sheet.png", "frame_000.png", "frame_001.png", "frame_002.png", "morph.apng"]
+        [
+            "contact-sheet.png",
+            "frame_000.png",
+            "frame_001.png",
+            "frame_002.png",
+            "morph.apng",
+            "phi_ab.json",
+            "phi_ba.json"
+        ]
     );
     assert!(std::fs::metadata(&gif).unwrap().len() > 0);
     let frames: Vec<DynamicImage> =
@@ -167,6 +177,7 @@ fn range_makes_a_caricature() {
             "--frames",
             "2",
             "--quiet",
+            "--no-align",
             "--range",
             range,
             "-o",
@@ -206,6 +217,7 @@ fn morph_from_a_fitted_deformation_starts_at_a_and_ends_near_b() {
         "255",
         "--cells",
         "4",
+        "--no-align",
         "-o",
         &s(&out),
         "--quiet",
@@ -229,4 +241,115 @@ fn morph_from_a_fitted_deformation_starts_at_a_and_ends_near_b() {
     let o = trimorph(&["morph", &a, &b, "--phi-ab", &l, "-o", &s(&out)]);
     assert_eq!(o.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&o.stderr).contains("cannot read deformation"));
+}
+
+fn real(name: &str) -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("data/morph").join(name).display().to_string()
+}
+
+/// The real pair (B rotated, scaled, of another size and type): the similarity is printed,
+/// `phi_ab.json` / `phi_ba.json` hold exactly the library's maps and are read back by
+/// `--phi-ab` / `--phi-ba`, and the frames are 16-bit RGB.
+#[test]
+fn real_pair_prints_the_similarity_and_writes_deformations_that_read_back() {
+    use trimorph::io::deformation;
+    use trimorph::morph::{Morph, MorphOptions};
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let (a, b, l) = (real("nuclei_a.png"), real("nuclei_b.png"), real("nuclei_landmarks.csv"));
+    let o = trimorph(&[
+        "morph",
+        &a,
+        &b,
+        "--landmarks",
+        &l,
+        "--frames",
+        "3",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    common::ok(&o);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("B aligned to A by the similarity: scale 0.5"), "{err}");
+    assert!(err.contains("certified fold-free"), "{err}");
+    let f1 = image::open(out.join("frame_001.png")).unwrap();
+    assert_eq!(f1.color(), image::ColorType::Rgb16);
+    assert_eq!((f1.width(), f1.height()), (184, 184));
+
+    let read =
+        |n: &str| deformation::from_str(&std::fs::read_to_string(out.join(n)).unwrap()).unwrap().0;
+    let (ab, ba) = (read("phi_ab.json"), read("phi_ba.json"));
+    let m = Morph::new(
+        &image::open(&a).unwrap(),
+        &image::open(&b).unwrap(),
+        &trimorph::io::landmarks::read_landmarks(Path::new(&l)).unwrap(),
+        &MorphOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(ab.points(), m.phi_ab_raw().unwrap().points(), "phi_ab.json is phi_A->B exactly");
+    assert_eq!(ba.points(), m.phi_ba().points(), "phi_ba.json is phi_B->A exactly");
+
+    let out2 = dir.path().join("out2");
+    let (pa, pb) = (out.join("phi_ab.json"), out.join("phi_ba.json"));
+    let o = trimorph(&[
+        "morph",
+        &a,
+        &b,
+        "--phi-ab",
+        pa.to_str().unwrap(),
+        "--phi-ba",
+        pb.to_str().unwrap(),
+        "--frames",
+        "3",
+        "-o",
+        out2.to_str().unwrap(),
+    ]);
+    common::ok(&o);
+    assert!(
+        String::from_utf8_lossy(&o.stderr).contains("B aligned to A by the similarity: scale 0.5")
+    );
+    let (g0, g2) = (
+        image::open(out2.join("frame_000.png")).unwrap(),
+        image::open(out2.join("frame_002.png")).unwrap(),
+    );
+    let (f0, f2) = (
+        image::open(out.join("frame_000.png")).unwrap(),
+        image::open(out.join("frame_002.png")).unwrap(),
+    );
+    let diff = |x: &DynamicImage, y: &DynamicImage| {
+        let (x, y) = (x.to_rgb8(), y.to_rgb8());
+        x.as_raw().iter().zip(y.as_raw()).filter(|(p, q)| p.abs_diff(**q) > 2).count()
+    };
+    assert_eq!(diff(&g0, &f0), 0, "frame 0 is A in both runs");
+    // The last frames differ: with --phi-ab the similarity is re-estimated from phi_ab's
+    // samples (the landmarks are not known), not the landmarks' one.
+    assert!(diff(&g2, &f2) > 0);
+}
+
+#[test]
+fn no_align_keeps_raw_coordinates_and_says_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let (a, b, l) = (real("nuclei_a.png"), real("nuclei_b.png"), real("nuclei_landmarks.csv"));
+    let o = trimorph(&[
+        "morph",
+        &a,
+        &b,
+        "--landmarks",
+        &l,
+        "--frames",
+        "2",
+        "--no-align",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    common::ok(&o);
+    assert!(String::from_utf8_lossy(&o.stderr).contains("raw pixel coordinates (--no-align)"));
+    // The last frame is B's top-left 184 x 184 corner (phi_B->1 is the identity).
+    let last = image::open(out.join("frame_001.png")).unwrap().to_luma16();
+    let bi = image::open(&b).unwrap().to_luma16();
+    let d = (0..184).flat_map(|y| (0..184).map(move |x| (x, y)));
+    let worst =
+        d.map(|(x, y)| last.get_pixel(x, y)[0].abs_diff(bi.get_pixel(x, y)[0])).max().unwrap();
+    assert!(worst <= 257, "{worst}");
 }

@@ -189,8 +189,10 @@ enum Command {
         verbose: bool,
     },
     /// Morph image A into image B through landmark pairs (src in A, dst in B): frames
-    /// `frame_000.png` ... in the output folder, an animated GIF and APNG, and
-    /// `contact-sheet.png`. Frames have A's size.
+    /// `frame_000.png` ... in the output folder, an animated GIF and APNG,
+    /// `contact-sheet.png`, and the two fitted deformations `phi_ab.json` and `phi_ba.json`.
+    /// B is first brought into A's frame by the landmarks' similarity (printed). Frames have
+    /// A's size and the richer type of the two images.
     Morph {
         /// Image A (first frame).
         a: PathBuf,
@@ -207,9 +209,16 @@ enum Command {
         /// --phi-ab).
         #[arg(long, value_name = "DEF", requires = "phi_ab")]
         phi_ba: Option<PathBuf>,
-        /// Mesh cells per side of the fitted deformations (1 to 48).
+        /// With --phi-ab and no --phi-ba: mesh cells per side of the grid mesh over B on
+        /// which B->A is fitted (1 to 48). Landmark morphs use landmark-adapted meshes.
         #[arg(long, default_value_t = 8)]
         cells: usize,
+        /// Keep B's raw pixel coordinates (no similarity alignment of B to A).
+        #[arg(long)]
+        no_align: bool,
+        /// Print the time of each phase (read, fits, frames, encodings, writes) to stderr.
+        #[arg(long)]
+        timings: bool,
         /// Background where neither image has a preimage: one value for every channel, in
         /// the images' sample units (0..255 for 8-bit, 0..65535 for 16-bit, 0..1 for float;
         /// alpha is 0 there when the images have alpha).
@@ -624,6 +633,8 @@ pub fn run() -> i32 {
             phi_ab,
             phi_ba,
             cells,
+            no_align,
+            timings,
             background,
             frames,
             range,
@@ -643,6 +654,8 @@ pub fn run() -> i32 {
             phi_ab: phi_ab.as_deref(),
             phi_ba: phi_ba.as_deref(),
             cells,
+            align: !no_align,
+            timings,
             background,
             frames,
             range: &range,

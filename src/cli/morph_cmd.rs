@@ -1,4 +1,6 @@
-//! `trimorph morph A B --landmarks L.csv --frames N -o DIR`: frames, animations, contact sheet.
+//! `trimorph morph A B --landmarks L.csv --frames N -o DIR`: frames, animations, contact sheet,
+//! and the fitted deformations `phi_ab.json` (A's pixels -> B's pixels) and `phi_ba.json`
+//! (B's pixels -> A's pixels), readable by `--phi-ab` / `--phi-ba`.
 
 use super::warp_cmd::progress_bar;
 use crate::exact::matrix::rat_to_f64;
@@ -6,13 +8,14 @@ use crate::io::landmarks::read_landmarks;
 use crate::io::raster::read_stack;
 use crate::io::{deformation, read_text, write_atomic};
 use crate::morph::output::{apng_bytes, contact_sheet, frame_name, gif_bytes, png_bytes};
-use crate::morph::{times_between, Morph, MorphOptions, Schedule};
+use crate::morph::{times_between, FrameStats, Morph, MorphOptions, Schedule};
 use crate::spline::Spline;
 use crate::warp::Interp;
 use anyhow::{anyhow, bail, Context, Result};
 use image::DynamicImage;
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
+use std::time::Instant;
 
 /// Options of `trimorph morph`.
 pub struct MorphArgs<'a> {
@@ -22,6 +25,8 @@ pub struct MorphArgs<'a> {
     pub phi_ab: Option<&'a Path>,
     pub phi_ba: Option<&'a Path>,
     pub cells: usize,
+    pub align: bool,
+    pub timings: bool,
     pub background: f64,
     pub frames: usize,
     pub range: &'a str,
@@ -50,8 +55,39 @@ const MAX_TIME: f64 = 100.0;
 /// ([`crate::fit::solve::MAX_FIT_VARIABLES`]).
 const MAX_CELLS: usize = 48;
 
+/// Phase timings for `--timings`.
+struct Phases {
+    on: bool,
+    last: Instant,
+    start: Instant,
+    rows: Vec<(&'static str, f64)>,
+}
+
+impl Phases {
+    fn new(on: bool) -> Phases {
+        let now = Instant::now();
+        Phases { on, last: now, start: now, rows: Vec::new() }
+    }
+
+    fn mark(&mut self, name: &'static str) {
+        let now = Instant::now();
+        self.rows.push((name, (now - self.last).as_secs_f64() * 1e3));
+        self.last = now;
+    }
+
+    fn print(&self) {
+        if !self.on {
+            return;
+        }
+        let total = (Instant::now() - self.start).as_secs_f64() * 1e3;
+        let parts: Vec<String> = self.rows.iter().map(|(n, ms)| format!("{n} {ms:.1}")).collect();
+        eprintln!("timings (ms): {}; total {total:.1}", parts.join(", "));
+    }
+}
+
 /// Runs the command.
 pub fn run(a: MorphArgs<'_>) -> Result<()> {
+    let mut ph = Phases::new(a.timings);
     if a.frames < 2 {
         bail!("--frames must be at least 2 (the first frame is A, the last B), got {}", a.frames);
     }
@@ -71,8 +107,9 @@ pub fn run(a: MorphArgs<'_>) -> Result<()> {
     if t0.abs() > MAX_TIME || t1.abs() > MAX_TIME {
         bail!("--range: times must lie within -{MAX_TIME}..{MAX_TIME}, got `{}`", a.range);
     }
-    let img_a = first_page(a.a, "A")?;
-    let img_b = first_page(a.b, "B")?;
+    let (img_a, img_b) = rayon::join(|| first_page(a.a, "A"), || first_page(a.b, "B"));
+    let (img_a, img_b) = (img_a?, img_b?);
+    ph.mark("read");
     if a.cells == 0 || a.cells > MAX_CELLS {
         bail!("--cells must be between 1 and {MAX_CELLS}, got {}", a.cells);
     }
@@ -84,6 +121,7 @@ pub fn run(a: MorphArgs<'_>) -> Result<()> {
         color,
         interp,
         cells: a.cells,
+        align: a.align,
         background: a.background,
         ..MorphOptions::default()
     };
@@ -96,8 +134,33 @@ pub fn run(a: MorphArgs<'_>) -> Result<()> {
         (Some(l), _) => {
             let lms = read_landmarks(l)
                 .with_context(|| format!("cannot read landmarks {}", l.display()))?;
-            Morph::new(&img_a, &img_b, &lms, &opts)
-                .with_context(|| format!("landmarks {}", l.display()))?
+            let m = Morph::new(&img_a, &img_b, &lms, &opts)
+                .with_context(|| format!("landmarks {}", l.display()))?;
+            if let (Some([ab, ba]), false) = (m.fit_summaries(), a.quiet) {
+                for (dir, f) in [("A->B", ab), ("B->A", ba)] {
+                    eprintln!(
+                        "fit {dir}: {} triangles, margin {} px, largest residual {:.3} px, \
+                         certified fold-free (det J >= {:.3}){}",
+                        f.triangles,
+                        f.margin,
+                        f.max_residual,
+                        f.det_j_lower_bound,
+                        if f.covers_frame { ", covers A's frame" } else { "" }
+                    );
+                    if !f.conflicts.is_empty() {
+                        let pairs: Vec<String> =
+                            f.conflicts.iter().map(|[x, y]| format!("{x} and {y}")).collect();
+                        eprintln!(
+                            "warning: fit {dir}: these landmark pairs cross, so following them \
+                             would fold the map; the morph stays fold-free and misses them \
+                             (largest residual {:.2} px): {}",
+                            f.max_residual,
+                            pairs.join(", ")
+                        );
+                    }
+                }
+            }
+            m
         }
         (None, Some(p)) => {
             let phi_ab = load(p)?;
@@ -115,16 +178,44 @@ pub fn run(a: MorphArgs<'_>) -> Result<()> {
         }
         (None, None) => bail!("give --landmarks L.csv or --phi-ab DEF.json"),
     };
+    if !a.quiet {
+        if a.align {
+            eprintln!("B aligned to A by the similarity: {}", morph.similarity());
+        } else {
+            eprintln!("B kept in its raw pixel coordinates (--no-align)");
+        }
+    }
+    ph.mark("fits");
     std::fs::create_dir_all(a.output)
         .with_context(|| format!("cannot create {}", a.output.display()))?;
     // Leftovers of an earlier run that was killed mid-write.
     crate::io::remove_stale_temps(a.output, crate::io::STALE_AFTER);
 
     let exact_times = times_between(a.frames, t0, t1)?;
+    let mut newton_solves = 0;
     let times: Vec<f64> = exact_times.iter().map(rat_to_f64).collect();
     let bar = progress_bar(a.frames as u64, !a.quiet, "morph");
     let frames: Vec<DynamicImage> = match a.preview {
-        None => morph.frames_at(&exact_times, &|| bar.inc(1))?,
+        None => {
+            let out: Vec<(DynamicImage, FrameStats)> = exact_times
+                .par_iter()
+                .map(|t| {
+                    let f = morph.frame_with_stats(t);
+                    bar.inc(1);
+                    f
+                })
+                .collect::<Result<_, _>>()?;
+            let (uncovered, newton) =
+                out.iter().fold((0, 0), |(u, n), (_, st)| (u + st.uncovered, n + st.newton_solves));
+            if uncovered > 0 && !a.quiet {
+                eprintln!(
+                    "note: {uncovered} pixels over all frames have a preimage in neither image \
+                     (they show --background)"
+                );
+            }
+            newton_solves = newton;
+            out.into_iter().map(|(f, _)| f).collect()
+        }
         Some(step) => {
             let pv = morph.preview(step)?;
             // The preview is 8-bit: scale the background from the working type's range.
@@ -149,22 +240,59 @@ pub fn run(a: MorphArgs<'_>) -> Result<()> {
         }
     };
     bar.finish_and_clear();
+    ph.mark("frames");
+    // Every frame's two maps: certified fold-free, and covering A's frame.
+    if a.landmarks.is_some() {
+        let checks =
+            exact_times.par_iter().map(|t| morph.check_frame(t)).collect::<Result<Vec<_>, _>>()?;
+        let bad: Vec<String> = checks
+            .iter()
+            .zip(&times)
+            .filter(|(c, _)| !(c.fold_free[0] && c.fold_free[1]))
+            .map(|(_, t)| format!("{t:.3}"))
+            .collect();
+        if !bad.is_empty() && !a.quiet {
+            eprintln!(
+                "warning: the blended maps are not certified fold-free at t = {}",
+                bad.join(", ")
+            );
+        }
+        ph.mark("checks");
+    }
 
     frames.par_iter().enumerate().try_for_each(|(k, f)| -> Result<()> {
         let p = a.output.join(frame_name(k, a.frames));
         write_atomic(&p, &png_bytes(f)?).with_context(|| format!("cannot write {}", p.display()))
     })?;
+    ph.mark("png");
+    let write_def = |name: &str, s: &Spline| -> Result<()> {
+        let p = a.output.join(name);
+        write_atomic(&p, deformation::to_string(s, None).as_bytes())
+            .with_context(|| format!("cannot write {}", p.display()))
+    };
+    write_def("phi_ab.json", &morph.phi_ab_raw()?)?;
+    write_def("phi_ba.json", morph.phi_ba())?;
+    ph.mark("deformations");
     let gif = a.gif.map(Path::to_path_buf).unwrap_or_else(|| a.output.join("morph.gif"));
     let apng = a.apng.map(Path::to_path_buf).unwrap_or_else(|| a.output.join("morph.apng"));
     let sheet: PathBuf = a.output.join("contact-sheet.png");
     write_atomic(&gif, &gif_bytes(&frames, a.delay_ms)?)
         .with_context(|| format!("cannot write {}", gif.display()))?;
+    ph.mark("gif");
     write_atomic(&apng, &apng_bytes(&frames, a.delay_ms)?)
         .with_context(|| format!("cannot write {}", apng.display()))?;
+    ph.mark("apng");
     let cols = a.frames.min(8);
     let pm = contact_sheet(&frames, &times, cols, 160)?;
     let bytes = pm.encode_png().map_err(|e| anyhow!("encoding the contact sheet: {e}"))?;
     write_atomic(&sheet, &bytes).with_context(|| format!("cannot write {}", sheet.display()))?;
+    ph.mark("sheet");
+    if a.timings {
+        eprintln!(
+            "inverse maps: {newton_solves} pixels solved by per-pixel Newton over all frames"
+        );
+    }
+    ph.print();
 
     let worst = [0.0, 1.0]
         .iter()

@@ -1,37 +1,53 @@
 //! Image morphing between two images `A` and `B` through matched landmarks.
 //!
-//! **Method.** Landmark pairs `(L_A, L_B)` (src: a point in `A`, dst: the matching point in
-//! `B`) give the intermediate landmarks `L_t = (1 - s) L_A + s L_B` with `s = alpha_shape(t)`.
-//! Frame `t` warps `A` by `phi_{A->t}` and `B` by `phi_{B->t}`, both onto `A`'s pixel grid,
-//! and cross-dissolves them with weight `c = alpha_color(t)` on `B`. The two schedules are
-//! separate ([`Schedule`]); `alpha_shape` may leave `[0, 1]` (caricature), `alpha_color` is
-//! clamped to `[0, 1]`.
+//! **Maps and units** (pixels, centres at integers, `x` right, `y` down; details in
+//! [`fits`]). `S` ([`align`]): `B`'s pixels -> `A`'s pixels, the landmarks' least-squares
+//! similarity (Umeyama; the identity with [`MorphOptions::align`] off). `phi_ab`: `A`'s
+//! pixels -> `A`'s pixels, fitted to `L_A -> S(L_B)` (it is `S ∘ phi_{A->B}`, and
+//! `phi_{A->B}` = [`Morph::phi_ab_raw`] maps `A`'s pixels to `B`'s own). `phi_ba`: `B`'s own
+//! pixels -> `A`'s pixels, fitted to `L_B -> L_A` on a mesh over `B`'s rectangle.
 //!
-//! **Linearity.** With the squares loss and no fold barrier, a fit is one Gauss-Newton step
-//! from the identity ([`crate::fit::solve`]), so its control points are an affine function
-//! of the targets, and the identity's bending energy is zero. Hence the fit to `L_t` is
-//! `(1 - s) id + s phi_{A->B}`, control point by control point. We fit twice (A->B on a
-//! mesh over `A`, B->A on a mesh over `B`) and obtain every frame's deformations by blending
-//! control points *exactly* in rational arithmetic: the C1 conditions are linear, so the
-//! blend of two exactly-C1 splines is exactly C1 (re-checked by [`Spline::set_points`]), for
-//! any `s`, including `s` outside `[0, 1]`. The fits use [`MorphOptions::fit`] with the
-//! barrier off by default; with a barrier the blend is still exactly C1 but no longer equal
-//! to a direct fit to `L_t`.
+//! **Method.** With `s = alpha_shape(t)`, the intermediate landmarks are
+//! `L_t = (1 - s) L_A + s S(L_B)` (in `A`'s pixels) and the frame's maps are
 //!
-//! Consequence: `phi_{A->t}(p) = (1 - s) p + s phi_{A->B}(p)`, so a landmark lands at
-//! `L_t` up to `s` times the A->B fit's residual ([`Morph::landmark_errors`]).
+//! ```text
+//! phi_{A->t} = (1 - s) id + s phi_ab        (A's pixels -> frame, on phi_ab's mesh)
+//! phi_{B->t} = s S + (1 - s) phi_ba         (B's pixels -> frame, on phi_ba's mesh)
+//! ```
 //!
-//! **Sizes and types.** Output frames have `A`'s size. `B` keeps its own size: its
-//! deformation is defined over `B`'s domain and its preimages are computed for an output of
-//! `A`'s size, so `B` is neither padded nor cropped; where only one image has a preimage,
-//! that image alone is shown, where neither has, the background. Both images are converted
-//! to one common type (8-bit unless either is 16-bit or float; gray unless either is
-//! colour; alpha if either has alpha), which is the frames' type.
+//! Frame `t` (of `A`'s size) pulls `A` back through `phi_{A->t}` and `B` through
+//! `phi_{B->t}` and cross-dissolves them with weight `c = alpha_color(t)` on `B`
+//! ([`job`] for pixels only one image covers). `t = 0` is `A`, `t = 1` is `B` moved by
+//! `S` into `A`'s frame. The two schedules are separate ([`Schedule`]); `alpha_shape` may
+//! leave `[0, 1]` (caricature), `alpha_color` is clamped to `[0, 1]`.
+//!
+//! **Exact C1 blend.** The blends are formed control point by control point in exact
+//! rational arithmetic (`S` has rational coefficients): the C1 conditions are linear and
+//! invariant under affine maps, so an affine combination of exactly-C1 splines on one mesh is
+//! exactly C1, for any `s` (also outside `[0, 1]`). The per-frame blend therefore skips the
+//! exact re-check ([`Spline::set_points_c1_by_construction`]); the tests re-check it.
+//!
+//! **The fits** ([`fits`]) use [`crate::fit::frame::fit_frame`]: a landmark-adapted mesh
+//! with a margin large enough that each map covers `A`'s frame (proven by
+//! [`crate::fit::frame::covers_frame`]), the fold barrier on, and a certified `det J > 0`.
+//! With a fixed bending weight and the barrier inactive the fit is linear in its targets, so
+//! the blend `phi_{A->t}` equals a direct fit to `L_t` (up to the fits' 2^-20 px rounding and
+//! their ridge anchored at the affine warm start); where the barrier acts, it does *not*:
+//! the blend is then a convex combination of two certified maps, which [`Morph::check_frame`]
+//! certifies again frame by frame. A landmark `L_A` lands at `L_t` up to `s` times the A->B
+//! fit's residual ([`Morph::landmark_errors`]).
+//!
+//! **Sizes and types.** Output frames have `A`'s size; `B` keeps its own size and pixels
+//! (neither padded nor cropped). Both images are converted to one common type, the richer of
+//! the two: 8-bit unless either is 16-bit or float, grey unless either is colour, alpha if
+//! either has alpha (RGB8 with grey16 gives RGB16).
 //!
 //! **Preview.** [`Morph::preview_frame`] draws `A` as a fine colour mesh ([`ColorMesh`]):
 //! vertices moved by `phi_{A->t}`, vertex colours blended with `B`'s colour at
 //! `phi_{A->B}(v)`, rasterized with tiny-skia.
 
+pub mod align;
+pub mod fits;
 mod job;
 pub mod output;
 #[cfg(test)]
@@ -39,19 +55,23 @@ mod tests;
 
 use crate::exact::matrix::{rat_to_f64, Rat};
 use crate::exact::Int;
+use crate::fit::frame::FrameFitOptions;
 use crate::fit::landmarks::Landmark;
 use crate::fit::solve::{fit, FitError, FitOptions};
-use crate::mesh::{Mesh, MeshError, MeshOptions};
+use crate::mesh::{AdaptOptions, Mesh, MeshError, MeshOptions};
 use crate::render::colormesh::rasterize;
 use crate::spline::{Spline, SplineError};
 use crate::warp::colormesh::{ColorMesh, ColorMeshError, ColorMode, Colors};
 use crate::warp::remap::{RemapOptions, RemapPlan};
 use crate::warp::sample::{Source, Texel};
 use crate::warp::Interp;
+use align::{umeyama, AlignError, Similarity};
+use fits::{fit_covering, MapSummary};
 use image::{DynamicImage, ImageBuffer};
 use job::{source, Job};
 use num_rational::BigRational;
 use rayon::prelude::*;
+use serde::Serialize;
 use tiny_skia::Pixmap;
 
 /// Why a morph cannot be made.
@@ -109,6 +129,28 @@ pub enum MorphError {
     /// The preview mesh.
     #[error("colour mesh: {0}")]
     ColorMesh(#[from] ColorMeshError),
+    /// No similarity brings `B` into `A`'s frame.
+    #[error("aligning B to A: {0}")]
+    Align(#[from] AlignError),
+    /// A fit cannot be certified fold-free: the landmarks force a fold.
+    #[error(
+        "fitting {dir}: the landmarks force a fold (certified det J lower bound {lower_bound:.3}); \
+         {}; a morph through a folded map shows creases and torn strips, so correct or remove \
+         one landmark of each pair",
+        if pairs.is_empty() {
+            "no single crossing pair was found, the landmarks as a whole demand it".to_string()
+        } else {
+            format!("these landmark pairs cross: {}", pairs.join(", "))
+        }
+    )]
+    Folds {
+        /// `A->B` or `B->A`.
+        dir: &'static str,
+        /// The certificate's lower bound of det J.
+        lower_bound: f64,
+        /// The crossing pairs, as `i (name) and j (name)`.
+        pairs: Vec<String>,
+    },
 }
 
 /// A schedule `alpha(t)`.
@@ -159,12 +201,19 @@ impl std::str::FromStr for Schedule {
 /// Options of a [`Morph`].
 #[derive(Clone, Debug, PartialEq)]
 pub struct MorphOptions {
-    /// Mesh cells per side over each image (default 8).
+    /// Bring `B` into `A`'s frame by the landmarks' similarity (default true;
+    /// [`align`]).
+    pub align: bool,
+    /// The landmark-adapted meshes of both fits (default: [`AdaptOptions::default`] with the
+    /// snapping grid chosen from the landmarks; [`fits`] chooses the margin).
+    pub mesh: AdaptOptions,
+    /// Mesh cells per side of the grid mesh over `B` on which `phi_{B->A}` is fitted when
+    /// only `phi_{A->B}` is given ([`Morph::from_deformations`]; default 8).
     pub cells: usize,
     /// Spline degree (default 5).
     pub degree: usize,
-    /// Fit options (default: [`FitOptions::default`] with the barrier off, see the module
-    /// docs).
+    /// Fit options of both fits (default: the fold barrier on, a fixed bending weight
+    /// [`crate::fit::smooth::DEFAULT_BEND`]; see the module docs).
     pub fit: FitOptions,
     /// Resampling.
     pub interp: Interp,
@@ -181,12 +230,13 @@ pub struct MorphOptions {
 impl Default for MorphOptions {
     fn default() -> Self {
         MorphOptions {
+            align: true,
+            mesh: AdaptOptions { grid: 0, ..AdaptOptions::default() },
             cells: 8,
             degree: 5,
-            // A fixed weight (not GCV): the fits are then linear in the targets, which the
-            // blend of control points relies on.
+            // A fixed weight (not GCV): where the barrier does not act the fits are linear
+            // in the targets (module docs).
             fit: FitOptions {
-                barrier: None,
                 bend: crate::fit::solve::Bend::Weight(crate::fit::smooth::DEFAULT_BEND),
                 ..FitOptions::default()
             },
@@ -267,17 +317,50 @@ fn blend_points(id: &[Vec<Rat>], phi: &[Vec<Rat>], s: &Rat) -> Vec<Vec<Rat>> {
         .collect()
 }
 
-/// A morph: both images, the landmarks and the two fitted deformations.
+/// A morph: both images, the landmarks, the similarity and the two fitted deformations.
 #[derive(Clone, Debug)]
 pub struct Morph {
     a: DynamicImage,
     b: DynamicImage,
     landmarks: Vec<Landmark>,
+    /// `S`: `B`'s pixels -> `A`'s pixels.
+    sim: Similarity,
+    /// `A`'s pixels -> `A`'s pixels (`S ∘ phi_{A->B}`).
     phi_ab: Spline,
+    /// `B`'s pixels -> `A`'s pixels.
     phi_ba: Spline,
+    /// The identity's control points on `phi_ab`'s mesh.
     id_a: Vec<Vec<Rat>>,
-    id_b: Vec<Vec<Rat>>,
+    /// `S`'s control points on `phi_ba`'s mesh.
+    sim_b: Vec<Vec<Rat>>,
+    /// The fits' summaries (`A->B`, `B->A`) for a morph made from landmarks.
+    summaries: Option<[MapSummary; 2]>,
     opts: MorphOptions,
+}
+
+/// `S` applied to every control point of the identity on `s`'s mesh, exactly.
+fn similarity_points(s: &Spline, sim: &Similarity) -> Result<Vec<Vec<Rat>>, MorphError> {
+    let id = Spline::identity(s.mesh().clone(), s.degree())?;
+    Ok(id.points().iter().map(|p| sim.apply_exact(p)).collect())
+}
+
+/// `f` applied to every control point of `s`, exactly, as a spline on the same mesh (exactly
+/// C1 when `f` is affine and `s` is: the C1 conditions are linear and affine-invariant).
+fn map_points(s: &Spline, f: impl Fn(&[Rat]) -> Vec<Rat>) -> Result<Spline, MorphError> {
+    let mut out = s.clone();
+    out.set_points(s.points().iter().map(|p| f(p.as_slice())).collect())?;
+    Ok(out)
+}
+
+/// Frame statistics of [`Morph::frame_with_stats`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct FrameStats {
+    /// Pixels where neither image has a preimage (they show the background).
+    pub uncovered: usize,
+    /// Pixels whose preimage needed a per-pixel Newton solve (both maps).
+    pub newton_solves: usize,
+    /// Pixels in the frame.
+    pub pixels: usize,
 }
 
 fn check_inside(lms: &[Landmark], w: u32, h: u32, image: char) -> Result<(), MorphError> {
@@ -300,7 +383,9 @@ fn check_inside(lms: &[Landmark], w: u32, h: u32, image: char) -> Result<(), Mor
 }
 
 impl Morph {
-    /// Fits `phi_{A->B}` (mesh over `A`) and `phi_{B->A}` (mesh over `B`).
+    /// Aligns `B` to `A` (unless [`MorphOptions::align`] is off) and fits `phi_ab` (mesh
+    /// over `A`) and `phi_ba` (mesh over `B`), both covering `A`'s frame and certified
+    /// fold-free ([`fits`]), in parallel.
     pub fn new(
         a: &DynamicImage,
         b: &DynamicImage,
@@ -317,41 +402,55 @@ impl Morph {
         }
         check_inside(landmarks, a.width(), a.height(), 'A')?;
         check_inside(landmarks, b.width(), b.height(), 'B')?;
-        let (a, b) = common(a, b);
-        let identity = |img: &DynamicImage| -> Result<Spline, MorphError> {
-            let (w, h) = (f64::from(img.width() - 1), f64::from(img.height() - 1));
-            let mesh = Mesh::grid(opts.cells, opts.cells, w, h, MeshOptions::default())?;
-            Ok(Spline::identity(mesh, opts.degree)?)
+        let sim = if opts.align {
+            let (x, y): (Vec<_>, Vec<_>) = landmarks.iter().map(|l| (l.dst, l.src)).unzip();
+            let w: Vec<f64> = landmarks.iter().map(|l| l.weight).collect();
+            umeyama(&x, &y, &w)?
+        } else {
+            Similarity::identity()
         };
-        let (id_a, id_b) = (identity(&a)?, identity(&b)?);
+        let (a, b) = common(a, b);
+        let size = |i: &DynamicImage| [f64::from(i.width()), f64::from(i.height())];
+        let (sa, sb) = (size(&a), size(&b));
+        let to_a: Vec<Landmark> =
+            landmarks.iter().map(|l| Landmark { dst: sim.apply(l.dst), ..l.clone() }).collect();
         let reversed: Vec<Landmark> =
             landmarks.iter().map(|l| Landmark { src: l.dst, dst: l.src, ..l.clone() }).collect();
-        let (fab, fba) =
-            rayon::join(|| fit(&id_a, landmarks, &opts.fit), || fit(&id_b, &reversed, &opts.fit));
-        let phi_ab = fab.map_err(|source| MorphError::Fit { dir: "A->B", source })?.spline;
-        let phi_ba = fba.map_err(|source| MorphError::Fit { dir: "B->A", source })?.spline;
+        let fo =
+            FrameFitOptions { mesh: opts.mesh.clone(), degree: opts.degree, fit: opts.fit.clone() };
+        let (fab, fba) = rayon::join(
+            || fit_covering(&to_a, sa, sa, &opts.mesh, &fo, "A->B"),
+            || fit_covering(&reversed, sb, sa, &opts.mesh, &fo, "B->A"),
+        );
+        let (fab, fba) = (fab?, fba?);
+        let id_a = Spline::identity(fab.spline.mesh().clone(), fab.spline.degree())?;
         Ok(Morph {
             id_a: id_a.points().to_vec(),
-            id_b: id_b.points().to_vec(),
+            sim_b: similarity_points(&fba.spline, &sim)?,
+            summaries: Some([fab.summary(), fba.summary()]),
             a,
             b,
             landmarks: landmarks.to_vec(),
-            phi_ab,
-            phi_ba,
+            sim,
+            phi_ab: fab.spline,
+            phi_ba: fba.spline,
             opts: opts.clone(),
         })
     }
 
     /// A morph from given deformations instead of landmarks: `phi_ab` maps `A`'s pixel
-    /// coordinates to `B`'s, `phi_ba` the other way. Without `phi_ba`, it is fitted (with
+    /// coordinates to `B`'s, `phi_ba` the other way (as [`Morph::phi_ab_raw`] and
+    /// [`Morph::phi_ba`] return them). Without `phi_ba`, it is fitted (with
     /// [`MorphOptions::fit`], on a `cells x cells` mesh over `B`) to `phi_ab` sampled on a
     /// 24 x 24 grid over `A` (pairs `(phi_ab(p), p)` with `phi_ab(p)` inside `B`).
     ///
-    /// The blends use each deformation's own mesh and degree (`phi_{A->t}` is
-    /// `(1 - s) id + s phi_ab` on `phi_ab`'s mesh), so they stay exactly C1. Pixels of `A`
-    /// outside `phi_ab`'s domain have no preimage in any frame (they show `B`, or the
-    /// background); [`Morph::coverage`] tells how much of `A` is covered. Such a morph has
-    /// no landmarks ([`Morph::landmark_errors`] is empty).
+    /// With [`MorphOptions::align`], the similarity `S` is the least-squares similarity of
+    /// the same samples `phi_ab(p) -> p` (the landmarks are not known here, so it is close
+    /// to, not equal to, the landmark morph's). The blends use each deformation's own mesh
+    /// and degree (`phi_{A->t}` is `(1 - s) id + s S ∘ phi_ab` on `phi_ab`'s mesh), so they
+    /// stay exactly C1. Pixels of `A` outside `phi_ab`'s domain have no preimage in any frame
+    /// (they show `B`, or the background); [`Morph::coverage`] tells how much of `A` is
+    /// covered. Such a morph has no landmarks ([`Morph::landmark_errors`] is empty).
     pub fn from_deformations(
         a: &DynamicImage,
         b: &DynamicImage,
@@ -365,31 +464,37 @@ impl Morph {
             }
         }
         let (a, b) = common(a, b);
+        let (bw, bh) = (f64::from(b.width() - 1), f64::from(b.height() - 1));
+        let grid = 24;
+        let pts: Vec<[f64; 2]> = (0..grid * grid)
+            .map(|k| {
+                let (i, j) = (k % grid, k / grid);
+                [
+                    f64::from(a.width() - 1) * i as f64 / (grid - 1) as f64,
+                    f64::from(a.height() - 1) * j as f64 / (grid - 1) as f64,
+                ]
+            })
+            .collect();
+        let mut q = vec![None; pts.len()];
+        phi_ab.eval_many(&pts, &mut q);
+        let samples: Vec<Landmark> = pts
+            .iter()
+            .zip(&q)
+            .filter_map(|(p, q)| {
+                let q = (*q)?;
+                let inside = q[0] >= 0.0 && q[1] >= 0.0 && q[0] <= bw && q[1] <= bh;
+                inside.then_some(Landmark { name: None, src: q, dst: *p, weight: 1.0 })
+            })
+            .collect();
+        let sim = if opts.align && samples.len() >= 2 {
+            let (x, y): (Vec<_>, Vec<_>) = samples.iter().map(|l| (l.src, l.dst)).unzip();
+            umeyama(&x, &y, &vec![1.0; x.len()])?
+        } else {
+            Similarity::identity()
+        };
         let phi_ba = match phi_ba {
             Some(s) => s,
             None => {
-                let (bw, bh) = (f64::from(b.width() - 1), f64::from(b.height() - 1));
-                let grid = 24;
-                let pts: Vec<[f64; 2]> = (0..grid * grid)
-                    .map(|k| {
-                        let (i, j) = (k % grid, k / grid);
-                        [
-                            f64::from(a.width() - 1) * i as f64 / (grid - 1) as f64,
-                            f64::from(a.height() - 1) * j as f64 / (grid - 1) as f64,
-                        ]
-                    })
-                    .collect();
-                let mut q = vec![None; pts.len()];
-                phi_ab.eval_many(&pts, &mut q);
-                let samples: Vec<Landmark> = pts
-                    .iter()
-                    .zip(&q)
-                    .filter_map(|(p, q)| {
-                        let q = (*q)?;
-                        let inside = q[0] >= 0.0 && q[1] >= 0.0 && q[0] <= bw && q[1] <= bh;
-                        inside.then_some(Landmark { name: None, src: q, dst: *p, weight: 1.0 })
-                    })
-                    .collect();
                 if samples.len() < 3 {
                     return Err(MorphError::TooFewLandmarks(samples.len()));
                 }
@@ -400,18 +505,36 @@ impl Morph {
                     .spline
             }
         };
+        let phi_ab = map_points(&phi_ab, |p| sim.apply_exact(p))?;
         let id_a = Spline::identity(phi_ab.mesh().clone(), phi_ab.degree())?;
-        let id_b = Spline::identity(phi_ba.mesh().clone(), phi_ba.degree())?;
         Ok(Morph {
             id_a: id_a.points().to_vec(),
-            id_b: id_b.points().to_vec(),
+            sim_b: similarity_points(&phi_ba, &sim)?,
+            summaries: None,
             a,
             b,
             landmarks: Vec::new(),
+            sim,
             phi_ab,
             phi_ba,
             opts: opts.clone(),
         })
+    }
+
+    /// The similarity `S` (`B`'s pixels -> `A`'s pixels; the identity without alignment).
+    pub fn similarity(&self) -> &Similarity {
+        &self.sim
+    }
+
+    /// The summaries of the fits `A->B` and `B->A` (a morph from landmarks only).
+    pub fn fit_summaries(&self) -> Option<&[MapSummary; 2]> {
+        self.summaries.as_ref()
+    }
+
+    /// `phi_{A->B}`: `A`'s pixels -> `B`'s own pixels, `S^-1 ∘ phi_ab`, exactly (what
+    /// `phi_ab.json` holds).
+    pub fn phi_ab_raw(&self) -> Result<Spline, MorphError> {
+        map_points(&self.phi_ab, |p| self.sim.inverse_exact(p))
     }
 
     /// The fraction of `A`'s pixels inside `phi_{A->B}`'s domain (sampled every 4 pixels);
@@ -437,12 +560,13 @@ impl Morph {
         &self.b
     }
 
-    /// The fitted `phi_{A->B}`.
+    /// `phi_ab`: `A`'s pixels -> `A`'s pixels, `S ∘ phi_{A->B}` (the map `phi_{A->t}`
+    /// blends with the identity; [`Morph::phi_ab_raw`] is `phi_{A->B}` itself).
     pub fn phi_ab(&self) -> &Spline {
         &self.phi_ab
     }
 
-    /// The fitted `phi_{B->A}`.
+    /// `phi_ba`: `B`'s pixels -> `A`'s pixels (what `phi_ba.json` holds).
     pub fn phi_ba(&self) -> &Spline {
         &self.phi_ba
     }
@@ -460,11 +584,12 @@ impl Morph {
     /// [`Morph::phi_a_at`] for an exact `s`.
     pub fn phi_a_exact(&self, s: &Rat) -> Result<Spline, MorphError> {
         let mut out = self.phi_ab.clone();
-        out.set_points(blend_points(&self.id_a, self.phi_ab.points(), s))?;
+        out.set_points_c1_by_construction(blend_points(&self.id_a, self.phi_ab.points(), s))?;
         Ok(out)
     }
 
-    /// `phi_{B->t}` for the shape weight `s`: `s id + (1 - s) phi_{B->A}`, exactly.
+    /// `phi_{B->t}` for the shape weight `s`: `s S + (1 - s) phi_ba` (`B`'s pixels -> `A`'s
+    /// pixels), exactly.
     pub fn phi_b_at(&self, s: f64) -> Result<Spline, MorphError> {
         self.phi_b_exact(&exact(s)?)
     }
@@ -473,7 +598,11 @@ impl Morph {
     pub fn phi_b_exact(&self, s: &Rat) -> Result<Spline, MorphError> {
         let mut out = self.phi_ba.clone();
         let one_minus = Rat::from_integer(Int::from(1)) - s;
-        out.set_points(blend_points(&self.id_b, self.phi_ba.points(), &one_minus))?;
+        out.set_points_c1_by_construction(blend_points(
+            &self.sim_b,
+            self.phi_ba.points(),
+            &one_minus,
+        ))?;
         Ok(out)
     }
 
@@ -486,13 +615,16 @@ impl Morph {
         Ok((s, c.clamp(0.0, 1.0)))
     }
 
-    /// The intermediate landmarks `L_t`.
+    /// The intermediate landmarks `L_t = (1 - s) L_A + s S(L_B)` (pixels of `A`).
     pub fn landmarks_at(&self, t: f64) -> Result<Vec<[f64; 2]>, MorphError> {
         let (s, _) = self.weights(t)?;
         Ok(self
             .landmarks
             .iter()
-            .map(|l| [0, 1].map(|k| (1.0 - s) * l.src[k] + s * l.dst[k]))
+            .map(|l| {
+                let d = self.sim.apply(l.dst);
+                [0, 1].map(|k| (1.0 - s) * l.src[k] + s * d[k])
+            })
             .collect())
     }
 
@@ -520,15 +652,21 @@ impl Morph {
 
     /// [`Morph::frame`] at an exact `t` (`alpha_shape` is evaluated exactly).
     pub fn frame_exact(&self, t: &Rat) -> Result<DynamicImage, MorphError> {
+        Ok(self.frame_with_stats(t)?.0)
+    }
+
+    /// [`Morph::frame_exact`] with its [`FrameStats`].
+    pub fn frame_with_stats(&self, t: &Rat) -> Result<(DynamicImage, FrameStats), MorphError> {
         let (_, c) = self.weights(rat_to_f64(t))?;
         let s = self.opts.shape.at_exact(t);
         let (w, h) = (self.a.width(), self.a.height());
         let (sa, sb) = rayon::join(|| self.phi_a_exact(&s), || self.phi_b_exact(&s));
         let (sa, sb) = (sa?, sb?);
         let ro = self.opts.remap;
+        // Both plans even at c = 0 or 1: each image fills in where the other has no pixels.
         let (pa, pb) = rayon::join(
-            || (c < 1.0).then(|| RemapPlan::new(&sa, w, h, ro)),
-            || (c > 0.0).then(|| RemapPlan::new(&sb, w, h, ro)),
+            || Some(RemapPlan::new(&sa, w, h, ro)),
+            || Some(RemapPlan::new(&sb, w, h, ro)),
         );
         let job = Job {
             pa: pa.as_ref(),
@@ -546,11 +684,11 @@ impl Morph {
                     unreachable!("both images have the working type")
                 };
                 let nc = self.a.color().channel_count() as usize;
-                let out = job.run(
+                let (out, st) = job.run(
                     source(x.as_raw(), x.width(), x.height(), nc),
                     source(y.as_raw(), y.width(), y.height(), nc),
                 );
-                DynamicImage::$v(ImageBuffer::from_raw(w, h, out).expect("sizes match"))
+                (DynamicImage::$v(ImageBuffer::from_raw(w, h, out).expect("sizes match")), st)
             }};
         }
         Ok(match &self.a {
@@ -597,9 +735,27 @@ impl Morph {
             .collect()
     }
 
+    /// The certificates of frame `t`'s two maps: `det J > 0` proven on the whole domain
+    /// ([`crate::spline::jacobian::certify`]) and `A`'s frame proven covered
+    /// ([`crate::fit::frame::covers_frame`]), for `phi_{A->t}` and `phi_{B->t}`.
+    pub fn check_frame(&self, t: &Rat) -> Result<FrameCheck, MorphError> {
+        use crate::spline::jacobian::{certify, CertifyOptions};
+        let s = self.opts.shape.at_exact(t);
+        let (sa, sb) = rayon::join(|| self.phi_a_exact(&s), || self.phi_b_exact(&s));
+        let (sa, sb) = (sa?, sb?);
+        let (w, h) = (f64::from(self.a.width()), f64::from(self.a.height()));
+        let one = |sp: &Spline| {
+            let d = certify(sp, &CertifyOptions::default());
+            let c = crate::fit::frame::covers_frame(sp, [-0.5, -0.5], [w - 0.5, h - 0.5]);
+            (d.fold_free, d.lower_bound, c)
+        };
+        let ((fa, la, ca), (fb, lb, cb)) = rayon::join(|| one(&sa), || one(&sb));
+        Ok(FrameCheck { fold_free: [fa, fb], det_j_lower_bound: [la, lb], covers_frame: [ca, cb] })
+    }
+
     /// The colour mesh of `A` (one vertex per `step` pixels) with, per vertex, `A`'s colour,
-    /// `B`'s colour at `phi_{A->B}(v)` (`A`'s where that is outside `B`) and `phi_{A->B}(v)`
-    /// itself. Vertices outside `phi_{A->B}`'s domain are dropped with their triangles.
+    /// `B`'s colour at `phi_{A->B}(v) = S^-1(phi_ab(v))` (`A`'s where that is outside `B`) and
+    /// `phi_ab(v)` itself. Vertices outside `phi_{A->B}`'s domain are dropped with their triangles.
     pub fn preview(&self, step: u32) -> Result<Preview, MorphError> {
         let full = ColorMesh::from_image(&self.a, step, ColorMode::PerVertex)?;
         let mut q = vec![None; full.vertices.len()];
@@ -629,6 +785,7 @@ impl Morph {
             .iter()
             .zip(&ca)
             .map(|(p, a)| {
+                let p = &self.sim.inverse(*p);
                 if p[0] >= 0.0 && p[1] >= 0.0 && p[0] <= bw && p[1] <= bh {
                     let mut px = [0u8; 4];
                     src.sample_into(*p, Interp::Bilinear, &mut px);
@@ -693,6 +850,17 @@ impl Morph {
         };
         Ok(rasterize(&moved, self.a.width(), self.a.height(), Some(background))?)
     }
+}
+
+/// What [`Morph::check_frame`] proves for `phi_{A->t}` and `phi_{B->t}` (in that order).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct FrameCheck {
+    /// `det J > 0` certified on the map's whole domain.
+    pub fold_free: [bool; 2],
+    /// The certified lower bounds of `det J`.
+    pub det_j_lower_bound: [f64; 2],
+    /// The map is proven to cover `A`'s frame.
+    pub covers_frame: [bool; 2],
 }
 
 /// `A`'s colour mesh with both colour sets and the vertices' images ([`Morph::preview`]).

@@ -24,6 +24,11 @@ fn pattern(w: u32, h: u32, phase: f64) -> DynamicImage {
     .into()
 }
 
+/// Raw coordinates: `B` is not aligned, so the last frame is `B` itself.
+fn raw() -> MorphOptions {
+    MorphOptions { align: false, ..MorphOptions::default() }
+}
+
 fn max_diff(a: &DynamicImage, b: &DynamicImage) -> u8 {
     let (a, b) = (a.to_rgba8(), b.to_rgba8());
     a.as_raw().iter().zip(b.as_raw()).map(|(x, y)| x.abs_diff(*y)).max().unwrap()
@@ -45,8 +50,12 @@ fn blended_control_points_equal_a_direct_fit_to_intermediate_landmarks() {
             let (p, q) = (blended.point_f64(i), direct.point_f64(i));
             worst = worst.max((p[0] - q[0]).abs()).max((p[1] - q[1]).abs());
         }
-        // The direct fit rounds its free points to multiples of 2^-20 px.
-        assert!(worst < 1e-5, "t = {t}: control points differ by {worst}");
+        // Where the barrier does not act, the blend is the direct fit up to the fits' rounding
+        // of free points to multiples of 2^-20 px and their ridge anchored at the warm start
+        // (the affine map for the morph's fit, the identity here): within 2e-4 px per unit
+        // of |s| (the difference is scaled by s).
+        let tol = 2e-4 * f64::abs(t).max(1.0);
+        assert!(worst < tol, "t = {t}: control points differ by {worst}");
         blended.check_c1().unwrap();
     }
 }
@@ -57,7 +66,7 @@ fn blends_are_exactly_c1_and_end_at_identity_and_fit() {
     let m = Morph::new(&a, &b, &landmarks(), &MorphOptions::default()).unwrap();
     assert_eq!(m.phi_a_at(0.0).unwrap().points(), &m.id_a[..]);
     assert_eq!(m.phi_a_at(1.0).unwrap().points(), m.phi_ab().points());
-    assert_eq!(m.phi_b_at(1.0).unwrap().points(), &m.id_b[..]);
+    assert_eq!(m.phi_b_at(1.0).unwrap().points(), &m.sim_b[..]);
     assert_eq!(m.phi_b_at(0.0).unwrap().points(), m.phi_ba().points());
     for s in [0.3, 2.0, -1.0] {
         m.phi_a_at(s).unwrap().check_c1().unwrap();
@@ -82,7 +91,7 @@ fn exact_and_float_times_give_the_same_frame() {
 #[test]
 fn first_frame_is_a_and_last_is_b() {
     let (a, b) = (pattern(64, 48, 0.0), pattern(64, 48, 3.0));
-    let m = Morph::new(&a, &b, &landmarks(), &MorphOptions::default()).unwrap();
+    let m = Morph::new(&a, &b, &landmarks(), &raw()).unwrap();
     let frames = m.frames(3, &|| {}).unwrap();
     assert_eq!(frames.len(), 3);
     // Preimages are within 0.01 px of the pixel centres: at most one level of rounding.
@@ -95,7 +104,7 @@ fn first_frame_is_a_and_last_is_b() {
 #[test]
 fn b_of_another_size_ends_as_b_on_a_s_grid() {
     let (a, b) = (pattern(64, 48, 0.0), pattern(56, 44, 3.0));
-    let m = Morph::new(&a, &b, &landmarks(), &MorphOptions::default()).unwrap();
+    let m = Morph::new(&a, &b, &landmarks(), &raw()).unwrap();
     let last = m.frame(1.0).unwrap();
     assert_eq!((last.width(), last.height()), (64, 48));
     let crop = last.crop_imm(0, 0, 56, 44);
@@ -274,10 +283,11 @@ fn preview_vertices_follow_the_exact_blend() {
 #[test]
 fn a_morph_from_both_deformations_equals_the_landmark_morph() {
     let (a, b) = (pattern(64, 48, 0.0), pattern(56, 44, 3.0));
-    let opts = MorphOptions::default();
+    let opts = raw();
     let m = Morph::new(&a, &b, &landmarks(), &opts).unwrap();
-    let d = Morph::from_deformations(&a, &b, m.phi_ab().clone(), Some(m.phi_ba().clone()), &opts)
-        .unwrap();
+    let d =
+        Morph::from_deformations(&a, &b, m.phi_ab_raw().unwrap(), Some(m.phi_ba().clone()), &opts)
+            .unwrap();
     assert_eq!(d.coverage(), 1.0);
     assert!(d.landmark_errors(0.5).unwrap().is_empty());
     for t in [0.0, 0.4, 1.0] {
@@ -289,7 +299,7 @@ fn a_morph_from_both_deformations_equals_the_landmark_morph() {
 #[test]
 fn a_morph_from_one_deformation_fits_the_reverse_and_ends_at_a_and_b() {
     let (a, b) = (pattern(64, 48, 0.0), pattern(64, 48, 3.0));
-    let opts = MorphOptions::default();
+    let opts = raw();
     let m = Morph::new(&a, &b, &landmarks(), &opts).unwrap();
     let d = Morph::from_deformations(&a, &b, m.phi_ab().clone(), None, &opts).unwrap();
     // The fitted reverse approximately inverts phi_ab (within a tenth of a pixel here).
@@ -310,11 +320,13 @@ fn a_deformation_not_covering_a_leaves_background_and_reports_coverage() {
     let (a, b) = (pattern(64, 48, 0.0), pattern(64, 48, 3.0));
     let mesh = Mesh::grid(4, 4, 31.0, 47.0, MeshOptions::default()).unwrap();
     let half = Spline::identity(mesh, 5).unwrap();
-    let opts = MorphOptions { background: 255.0, ..MorphOptions::default() };
+    let opts = MorphOptions { background: 255.0, ..raw() };
     let d = Morph::from_deformations(&a, &b, half, None, &opts).unwrap();
     let cov = d.coverage();
     assert!((0.45..0.55).contains(&cov), "coverage {cov}");
     let f = d.frame(0.0).unwrap().to_luma8();
-    assert_eq!(f.get_pixel(60, 20)[0], 255, "uncovered pixel shows the background");
+    // Only B has a preimage there (phi_{B->0} = phi_ba covers A's frame): B shows, even at
+    // t = 0, and no pixel shows the background.
+    assert_ne!(f.get_pixel(60, 20)[0], 255, "a pixel only B covers shows B");
     assert_eq!(f.get_pixel(10, 20)[0], a.to_luma8().get_pixel(10, 20)[0]);
 }

@@ -292,6 +292,26 @@ impl Spline {
         Ok(())
     }
 
+    /// Replaces the control points (all `n`) *without* the exact C1 check, for points that
+    /// are C1 by construction: an affine combination `sum c_k P_k` (`sum c_k = 1`) of the
+    /// exactly-C1 control points `P_k` of splines on this mesh and degree, or an affine map
+    /// applied to them (the C1 conditions are linear and affine-invariant), as the morph's
+    /// blends are. Callers test that claim with [`Spline::check_c1`].
+    pub fn set_points_c1_by_construction(
+        &mut self,
+        points: Vec<Vec<Rat>>,
+    ) -> Result<(), SplineError> {
+        if points.len() != self.points.len() {
+            return Err(SplineError::PointCount {
+                expected: self.points.len(),
+                found: points.len(),
+            });
+        }
+        self.points = points;
+        self.refresh_cache();
+        Ok(())
+    }
+
     /// Writes some control points without a C1 check (the editor uses this after ECLES has
     /// guaranteed the conditions).
     pub(crate) fn write_points(

@@ -1,6 +1,7 @@
 //! Helpers shared by the CLI integration tests.
 #![allow(dead_code)]
 
+pub mod delaunay;
 pub mod features;
 pub mod tps;
 
