@@ -47,6 +47,7 @@
 //! `phi_{A->B}(v)`, rasterized with tiny-skia.
 
 pub mod align;
+mod blend;
 pub mod fits;
 mod job;
 pub mod output;
@@ -66,6 +67,7 @@ use crate::warp::remap::{RemapOptions, RemapPlan};
 use crate::warp::sample::{Source, Texel};
 use crate::warp::Interp;
 use align::{umeyama, AlignError, Similarity};
+use blend::Blend;
 use fits::{fit_covering, MapSummary};
 use image::{DynamicImage, ImageBuffer};
 use job::{source, Job};
@@ -309,14 +311,6 @@ fn exact(v: f64) -> Result<Rat, MorphError> {
     Ok(Rat::new(Int::from_big(r.numer().clone()), Int::from_big(r.denom().clone())))
 }
 
-/// `(1 - s) id + s phi`, exactly.
-fn blend_points(id: &[Vec<Rat>], phi: &[Vec<Rat>], s: &Rat) -> Vec<Vec<Rat>> {
-    id.iter()
-        .zip(phi)
-        .map(|(p, q)| p.iter().zip(q).map(|(a, b)| a + &(s * &(b - a))).collect())
-        .collect()
-}
-
 /// A morph: both images, the landmarks, the similarity and the two fitted deformations.
 #[derive(Clone, Debug)]
 pub struct Morph {
@@ -329,10 +323,10 @@ pub struct Morph {
     phi_ab: Spline,
     /// `B`'s pixels -> `A`'s pixels.
     phi_ba: Spline,
-    /// The identity's control points on `phi_ab`'s mesh.
-    id_a: Vec<Vec<Rat>>,
-    /// `S`'s control points on `phi_ba`'s mesh.
-    sim_b: Vec<Vec<Rat>>,
+    /// The identity's control points (weight `1 - s`) and `phi_ab`'s (weight `s`).
+    blend_a: Blend,
+    /// `phi_ba`'s control points (weight `1 - s`) and `S`'s on its mesh (weight `s`).
+    blend_b: Blend,
     /// The fits' summaries (`A->B`, `B->A`) for a morph made from landmarks.
     summaries: Option<[MapSummary; 2]>,
     opts: MorphOptions,
@@ -425,8 +419,8 @@ impl Morph {
         let (fab, fba) = (fab?, fba?);
         let id_a = Spline::identity(fab.spline.mesh().clone(), fab.spline.degree())?;
         Ok(Morph {
-            id_a: id_a.points().to_vec(),
-            sim_b: similarity_points(&fba.spline, &sim)?,
+            blend_a: Blend::new(id_a.points(), fab.spline.points()),
+            blend_b: Blend::new(fba.spline.points(), &similarity_points(&fba.spline, &sim)?),
             summaries: Some([fab.summary(), fba.summary()]),
             a,
             b,
@@ -508,8 +502,8 @@ impl Morph {
         let phi_ab = map_points(&phi_ab, |p| sim.apply_exact(p))?;
         let id_a = Spline::identity(phi_ab.mesh().clone(), phi_ab.degree())?;
         Ok(Morph {
-            id_a: id_a.points().to_vec(),
-            sim_b: similarity_points(&phi_ba, &sim)?,
+            blend_a: Blend::new(id_a.points(), phi_ab.points()),
+            blend_b: Blend::new(phi_ba.points(), &similarity_points(&phi_ba, &sim)?),
             summaries: None,
             a,
             b,
@@ -584,7 +578,7 @@ impl Morph {
     /// [`Morph::phi_a_at`] for an exact `s`.
     pub fn phi_a_exact(&self, s: &Rat) -> Result<Spline, MorphError> {
         let mut out = self.phi_ab.clone();
-        out.set_points_c1_by_construction(blend_points(&self.id_a, self.phi_ab.points(), s))?;
+        out.set_points_c1_by_construction(self.blend_a.at(s))?;
         Ok(out)
     }
 
@@ -597,12 +591,7 @@ impl Morph {
     /// [`Morph::phi_b_at`] for an exact `s`.
     pub fn phi_b_exact(&self, s: &Rat) -> Result<Spline, MorphError> {
         let mut out = self.phi_ba.clone();
-        let one_minus = Rat::from_integer(Int::from(1)) - s;
-        out.set_points_c1_by_construction(blend_points(
-            &self.sim_b,
-            self.phi_ba.points(),
-            &one_minus,
-        ))?;
+        out.set_points_c1_by_construction(self.blend_b.at(s))?;
         Ok(out)
     }
 
