@@ -44,7 +44,7 @@ fn select_all(triangles: usize) -> String {
 }
 
 fn banded() -> String {
-    let (m, n) = (400, 800);
+    let (m, n): (usize, usize) = (400, 800);
     let mut rng = SmallRng::seed_from_u64(42);
     let rows: Vec<Vec<(usize, i64)>> = (0..m)
         .map(|i| {

@@ -87,7 +87,6 @@ fn main() {
     let derived: Vec<String> = (0..n).filter(|&i| i != anchor).map(|i| i.to_string()).collect();
     w(&derived.join(","));
     w("]}\n");
-    drop(w);
     f.flush().expect("flush");
     eprintln!("{out}: {ntri} triangles, R {m} x {n}, anchor {anchor}");
 }

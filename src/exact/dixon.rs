@@ -16,7 +16,7 @@
 //!    random combination `s = w . y` from `s mod p^j` (Wang's rational reconstruction, at
 //!    steps growing by half) gives `D` as soon as `p^j` exceeds about `2 |num(s)| D`: the
 //!    work follows the size of the answer, not a determinant bound (output-sensitive early
-//!    termination). A wrong candidate only costs phase 2 its exact ending (see below).
+//!    termination). The candidate is taken when two consecutive attempts agree.
 //! 2. **Numerators.** Lifting `D c` gives the *integer* vector `Y`; with symmetric digits the
 //!    residual becomes exactly zero once `p^j > 2 |Y|`, and then `A Y = D c` holds exactly
 //!    by the identity above. If it does not vanish within a bound, `D` missed a factor (the
@@ -130,7 +130,7 @@ impl Lifter<'_> {
         let w: Vec<i64> = (0..k).map(|i| 1 + ((i as i64 * 7919 + 13) % 65_521)).collect();
         let mut r = col.num.clone();
         let (mut s, mut pj) = (BigInt::zero(), BigInt::one());
-        let mut next_try = 2usize;
+        let (mut next_try, mut last_den): (usize, Option<BigInt>) = (2, None);
         let mut den = None;
         let mut steps = 0;
         while steps < MAX_STEPS {
@@ -147,9 +147,14 @@ impl Lifter<'_> {
             }
             if steps >= next_try {
                 next_try = steps + steps / 4 + 1;
+                // Two consecutive attempts must agree: a lone early success can be spurious
+                // (found on the 102-triangle select-all, where it sent the solve to CRT).
                 if let Some(d) = wang_den(&s.mod_floor(&pj), &pj) {
-                    den = Some(d);
-                    break;
+                    if last_den.as_ref() == Some(&d) {
+                        den = Some(d);
+                        break;
+                    }
+                    last_den = Some(d);
                 }
             }
         }

@@ -52,12 +52,12 @@ pub fn is_prime_u64(n: u64) -> bool {
     }
     const BASES: [u64; 12] = [2, 3, 5, 7, 11, 13, 17, 19, 23, 29, 31, 37];
     for b in BASES {
-        if n % b == 0 {
+        if n.is_multiple_of(b) {
             return n == b;
         }
     }
     let (mut d, mut s) = (n - 1, 0);
-    while d % 2 == 0 {
+    while d.is_multiple_of(2) {
         d /= 2;
         s += 1;
     }
@@ -105,7 +105,7 @@ pub struct Zp {
 impl Zp {
     /// Arithmetic modulo the odd prime `p < 2^62`.
     pub fn new(p: u64) -> Zp {
-        assert!(p % 2 == 1 && p < PRIME_BOUND, "odd prime below 2^62");
+        assert!(!p.is_multiple_of(2) && p < PRIME_BOUND, "odd prime below 2^62");
         let mut inv: u64 = 1; // Newton: inv = p^-1 mod 2^64
         for _ in 0..6 {
             inv = inv.wrapping_mul(2u64.wrapping_sub(p.wrapping_mul(inv)));
