@@ -44,6 +44,7 @@
 //! ```
 
 mod affine;
+pub mod modular;
 pub mod problem;
 mod session;
 
@@ -229,6 +230,40 @@ impl ConstraintSystem {
     /// True when `R P = Q` holds exactly.
     pub fn is_satisfied(&self, p: &[Vec<Rat>]) -> bool {
         self.violations(p).is_empty()
+    }
+
+    /// The same exact check as [`ConstraintSystem::is_satisfied`] without any gcd: each row
+    /// sum is accumulated as an unreduced fraction (terms over the same denominator, such as
+    /// the common denominator of an exact solve, are added directly) and compared with `Q`
+    /// by cross multiplication. `p` may hold unreduced values (`Rat::new_raw`).
+    pub fn is_satisfied_fast(&self, p: &[Vec<Rat>]) -> bool {
+        use crate::exact::Int;
+        use num_traits::One;
+        use rayon::prelude::*;
+        (0..self.r.rows()).into_par_iter().all(|i| {
+            (0..self.d).all(|c| {
+                let (mut num, mut den) = (Int::zero(), Int::one());
+                for (j, v) in self.r.row(i) {
+                    let x = &p[*j][c];
+                    if x.numer().is_zero() {
+                        continue;
+                    }
+                    let t = v * x.numer();
+                    if x.denom() == &den {
+                        num += &t;
+                    } else if den.is_one() {
+                        num = &(&num * x.denom()) + &t;
+                        den = x.denom().clone();
+                    } else {
+                        // num / den + t / xd = (num xd + t den) / (den xd)
+                        num = Int::cross(&num, x.denom(), &-t, &den);
+                        den = &den * x.denom();
+                    }
+                }
+                let q = &self.q[i][c];
+                &num * q.denom() == &den * q.numer()
+            })
+        })
     }
 
     /// Relevant constraints `E` and fixed relevant parameters `F'` (Alg. 2), both sorted.

@@ -4,7 +4,7 @@
 //!
 //! | key | meaning |
 //! |---|---|
-//! | `"R"` | `m` rows of `n` integers (numbers or decimal strings) |
+//! | `"R"` | `m` rows of `n` integers (numbers or decimal strings), or the sparse form `{"rows": [[[col, val], ...], ...]}`: per row, its nonzeros as `[column, value]` pairs (0-based columns, any order, each column at most once) |
 //! | `"Q"` | `m` rows of `d` numbers (default zeros, `d` taken from `"P"`) |
 //! | `"P"` | `n` rows of `d` current values |
 //! | `"anchors"` | object, parameter index -> row of `d` new values |
@@ -13,18 +13,40 @@
 //! | `"weights"` | optional object, derived index -> positive number (default 1) |
 //! | `"strong"` | bool (default false): require strong solvability |
 //! | `"method"` | `"none"`, `"gcd"` or `"turner"` (default `"turner"`) |
+//! | `"path"` | `"auto"` (default), `"modular"` or `"fraction_free"`: which exact solver runs |
 //!
 //! Every value may be a JSON number (read exactly from its decimal text: `0.1` is 1/10) or a
 //! string `"p/q"`, `"p"` or a decimal. The output holds `"P"` (all `n` rows as exact strings
 //! in lowest terms), `"P_float"`, `"rank"`, `"relevant"`, `"fixed_relevant"` and
-//! `"redundant"` (constraint and parameter indices, 0-based).
+//! `"redundant"` (constraint and parameter indices, 0-based), and `"path"`: the solver that
+//! ran, `"fraction_free"` (the LDU of thesis ch. 6-9) or `"modular"` (the multi-modular
+//! path of [`super::modular`], chosen by `"auto"` when `|E| x |D|` is at least
+//! [`MODULAR_MIN_ENTRIES`]). Both give the same `"P"` and `"rank"`; see
+//! [`super::modular`] for `"redundant"`.
 
 use super::{ConstraintSystem, EclesError, InitOptions};
 use crate::exact::ldu::Simplification;
-use crate::exact::matrix::{parse_rat, rat_to_f64, rat_to_string, Rat, SparseIntMatrix};
+use crate::exact::matrix::{parse_rat, rat_to_f64, rat_to_string, Rat, ScaledVec, SparseIntMatrix};
 use crate::exact::Int;
 use num_traits::Zero;
 use serde_json::{json, Map, Value};
+
+/// Smallest `|E| x |D|` (relevant constraints times derived parameters) for which `"auto"`
+/// runs the modular path: below it the fraction-free LDU is as fast and needs no primes.
+pub const MODULAR_MIN_ENTRIES: usize = 20_000;
+
+/// Which exact solver runs (input key `"path"`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum SolvePath {
+    /// By size (see [`MODULAR_MIN_ENTRIES`]).
+    #[default]
+    Auto,
+    /// Multi-modular with exact verification, falling back to fraction-free when it cannot
+    /// certify its answer.
+    Modular,
+    /// The fraction-free LDU (the reference).
+    FractionFree,
+}
 
 /// Errors reading a problem.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -66,6 +88,8 @@ pub struct Problem {
     pub strong: bool,
     /// Simplification method of the factoring.
     pub method: Simplification,
+    /// Which solver runs.
+    pub path: SolvePath,
 }
 
 /// The result of [`Problem::solve`].
@@ -83,6 +107,14 @@ pub struct Solution {
     pub redundant: Vec<usize>,
     /// Whether every constraint (relevant or not) holds after the edit.
     pub all_constraints_hold: bool,
+    /// The solver that ran: `"fraction_free"` or `"modular"`.
+    pub path: &'static str,
+}
+
+/// Every entry in lowest terms (one gcd each, in parallel).
+fn reduced(v: &ScaledVec) -> Vec<Rat> {
+    use rayon::prelude::*;
+    (0..v.len()).into_par_iter().map(|i| v.get(i)).collect()
 }
 
 fn key_err(path: impl Into<String>, message: impl Into<String>) -> ProblemError {
@@ -158,6 +190,79 @@ fn object<'a>(
     }
 }
 
+/// `R` as `m` dense rows of `n` integers.
+fn dense_rows(r_val: &Value, n: usize) -> Result<Vec<Vec<(usize, Int)>>, ProblemError> {
+    let r_rows = r_val
+        .as_array()
+        .ok_or_else(|| key_err("R", "expected an array of rows or {\"rows\": ...}"))?;
+    let mut sparse = Vec::with_capacity(r_rows.len());
+    for (i, rv) in r_rows.iter().enumerate() {
+        let vals = row(rv, &format!("R[{i}]"), Some(n))?;
+        let mut out = Vec::new();
+        for (j, v) in vals.into_iter().enumerate() {
+            if !v.is_integer() {
+                return Err(key_err(format!("R[{i}][{j}]"), "coefficients must be integers"));
+            }
+            if !v.is_zero() {
+                out.push((j, v.to_integer()));
+            }
+        }
+        sparse.push(out);
+    }
+    Ok(sparse)
+}
+
+/// `R` in the sparse form `{"rows": [[[col, val], ...], ...]}`.
+fn sparse_rows(o: &Map<String, Value>, n: usize) -> Result<Vec<Vec<(usize, Int)>>, ProblemError> {
+    let rows_v = o.get("rows").ok_or_else(|| {
+        key_err("R", "the sparse form needs \"rows\": [[[column, value], ...], ...]")
+    })?;
+    let rows_a = rows_v.as_array().ok_or_else(|| {
+        key_err("R.rows", format!("expected an array, found {}", describe(rows_v)))
+    })?;
+    let mut out = Vec::with_capacity(rows_a.len());
+    for (i, rv) in rows_a.iter().enumerate() {
+        let path = format!("R.rows[{i}]");
+        let pairs = rv.as_array().ok_or_else(|| {
+            key_err(
+                &path,
+                format!("expected an array of [column, value] pairs, found {}", describe(rv)),
+            )
+        })?;
+        let mut r: Vec<(usize, Int)> = Vec::with_capacity(pairs.len());
+        for (k, pv) in pairs.iter().enumerate() {
+            let pp = format!("{path}[{k}]");
+            let pair = pv.as_array().filter(|a| a.len() == 2).ok_or_else(|| {
+                key_err(&pp, format!("expected [column, value], found {}", describe(pv)))
+            })?;
+            let c = pair[0].as_u64().ok_or_else(|| {
+                key_err(
+                    format!("{pp}[0]"),
+                    format!("expected a column index, found {}", describe(&pair[0])),
+                )
+            })? as usize;
+            if c >= n {
+                return Err(key_err(
+                    format!("{pp}[0]"),
+                    format!("column {c} is out of range (there are {n} parameters)"),
+                ));
+            }
+            let v = num(&pair[1], &format!("{pp}[1]"))?;
+            if !v.is_integer() {
+                return Err(key_err(format!("{pp}[1]"), "coefficients must be integers"));
+            }
+            r.push((c, v.to_integer()));
+        }
+        r.sort_by_key(|e| e.0);
+        if let Some(w) = r.windows(2).find(|w| w[0].0 == w[1].0) {
+            return Err(key_err(&path, format!("column {} is given twice", w[0].0)));
+        }
+        r.retain(|e| !e.1.is_zero());
+        out.push(r);
+    }
+    Ok(out)
+}
+
 impl Problem {
     /// Parses a problem from JSON text.
     pub fn from_json(text: &str) -> Result<Problem, ProblemError> {
@@ -179,21 +284,10 @@ impl Problem {
             return Err(key_err(format!("P[{i}]"), format!("expected {d} values like P[0]")));
         }
         let r_val = doc.get("R").ok_or_else(|| key_err("R", "missing (m rows of n integers)"))?;
-        let r_rows = r_val.as_array().ok_or_else(|| key_err("R", "expected an array of rows"))?;
-        let mut sparse = Vec::with_capacity(r_rows.len());
-        for (i, rv) in r_rows.iter().enumerate() {
-            let vals = row(rv, &format!("R[{i}]"), Some(n))?;
-            let mut out = Vec::new();
-            for (j, v) in vals.into_iter().enumerate() {
-                if !v.is_integer() {
-                    return Err(key_err(format!("R[{i}][{j}]"), "coefficients must be integers"));
-                }
-                if !v.is_zero() {
-                    out.push((j, v.to_integer()));
-                }
-            }
-            sparse.push(out);
-        }
+        let sparse = match r_val {
+            Value::Object(o) => sparse_rows(o, n)?,
+            _ => dense_rows(r_val, n)?,
+        };
         let m = sparse.len();
         let r = SparseIntMatrix::from_rows(n, sparse).expect("columns checked");
         let q = match doc.get("Q") {
@@ -289,13 +383,96 @@ impl Problem {
                 ))
             }
         };
+        let path = match doc.get("path") {
+            None | Some(Value::Null) => SolvePath::Auto,
+            Some(Value::String(s)) if s == "auto" => SolvePath::Auto,
+            Some(Value::String(s)) if s == "modular" => SolvePath::Modular,
+            Some(Value::String(s)) if s == "fraction_free" => SolvePath::FractionFree,
+            Some(v) => {
+                return Err(key_err(
+                    "path",
+                    format!(
+                        "expected \"auto\", \"modular\" or \"fraction_free\", found {}",
+                        describe(v)
+                    ),
+                ))
+            }
+        };
         let (anchors, anchor_values) = anchors.into_iter().unzip();
-        Ok(Problem { system, p, anchors, anchor_values, derived, hints, weights, strong, method })
+        Ok(Problem {
+            system,
+            p,
+            anchors,
+            anchor_values,
+            derived,
+            hints,
+            weights,
+            strong,
+            method,
+            path,
+        })
     }
 
     /// Runs ECLES Initialize and one Update. Errors are the ECLES errors (unsolvable edits
     /// are `NotStronglySolvable` / `NotWeaklySolvable`).
     pub fn solve(&self) -> Result<Solution, EclesError> {
+        let modular = match self.path {
+            SolvePath::Modular => true,
+            SolvePath::FractionFree => false,
+            SolvePath::Auto => {
+                let (e, _) = self.system.extract_relevant(&self.anchors, &self.derived);
+                e.len() * self.derived.len() >= MODULAR_MIN_ENTRIES
+            }
+        };
+        if modular {
+            if let Some(s) = self.solve_modular()? {
+                return Ok(s);
+            }
+        }
+        self.solve_fraction_free()
+    }
+
+    /// The modular path; `Ok(None)` when it could not certify its answer.
+    pub fn solve_modular(&self) -> Result<Option<Solution>, EclesError> {
+        let Some(e) = self.system.edit_modular(
+            &self.p,
+            &self.anchors,
+            &self.derived,
+            &self.anchor_values,
+            &self.hints,
+            &self.weights,
+            self.strong,
+        )?
+        else {
+            return Ok(None);
+        };
+        let mut p = self.p.clone();
+        for (&s, v) in self.anchors.iter().zip(&self.anchor_values) {
+            p[s] = v.clone();
+        }
+        // The final exact check of every constraint, on the unreduced values (no gcd).
+        let raw: Vec<Vec<Rat>> = e.derived_values.iter().map(ScaledVec::to_rats_raw).collect();
+        for (k, &s) in self.derived.iter().enumerate() {
+            p[s] = raw.iter().map(|c| c[k].clone()).collect();
+        }
+        let all_constraints_hold = self.system.is_satisfied_fast(&p);
+        let cols: Vec<Vec<Rat>> = e.derived_values.iter().map(reduced).collect();
+        for (k, &s) in self.derived.iter().enumerate() {
+            p[s] = cols.iter().map(|c| c[k].clone()).collect();
+        }
+        Ok(Some(Solution {
+            all_constraints_hold,
+            p,
+            rank: e.rank,
+            relevant: e.relevant,
+            fixed_relevant: e.fixed_relevant,
+            redundant: e.redundant,
+            path: "modular",
+        }))
+    }
+
+    /// The fraction-free path (the reference): ECLES Initialize and one Update.
+    pub fn solve_fraction_free(&self) -> Result<Solution, EclesError> {
         let opts = InitOptions { strong: self.strong, method: self.method, ..Default::default() };
         let mut s = self.system.initialize(&self.p, &self.anchors, &self.derived, opts)?;
         s.update(&self.anchor_values, Some(&self.hints), Some(&self.weights))?;
@@ -308,6 +485,7 @@ impl Problem {
             relevant: s.relevant().to_vec(),
             fixed_relevant: s.fixed_relevant().to_vec(),
             redundant: s.redundant(),
+            path: "fraction_free",
         })
     }
 }
@@ -323,6 +501,7 @@ impl Solution {
             "fixed_relevant": self.fixed_relevant,
             "redundant": self.redundant,
             "all_constraints_hold": self.all_constraints_hold,
+            "path": self.path,
         })
     }
 }

@@ -44,7 +44,7 @@ pub struct Session {
     strong_ok: bool,
 }
 
-fn check_indices(what: &'static str, idx: &[usize], n: usize) -> Result<(), EclesError> {
+pub(super) fn check_indices(what: &'static str, idx: &[usize], n: usize) -> Result<(), EclesError> {
     let mut seen = vec![false; n];
     for &s in idx {
         if s >= n {
@@ -57,7 +57,12 @@ fn check_indices(what: &'static str, idx: &[usize], n: usize) -> Result<(), Ecle
     Ok(())
 }
 
-fn check_rows(what: &str, m: &[Vec<Rat>], rows: usize, d: usize) -> Result<(), EclesError> {
+pub(super) fn check_rows(
+    what: &str,
+    m: &[Vec<Rat>],
+    rows: usize,
+    d: usize,
+) -> Result<(), EclesError> {
     if m.len() != rows {
         return Err(EclesError::Dimension {
             what: format!("rows of {what}"),

@@ -83,6 +83,32 @@ pub struct WeightedLsq {
     solves: std::cell::Cell<u32>,
 }
 
+/// `(scale G, scale, factor)` for `G = A W^-1 A^T` with positive `weights`: `scale` is the
+/// lcm of the weights' numerators, so that `factor_s = scale / w_s` and `scale G` are
+/// integers.
+pub fn gram(a: &SparseIntMatrix, weights: &[Rat]) -> (SparseIntMatrix, Int, Vec<Int>) {
+    let (r, n) = (a.rows(), a.cols());
+    let scale_i = weights.iter().fold(Int::one(), |acc, w| acc.lcm(w.numer()));
+    let factor: Vec<Int> =
+        weights.iter().map(|w| scale_i.div_exact(w.numer()) * w.denom()).collect();
+    let mut cols: Vec<Vec<(usize, &Int)>> = vec![Vec::new(); n];
+    for i in 0..r {
+        for (s, v) in a.row(i) {
+            cols[*s].push((i, v));
+        }
+    }
+    let mut g_rows: Vec<Vec<(usize, Int)>> = vec![Vec::new(); r];
+    for (s, col) in cols.iter().enumerate() {
+        for (i, ai) in col {
+            let f = *ai * &factor[s];
+            for (j, aj) in col {
+                g_rows[*i].push((*j, &f * *aj));
+            }
+        }
+    }
+    (SparseIntMatrix::from_rows(r, g_rows).expect("indices < r"), scale_i, factor)
+}
+
 impl WeightedLsq {
     /// Builds and factors `G = A W^-1 A^T` for independent rows `a` and positive `weights`.
     /// `G` is always factored with Turner's simplification (integer solves); `method` is
@@ -100,27 +126,7 @@ impl WeightedLsq {
             return Err(LsqError::NonPositiveWeight { index, value: w.to_string() });
         }
         let winv: Vec<Rat> = weights.iter().map(|w| w.recip()).collect();
-        // scale * G is an integer matrix: scale = lcm of the weights' numerators, and
-        // scale / w_s = (scale / num_s) * den_s.
-        let scale_i = weights.iter().fold(Int::one(), |acc, w| acc.lcm(w.numer()));
-        let factor: Vec<Int> =
-            weights.iter().map(|w| scale_i.div_exact(w.numer()) * w.denom()).collect();
-        let mut cols: Vec<Vec<(usize, &Int)>> = vec![Vec::new(); n];
-        for i in 0..r {
-            for (s, v) in a.row(i) {
-                cols[*s].push((i, v));
-            }
-        }
-        let mut g_rows: Vec<Vec<(usize, Int)>> = vec![Vec::new(); r];
-        for (s, col) in cols.iter().enumerate() {
-            for (i, ai) in col {
-                let f = *ai * &factor[s];
-                for (j, aj) in col {
-                    g_rows[*i].push((*j, &f * *aj));
-                }
-            }
-        }
-        let gi = SparseIntMatrix::from_rows(r, g_rows).expect("indices < r");
+        let (gi, scale_i, factor) = gram(&a, weights);
         // Turner: the factoring of G then solves in integers.
         let g = Ldu::factor(
             &gi,

@@ -5,12 +5,19 @@
 //! * [`Ldu`]: fraction-free LDU factoring `A = Pr L D^-1 U Pc` of any integer matrix, with
 //!   None / GCD / Turner simplification, rank, redundant rows, exact solve and consistency.
 //! * [`WeightedLsq`]: weighted least squares under the independent constraints (Alg. 15).
+//! * [`modp`], [`crt`], [`modular`]: the multi-modular path for large systems: sparse LU
+//!   modulo word-size primes, Chinese remaindering, rational reconstruction with early
+//!   termination, and an exact verification of every answer.
 
 pub mod bitgrowth;
+pub mod crt;
+pub mod dixon;
 pub mod int;
 pub mod ldu;
 pub mod lsq;
 pub mod matrix;
+pub mod modp;
+pub mod modular;
 #[cfg(test)]
 pub(crate) mod reference;
 

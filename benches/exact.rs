@@ -1,0 +1,139 @@
+//! Criterion benches of the exact core at scale (issue 24), each a whole `trimorph solve`
+//! process (read JSON, solve, write JSON):
+//!
+//! * `solve_process/select_all_102`: select-all edit of a degree-5 C1 spline over a
+//!   102-triangle random Delaunay mesh (740 x 1301 C1 matrix, rank 646);
+//! * `solve_process/select_all_1000`: the same over 1,000 triangles (target < 10 s);
+//! * `solve_process/sparse_400x800`: 400 x 800 banded random matrix (4 nonzeros per row,
+//!   entries in [-20, 20]), one anchor, every other parameter derived.
+//!
+//! The FLINT comparison is `benches/flint_fflu.py` (needs python-flint), the scaling series
+//! `benches/exact_scaling.sh`.
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use rand::rngs::SmallRng;
+use rand::{Rng, SeedableRng};
+use std::fmt::Write as _;
+use std::path::Path;
+use std::process::Command;
+use trimorph::exact::rat_to_string;
+use trimorph::mesh::{Mesh, MeshOptions};
+use trimorph::spline::Spline;
+
+fn select_all(triangles: usize) -> String {
+    let mut k = 3 + triangles / 2;
+    let mesh = loop {
+        let mut rng = SmallRng::seed_from_u64(7);
+        let pts: Vec<[f64; 2]> =
+            (0..k).map(|_| [rng.gen_range(0.0..200.0), rng.gen_range(0.0..200.0)]).collect();
+        let m = Mesh::delaunay(&pts, MeshOptions::default()).unwrap();
+        if m.num_triangles() >= triangles {
+            break m;
+        }
+        k += 1;
+    };
+    let s = Spline::identity(mesh, 5).unwrap();
+    let rows: Vec<Vec<(usize, i64)>> = (0..s.c1_matrix().rows())
+        .map(|i| {
+            s.c1_matrix().row(i).iter().map(|(j, v)| (*j, v.to_string().parse().unwrap())).collect()
+        })
+        .collect();
+    let p: Vec<[String; 2]> =
+        s.points().iter().map(|q| [rat_to_string(&q[0]), rat_to_string(&q[1])]).collect();
+    problem(&rows, &p, s.num_points() / 2)
+}
+
+fn banded() -> String {
+    let (m, n): (usize, usize) = (400, 800);
+    let mut rng = SmallRng::seed_from_u64(42);
+    let rows: Vec<Vec<(usize, i64)>> = (0..m)
+        .map(|i| {
+            let c = i * n / m;
+            let (lo, hi) = (c.saturating_sub(8), (c + 8).min(n - 1));
+            let mut cols: Vec<usize> = Vec::new();
+            while cols.len() < 4 {
+                let j = rng.gen_range(lo..=hi);
+                if !cols.contains(&j) {
+                    cols.push(j);
+                }
+            }
+            cols.into_iter()
+                .map(|j| (j, [-1, 1][rng.gen_range(0..2)] * rng.gen_range(1..=20)))
+                .collect()
+        })
+        .collect();
+    let p: Vec<[String; 2]> = (0..n).map(|j| [(j % 7).to_string(), (j % 5).to_string()]).collect();
+    // Q = R P keeps the current state consistent.
+    let mut text = problem(&rows, &p, 0);
+    let q: Vec<String> = rows
+        .iter()
+        .map(|r| {
+            let (a, b) = r.iter().fold((0i64, 0i64), |(a, b), &(j, v)| {
+                (a + v * (j % 7) as i64, b + v * (j % 5) as i64)
+            });
+            format!("[{a},{b}]")
+        })
+        .collect();
+    text.insert_str(1, &format!("\"Q\": [{}],", q.join(",")));
+    text
+}
+
+/// A problem with sparse `R`, anchor `anchor` moved by (1/2, 1/3), all others derived.
+fn problem(rows: &[Vec<(usize, i64)>], p: &[[String; 2]], anchor: usize) -> String {
+    let mut t = String::from("{\"R\": {\"rows\": [");
+    for (i, r) in rows.iter().enumerate() {
+        let e: Vec<String> = r.iter().map(|(j, v)| format!("[{j},{v}]")).collect();
+        let _ = write!(t, "{}[{}]", if i > 0 { "," } else { "" }, e.join(","));
+    }
+    t.push_str("]}, \"P\": [");
+    let pr: Vec<String> = p.iter().map(|q| format!("[\"{}\",\"{}\"]", q[0], q[1])).collect();
+    t.push_str(&pr.join(","));
+    let _ = write!(
+        t,
+        "], \"anchors\": {{\"{anchor}\": [\"{}\", \"{}\"]}}, \"derived\": [",
+        moved(&p[anchor][0], 2),
+        moved(&p[anchor][1], 3)
+    );
+    let d: Vec<String> = (0..p.len()).filter(|&i| i != anchor).map(|i| i.to_string()).collect();
+    t.push_str(&d.join(","));
+    t.push_str("]}");
+    t
+}
+
+fn moved(v: &str, k: i64) -> String {
+    let r = trimorph::exact::parse_rat(v).unwrap()
+        + trimorph::exact::Rat::new(1.into(), trimorph::exact::Int::from(k));
+    rat_to_string(&r)
+}
+
+fn run(f: &Path, out: &Path) {
+    let o = Command::new(env!("CARGO_BIN_EXE_trimorph"))
+        .args(["solve", f.to_str().unwrap(), "-o", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
+fn bench(c: &mut Criterion) {
+    let dir = tempfile::tempdir().unwrap();
+    let mut g = c.benchmark_group("solve_process");
+    g.sample_size(10);
+    let only = std::env::var("EXACT_BENCH_ONLY").unwrap_or_default();
+    for (name, text) in [
+        ("sparse_400x800", banded()),
+        ("select_all_102", select_all(102)),
+        ("select_all_1000", select_all(1000)),
+    ] {
+        if !only.is_empty() && !name.contains(&only) {
+            continue;
+        }
+        let f = dir.path().join(format!("{name}.json"));
+        std::fs::write(&f, &text).unwrap();
+        let out = dir.path().join(format!("{name}.out.json"));
+        g.bench_function(name, |b| b.iter(|| run(&f, &out)));
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
