@@ -46,6 +46,9 @@ fn every_frame_of_the_real_pair_is_covered_fold_free_and_exactly_c1() {
     let m = Morph::new(&a, &b, &lms, &MorphOptions::default()).unwrap();
     let [ab, ba] = m.fit_summaries().unwrap().clone();
     assert!(ab.fold_free && ba.fold_free && ab.covers_frame && ba.covers_frame, "{ab:?} {ba:?}");
+    // One certificate covers every frame with s in [0, 1] (the CLI then skips the per-frame
+    // certificates); the per-frame certificates below agree with it.
+    assert_eq!(m.certify_blends(), [true, true]);
     for t in frame_times_exact(11) {
         let (f, st) = m.frame_with_stats(&t).unwrap();
         assert_eq!((f.width(), f.height()), (184, 184));
@@ -157,9 +160,13 @@ fn crossing_landmarks_are_named_and_the_morph_stays_fold_free() {
     // Both fits are certified, but a blend of them need not be: here some middle frames'
     // maps are not certified fold-free (the CLI warns with their times). Printed, and the end
     // frames (the fits themselves) asserted.
+    // The family certificate cannot hold when a middle frame is not fold-free.
+    let family = m.certify_blends();
     for t in frame_times_exact(5) {
         let c = m.check_frame(&t).unwrap();
-        println!("t = {t}: {c:?}");
+        println!("t = {t}: {c:?} (family {family:?})");
+        assert!(!family[0] || c.fold_free[0], "t = {t}: {c:?}");
+        assert!(!family[1] || c.fold_free[1], "t = {t}: {c:?}");
         if t == Rat::from_integer(0.into()) || t == Rat::from_integer(1.into()) {
             assert!(c.fold_free[0] && c.fold_free[1], "t = {t}: {c:?}");
         }

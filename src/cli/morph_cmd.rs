@@ -242,14 +242,26 @@ pub fn run(a: MorphArgs<'_>) -> Result<()> {
     bar.finish_and_clear();
     ph.mark("frames");
     // Every frame's two maps: certified fold-free, and covering A's frame.
+    // One family certificate covers every frame with shape weight in [0, 1]; the others
+    // (caricatures, or families not proven that way) are certified one by one.
     if a.landmarks.is_some() {
-        let checks =
-            exact_times.par_iter().map(|t| morph.check_frame(t)).collect::<Result<Vec<_>, _>>()?;
-        let bad: Vec<String> = checks
-            .iter()
+        let family = morph.certify_blends();
+        let covered = family[0] && family[1];
+        let shape = morph.options().shape;
+        let bad: Vec<String> = exact_times
+            .par_iter()
             .zip(&times)
-            .filter(|(c, _)| !(c.fold_free[0] && c.fold_free[1]))
-            .map(|(_, t)| format!("{t:.3}"))
+            .map(|(t, &tf)| -> Result<Option<String>> {
+                let s = rat_to_f64(&shape.at_exact(t));
+                if covered && (0.0..=1.0).contains(&s) {
+                    return Ok(None);
+                }
+                let c = morph.check_frame(t)?;
+                Ok((!(c.fold_free[0] && c.fold_free[1])).then(|| format!("{tf:.3}")))
+            })
+            .collect::<Result<Vec<_>>>()?
+            .into_iter()
+            .flatten()
             .collect();
         if !bad.is_empty() && !a.quiet {
             eprintln!(

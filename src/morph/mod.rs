@@ -724,6 +724,26 @@ impl Morph {
             .collect()
     }
 
+    /// One certificate for every frame with shape weight `s` in `[0, 1]`
+    /// ([`crate::spline::trace`]): `phi_{A->t} = (1 - s) id + s phi_ab` folds for no such `s`
+    /// when `det J > 0` is certified for `phi_ab` and `tr J > 0` on its whole domain, and
+    /// `phi_{B->t} = s S + (1 - s) phi_ba` when `det J > 0` for `phi_ba` and
+    /// `tr(K^T J) > 0`, `K` the linear part of `S`. Returns the two verdicts; `false` only
+    /// means "not proven this way" (check the frames one by one with
+    /// [`Morph::check_frame`]).
+    pub fn certify_blends(&self) -> [bool; 2] {
+        use crate::spline::jacobian::{certify, CertifyOptions, RAT_ROUNDING};
+        use crate::spline::trace::certify_trace;
+        let [a, b, _, _] = self.sim.coefficients();
+        let kt = [[a, b], [-b, a]];
+        let one = |sp: &Spline, m: [[f64; 2]; 2]| {
+            certify(sp, &CertifyOptions::default()).fold_free && certify_trace(sp, m, RAT_ROUNDING)
+        };
+        let (fa, fb) =
+            rayon::join(|| one(&self.phi_ab, [[1.0, 0.0], [0.0, 1.0]]), || one(&self.phi_ba, kt));
+        [fa, fb]
+    }
+
     /// The certificates of frame `t`'s two maps: `det J > 0` proven on the whole domain
     /// ([`crate::spline::jacobian::certify`]) and `A`'s frame proven covered
     /// ([`crate::fit::frame::covers_frame`]), for `phi_{A->t}` and `phi_{B->t}`.

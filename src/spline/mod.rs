@@ -20,6 +20,7 @@ mod intform;
 pub mod jacobian;
 pub mod layout;
 pub mod mds;
+pub mod trace;
 
 use crate::ecles::ConstraintSystem;
 use crate::exact::{rat_to_f64, Int, Rat, SparseIntMatrix};
