@@ -636,6 +636,19 @@ impl<'a> RemapPlan<'a> {
         out: &mut [[f64; 2]],
         folds: Option<&mut [bool]>,
     ) -> RemapStats {
+        self.fill_band_with(band, out, folds, &mut BandScratch::default())
+    }
+
+    /// [`RemapPlan::fill_band_folds`] with the band's work buffers in `scratch`, kept by the
+    /// caller from band to band (one per thread) so that filling a band allocates nothing
+    /// once the buffers have grown to a band's size.
+    pub fn fill_band_with(
+        &self,
+        band: usize,
+        out: &mut [[f64; 2]],
+        folds: Option<&mut [bool]>,
+        scratch: &mut BandScratch,
+    ) -> RemapStats {
         let w = self.w as usize;
         let rows_total = self.h as usize;
         let y0 = band * self.opts.band_rows as usize;
@@ -644,14 +657,27 @@ impl<'a> RemapPlan<'a> {
         out.fill([f64::NAN; 2]);
         let mut st = RemapStats::default();
         let (ylo, yhi) = (y0 as f64 - 1.0, (y0 + rows) as f64 + 1.0);
-        let near: Vec<&Pieces> =
-            self.rows.iter().filter(|r| r.y[1] >= ylo && r.y[0] <= yhi).collect();
+        let BandScratch { near, mask, tried } = scratch;
+        near.clear();
+        near.extend(
+            self.rows
+                .iter()
+                .enumerate()
+                .filter(|(_, r)| r.y[1] >= ylo && r.y[0] <= yhi)
+                .map(|r| r.0),
+        );
+        let near = &*near;
         // Which pixels the last piece drawn there is folded (only when there are folds).
         let any_fold = near
             .iter()
+            .map(|&j| &self.rows[j])
             .any(|r| r.blocks.iter().any(|b| b.folded) || r.tris.iter().any(|t| t.folded));
-        let mut mask = any_fold.then(|| vec![false; rows * w]);
-        for r in &near {
+        let mut mask = any_fold.then(|| {
+            mask.clear();
+            mask.resize(rows * w, false);
+            &mut mask[..]
+        });
+        for r in near.iter().map(|&j| &self.rows[j]) {
             for b in &r.blocks {
                 if b.y[1] < ylo || b.y[0] > yhi {
                     continue;
@@ -739,13 +765,16 @@ impl<'a> RemapPlan<'a> {
             }
         }
         // Newton for the unfilled pixels near border pieces (each pixel tried once).
-        let boxes: Vec<&NewtonBox> = near
-            .iter()
-            .flat_map(|r| &r.newton)
-            .filter(|b| b.r[3] >= ylo && b.r[1] <= yhi)
-            .collect();
-        let mut tried = vec![false; if boxes.is_empty() { 0 } else { rows * w }];
-        for b in boxes {
+        let boxes = || {
+            near.iter()
+                .flat_map(|&j| &self.rows[j].newton)
+                .filter(|b| b.r[3] >= ylo && b.r[1] <= yhi)
+        };
+        tried.clear();
+        if boxes().next().is_some() {
+            tried.resize(rows * w, false);
+        }
+        for b in boxes() {
             let r = b.r;
             let ya = r[1].ceil().max(y0 as f64) as usize;
             let yb = (r[3].floor() as isize).min((y0 + rows) as isize - 1);
@@ -785,6 +814,17 @@ impl<'a> RemapPlan<'a> {
     }
 }
 
+/// Work buffers of [`RemapPlan::fill_band_with`], reused from band to band.
+#[derive(Debug, Default)]
+pub struct BandScratch {
+    /// Indices of the lattice rows whose pieces reach the band.
+    near: Vec<usize>,
+    /// Which pixels of the band were last drawn from a folded piece.
+    mask: Vec<bool>,
+    /// Which pixels of the band Newton has tried.
+    tried: Vec<bool>,
+}
+
 /// The preimage of every pixel centre of a `w x h` output (row-major; `[NaN, NaN]` where
 /// there is none), with statistics. Parallel over bands of rows.
 pub fn preimage_grid(
@@ -799,7 +839,7 @@ pub fn preimage_grid(
     let stats = out
         .par_chunks_mut(band.max(1))
         .enumerate()
-        .map(|(b, chunk)| plan.fill_band(b, chunk))
+        .map_init(BandScratch::default, |sc, (b, chunk)| plan.fill_band_with(b, chunk, None, sc))
         .reduce(RemapStats::default, |mut a, b| {
             a.merge(&b);
             a
