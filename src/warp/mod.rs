@@ -29,12 +29,13 @@ pub mod pullback;
 pub mod remap;
 pub mod sample;
 mod sample_simd;
+mod sample_simd_color;
 
 use crate::spline::Spline;
 use image::{DynamicImage, ImageBuffer};
 use inverse::{InverseMap, InverseOptions, Preimage};
 use rayon::prelude::*;
-use remap::{RemapOptions, RemapPlan, RemapStats};
+use remap::{BandScratch, RemapOptions, RemapPlan, RemapStats};
 use sample::{Source, Texel};
 
 /// Resampling of the input image.
@@ -264,9 +265,9 @@ pub fn warp_pages(
         .into_par_iter()
         .enumerate()
         .map_init(
-            || vec![[0.0f64; 2]; band_px],
-            |pos, (b, dsts)| {
-                let st = plan.fill_band(b, pos);
+            || (vec![[0.0f64; 2]; band_px], BandScratch::default()),
+            |(pos, scratch), (b, dsts)| {
+                let st = plan.fill_band_with(b, pos, None, scratch);
                 for (dst, src) in dsts.into_iter().zip(&srcs) {
                     let n = match &dst {
                         Dst::U8(d) => d.len(),

@@ -6,10 +6,12 @@
 //! clamps the result to the range of the 2x2 neighbourhood, so it never rings beyond the
 //! data.
 //!
-//! Bilinear resampling of 8-bit gray images takes a vector path where the CPU has one
-//! (`sample_simd`, AVX2 on x86_64), bit-identical to the scalar arithmetic here.
+//! Bilinear resampling of 8- and 16-bit gray images (`sample_simd`) and of 8-bit RGB and
+//! RGBA images (`sample_simd_color`) takes a vector path where the CPU has one (AVX2 on
+//! x86_64, detected at run time), bit-identical to the scalar arithmetic here; the other
+//! types and interpolations use the scalar path.
 
-use super::{sample_simd, Interp};
+use super::{sample_simd, sample_simd_color, Interp};
 
 /// A channel value: `u8`, `u16` or `f32`.
 pub trait Texel: Copy + Send + Sync + 'static {
@@ -24,6 +26,16 @@ pub trait Texel: Copy + Send + Sync + 'static {
     }
     /// The samples as mutable bytes when `Self` is `u8`, else `None`.
     fn as_bytes_mut(s: &mut [Self]) -> Option<&mut [u8]> {
+        let _ = s;
+        None
+    }
+    /// The samples as `u16` when `Self` is `u16` (for the vector paths), else `None`.
+    fn as_u16s(s: &[Self]) -> Option<&[u16]> {
+        let _ = s;
+        None
+    }
+    /// The samples as mutable `u16` when `Self` is `u16`, else `None`.
+    fn as_u16s_mut(s: &mut [Self]) -> Option<&mut [u16]> {
         let _ = s;
         None
     }
@@ -54,6 +66,12 @@ impl Texel for u16 {
     #[inline]
     fn from_f32(v: f32) -> Self {
         (v + 0.5).clamp(0.0, 65535.0) as u16
+    }
+    fn as_u16s(s: &[u16]) -> Option<&[u16]> {
+        Some(s)
+    }
+    fn as_u16s_mut(s: &mut [u16]) -> Option<&mut [u16]> {
+        Some(s)
     }
 }
 
@@ -228,6 +246,30 @@ pub fn fill_pixels<T: Texel, const NC: usize>(
                         T::as_bytes(&px).map_or(0, |b| b[0])
                     };
                     if sample_simd::bilinear_gray8(d8, w, h, pos, o8, one) {
+                        return;
+                    }
+                }
+                if let (Some(d16), Some(o16)) = (T::as_u16s(d), T::as_u16s_mut(out)) {
+                    let one = |p: &[f64; 2]| {
+                        let mut px = [T::from_f32(0.0)];
+                        pixel(&mut px, p);
+                        T::as_u16s(&px).map_or(0, |b| b[0])
+                    };
+                    if sample_simd::bilinear_gray16(d16, w, h, pos, o16, one) {
+                        return;
+                    }
+                }
+            }
+            if NC == 3 || NC == 4 {
+                if let (Some(d8), Some(o8)) = (T::as_bytes(d), T::as_bytes_mut(out)) {
+                    let one = |p: &[f64; 2], dst: &mut [u8]| {
+                        let mut px = [T::from_f32(0.0); NC];
+                        pixel(&mut px, p);
+                        if let Some(b) = T::as_bytes(&px) {
+                            dst.copy_from_slice(b);
+                        }
+                    };
+                    if sample_simd_color::bilinear_color8::<NC>(d8, w, h, pos, o8, one) {
                         return;
                     }
                 }

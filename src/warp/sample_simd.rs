@@ -1,4 +1,7 @@
-//! Bilinear resampling of 8-bit gray images, eight pixels at a time (x86_64 AVX2).
+//! Bilinear resampling of 8- and 16-bit gray images, eight pixels at a time (x86_64 AVX2).
+//!
+//! The 16-bit path ([`bilinear_gray16`]) is the same arithmetic with 16-bit taps and the
+//! clamp at 65535; its tap layout is in its docs. Colour images: [`super::sample_simd_color`].
 //!
 //! The scalar path ([`super::sample::fill_pixels`]) computes, for a position `(x, y)` with
 //! `x0 = floor(x)`, `y0 = floor(y)`, `fx = (x - x0) as f32`, `fy = (y - y0) as f32` and the
@@ -53,6 +56,39 @@ pub(super) fn bilinear_gray8(
             // SAFETY: AVX2 is available (checked just above); `data` holds at least `w h`
             // bytes and `w h < 2^31` (checked just above), as `avx2::bilinear_gray8` requires.
             unsafe { avx2::bilinear_gray8(data, w, h, pos, out, &scalar) };
+            return true;
+        }
+    }
+    let _ = (data, w, h, pos, out, scalar);
+    false
+}
+
+/// Fills `out[i]` for every position `pos[i]` (`i < min(pos.len(), out.len())`) of a
+/// `w x h` 16-bit gray image `data` by bilinear interpolation, as [`bilinear_gray8`] does
+/// for 8-bit images, with `scalar(p)` for the pixels the vector path does not take.
+/// Returns `false` (and writes nothing) when the vector path is not available.
+///
+/// **Taps.** With `k = y0 w + x0`, each lane gathers the 32-bit word at sample `k` (taps
+/// `a, b` in its low and high halves) and the word at sample `k + w` (taps `e, f`). When
+/// `0 <= x0 <= w - 2` and `0 <= y0 <= h - 2` both words lie inside the image: the last
+/// sample read is `k + w + 1 <= (h - 2) w + (w - 2) + w + 1 = h w - 1`. Byte offsets are
+/// `2 k`, so the gather scale is 2 and `k` itself must fit in `i32` (`w h < 2^31`).
+pub(super) fn bilinear_gray16(
+    data: &[u16],
+    w: usize,
+    h: usize,
+    pos: &[[f64; 2]],
+    out: &mut [u16],
+    scalar: impl Fn(&[f64; 2]) -> u16,
+) -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        let fits = w.checked_mul(h).is_some_and(|n| n <= data.len() && n < i32::MAX as usize);
+        if fits && std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: AVX2 is available (checked just above); `data` holds at least `w h`
+            // samples and `w h < 2^31` (checked just above), as `avx2::bilinear_gray16`
+            // requires.
+            unsafe { avx2::bilinear_gray16(data, w, h, pos, out, &scalar) };
             return true;
         }
     }
@@ -156,10 +192,112 @@ mod avx2 {
             out[k] = scalar(&pos[k]);
         }
     }
+
+    /// Eight positions: `x0`, `y0` (i32), the lanes that may take the vector path (all
+    /// bits set where `0 <= x0 <= xmax` and `0 <= y0 <= ymax`), and `fx`, `fy` (f32), as
+    /// in [`bilinear_gray8`].
+    ///
+    /// # Safety
+    ///
+    /// The CPU supports AVX2; `pp` points to 16 readable `f64`.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn lanes8(
+        pp: *const f64,
+        xmax: __m256i,
+        ymax: __m256i,
+    ) -> (__m256i, __m256i, __m256i, __m256, __m256) {
+        let minus1 = _mm256_set1_epi32(-1);
+        // SAFETY: 16 f64 readable at pp (caller); unaligned loads.
+        let (v0, v1) = (_mm256_loadu_pd(pp), _mm256_loadu_pd(pp.add(4)));
+        let (v2, v3) = (_mm256_loadu_pd(pp.add(8)), _mm256_loadu_pd(pp.add(12)));
+        let xa = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpacklo_pd(v0, v1));
+        let ya = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpackhi_pd(v0, v1));
+        let xb = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpacklo_pd(v2, v3));
+        let yb = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpackhi_pd(v2, v3));
+        let (fxa, fya) = (_mm256_floor_pd(xa), _mm256_floor_pd(ya));
+        let (fxb, fyb) = (_mm256_floor_pd(xb), _mm256_floor_pd(yb));
+        let x0 = _mm256_set_m128i(_mm256_cvttpd_epi32(fxb), _mm256_cvttpd_epi32(fxa));
+        let y0 = _mm256_set_m128i(_mm256_cvttpd_epi32(fyb), _mm256_cvttpd_epi32(fya));
+        let ok = _mm256_and_si256(
+            _mm256_and_si256(_mm256_cmpgt_epi32(x0, minus1), _mm256_cmpgt_epi32(y0, minus1)),
+            _mm256_andnot_si256(
+                _mm256_or_si256(_mm256_cmpgt_epi32(x0, xmax), _mm256_cmpgt_epi32(y0, ymax)),
+                minus1,
+            ),
+        );
+        let fx = _mm256_set_m128(
+            _mm256_cvtpd_ps(_mm256_sub_pd(xb, fxb)),
+            _mm256_cvtpd_ps(_mm256_sub_pd(xa, fxa)),
+        );
+        let fy = _mm256_set_m128(
+            _mm256_cvtpd_ps(_mm256_sub_pd(yb, fyb)),
+            _mm256_cvtpd_ps(_mm256_sub_pd(ya, fya)),
+        );
+        (x0, y0, ok, fx, fy)
+    }
+
+    /// See [`super::bilinear_gray16`].
+    ///
+    /// # Safety
+    ///
+    /// The CPU supports AVX2; `data.len() >= w h` and `w h < 2^31`.
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn bilinear_gray16(
+        data: &[u16],
+        w: usize,
+        h: usize,
+        pos: &[[f64; 2]],
+        out: &mut [u16],
+        scalar: &impl Fn(&[f64; 2]) -> u16,
+    ) {
+        let n = pos.len().min(out.len());
+        let groups = n / 8;
+        let xmax = _mm256_set1_epi32(w as i32 - 2);
+        let ymax = _mm256_set1_epi32(h as i32 - 2);
+        let wv = _mm256_set1_epi32(w as i32);
+        let low = _mm256_set1_epi32(0xffff);
+        let (half, zero, top) = (_mm256_set1_ps(0.5), _mm256_setzero_ps(), _mm256_set1_ps(65535.0));
+        let base = data.as_ptr() as *const i32;
+        for g in 0..groups {
+            let i = 8 * g;
+            // SAFETY: i + 8 <= n <= pos.len(): 16 f64 for 8 contiguous positions.
+            let (x0, y0, ok, fx, fy) = lanes8(pos.as_ptr().add(i) as *const f64, xmax, ymax);
+            if _mm256_movemask_ps(_mm256_castsi256_ps(ok)) != 0xff {
+                for k in i..i + 8 {
+                    out[k] = scalar(&pos[k]);
+                }
+                continue;
+            }
+            let k = _mm256_add_epi32(_mm256_mullo_epi32(y0, wv), x0);
+            // SAFETY: every lane passed 0 <= x0 <= w - 2, 0 <= y0 <= h - 2; the words read
+            // are samples k, k + 1 and k + w, k + w + 1, inside 0 .. w h <= data.len()
+            // (function docs); byte offsets 2 k (scale 2), k < 2^31.
+            let wt = _mm256_i32gather_epi32::<2>(base, k);
+            let wb = _mm256_i32gather_epi32::<2>(base, _mm256_add_epi32(k, wv));
+            let a = _mm256_cvtepi32_ps(_mm256_and_si256(wt, low));
+            let b = _mm256_cvtepi32_ps(_mm256_srli_epi32::<16>(wt));
+            let e = _mm256_cvtepi32_ps(_mm256_and_si256(wb, low));
+            let f = _mm256_cvtepi32_ps(_mm256_srli_epi32::<16>(wb));
+            let t = _mm256_add_ps(a, _mm256_mul_ps(_mm256_sub_ps(b, a), fx));
+            let u = _mm256_add_ps(e, _mm256_mul_ps(_mm256_sub_ps(f, e), fx));
+            let v = _mm256_add_ps(t, _mm256_mul_ps(_mm256_sub_ps(u, t), fy));
+            let v = _mm256_min_ps(_mm256_max_ps(_mm256_add_ps(v, half), zero), top);
+            let r = _mm256_cvttps_epi32(v);
+            // 8 x i32 in 0..=65535 -> u16: per 128-bit lane r0..r3 (r4..r7) in the low
+            // 64 bits; gather those two halves into the low 128 bits.
+            let r16 = _mm256_permute4x64_epi64::<0b11_01_10_00>(_mm256_packus_epi32(r, r));
+            // SAFETY: i + 8 <= n <= out.len(): eight u16 writable at out[i..]; unaligned.
+            _mm_storeu_si128(out.as_mut_ptr().add(i) as *mut __m128i, _mm256_castsi256_si128(r16));
+        }
+        for k in 8 * groups..n {
+            out[k] = scalar(&pos[k]);
+        }
+    }
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use crate::warp::sample::Source;
     use crate::warp::Interp;
@@ -218,6 +356,92 @@ mod tests {
                     for (k, p) in ps.iter().enumerate() {
                         assert_eq!(out[k], reference(&src, p), "{w}x{h} at {p:?}");
                     }
+                }
+            }
+        }
+    }
+
+    /// The scalar reference for 16-bit gray: `Source::sample_into` (bilinear), 7 outside.
+    fn reference16(src: &Source<'_, u16>, p: &[f64; 2]) -> u16 {
+        if p[0].is_nan() {
+            return 7;
+        }
+        let mut o = [0u16];
+        src.sample_into(*p, Interp::Bilinear, &mut o);
+        o[0]
+    }
+
+    /// Positions for the bit-identity tests: runs of one kind (inside, on the right and
+    /// bottom edges, on integers, outside, NaN, huge), so that some groups of eight are all
+    /// inside and others mix kinds.
+    pub(in crate::warp) fn positions(
+        rng: &mut SmallRng,
+        w: usize,
+        h: usize,
+        n: usize,
+    ) -> Vec<[f64; 2]> {
+        let mut pos = Vec::new();
+        while pos.len() < n {
+            let (kind, run) = (rng.gen_range(0..10), rng.gen_range(1..25));
+            for _ in 0..run {
+                pos.push(match kind {
+                    0 => [(w as f64 - 1.0) * rng.gen::<f64>(), h as f64 - 1.0 - rng.gen::<f64>()],
+                    1 => [(w - 1) as f64, rng.gen_range(0.0..h as f64)],
+                    2 => [rng.gen_range(0..w) as f64, rng.gen_range(0..h) as f64],
+                    3 => [rng.gen_range(-3.0..w as f64 + 3.0), rng.gen_range(-3.0..h as f64 + 3.0)],
+                    4 => [f64::NAN, f64::NAN],
+                    5 => [1e12 * rng.gen::<f64>() - 5e11, 0.5],
+                    _ => [(w - 1) as f64 * rng.gen::<f64>(), (h - 1) as f64 * rng.gen::<f64>()],
+                });
+            }
+        }
+        pos.truncate(n);
+        pos
+    }
+
+    #[test]
+    fn gray16_vector_path_matches_the_scalar_path_bit_for_bit() {
+        let mut rng = SmallRng::seed_from_u64(16);
+        for (w, h) in [(37usize, 23usize), (2, 2), (1, 9), (64, 1), (300, 5)] {
+            let data: Vec<u16> = (0..w * h).map(|_| rng.gen()).collect();
+            let src = Source { data: &data, w, h, nc: 1 };
+            let pos = positions(&mut rng, w, h, 4000);
+            for len in (0..=24).chain([pos.len() - 5]) {
+                for start in [0, 1, 5] {
+                    let ps = &pos[start..start + len];
+                    let mut out = vec![0u16; len];
+                    if !bilinear_gray16(&data, w, h, ps, &mut out, |p| reference16(&src, p)) {
+                        return; // no vector path on this machine: nothing to compare
+                    }
+                    for (k, p) in ps.iter().enumerate() {
+                        assert_eq!(out[k], reference16(&src, p), "{w}x{h} at {p:?}");
+                    }
+                }
+            }
+        }
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
+        /// Random 16-bit images (extreme values included) and random positions.
+        #[test]
+        fn gray16_bit_identical_on_random_images(
+            w in 1usize..40, h in 1usize..40, seed in 0u64..1_000_000, extreme in 0u8..3,
+        ) {
+            let mut rng = SmallRng::seed_from_u64(seed);
+            let data: Vec<u16> = (0..w * h)
+                .map(|_| match extreme {
+                    0 => rng.gen(),
+                    1 => if rng.gen() { 0 } else { u16::MAX },
+                    _ => rng.gen_range(65000..=u16::MAX),
+                })
+                .collect();
+            let src = Source { data: &data, w, h, nc: 1 };
+            let pos = positions(&mut rng, w, h, 200);
+            let mut out = vec![0u16; pos.len()];
+            if bilinear_gray16(&data, w, h, &pos, &mut out, |p| reference16(&src, p)) {
+                for (k, p) in pos.iter().enumerate() {
+                    proptest::prop_assert_eq!(out[k], reference16(&src, p), "{}x{} at {:?}", w, h, p);
                 }
             }
         }

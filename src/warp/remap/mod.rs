@@ -57,6 +57,9 @@
 
 mod geometry;
 mod raster;
+mod stats;
+
+pub use stats::RemapStats;
 
 use super::inverse::{InverseMap, InverseOptions, Preimage};
 use crate::spline::Spline;
@@ -94,69 +97,6 @@ const NEWTON_SIDE: f64 = 1.0;
 
 /// About how many local curvature bounds a plan computes (see [`RemapPlan::new`]).
 const CURVATURE_BOUNDS: f64 = 16_000.0;
-
-/// What a preimage computation found.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct RemapStats {
-    /// Output pixels visited.
-    pub pixels: usize,
-    /// Pixels without a preimage (outside the deformed mesh).
-    pub outside: usize,
-    /// Largest error bound over the pixels that have a preimage (pixels).
-    pub max_error_bound: f64,
-    /// Pixels solved one by one by Newton (near the border of the deformed mesh, and where
-    /// the smallest pieces miss the bound).
-    pub newton_solves: usize,
-    /// Of [`RemapStats::newton_solves`], those whose Newton iteration started from the
-    /// affine inverse of the piece that needed it (the others needed the neighbour's
-    /// preimage or the forward samples as seeds).
-    pub newton_seeded: usize,
-    /// Pixels that Newton tried and found no preimage for (counted in
-    /// [`RemapStats::outside`] too).
-    pub newton_failed: usize,
-    /// Pixels filled from the forward lattice under a proven bound.
-    pub interpolated: usize,
-    /// Pixels filled from pieces where `phi` folds (orientation reversed); they are not
-    /// counted in `max_error_bound`.
-    pub folded: usize,
-    /// Output box `[x0, y0, x1, y1]` (pixels, inclusive) of the folded pieces drawn.
-    pub fold_box: Option<[u32; 4]>,
-}
-
-impl RemapStats {
-    /// Adds another band's figures.
-    pub fn merge(&mut self, o: &RemapStats) {
-        self.pixels += o.pixels;
-        self.outside += o.outside;
-        self.max_error_bound = self.max_error_bound.max(o.max_error_bound);
-        self.newton_solves += o.newton_solves;
-        self.newton_seeded += o.newton_seeded;
-        self.newton_failed += o.newton_failed;
-        self.interpolated += o.interpolated;
-        self.folded += o.folded;
-        self.fold_box = match (self.fold_box, o.fold_box) {
-            (Some(a), Some(b)) => {
-                Some([a[0].min(b[0]), a[1].min(b[1]), a[2].max(b[2]), a[3].max(b[3])])
-            }
-            (a, b) => a.or(b),
-        };
-    }
-
-    /// One line: how many pixels took each path of the inverse map.
-    pub fn paths_line(&self) -> String {
-        format!(
-            "{} pixels: {} interpolated from certified pieces, {} drawn from folded pieces, {} by Newton ({} seeded from the piece's affine inverse, {} from other seeds), {} outside ({} after a failed Newton search)",
-            self.pixels,
-            self.interpolated - self.folded.min(self.interpolated),
-            self.folded,
-            self.newton_solves,
-            self.newton_seeded,
-            self.newton_solves - self.newton_seeded,
-            self.outside,
-            self.newton_failed
-        )
-    }
-}
 
 /// The affine inverse of a piece, `p = c + m q`, as Newton's seed for the pixels around it
 /// (`tri`: a mesh triangle near the preimage, for locating the seed).
@@ -636,6 +576,19 @@ impl<'a> RemapPlan<'a> {
         out: &mut [[f64; 2]],
         folds: Option<&mut [bool]>,
     ) -> RemapStats {
+        self.fill_band_with(band, out, folds, &mut BandScratch::default())
+    }
+
+    /// [`RemapPlan::fill_band_folds`] with the band's work buffers in `scratch`, kept by the
+    /// caller from band to band (one per thread) so that filling a band allocates nothing
+    /// once the buffers have grown to a band's size.
+    pub fn fill_band_with(
+        &self,
+        band: usize,
+        out: &mut [[f64; 2]],
+        folds: Option<&mut [bool]>,
+        scratch: &mut BandScratch,
+    ) -> RemapStats {
         let w = self.w as usize;
         let rows_total = self.h as usize;
         let y0 = band * self.opts.band_rows as usize;
@@ -644,14 +597,27 @@ impl<'a> RemapPlan<'a> {
         out.fill([f64::NAN; 2]);
         let mut st = RemapStats::default();
         let (ylo, yhi) = (y0 as f64 - 1.0, (y0 + rows) as f64 + 1.0);
-        let near: Vec<&Pieces> =
-            self.rows.iter().filter(|r| r.y[1] >= ylo && r.y[0] <= yhi).collect();
+        let BandScratch { near, mask, tried } = scratch;
+        near.clear();
+        near.extend(
+            self.rows
+                .iter()
+                .enumerate()
+                .filter(|(_, r)| r.y[1] >= ylo && r.y[0] <= yhi)
+                .map(|r| r.0),
+        );
+        let near = &*near;
         // Which pixels the last piece drawn there is folded (only when there are folds).
         let any_fold = near
             .iter()
+            .map(|&j| &self.rows[j])
             .any(|r| r.blocks.iter().any(|b| b.folded) || r.tris.iter().any(|t| t.folded));
-        let mut mask = any_fold.then(|| vec![false; rows * w]);
-        for r in &near {
+        let mut mask = any_fold.then(|| {
+            mask.clear();
+            mask.resize(rows * w, false);
+            &mut mask[..]
+        });
+        for r in near.iter().map(|&j| &self.rows[j]) {
             for b in &r.blocks {
                 if b.y[1] < ylo || b.y[0] > yhi {
                     continue;
@@ -739,13 +705,16 @@ impl<'a> RemapPlan<'a> {
             }
         }
         // Newton for the unfilled pixels near border pieces (each pixel tried once).
-        let boxes: Vec<&NewtonBox> = near
-            .iter()
-            .flat_map(|r| &r.newton)
-            .filter(|b| b.r[3] >= ylo && b.r[1] <= yhi)
-            .collect();
-        let mut tried = vec![false; if boxes.is_empty() { 0 } else { rows * w }];
-        for b in boxes {
+        let boxes = || {
+            near.iter()
+                .flat_map(|&j| &self.rows[j].newton)
+                .filter(|b| b.r[3] >= ylo && b.r[1] <= yhi)
+        };
+        tried.clear();
+        if boxes().next().is_some() {
+            tried.resize(rows * w, false);
+        }
+        for b in boxes() {
             let r = b.r;
             let ya = r[1].ceil().max(y0 as f64) as usize;
             let yb = (r[3].floor() as isize).min((y0 + rows) as isize - 1);
@@ -785,6 +754,17 @@ impl<'a> RemapPlan<'a> {
     }
 }
 
+/// Work buffers of [`RemapPlan::fill_band_with`], reused from band to band.
+#[derive(Debug, Default)]
+pub struct BandScratch {
+    /// Indices of the lattice rows whose pieces reach the band.
+    near: Vec<usize>,
+    /// Which pixels of the band were last drawn from a folded piece.
+    mask: Vec<bool>,
+    /// Which pixels of the band Newton has tried.
+    tried: Vec<bool>,
+}
+
 /// The preimage of every pixel centre of a `w x h` output (row-major; `[NaN, NaN]` where
 /// there is none), with statistics. Parallel over bands of rows.
 pub fn preimage_grid(
@@ -799,7 +779,7 @@ pub fn preimage_grid(
     let stats = out
         .par_chunks_mut(band.max(1))
         .enumerate()
-        .map(|(b, chunk)| plan.fill_band(b, chunk))
+        .map_init(BandScratch::default, |sc, (b, chunk)| plan.fill_band_with(b, chunk, None, sc))
         .reduce(RemapStats::default, |mut a, b| {
             a.merge(&b);
             a

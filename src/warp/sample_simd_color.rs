@@ -1,0 +1,294 @@
+//! Bilinear resampling of 8-bit RGB and RGBA images, two pixels per vector (x86_64 AVX2).
+//!
+//! The scalar path ([`super::sample::fill_pixels`]) computes, for each channel `c` of a
+//! position `(x, y)` with `x0 = floor(x)`, `y0 = floor(y)`, `fx = (x - x0) as f32`,
+//! `fy = (y - y0) as f32` and the taps `a = I(x0, y0)[c]`, `b = I(x0 + 1, y0)[c]`,
+//! `e = I(x0, y0 + 1)[c]`, `f = I(x0 + 1, y0 + 1)[c]`:
+//!
+//! ```text
+//!   t = a + (b - a) fx,   u = e + (f - e) fx,   v = t + (u - t) fy,
+//!   out = trunc(clamp(v + 0.5, 0, 255))
+//! ```
+//!
+//! in `f32`, each operation rounded (no fused multiply-add). The vector path does the same
+//! operations in the same order, one `f32` lane per channel: a 256-bit vector holds two
+//! pixels of four lanes each (RGB: the fourth lane is zero and its result dropped). The
+//! floors and fractions are computed four positions at a time in `f64` (`vroundpd`, exact
+//! subtraction, one rounding to `f32` as `as f32` does), so the output is bit-identical to
+//! the scalar path's.
+//!
+//! **Taps.** With `k = y0 w + x0` (the image is `w x h`, `NC` = 3 or 4 bytes per pixel,
+//! row-major, `n = NC w h` bytes), the taps `a, b` are the `2 NC` bytes from `NC k` and
+//! `e, f` the `2 NC` bytes from `NC (k + w)`. Each pixel loads eight bytes of each row:
+//!
+//! * RGBA: from `4 k` and from `4 (k + w)`; the last byte read is
+//!   `4 (k + w) + 7 <= 4 ((h - 2) w + (w - 2) + w) + 7 = 4 h w - 1`.
+//! * RGB: from `3 k` (taps in bytes 0..6) and from `3 (k + w) - 2` (taps in bytes 2..8), so
+//!   that the bottom load ends on the last tap: `3 (k + w) + 5 <= 3 h w - 1`; it starts at
+//!   `3 (k + w) - 2 >= 3 w - 2 >= 4`, and the top load ends at
+//!   `3 k + 7 <= 3 ((h - 2) w + w - 2) + 7 = 3 (h - 1) w + 1 <= 3 h w - 1` (`w >= 2`).
+//!
+//! for every lane with `0 <= x0 <= w - 2` and `0 <= y0 <= h - 2` (so `w, h >= 2`). A group
+//! of four positions is taken on the vector path only when all four lanes pass; any other
+//! group (outside the mesh, `NaN`, a neighbourhood across the image border) and the tail of
+//! fewer than four are done pixel by pixel by the scalar path.
+
+/// Fills the `NC`-byte pixels `out[NC i ..]` for every position `pos[i]`
+/// (`i < min(pos.len(), out.len() / NC)`) of a `w x h` image `data` (`NC` = 3 or 4
+/// interleaved 8-bit channels) by bilinear interpolation, with `scalar(p, px)` writing the
+/// pixels the vector path does not take. Returns `false` (and writes nothing) when the
+/// vector path is not available: not x86_64, no AVX2, `NC` not 3 or 4, or an image too
+/// large for 32-bit offsets.
+pub(super) fn bilinear_color8<const NC: usize>(
+    data: &[u8],
+    w: usize,
+    h: usize,
+    pos: &[[f64; 2]],
+    out: &mut [u8],
+    scalar: impl Fn(&[f64; 2], &mut [u8]),
+) -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        let fits = w
+            .checked_mul(h)
+            .and_then(|n| n.checked_mul(NC))
+            .is_some_and(|n| n <= data.len() && n < i32::MAX as usize);
+        if (NC == 3 || NC == 4) && fits && std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: AVX2 is available and `NC` is 3 or 4 (checked just above); `data`
+            // holds at least `NC w h < 2^31` bytes (checked just above), as
+            // `avx2::bilinear_color8` requires.
+            unsafe { avx2::bilinear_color8::<NC>(data, w, h, pos, out, &scalar) };
+            return true;
+        }
+    }
+    let _ = (data, w, h, pos, out, scalar);
+    false
+}
+
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    use std::arch::x86_64::*;
+
+    /// Zero byte for `_mm_shuffle_epi8`.
+    const Z: i8 = -128;
+
+    /// See [`super::bilinear_color8`].
+    ///
+    /// # Safety
+    ///
+    /// The CPU supports AVX2; `NC` is 3 or 4; `data.len() >= NC w h` and `NC w h < 2^31`.
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn bilinear_color8<const NC: usize>(
+        data: &[u8],
+        w: usize,
+        h: usize,
+        pos: &[[f64; 2]],
+        out: &mut [u8],
+        scalar: &impl Fn(&[f64; 2], &mut [u8]),
+    ) {
+        let n = pos.len().min(out.len() / NC);
+        let groups = n / 4;
+        // Lane bounds as in the module docs; -1 when w or h is 1 (every lane rejected).
+        let xmax = _mm_set1_epi32(w as i32 - 2);
+        let ymax = _mm_set1_epi32(h as i32 - 2);
+        let minus1 = _mm_set1_epi32(-1);
+        let wv = _mm_set1_epi32(w as i32);
+        // Per pair of pixels (p, p'), the 16 bytes [p's 8 | p''s 8] of one row are shuffled
+        // to [a_p a_p' | b_p b_p'], four bytes per tap (RGB: the fourth zero).
+        let (sh_top, sh_bot, below) = if NC == 4 {
+            let s = _mm_setr_epi8(0, 1, 2, 3, 8, 9, 10, 11, 4, 5, 6, 7, 12, 13, 14, 15);
+            (s, s, 0isize)
+        } else {
+            (
+                _mm_setr_epi8(0, 1, 2, Z, 8, 9, 10, Z, 3, 4, 5, Z, 11, 12, 13, Z),
+                _mm_setr_epi8(2, 3, 4, Z, 10, 11, 12, Z, 5, 6, 7, Z, 13, 14, 15, Z),
+                -2isize,
+            )
+        };
+        let (half, zero, top) = (_mm256_set1_ps(0.5), _mm256_setzero_ps(), _mm256_set1_ps(255.0));
+        let spread =
+            [_mm256_setr_epi32(0, 0, 0, 0, 1, 1, 1, 1), _mm256_setr_epi32(2, 2, 2, 2, 3, 3, 3, 3)];
+        let base = data.as_ptr();
+        let mut ks = [0i32; 4];
+        for g in 0..groups {
+            let i = 4 * g;
+            // SAFETY: i + 4 <= n <= pos.len(): 8 contiguous f64; unaligned loads.
+            let pp = pos.as_ptr().add(i) as *const f64;
+            let (v0, v1) = (_mm256_loadu_pd(pp), _mm256_loadu_pd(pp.add(4)));
+            // [x0 x2 x1 x3] -> [x0 x1 x2 x3], likewise for y.
+            let xs = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpacklo_pd(v0, v1));
+            let ys = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpackhi_pd(v0, v1));
+            let (fxs, fys) = (_mm256_floor_pd(xs), _mm256_floor_pd(ys));
+            let (x0, y0) = (_mm256_cvttpd_epi32(fxs), _mm256_cvttpd_epi32(fys));
+            let ok = _mm_and_si128(
+                _mm_and_si128(_mm_cmpgt_epi32(x0, minus1), _mm_cmpgt_epi32(y0, minus1)),
+                _mm_andnot_si128(
+                    _mm_or_si128(_mm_cmpgt_epi32(x0, xmax), _mm_cmpgt_epi32(y0, ymax)),
+                    minus1,
+                ),
+            );
+            if _mm_movemask_ps(_mm_castsi128_ps(ok)) != 0xf {
+                for k in i..i + 4 {
+                    scalar(&pos[k], &mut out[NC * k..NC * k + NC]);
+                }
+                continue;
+            }
+            let fx4 = _mm256_castps128_ps256(_mm256_cvtpd_ps(_mm256_sub_pd(xs, fxs)));
+            let fy4 = _mm256_castps128_ps256(_mm256_cvtpd_ps(_mm256_sub_pd(ys, fys)));
+            // SAFETY: `ks` is four i32; unaligned store.
+            _mm_storeu_si128(
+                ks.as_mut_ptr() as *mut __m128i,
+                _mm_add_epi32(_mm_mullo_epi32(y0, wv), x0),
+            );
+            for (pair, idx) in spread.iter().enumerate() {
+                let (k0, k1) = (ks[2 * pair] as isize, ks[2 * pair + 1] as isize);
+                let nc = NC as isize;
+                let w = w as isize;
+                // SAFETY: both lanes passed 0 <= x0 <= w - 2, 0 <= y0 <= h - 2 (so
+                // 0 <= k < w h - w); the eight bytes read from NC k and from
+                // NC (k + w) + below lie inside 0 .. NC w h <= data.len() by the bounds in
+                // the module docs; unaligned 64-bit loads.
+                let rd = |o: isize| _mm_loadl_epi64(base.offset(o) as *const __m128i);
+                let t16 = _mm_unpacklo_epi64(rd(nc * k0), rd(nc * k1));
+                let b16 = _mm_unpacklo_epi64(rd(nc * (k0 + w) + below), rd(nc * (k1 + w) + below));
+                let t16 = _mm_shuffle_epi8(t16, sh_top);
+                let b16 = _mm_shuffle_epi8(b16, sh_bot);
+                let a = _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(t16));
+                let b = _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(_mm_srli_si128::<8>(t16)));
+                let e = _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(b16));
+                let f = _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(_mm_srli_si128::<8>(b16)));
+                let fx = _mm256_permutevar8x32_ps(fx4, *idx);
+                let fy = _mm256_permutevar8x32_ps(fy4, *idx);
+                let t = _mm256_add_ps(a, _mm256_mul_ps(_mm256_sub_ps(b, a), fx));
+                let u = _mm256_add_ps(e, _mm256_mul_ps(_mm256_sub_ps(f, e), fx));
+                let v = _mm256_add_ps(t, _mm256_mul_ps(_mm256_sub_ps(u, t), fy));
+                let v = _mm256_min_ps(_mm256_max_ps(_mm256_add_ps(v, half), zero), top);
+                let r = _mm256_cvttps_epi32(v);
+                // 8 x i32 in 0..=255 -> per 128-bit lane, the pixel's four bytes lowest.
+                let r16 = _mm256_packus_epi32(r, r);
+                let r8 = _mm256_packus_epi16(r16, r16);
+                let lo = (_mm_cvtsi128_si32(_mm256_castsi256_si128(r8)) as u32).to_le_bytes();
+                let hi =
+                    (_mm_cvtsi128_si32(_mm256_extracti128_si256::<1>(r8)) as u32).to_le_bytes();
+                let j = NC * (i + 2 * pair);
+                out[j..j + NC].copy_from_slice(&lo[..NC]);
+                out[j + NC..j + 2 * NC].copy_from_slice(&hi[..NC]);
+            }
+        }
+        for k in 4 * groups..n {
+            scalar(&pos[k], &mut out[NC * k..NC * k + NC]);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::warp::sample::Source;
+    use crate::warp::sample_simd::tests::positions;
+    use crate::warp::Interp;
+    use rand::rngs::SmallRng;
+    use rand::{Rng, SeedableRng};
+    use std::cell::Cell;
+
+    /// The scalar reference: `Source::sample_into` (bilinear), 7 in every channel outside.
+    fn reference(src: &Source<'_, u8>, p: &[f64; 2], px: &mut [u8]) {
+        if p[0].is_nan() {
+            px.fill(7);
+        } else {
+            src.sample_into(*p, Interp::Bilinear, px);
+        }
+    }
+
+    fn check<const NC: usize>(data: &[u8], w: usize, h: usize, pos: &[[f64; 2]]) -> bool {
+        let src = Source { data, w, h, nc: NC };
+        let mut out = vec![0u8; NC * pos.len()];
+        if !bilinear_color8::<NC>(data, w, h, pos, &mut out, |p, px| reference(&src, p, px)) {
+            return false; // no vector path on this machine: nothing to compare
+        }
+        let mut want = [0u8; NC];
+        for (k, p) in pos.iter().enumerate() {
+            reference(&src, p, &mut want);
+            assert_eq!(out[NC * k..NC * k + NC], want, "NC {NC}, {w}x{h} at {p:?}");
+        }
+        true
+    }
+
+    #[test]
+    fn rgb_and_rgba_vector_paths_match_the_scalar_path_bit_for_bit() {
+        let mut rng = SmallRng::seed_from_u64(34);
+        for (w, h) in [(37usize, 23usize), (2, 2), (1, 9), (64, 1), (300, 5), (3, 2)] {
+            let d3: Vec<u8> = (0..3 * w * h).map(|_| rng.gen()).collect();
+            let d4: Vec<u8> = (0..4 * w * h).map(|_| rng.gen()).collect();
+            let pos = positions(&mut rng, w, h, 4000);
+            // Every start and remainder length modulo 4.
+            for len in (0..=13).chain([pos.len() - 5]) {
+                for start in [0, 1, 3] {
+                    let ps = &pos[start..start + len];
+                    if !check::<3>(&d3, w, h, ps) || !check::<4>(&d4, w, h, ps) {
+                        return;
+                    }
+                }
+            }
+        }
+    }
+
+    /// The loads end exactly on the last byte of the image (module docs): an image in a
+    /// buffer of exactly `NC w h` bytes, sampled at its bottom-right interior cell.
+    #[test]
+    fn loads_at_the_bottom_right_cell_stay_inside_the_image() {
+        for (w, h) in [(2usize, 2usize), (5, 3), (2, 7)] {
+            let d3: Vec<u8> = (0..3 * w * h).map(|v| (v * 29 % 256) as u8).collect();
+            let d4: Vec<u8> = (0..4 * w * h).map(|v| (v * 31 % 256) as u8).collect();
+            let p = [(w - 2) as f64 + 0.75, (h - 2) as f64 + 0.25];
+            let pos = vec![p; 9];
+            check::<3>(&d3, w, h, &pos);
+            check::<4>(&d4, w, h, &pos);
+        }
+    }
+
+    #[test]
+    fn interior_groups_take_the_vector_path() {
+        let (w, h) = (16usize, 16usize);
+        let data: Vec<u8> = (0..3 * w * h).map(|v| (v * 37 % 256) as u8).collect();
+        let src = Source { data: &data, w, h, nc: 3 };
+        let pos: Vec<[f64; 2]> =
+            (0..11).map(|k| [0.3 + 1.3 * k as f64, 14.9 - 1.1 * k as f64]).collect();
+        let mut out = vec![0u8; 3 * pos.len()];
+        let calls = Cell::new(0);
+        let scalar = |p: &[f64; 2], px: &mut [u8]| {
+            calls.set(calls.get() + 1);
+            reference(&src, p, px)
+        };
+        if bilinear_color8::<3>(&data, w, h, &pos, &mut out, scalar) {
+            assert_eq!(calls.get(), 3, "two groups of four vectorized, a tail of three");
+        }
+        let mut want = [0u8; 3];
+        for (k, p) in pos.iter().enumerate() {
+            reference(&src, p, &mut want);
+            assert_eq!(out[3 * k..3 * k + 3], want);
+        }
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
+        /// Random RGB and RGBA images (extreme values included) and random positions,
+        /// borders and outside included.
+        #[test]
+        fn color8_bit_identical_on_random_images(
+            w in 1usize..40, h in 1usize..40, seed in 0u64..1_000_000, extreme in 0u8..3,
+        ) {
+            let mut rng = SmallRng::seed_from_u64(seed);
+            let byte = |rng: &mut SmallRng| match extreme {
+                0 => rng.gen::<u8>(),
+                1 => if rng.gen() { 0 } else { 255 },
+                _ => rng.gen_range(250..=255),
+            };
+            let d3: Vec<u8> = (0..3 * w * h).map(|_| byte(&mut rng)).collect();
+            let d4: Vec<u8> = (0..4 * w * h).map(|_| byte(&mut rng)).collect();
+            let pos = positions(&mut rng, w, h, 200);
+            check::<3>(&d3, w, h, &pos);
+            check::<4>(&d4, w, h, &pos);
+        }
+    }
+}
