@@ -71,5 +71,7 @@ fn editor_drag_in_headless_chromium() {
         lm["rms_after"].as_f64().unwrap() < lm["rms_before"].as_f64().unwrap(),
         "the re-fit lowers the residuals: {line}"
     );
-    assert!(work.path().join("e2e_pairs.csv").exists() && work.path().join("e2e_bigwarp.csv").exists());
+    assert!(
+        work.path().join("e2e_pairs.csv").exists() && work.path().join("e2e_bigwarp.csv").exists()
+    );
 }

@@ -48,11 +48,13 @@ fn pairs_are_added_moved_deleted_and_listed_with_their_residuals() {
     let r = residuals(&v);
     assert!(close(&r, &[5f64.sqrt(), 5f64.sqrt(), 2f64.sqrt(), 5f64.sqrt()]), "{r:?}");
     assert!(close(&[v["max"].as_f64().unwrap()], &[5f64.sqrt()]));
-    let (st, v) = call(&mut d, "POST", "/api/landmarks/move", json!({"index": 1, "dst": [80.0, 23.0]}));
+    let (st, v) =
+        call(&mut d, "POST", "/api/landmarks/move", json!({"index": 1, "dst": [80.0, 23.0]}));
     assert_eq!(st, 200, "{v}");
     assert_eq!(v["pairs"][1]["src"], json!([80.0, 20.0]));
     assert!(close(&residuals(&v)[1..2], &[3.0]), "{v}");
-    let (_, v) = call(&mut d, "POST", "/api/landmarks/move", json!({"index": 2, "src": [21.0, 79.0]}));
+    let (_, v) =
+        call(&mut d, "POST", "/api/landmarks/move", json!({"index": 2, "src": [21.0, 79.0]}));
     assert!(close(&residuals(&v)[2..3], &[0.0]), "{v}");
     let (st, v) = call(&mut d, "POST", "/api/landmarks/delete", json!({"index": 0}));
     assert_eq!(st, 200, "{v}");
@@ -60,9 +62,15 @@ fn pairs_are_added_moved_deleted_and_listed_with_their_residuals() {
         v["pairs"].as_array().unwrap().iter().map(|p| p["name"].as_str().unwrap()).collect();
     assert_eq!(names, ["P2", "P3", "P4"], "the others keep their names");
     // A new unnamed pair takes the first free name.
-    let (_, v) = call(&mut d, "POST", "/api/landmarks/add", json!({"src": [50, 50], "dst": [50, 50]}));
+    let (_, v) =
+        call(&mut d, "POST", "/api/landmarks/add", json!({"src": [50, 50], "dst": [50, 50]}));
     assert_eq!(v["pairs"][3]["name"], "P1");
-    let (st, v) = call(&mut d, "POST", "/api/landmarks/add", json!({"src": [1, 1], "dst": [1, 1], "name": "P2"}));
+    let (st, v) = call(
+        &mut d,
+        "POST",
+        "/api/landmarks/add",
+        json!({"src": [1, 1], "dst": [1, 1], "name": "P2"}),
+    );
     assert_eq!(st, 422, "a name in use: {v}");
     assert_eq!(d.pairs().len(), 4);
 }
@@ -99,7 +107,8 @@ fn pairs_round_trip_through_csv_and_bigwarp_files_inside_the_folder() {
     place_four(&mut d);
     call(&mut d, "POST", "/api/landmarks/move", json!({"index": 0, "dst": [22.125, 20.7]}));
     for (file, format) in [("l.csv", "csv"), ("bw.csv", "bigwarp")] {
-        let (st, v) = call(&mut d, "POST", "/api/landmarks/export", json!({"path": file, "format": format}));
+        let (st, v) =
+            call(&mut d, "POST", "/api/landmarks/export", json!({"path": file, "format": format}));
         assert_eq!(st, 200, "{v}");
         let text = std::fs::read_to_string(dir.path().join(file)).unwrap();
         assert_eq!(text.starts_with('"'), format == "bigwarp", "{text}");
@@ -109,7 +118,8 @@ fn pairs_round_trip_through_csv_and_bigwarp_files_inside_the_folder() {
         assert_eq!(e.pairs(), d.pairs(), "{format} round trip");
         assert_eq!(v["pairs"].as_array().unwrap().len(), 4);
     }
-    let (st, _) = call(&mut d, "POST", "/api/landmarks/export", json!({"path": "../x.csv", "format": "csv"}));
+    let (st, _) =
+        call(&mut d, "POST", "/api/landmarks/export", json!({"path": "../x.csv", "format": "csv"}));
     assert_eq!(st, 403);
     let (st, _) = call(&mut d, "POST", "/api/landmarks/import", json!({"path": "../l.csv"}));
     assert_eq!(st, 403);

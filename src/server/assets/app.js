@@ -313,7 +313,10 @@ function applyPairs(v) {
 function showPairsPanel() {
   const on = mode() === 'pairs';
   $('pairspanel').hidden = !on && !T.lm.pairs.length;
-  $('lmview').textContent = on ? (T.lm.view === 'ref' ? '(showing the reference: click a reference point)' : '(showing the target: click the target point)') : '';
+  const what = T.lm.pendingSrc ? '(showing the target: click the target point; Esc drops the pair)'
+    : T.lm.view === 'ref' ? '(showing the reference: click a reference point; v: the target)'
+      : '(showing the target: drag a target; v: the reference)';
+  $('lmview').textContent = on ? what : '';
 }
 
 async function refreshPairs() { applyPairs(await api('GET', '/api/landmarks')); draw(); }

@@ -38,7 +38,9 @@ fn point(what: &str, p: [f64; 2]) -> Result<[f64; 2], ServerError> {
     if p.iter().all(|&x| within(x)) {
         Ok(p)
     } else {
-        Err(refuse(format!("{what} {p:?} is not a finite point within {MAX_COORD} pixels: refused")))
+        Err(refuse(format!(
+            "{what} {p:?} is not a finite point within {MAX_COORD} pixels: refused"
+        )))
     }
 }
 
@@ -49,7 +51,8 @@ fn check_all(lms: &[Landmark], origin: &str) -> Result<(), ServerError> {
     }
     let mut seen = std::collections::HashMap::new();
     for (i, l) in lms.iter().enumerate() {
-        let which = format!("{origin}: pair {} ({})", i + 1, l.name.as_deref().unwrap_or("unnamed"));
+        let which =
+            format!("{origin}: pair {} ({})", i + 1, l.name.as_deref().unwrap_or("unnamed"));
         point(&format!("{which} src"), l.src)?;
         point(&format!("{which} dst"), l.dst)?;
         if !(l.weight.is_finite() && l.weight > 0.0) {
@@ -213,12 +216,13 @@ impl Doc {
     }
 }
 
-/// The pairs of a scene's `"landmarks"` value (`None`: no such key).
-pub(super) fn pairs_from_scene(v: &Value, rel: &str) -> Result<Option<Vec<Landmark>>, ServerError> {
+/// The pairs of a scene's `"landmarks"` value (`None`: no such key); `rel` names the
+/// file in errors. Refuses (422) pairs [`Doc::set_pairs`] would refuse.
+pub fn pairs_from_scene(v: &Value, rel: &str) -> Result<Option<Vec<Landmark>>, ServerError> {
     let Some(l) = v.get("landmarks") else { return Ok(None) };
     let text = json!({ "landmarks": l }).to_string();
-    let lms = landmarks::parse_json(&text)
-        .map_err(|e| refuse(format!("{rel}: \"landmarks\": {e}")))?;
+    let lms =
+        landmarks::parse_json(&text).map_err(|e| refuse(format!("{rel}: \"landmarks\": {e}")))?;
     check_all(&lms, rel)?;
     Ok(Some(lms))
 }
