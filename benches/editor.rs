@@ -4,7 +4,8 @@
 //! mesh polylines and control points, and the JSON answer; also in z1 mode, whose answer
 //! adds the z values and the model in 3D; and a drag step with the live warp on (the update
 //! plus the coarse inverse map `GET /api/warp`). The browser adds the HTTP round trip and the
-//! redraw (measured by `tests/editor_e2e.rs`).
+//! redraw (measured by `tests/editor_e2e.rs`). Also the landmark pairs' residual list and a
+//! pair move with 100 pairs.
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use serde_json::json;
@@ -84,6 +85,27 @@ fn bench(c: &mut Criterion) {
             })
         });
     }
+    // Landmark pairs: the residual list `GET /api/landmarks` (phi at every reference point)
+    // and a move of one pair (`POST /api/landmarks/move`, which answers the list), 100 pairs.
+    let mut doc = Doc::new(s.clone(), &dir);
+    for k in 0..100u32 {
+        let (x, y) = (20.0 + f64::from(k % 10) * 47.0, 20.0 + f64::from(k / 10) * 47.0);
+        doc.add_pair(None, [x, y], [x + 1.5, y - 0.5]).unwrap();
+    }
+    g.bench_function("landmarks_list_100", |b| {
+        b.iter(|| black_box(handle(&mut doc, "GET", "/api/landmarks", b"").body.len()))
+    });
+    let mut k = 0u32;
+    g.bench_function("landmarks_move_100", |b| {
+        b.iter(|| {
+            k += 1;
+            let body =
+                json!({"index": k % 100, "dst": [100.0 + f64::from(k % 7), 90.0]}).to_string();
+            let r = handle(&mut doc, "POST", "/api/landmarks/move", body.as_bytes());
+            assert_eq!(r.status, 200);
+            black_box(r.body.len())
+        })
+    });
     g.finish();
 }
 

@@ -92,3 +92,44 @@ fn edit_refuses_absurd_values_like_the_editor() {
     assert!(err.contains("edits.json") && err.contains("beyond"), "{err}");
     assert!(!out.exists(), "nothing is written");
 }
+
+/// `trimorph editor SCENE.json` starts with the scene's landmark pairs.
+#[test]
+fn editor_starts_with_a_scenes_landmark_pairs() {
+    use trimorph::mesh::{Mesh, MeshOptions};
+    use trimorph::server::doc::Doc;
+    use trimorph::spline::Spline;
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = Mesh::grid(4, 4, 100.0, 100.0, MeshOptions::default()).unwrap();
+    let mut d = Doc::new(Spline::identity(mesh, 5).unwrap(), dir.path());
+    d.add_pair(Some("tip".into()), [20.0, 30.0], [22.5, 31.0]).unwrap();
+    d.add_pair(None, [70.0, 60.0], [69.0, 64.0]).unwrap();
+    d.save("s.json", true).unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_trimorph"))
+        .args(["editor", "s.json", "--port", "0"])
+        .current_dir(dir.path())
+        .stdout(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut line = String::new();
+    BufReader::new(child.stdout.take().unwrap()).read_line(&mut line).unwrap();
+    let url = line.split_whitespace().find(|w| w.starts_with("http://")).unwrap().to_string();
+    let (addr, token) = url.strip_prefix("http://").unwrap().split_once("/?token=").unwrap();
+    let mut s = TcpStream::connect(addr).unwrap();
+    write!(
+        s,
+        "GET /api/landmarks HTTP/1.1\r\nHost: {addr}\r\nX-Trimorph-Token: {token}\r\nConnection: close\r\n\r\n"
+    )
+    .unwrap();
+    let mut out = String::new();
+    s.read_to_string(&mut out).unwrap();
+    child.kill().unwrap();
+    let _ = child.wait();
+    assert!(out.starts_with("HTTP/1.1 200"), "{out}");
+    let body: serde_json::Value =
+        serde_json::from_str(out.split("\r\n\r\n").nth(1).unwrap()).unwrap();
+    let names: Vec<&str> =
+        body["pairs"].as_array().unwrap().iter().map(|p| p["name"].as_str().unwrap()).collect();
+    assert_eq!(names, ["tip", "P1"], "{out}");
+    assert_eq!(body["pairs"][0]["dst"], serde_json::json!([22.5, 31.0]));
+}

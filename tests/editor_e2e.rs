@@ -65,4 +65,13 @@ fn editor_drag_in_headless_chromium() {
     assert!(shots.join("editor_warp.png").exists(), "the live-warp screenshot");
     assert!(v["drag_error_px"].as_f64().unwrap() < 0.01, "the drag ends under the pointer: {line}");
     assert!(v["live_warp_vs_cli"]["mean_abs"].as_f64().unwrap() <= 1.0, "{line}");
+    assert!(shots.join("editor_landmarks.png").exists(), "the landmarks screenshot");
+    let lm = &v["landmarks"];
+    assert!(
+        lm["rms_after"].as_f64().unwrap() < lm["rms_before"].as_f64().unwrap(),
+        "the re-fit lowers the residuals: {line}"
+    );
+    assert!(
+        work.path().join("e2e_pairs.csv").exists() && work.path().join("e2e_bigwarp.csv").exists()
+    );
 }

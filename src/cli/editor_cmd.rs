@@ -34,6 +34,7 @@ pub fn initial_doc(a: &EditorArgs<'_>, root: &Path) -> Result<Doc> {
     let mut model_path = a.model.map(Path::to_path_buf);
     let mut image_path = a.image.map(Path::to_path_buf);
     let mut pinned = Vec::new();
+    let mut pairs = None;
     let spline = match a.deformation {
         Some(d) => {
             let text = read_text(d)?;
@@ -45,6 +46,7 @@ pub fn initial_doc(a: &EditorArgs<'_>, root: &Path) -> Result<Doc> {
             let key = |k: &str| v.get(k).and_then(|x| x.as_str()).map(|r| beside(d, r));
             model_path = model_path.or_else(|| key("model"));
             image_path = image_path.or_else(|| key("image"));
+            pairs = crate::server::doc::pairs::pairs_from_scene(&v, &d.display().to_string())?;
             s
         }
         None if model_path.is_none() && image_path.is_none() => {
@@ -81,6 +83,9 @@ pub fn initial_doc(a: &EditorArgs<'_>, root: &Path) -> Result<Doc> {
     let mut doc = Doc::new(spline, root);
     doc.set_name(a.deformation.map(|d| d.display().to_string()));
     doc.add_pinned(&pinned);
+    if let Some(p) = pairs {
+        doc.set_pairs(p)?;
+    }
     if let Some(p) = model_path {
         let m = crate::io::model::load_model(&p)
             .with_context(|| format!("cannot load model {}", p.display()))?;

@@ -9,11 +9,14 @@
 //! y down, pixel centres at integers), as everywhere in trimorph; the frame is drawn in the
 //! same coordinates, so `phi` maps the reference onto the frame.
 
+pub mod pairs;
+
 use super::paths::confine;
 use super::ServerError;
 use crate::edit::select::Neighborhood;
 use crate::edit::{exact, EditError, Editor, LastEdit, Mode};
 use crate::exact::Rat;
+use crate::fit::landmarks::Landmark;
 use crate::fit::solve::{fit, FitOptions};
 use crate::io::landmarks::read_landmarks;
 use crate::io::model::{load_model, save_model};
@@ -99,6 +102,8 @@ pub struct Doc {
     undo: Vec<Spline>,
     redo: Vec<Spline>,
     pinned: BTreeSet<usize>,
+    /// Landmark pairs placed, moved or imported in the page ([`pairs`]).
+    landmarks: Vec<Landmark>,
     before_drag: Option<Spline>,
     /// The last drag step of the selection that succeeded (re-applied to take back a
     /// step whose result is refused).
@@ -169,6 +174,7 @@ impl Doc {
             undo: Vec::new(),
             redo: Vec::new(),
             pinned: BTreeSet::new(),
+            landmarks: Vec::new(),
             before_drag: None,
             last_op: None,
             root: root.to_path_buf(),
@@ -409,7 +415,8 @@ impl Doc {
 
     /// The deformation file's JSON (format v1), with the corrected points (`"pinned"`),
     /// and for a scene saved as `rel` the model and frame (`"model"`, `"image"`, paths
-    /// relative to the scene file's folder). Also returns the copies a scene needs
+    /// relative to the scene file's folder) and the landmark pairs (`"landmarks"`, [`pairs`]).
+    /// Also returns the copies a scene needs
     /// (relative path, the frame's PNG bytes or `None` for the model): a model or frame with no file inside that folder (bundled,
     /// or elsewhere) is written beside the scene as `STEM.model.obj` / `STEM.frame.png`.
     pub fn to_json(&self, scene: Option<&str>) -> (Value, Vec<SceneCopy>) {
@@ -422,6 +429,7 @@ impl Doc {
         v["pinned"] = json!(self.pinned.iter().collect::<Vec<_>>());
         let mut copies = Vec::new();
         let Some(rel) = scene else { return (v, copies) };
+        v["landmarks"] = self.pairs_scene_value();
         let rel = Path::new(rel);
         let folder_rel = rel.parent().unwrap_or(Path::new(""));
         let stem = rel.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
@@ -508,7 +516,8 @@ impl Doc {
 
     /// Loads a deformation or scene from `rel` inside the root. Over the same mesh it
     /// replaces the spline as one undoable step; otherwise it starts a new document (and
-    /// rebinds the model). A scene's `"model"` and `"image"` keys load those files too.
+    /// rebinds the model). A scene's `"model"` and `"image"` keys load those files too, and
+    /// its `"landmarks"` replace the pairs (a file without that key keeps them).
     pub fn load(&mut self, rel: &str) -> Result<(), ServerError> {
         let path = confine(&self.root, rel, false)?;
         let bad = |e: String| ServerError::Unprocessable(format!("{rel}: {e}"));
@@ -527,6 +536,7 @@ impl Doc {
             v.get(k).and_then(Value::as_str).map(|p| folder.join(p).to_string_lossy().into_owned())
         };
         // Everything is read before anything changes.
+        let lms = pairs::pairs_from_scene(&v, rel)?;
         let model = match key("model") {
             Some(m) => {
                 let p = confine(&self.root, &m, false)?;
@@ -563,12 +573,16 @@ impl Doc {
                 next.set_model(p, m)?;
             }
             next.frame = self.frame.take();
+            next.landmarks = std::mem::take(&mut self.landmarks);
             *self = next;
         }
         if let Some((p, img)) = frame {
             self.set_frame(p, img)?;
         }
         self.add_pinned(&pinned);
+        if let Some(l) = lms {
+            self.landmarks = l;
+        }
         self.name = Some(rel.to_string());
         self.before_drag = None;
         Ok(())
@@ -621,12 +635,18 @@ impl Doc {
         let path = confine(&self.root, rel, false)?;
         let lms =
             read_landmarks(&path).map_err(|e| ServerError::Unprocessable(format!("{rel}: {e}")))?;
+        self.refit_with(&lms, hard)
+    }
+
+    /// Re-runs the fit from the current state to `lms` with the corrected points pinned
+    /// (see [`Doc::refit`]).
+    pub fn refit_with(&mut self, lms: &[Landmark], hard: bool) -> Result<Value, ServerError> {
         let opts = FitOptions {
             pinned: self.pinned.iter().copied().collect(),
             hard,
             ..Default::default()
         };
-        let f = fit(self.spline(), &lms, &opts)
+        let f = fit(self.spline(), lms, &opts)
             .map_err(|e| ServerError::Unprocessable(format!("fit: {e}")))?;
         let cur = self.editor.spline().clone();
         self.editor.replace_spline(f.spline).map_err(edit_err)?;

@@ -24,7 +24,13 @@
 //! | `POST /api/stat` | `{path}` | `{exists, same_layout, scene_copies}` (asked before a save or load) |
 //! | `POST /api/load` | `{path}` | state |
 //! | `POST /api/export` | `{kind: obj / warped, path}` | `{saved}` |
-//! | `POST /api/refit` | `{landmarks, hard?}` | fit summary |
+//! | `POST /api/refit` | `{landmarks?, hard?}` (`landmarks`: a file; none: the doc's pairs) | fit summary (with the pairs' `landmarks` list when fitted from them) |
+//! | `GET /api/landmarks` | | the pairs ([`doc::Doc::pairs_json`]) |
+//! | `POST /api/landmarks/add` | `{src, dst, name?}` | the pairs, `index` of the new one |
+//! | `POST /api/landmarks/move` | `{index, src?, dst?}` | the pairs |
+//! | `POST /api/landmarks/delete` | `{index}` | the pairs |
+//! | `POST /api/landmarks/import` | `{path}` (CSV, BigWarp CSV or JSON) | the pairs |
+//! | `POST /api/landmarks/export` | `{path, format: csv / bigwarp / json}` | `{saved}` |
 //!
 //! The state and every geometry answer (select, update, undo, redo) also carry the det J
 //! certificate ([`crate::spline::jacobian`]): `fold_free` (certified), `folding_triangles`,
@@ -56,6 +62,8 @@ pub mod views;
 mod tests;
 #[cfg(test)]
 mod tests_http;
+#[cfg(test)]
+mod tests_pairs;
 
 use crate::edit::Mode;
 use doc::{Doc, Op};
@@ -167,6 +175,24 @@ fn nums(b: &Value, k: &str) -> Result<Vec<f64>, ServerError> {
         .iter()
         .map(|v| v.as_f64().filter(|x| x.is_finite()).ok_or_else(bad))
         .collect()
+}
+fn pt(b: &Value, k: &str) -> Result<[f64; 2], ServerError> {
+    match nums(b, k)?[..] {
+        [x, y] => Ok([x, y]),
+        _ => Err(ServerError::BadRequest(format!("`{k}` must be 2 numbers [x, y]"))),
+    }
+}
+fn opt_pt(b: &Value, k: &str) -> Result<Option<[f64; 2]>, ServerError> {
+    match b.get(k) {
+        None | Some(Value::Null) => Ok(None),
+        Some(_) => pt(b, k).map(Some),
+    }
+}
+fn index(b: &Value) -> Result<usize, ServerError> {
+    field(b, "index")?
+        .as_u64()
+        .map(|i| i as usize)
+        .ok_or_else(|| ServerError::BadRequest("`index` must be an integer >= 0".into()))
 }
 fn text<'a>(b: &'a Value, k: &str) -> Result<&'a str, ServerError> {
     field(b, k)?.as_str().ok_or_else(|| ServerError::BadRequest(format!("`{k}` must be a string")))
@@ -371,8 +397,44 @@ fn route(
         ("POST", "/api/refit") => {
             let b = parse()?;
             let hard = b.get("hard").and_then(Value::as_bool).unwrap_or(false);
-            let r = doc.refit(text(&b, "landmarks")?, hard)?;
+            let r = match b.get("landmarks") {
+                None | Some(Value::Null) => doc.refit_pairs(hard)?,
+                Some(_) => doc.refit(text(&b, "landmarks")?, hard)?,
+            };
             Ok(with_geometry(doc, r))
+        }
+        ("GET", "/api/landmarks") => Ok(Json(doc.pairs_json())),
+        ("POST", "/api/landmarks/add") => {
+            let b = parse()?;
+            let name = match b.get("name") {
+                None | Some(Value::Null) => None,
+                Some(_) => Some(text(&b, "name")?.to_string()).filter(|n| !n.is_empty()),
+            };
+            let i = doc.add_pair(name, pt(&b, "src")?, pt(&b, "dst")?)?;
+            let mut v = doc.pairs_json();
+            v["index"] = json!(i);
+            Ok(Json(v))
+        }
+        ("POST", "/api/landmarks/move") => {
+            let b = parse()?;
+            doc.move_pair(index(&b)?, opt_pt(&b, "src")?, opt_pt(&b, "dst")?)?;
+            Ok(Json(doc.pairs_json()))
+        }
+        ("POST", "/api/landmarks/delete") => {
+            let b = parse()?;
+            doc.delete_pair(index(&b)?)?;
+            Ok(Json(doc.pairs_json()))
+        }
+        ("POST", "/api/landmarks/import") => {
+            let b = parse()?;
+            doc.import_pairs(text(&b, "path")?)?;
+            Ok(Json(doc.pairs_json()))
+        }
+        ("POST", "/api/landmarks/export") => {
+            let b = parse()?;
+            let f = doc::pairs::format_named(text(&b, "format")?)?;
+            let p = doc.export_pairs(text(&b, "path")?, f)?;
+            Ok(Json(json!({ "saved": p.display().to_string() })))
         }
         (_, p) if p.starts_with("/api/") => {
             Err(ServerError::NotFound(format!("{method} {p} is not part of the API")))

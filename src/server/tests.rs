@@ -12,7 +12,7 @@ pub(super) fn doc(root: &std::path::Path) -> Doc {
     Doc::new(Spline::identity(mesh, 5).unwrap(), root)
 }
 
-fn call(d: &mut Doc, method: &str, url: &str, body: Value) -> (u16, Value) {
+pub(super) fn call(d: &mut Doc, method: &str, url: &str, body: Value) -> (u16, Value) {
     let b = if body.is_null() { Vec::new() } else { body.to_string().into_bytes() };
     let r = handle(d, method, url, &b);
     let v = serde_json::from_slice(&r.body).unwrap_or(Value::Null);

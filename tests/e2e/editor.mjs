@@ -214,6 +214,74 @@ try {
   if (!(Math.abs(z1 - z0 - 30 / scale) < 1.5 / scale + 1e-3)) fail(`z1 moved from ${z0} to ${z1}, the drag was ${30 / scale}`);
   if (await page.locator('#oblique').isHidden()) fail('the oblique view is hidden in z1 mode');
   await page.screenshot({ path: shot.replace(/\.png$/, '_z1.png') });
+
+  // Landmarks mode (key 5): three pairs clicked (reference, then target), one moved by a
+  // drag, one deleted (click + Delete), exported as CSV and BigWarp CSV, then a re-fit to
+  // the pairs whose residuals the table shows.
+  await page.keyboard.press('5');
+  await page.waitForFunction(() => document.getElementById('mode').value === 'pairs');
+  const at = async (w) => {
+    const [qx, qy] = await page.evaluate(([x, y]) => window.trimorph.toScreen(x, y), w);
+    return [Math.round(box.x + qx), Math.round(box.y + qy)];
+  };
+  const lmVersion = () => page.evaluate(() => window.trimorph.lm.version);
+  const placed = [[[200, 200], [206, 204]], [[300, 220], [305, 216]], [[260, 320], [263, 327]]];
+  for (const [src, dst] of placed) {
+    if ((await page.evaluate(() => window.trimorph.lm.view)) !== 'ref') fail('landmarks mode does not show the reference first');
+    const v0 = await lmVersion();
+    await page.mouse.click(...(await at(src)));
+    await page.waitForFunction(() => window.trimorph.lm.view === 'target');
+    await page.mouse.click(...(await at(dst)));
+    await page.waitForFunction((v) => window.trimorph.lm.version > v, v0, { timeout: 10000 });
+  }
+  let lms = await api('GET', '/api/landmarks');
+  if (lms.pairs.length !== 3) fail('three pairs were clicked, the server has ' + lms.pairs.length);
+  lms.pairs.forEach((p, i) => {
+    const [src, dst] = placed[i];
+    const e = Math.max(Math.hypot(p.src[0] - src[0], p.src[1] - src[1]), Math.hypot(p.dst[0] - dst[0], p.dst[1] - dst[1]));
+    if (e > 1 / scale) fail(`pair ${i + 1} is ${e} px from where it was clicked: ${JSON.stringify(p)}`);
+  });
+  // Move pair 2's target: show the target (v), drag it by (12, 8) screen px.
+  await page.keyboard.press('v');
+  const d0 = lms.pairs[1].dst;
+  const [mx, my] = await at(d0);
+  await page.mouse.move(mx, my);
+  await page.mouse.down();
+  for (let k = 1; k <= 4; k++) await page.mouse.move(mx + 3 * k, my + 2 * k);
+  await page.mouse.up();
+  await page.waitForFunction(() => /^moved pair 2/.test(document.getElementById('msg').textContent), null, { timeout: 10000 });
+  lms = await api('GET', '/api/landmarks');
+  const dm = [lms.pairs[1].dst[0] - d0[0], lms.pairs[1].dst[1] - d0[1]];
+  if (Math.hypot(dm[0] - 12 / scale, dm[1] - 8 / scale) > 1e-6) fail(`pair 2's target moved by ${dm}, the pointer by ${[12 / scale, 8 / scale]}`);
+  // Delete pair 1: click its target (selects it), Delete.
+  await page.mouse.click(...(await at(lms.pairs[0].dst)));
+  await page.keyboard.press('Delete');
+  await page.waitForFunction(() => /^deleted pair 1/.test(document.getElementById('msg').textContent), null, { timeout: 10000 });
+  lms = await api('GET', '/api/landmarks');
+  if (JSON.stringify(lms.pairs.map((p) => p.name)) !== '["P2","P3"]') fail('delete left ' + JSON.stringify(lms.pairs.map((p) => p.name)));
+  // Export both formats.
+  for (const [file, format] of [['e2e_pairs.csv', 'csv'], ['e2e_bigwarp.csv', 'bigwarp']]) {
+    await page.fill('#landmarks', file);
+    await page.selectOption('#lmformat', format);
+    await page.click('#lmexport');
+    await page.waitForFunction(() => /^exported 2 pairs/.test(document.getElementById('msg').textContent), null, { timeout: 10000 });
+    const text = readFileSync(join(work, file), 'utf8').trim().split('\n');
+    const want = format === 'csv' ? 3 : 2;
+    if (text.length !== want) fail(`${file}: ${JSON.stringify(text)}`);
+    if (format === 'bigwarp' && !text[0].startsWith('"P2","true"')) fail(`${file} is not a BigWarp table: ${text[0]}`);
+  }
+  // Re-fit (soft) to the pairs: the residuals drop, the table shows the server's, one undo step.
+  const rmsBefore = lms.rms;
+  const undoFit = (await api('GET', '/api/state')).undo;
+  await page.click('#refit');
+  await page.waitForFunction(() => /^re-fit/.test(document.getElementById('msg').textContent), null, { timeout: 60000 });
+  lms = await api('GET', '/api/landmarks');
+  if (!(lms.rms < 0.5 * rmsBefore)) fail(`the re-fit left rms ${lms.rms} px (before ${rmsBefore})`);
+  const shown = await page.evaluate(() => [...document.querySelectorAll('#pairtable tbody tr')].map((r) => r.cells[2].textContent));
+  if (JSON.stringify(shown) !== JSON.stringify(lms.pairs.map((p) => p.residual.toFixed(3)))) fail(`the table shows ${shown}, the server ${JSON.stringify(lms.pairs.map((p) => p.residual))}`);
+  if ((await api('GET', '/api/state')).undo !== undoFit + 1) fail('a re-fit is one undo step');
+  await page.screenshot({ path: shot.replace(/\.png$/, '_landmarks.png') });
+  const landmarks = { rms_before: rmsBefore, rms_after: lms.rms, residuals_after: lms.pairs.map((p) => p.residual) };
   if (errors.length) fail('page errors: ' + errors.join('; '));
 
   const t = await page.evaluate(() => window.trimorph.timings);
@@ -229,7 +297,7 @@ try {
     live_warp_vs_cli: cmp, dialogs,
     xy_step_ms: stats(t.slice(0, nxy)), z1_step_ms: stats(t.slice(nxy)),
     xy_median_parts_ms: parts(ph.slice(0, nxy)), z1_median_parts_ms: parts(ph.slice(nxy)),
-    exact_update_ms_last: state.last_update_ms,
+    exact_update_ms_last: state.last_update_ms, landmarks,
   };
   console.log(JSON.stringify(summary));
 } finally {

@@ -8,6 +8,10 @@ const T = {
   view: { s: 1, tx: 0, ty: 0 }, anchors: [], center: null,
   drag: null, busy: false, pending: null, timings: [], phases: [], lastError: null,
   layers: {}, dragId: 0,
+  // Landmark pairs (`GET /api/landmarks`), the selected pair, the reference point of a
+  // half-placed pair, and which image the landmarks mode shows: 'ref' (the frame
+  // un-warped, where reference points are clicked) or 'target' (the current view).
+  lm: { pairs: [], rms: null, max: null, sel: -1, pendingSrc: null, view: 'ref', version: 0 },
   // The session token from the address `trimorph editor` printed (`/?token=...`); without
   // it the page relies on the cookie the server set when that address was loaded.
   token: new URLSearchParams(location.search).get('token'),
@@ -90,6 +94,12 @@ function draw() {
   const L = T.layers, g = T.geo, st = T.stat;
   ctx.imageSmoothingEnabled = v.s < 2;
   if (L.image && T.img) ctx.drawImage(T.img, -0.5, -0.5);
+  if (mode() === 'pairs' && T.lm.view === 'ref') {
+    // The reference: the frame un-warped, with the pairs' reference points only.
+    drawPairs(px, true);
+    drawOblique();
+    return;
+  }
   if (L.warp && T.warpCanvas) {
     // The live warped frame over the frame, mixed by the blend slider (1: warped only).
     ctx.globalAlpha = +$('blend').value;
@@ -156,6 +166,7 @@ function draw() {
     ctx.fillStyle = '#f33';
     for (const i of T.anchors) if (pts[i]) dot(pts[i], 4.5 * px);
   }
+  drawPairs(px, false);
   if (T.center) {
     ctx.strokeStyle = '#fff'; ctx.lineWidth = 1.5 * px; ctx.beginPath();
     const [cx, cy] = T.center, k = 8 * px;
@@ -163,6 +174,39 @@ function draw() {
     ctx.stroke();
   }
   drawOblique();
+}
+
+// Landmark pairs: in the reference, hollow circles at the reference points; in the target,
+// filled circles at the targets and the residual line from phi(reference) to the target.
+// Each is numbered (1-based, the table's order); the selected pair is yellow.
+function drawPairs(px, ref) {
+  const lm = T.lm;
+  if (!lm.pairs.length && !lm.pendingSrc) return;
+  const r = 5 * px;
+  ctx.font = `${12 * px}px system-ui, sans-serif`;
+  lm.pairs.forEach((p, i) => {
+    const col = i === lm.sel ? '#ffd21f' : '#ff5cf0';
+    ctx.strokeStyle = col; ctx.fillStyle = col; ctx.lineWidth = 1.5 * px;
+    const at = ref ? p.src : p.dst;
+    if (!ref && p.mapped) {
+      ctx.beginPath(); ctx.moveTo(p.mapped[0], p.mapped[1]); ctx.lineTo(p.dst[0], p.dst[1]);
+      ctx.strokeStyle = 'rgba(255, 60, 60, 0.95)'; ctx.stroke();
+      ctx.strokeStyle = col;
+      const k = 3 * px;
+      ctx.beginPath();
+      ctx.moveTo(p.mapped[0] - k, p.mapped[1] - k); ctx.lineTo(p.mapped[0] + k, p.mapped[1] + k);
+      ctx.moveTo(p.mapped[0] - k, p.mapped[1] + k); ctx.lineTo(p.mapped[0] + k, p.mapped[1] - k);
+      ctx.stroke();
+    }
+    ctx.beginPath(); ctx.arc(at[0], at[1], r, 0, 2 * Math.PI);
+    if (ref) ctx.stroke(); else ctx.fill();
+    ctx.fillStyle = col;
+    ctx.fillText(String(i + 1), at[0] + 1.4 * r, at[1] - 1.2 * r);
+  });
+  if (ref && lm.pendingSrc) {
+    ctx.strokeStyle = '#fff'; ctx.lineWidth = 1.5 * px;
+    ctx.beginPath(); ctx.arc(lm.pendingSrc[0], lm.pendingSrc[1], r, 0, 2 * Math.PI); ctx.stroke();
+  }
 }
 
 function polygon(ps) {
@@ -244,6 +288,40 @@ function applyGeo(r) {
   if (r.state) T.state = r.state;
 }
 
+// The pairs and their residuals under the current map, in the table and the view.
+function applyPairs(v) {
+  const lm = T.lm;
+  lm.pairs = v.pairs; lm.rms = v.rms; lm.max = v.max; lm.version++;
+  if (lm.sel >= lm.pairs.length) lm.sel = -1;
+  const body = $('pairtable').querySelector('tbody');
+  body.textContent = '';
+  lm.pairs.forEach((p, i) => {
+    const tr = document.createElement('tr');
+    if (i === lm.sel) tr.className = 'sel';
+    for (const t of [String(i + 1), p.name || '', p.residual === null ? 'outside' : p.residual.toFixed(3)]) {
+      const td = document.createElement('td'); td.textContent = t; tr.appendChild(td);
+    }
+    tr.addEventListener('click', () => { lm.sel = i; applyPairs(v); draw(); });
+    body.appendChild(tr);
+  });
+  $('lmsummary').textContent = lm.pairs.length
+    ? `${lm.pairs.length} pairs; rms ${lm.rms === null ? '-' : lm.rms.toFixed(3)} px, max ${lm.max === null ? '-' : lm.max.toFixed(3)} px`
+    : 'no pairs (landmarks mode: click the reference, then the target)';
+  showPairsPanel();
+}
+
+function showPairsPanel() {
+  const on = mode() === 'pairs';
+  $('pairspanel').hidden = !on && !T.lm.pairs.length;
+  const what = T.lm.pendingSrc ? '(showing the target: click the target point; Esc drops the pair)'
+    : T.lm.view === 'ref' ? '(showing the reference: click a reference point; v: the target)'
+      : '(showing the target: drag a target; v: the reference)';
+  $('lmview').textContent = on ? what : '';
+}
+
+async function refreshPairs() { applyPairs(await api('GET', '/api/landmarks')); draw(); }
+T.refreshPairs = refreshPairs;
+
 async function reload(keepView) {
   T.state = await api('GET', '/api/state');
   const full = await api('GET', '/api/geometry?full=1');
@@ -260,6 +338,7 @@ async function reload(keepView) {
   if (!keepView) fitView(); else draw();
   refreshJacobian();
   refreshWarp();
+  await refreshPairs();
   status(summary());
 }
 
@@ -466,6 +545,7 @@ canvas.addEventListener('contextmenu', (e) => {
 canvas.addEventListener('mousedown', (e) => {
   message('');
   const [X, Y] = pointer(e);
+  if (e.button === 0 && mode() === 'pairs') { pairsDown(X, Y); return; }
   if (e.button === 1 || (e.button === 0 && mode() === 'view')) {
     T.drag = { pan: true, X0: X, Y0: Y, tx: T.view.tx, ty: T.view.ty };
     return;
@@ -502,6 +582,74 @@ canvas.addEventListener('mousedown', (e) => {
   draw();
 });
 
+// Landmarks mode: a press on a shown point (a reference point in the reference, a target
+// in the target) selects its pair and drags that point (sent once, at the release);
+// elsewhere the first click gives a reference point and shows the target, the second the
+// target point, which adds the pair.
+function pairsDown(X, Y) {
+  const lm = T.lm, ref = lm.view === 'ref';
+  let hit = -1, bd = 8 * 8;
+  lm.pairs.forEach((p, i) => {
+    const q = ref ? p.src : p.dst;
+    const [sx, sy] = toScreen(q[0], q[1]);
+    const d = (sx - X) ** 2 + (sy - Y) ** 2;
+    if (d < bd) { bd = d; hit = i; }
+  });
+  if (hit >= 0 && !lm.pendingSrc) {
+    lm.sel = hit;
+    const q = ref ? lm.pairs[hit].src : lm.pairs[hit].dst;
+    T.drag = { pair: hit, which: ref ? 'src' : 'dst', X0: X, Y0: Y, start: q.slice(), moved: false };
+    applyPairs(lm); draw();
+    return;
+  }
+  const w = toWorld(X, Y);
+  if (!lm.pendingSrc) {
+    lm.pendingSrc = w;
+    lm.view = 'target';
+    showPairsPanel(); draw();
+    message('reference point set: now click its target point');
+    return;
+  }
+  const src = lm.pendingSrc;
+  lm.pendingSrc = null;
+  lm.view = 'ref';
+  run(async () => {
+    const v = await api('POST', '/api/landmarks/add', { src, dst: w });
+    lm.sel = v.index;
+    applyPairs(v); draw();
+    message(`added pair ${v.index + 1}`);
+  });
+}
+
+function pairDragTo(d, X, Y) {
+  const p = T.lm.pairs[d.pair];
+  if (!p) return null;
+  const q = [d.start[0] + (X - d.X0) / T.view.s, d.start[1] + (Y - d.Y0) / T.view.s];
+  p[d.which] = q;
+  return q;
+}
+
+function endPairDrag(d, e) {
+  if (!d.moved) return;
+  const q = e ? pairDragTo(d, ...pointer(e)) : T.lm.pairs[d.pair][d.which];
+  run(async () => {
+    const v = await api('POST', '/api/landmarks/move', { index: d.pair, [d.which]: q });
+    applyPairs(v); draw();
+    message(`moved pair ${d.pair + 1}`);
+  });
+}
+
+function deletePair() {
+  const i = T.lm.sel;
+  if (i < 0) return;
+  run(async () => {
+    const v = await api('POST', '/api/landmarks/delete', { index: i });
+    T.lm.sel = -1;
+    applyPairs(v); draw();
+    message(`deleted pair ${i + 1}`);
+  });
+}
+
 function clearSelection() {
   T.anchors = [];
   T.geo.selection = null;
@@ -512,6 +660,7 @@ function clearSelection() {
 function endDrag(e) {
   const d = T.drag;
   T.drag = null;
+  if (d && d.pair !== undefined) { endPairDrag(d, e); return; }
   if (!d || d.pan) return;
   if (d.moved && e) {
     // The last step is the release point itself.
@@ -523,6 +672,7 @@ function endDrag(e) {
     T.state = await api('GET', '/api/state');
     refreshJacobian();
     refreshWarp();
+    await refreshPairs();
   });
 }
 
@@ -532,6 +682,13 @@ window.addEventListener('mousemove', (e) => {
   // The release happened where no event reached us (outside the window): the drag is over.
   if (e.buttons === 0) { endDrag(null); return; }
   const [X, Y] = pointer(e);
+  if (d.pair !== undefined) {
+    if (X === d.X0 && Y === d.Y0 && !d.moved) return;
+    d.moved = true;
+    pairDragTo(d, X, Y);
+    draw();
+    return;
+  }
   if (d.pan) {
     T.view.tx = d.tx + X - d.X0; T.view.ty = d.ty + Y - d.Y0;
     draw();
@@ -562,6 +719,7 @@ async function undoRedo(which) {
   draw();
   refreshJacobian();
   refreshWarp();
+  await refreshPairs();
 }
 
 // Saving asks before overwriting a file and before saving a map that is not certified
@@ -607,10 +765,28 @@ const commands = {
   }),
   exportobj: () => run(async () => { const r = await api('POST', '/api/export', { kind: 'obj', path: $('path').value.replace(/\.[^.]*$/, '') + '.obj' }); message('exported ' + r.saved); }),
   exportimg: () => run(async () => { const r = await api('POST', '/api/export', { kind: 'warped', path: $('path').value.replace(/\.[^.]*$/, '') + '.png' }); message('exported ' + r.saved); }),
+  // The re-fit uses the pairs in the page; the residuals after it are in the table.
   refit: () => run(async () => {
-    const r = await api('POST', '/api/refit', { landmarks: $('landmarks').value, hard: $('hard').checked });
-    applyGeo(r); draw(); refreshJacobian(); refreshWarp();
-    message(`re-fit (${r.method}): rms ${r.rms.toFixed(3)} px, ${r.pinned} pinned points held exactly`);
+    await updatesDone();
+    const r = await api('POST', '/api/refit', { hard: $('hard').checked });
+    applyGeo(r); applyPairs(r.landmarks); draw(); refreshJacobian(); refreshWarp();
+    const l = r.landmarks;
+    message(`re-fit (${r.method}${$('hard').checked ? ', hard' : ''}) to ${l.pairs.length} pairs: rms ${l.rms.toFixed(3)} px, max ${l.max.toFixed(3)} px; ${r.pinned} corrected points held exactly (undo takes it back)`);
+  }),
+  lmimport: () => run(async () => {
+    const path = $('landmarks').value;
+    if (T.lm.pairs.length && !confirm(`Replace the ${T.lm.pairs.length} pairs with those of ${path}?`)) { message('not imported'); return; }
+    const v = await api('POST', '/api/landmarks/import', { path });
+    T.lm.sel = -1; T.lm.pendingSrc = null;
+    applyPairs(v); draw();
+    message(`imported ${v.pairs.length} pairs from ${path}`);
+  }),
+  lmexport: () => run(async () => {
+    const path = $('landmarks').value, format = $('lmformat').value;
+    const st = await api('POST', '/api/stat', { path });
+    if (st.exists && !confirm(`${path} exists. Overwrite it?`)) { message('not exported: ' + path + ' exists'); return; }
+    const r = await api('POST', '/api/landmarks/export', { path, format });
+    message(`exported ${T.lm.pairs.length} pairs (${format}) to ${r.saved}`);
   }),
 };
 for (const [id, fn] of Object.entries(commands)) $(id).addEventListener('click', fn);
@@ -624,7 +800,10 @@ for (const box of document.querySelectorAll('[data-layer]')) {
     draw();
   });
 }
-$('mode').addEventListener('change', () => run(async () => { T.anchors = []; await api('POST', '/api/clear'); T.geo.selection = null; draw(); }));
+$('mode').addEventListener('change', () => run(async () => {
+  T.lm.view = 'ref'; T.lm.pendingSrc = null; showPairsPanel();
+  T.anchors = []; await api('POST', '/api/clear'); T.geo.selection = null; draw();
+}));
 
 window.addEventListener('keydown', (e) => {
   if (e.target.tagName === 'INPUT' && e.target.type !== 'checkbox') return;
@@ -640,6 +819,10 @@ window.addEventListener('keydown', (e) => {
   else if (k === '2') setSel('mode', 'xy');
   else if (k === '3') setSel('mode', 'z0');
   else if (k === '4') setSel('mode', 'z1');
+  else if (k === '5') setSel('mode', 'pairs');
+  else if (mode() === 'pairs' && (k === 'Delete' || k === 'Backspace')) { e.preventDefault(); deletePair(); }
+  else if (mode() === 'pairs' && k === 'v') { T.lm.view = T.lm.view === 'ref' ? 'target' : 'ref'; showPairsPanel(); draw(); }
+  else if (mode() === 'pairs' && k === 'Escape' && T.lm.pendingSrc) { T.lm.pendingSrc = null; T.lm.view = 'ref'; showPairsPanel(); draw(); message('half-placed pair dropped'); }
   else if (k === 't') $('op').value = 'translate';
   else if (k === 'r') $('op').value = 'rotate';
   else if (k === 's') $('op').value = 'scale';
