@@ -74,7 +74,7 @@ pub fn gif_bytes(frames: &[DynamicImage], delay_ms: u32) -> Result<Vec<u8>, Enco
     Ok(buf)
 }
 
-/// An endlessly looping animated PNG (8-bit RGBA), `delay_ms` per frame.
+/// An endlessly looping animated PNG (8-bit RGBA), `delay_ms` per frame, fast compression.
 pub fn apng_bytes(frames: &[DynamicImage], delay_ms: u32) -> Result<Vec<u8>, EncodeError> {
     let rgba = rgba_frames(frames)?;
     let (w, h) = rgba[0].dimensions();
@@ -83,6 +83,9 @@ pub fn apng_bytes(frames: &[DynamicImage], delay_ms: u32) -> Result<Vec<u8>, Enc
         let mut enc = png::Encoder::new(&mut buf, w, h);
         enc.set_color(png::ColorType::Rgba);
         enc.set_depth(png::BitDepth::Eight);
+        // fdeflate's fast mode: the animation is a preview of the frames (written losslessly
+        // beside it); about 4x faster to encode than the balanced default, somewhat larger.
+        enc.set_compression(png::Compression::Fast);
         enc.set_animated(rgba.len() as u32, 0)?;
         enc.set_frame_delay(delay_ms.min(u16::MAX as u32) as u16, 1000)?;
         let mut writer = enc.write_header()?;
