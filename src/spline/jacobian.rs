@@ -239,16 +239,7 @@ impl Certifier {
         assert!((1..=15).contains(&d), "degree {d} out of range");
         let k = 2 * d - 2;
         let mi = multi_indices(d - 1);
-        let up = mi
-            .iter()
-            .map(|m| {
-                [0, 1, 2].map(|c| {
-                    let mut n = *m;
-                    n[c] += 1;
-                    local_index(d, n[0], n[1])
-                })
-            })
-            .collect();
+        let up = difference_indices(d);
         let nk = (k + 1) * (k + 2) / 2;
         let mut pairs = Vec::with_capacity(mi.len() * mi.len());
         let mut count = vec![0usize; nk];
@@ -563,6 +554,22 @@ fn det_e(tri: [[f64; 2]; 3]) -> (f64, f64) {
     let e2 = [tri[2][0] - tri[0][0], tri[2][1] - tri[0][1]];
     let (x, y) = (e1[0] * e2[1], e2[0] * e1[1]);
     (x - y, gamma(4) * (x.abs() + y.abs()) * SAFETY)
+}
+
+/// For each `m` with `|m| = d - 1` (in [`multi_indices`] order), the patch-local indices of
+/// `q_(m+e0)`, `q_(m+e1)`, `q_(m+e2)`: the points whose differences `D1_m`, `D2_m` give the
+/// derivative patches (module docs).
+pub(super) fn difference_indices(d: usize) -> Vec<[usize; 3]> {
+    multi_indices(d - 1)
+        .iter()
+        .map(|m| {
+            [0, 1, 2].map(|c| {
+                let mut n = *m;
+                n[c] += 1;
+                local_index(d, n[0], n[1])
+            })
+        })
+        .collect()
 }
 
 /// Every control point of `s` rounded to `f64` ([`Spline::point_f64`]), in parallel.

@@ -27,7 +27,6 @@
 //! have `tr J` close to 2, and a triangle that fails only sends the caller back to the
 //! per-map certificate.
 
-use super::layout::{local_index, multi_indices};
 use super::Spline;
 use rayon::prelude::*;
 
@@ -43,16 +42,7 @@ fn gamma(k: usize) -> f64 {
 /// error at most `a_rel_err` per entry.
 pub fn certify_trace(s: &Spline, a: [[f64; 2]; 2], a_rel_err: f64) -> bool {
     let d = s.degree();
-    let up: Vec<[usize; 3]> = multi_indices(d - 1)
-        .iter()
-        .map(|m| {
-            [0, 1, 2].map(|c| {
-                let mut n = *m;
-                n[c] += 1;
-                local_index(d, n[0], n[1])
-            })
-        })
-        .collect();
+    let up = super::jacobian::difference_indices(d);
     let q: Vec<[f64; 2]> = (0..s.num_points()).into_par_iter().map(|p| s.point_f64(p)).collect();
     let rho = super::jacobian::RAT_ROUNDING;
     let m = s.mesh();
