@@ -39,6 +39,24 @@ pub enum Loss {
 }
 
 impl Loss {
+    /// The loss named `name` (`squares` or `l2`, `huber`, `cauchy`) with scale `scale`
+    /// (pixels; used by Huber and Cauchy, which need it finite and positive).
+    pub fn from_name(name: &str, scale: f64) -> Result<Loss, String> {
+        let scaled = |f: fn(f64) -> Loss| {
+            if scale.is_finite() && scale > 0.0 {
+                Ok(f(scale))
+            } else {
+                Err(format!("the {name} loss needs a finite scale > 0 (pixels), got {scale}"))
+            }
+        };
+        match name {
+            "squares" | "l2" => Ok(Loss::Squares),
+            "huber" => scaled(Loss::Huber),
+            "cauchy" => scaled(Loss::Cauchy),
+            other => Err(format!("unknown loss `{other}` (use squares, huber or cauchy)")),
+        }
+    }
+
     /// `(rho(r), rho'(r) / r)`.
     #[inline]
     pub fn eval(self, r: f64) -> (f64, f64) {
@@ -80,6 +98,18 @@ pub struct Barrier {
 }
 
 impl Barrier {
+    /// The width of the barrier's active band above its floor: `tau = floor + BAND`.
+    pub const BAND: f64 = 0.2;
+
+    /// The barrier keeping `det J` above `floor` (a number below 1), active from
+    /// `floor + BAND`, with unit weight.
+    pub fn with_floor(floor: f64) -> Result<Barrier, String> {
+        if !(floor.is_finite() && floor < 1.0) {
+            return Err(format!("the determinant floor must be a number below 1, got {floor}"));
+        }
+        Ok(Barrier { floor, tau: floor + Self::BAND, mu: 1.0 })
+    }
+
     /// `(beta, beta')` at `det`.
     #[inline]
     pub fn eval(&self, det: f64) -> (f64, f64) {

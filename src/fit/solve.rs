@@ -72,6 +72,20 @@ pub enum Bend {
     Weight(f64),
 }
 
+impl std::str::FromStr for Bend {
+    type Err = String;
+    /// `auto` or a finite weight `>= 0`.
+    fn from_str(t: &str) -> Result<Bend, String> {
+        match t.trim() {
+            "auto" => Ok(Bend::Auto),
+            t => match t.parse::<f64>() {
+                Ok(w) if w.is_finite() && w >= 0.0 => Ok(Bend::Weight(w)),
+                _ => Err(format!("`{t}` is neither `auto` nor a finite number >= 0")),
+            },
+        }
+    }
+}
+
 impl Default for FitOptions {
     fn default() -> Self {
         FitOptions {
@@ -175,6 +189,15 @@ pub enum FitError {
     /// not as unsolvable constraints.
     #[error("internal error (please report it): {0}")]
     Internal(String),
+}
+
+impl FitError {
+    /// Whether no deformation can meet the hard constraints as given (conflicting targets,
+    /// more constraints than the spline can hold): the command line exits 2 for these, the
+    /// Python bindings raise `UnsolvableError`. Every other error is about the input.
+    pub fn is_unsolvable(&self) -> bool {
+        matches!(self, FitError::Conflicting { .. } | FitError::TooManyConstraints { .. })
+    }
 }
 
 /// One landmark's result.

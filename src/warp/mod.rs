@@ -79,6 +79,9 @@ pub enum WarpError {
         /// The differing page's size.
         found: (u32, u32),
     },
+    /// Caller-owned buffers do not fit their layout ([`warp_samples_into`]).
+    #[error(transparent)]
+    Layout(#[from] LayoutError),
 }
 
 /// What happened while warping an image: the statistics of its preimages
@@ -213,49 +216,157 @@ pub(super) fn fill<T: Texel>(
     }
 }
 
-/// Warps pages of one size the same way: `O(q) = I(phi^-1(q))`, each output the size and
-/// type of its input. The preimages are computed once per band of rows and shared by all
-/// pages; `progress` is called with the number of output rows finished (from any thread).
-pub fn warp_pages(
+/// A borrowed image buffer of one page: interleaved channels, rows top to bottom
+/// (`w * h * nc` samples).
+#[derive(Clone, Copy, Debug)]
+pub enum Samples<'a> {
+    /// 8-bit samples.
+    U8(&'a [u8]),
+    /// 16-bit samples.
+    U16(&'a [u16]),
+    /// 32-bit float samples.
+    F32(&'a [f32]),
+}
+
+/// A mutable image buffer of one page, laid out like [`Samples`].
+#[derive(Debug)]
+pub enum SamplesMut<'a> {
+    /// 8-bit samples.
+    U8(&'a mut [u8]),
+    /// 16-bit samples.
+    U16(&'a mut [u16]),
+    /// 32-bit float samples.
+    F32(&'a mut [f32]),
+}
+
+impl Samples<'_> {
+    fn len(&self) -> usize {
+        match self {
+            Samples::U8(d) => d.len(),
+            Samples::U16(d) => d.len(),
+            Samples::F32(d) => d.len(),
+        }
+    }
+}
+
+impl SamplesMut<'_> {
+    fn len(&self) -> usize {
+        match self {
+            SamplesMut::U8(d) => d.len(),
+            SamplesMut::U16(d) => d.len(),
+            SamplesMut::F32(d) => d.len(),
+        }
+    }
+}
+
+/// The pixel layout of the pages given to [`warp_samples_into`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Layout {
+    /// Width (pixels).
+    pub width: u32,
+    /// Height (pixels).
+    pub height: u32,
+    /// Channels per pixel, 1 to 4: gray, gray + alpha, RGB, RGBA. The last channel of 2 or 4
+    /// is alpha (0 where the preimage is outside the mesh).
+    pub channels: usize,
+}
+
+/// Errors of [`warp_samples_into`] about its buffers.
+#[derive(Debug, thiserror::Error, PartialEq, Eq)]
+pub enum LayoutError {
+    /// Channels outside 1..=4.
+    #[error("{0} channels per pixel (use 1 to 4: gray, gray+alpha, RGB, RGBA)")]
+    Channels(usize),
+    /// A buffer's length is not `width * height * channels`.
+    #[error("buffer {index} has {found} samples, expected {expected} ({width}x{height}x{channels})")]
+    Length {
+        /// Which buffer (inputs first, then outputs).
+        index: usize,
+        /// Its length.
+        found: usize,
+        /// `width * height * channels`.
+        expected: usize,
+        /// Width.
+        width: u32,
+        /// Height.
+        height: u32,
+        /// Channels.
+        channels: usize,
+    },
+    /// Input and output counts or sample types differ.
+    #[error("{inputs} input pages but {outputs} outputs, or their sample types differ")]
+    Mismatch {
+        /// Inputs.
+        inputs: usize,
+        /// Outputs.
+        outputs: usize,
+    },
+}
+
+/// Warps pages of one layout into caller-owned buffers: `O(q) = I(phi^-1(q))` for every
+/// page, with one preimage computation per band of rows shared by all pages. The `_into`
+/// form of [`warp_pages`] (which calls it), for callers that own their memory (the Python
+/// bindings write straight into a numpy array). `progress` gets the rows finished.
+pub fn warp_samples_into(
     s: &Spline,
-    pages: &[DynamicImage],
+    layout: Layout,
+    pages: &[Samples<'_>],
+    outs: &mut [SamplesMut<'_>],
     opts: &WarpOptions,
     progress: &(dyn Fn(u64) + Sync),
-) -> Result<(Vec<DynamicImage>, WarpReport), WarpError> {
-    let Some(first) = pages.first() else { return Ok((Vec::new(), WarpReport::default())) };
-    let (w, h) = (first.width(), first.height());
-    if let Some(p) = pages.iter().find(|p| (p.width(), p.height()) != (w, h)) {
-        return Err(WarpError::PageSize { expected: (w, h), found: (p.width(), p.height()) });
+) -> Result<WarpReport, WarpError> {
+    let Layout { width: w, height: h, channels: nc } = layout;
+    if !(1..=4).contains(&nc) {
+        return Err(LayoutError::Channels(nc).into());
     }
-    let srcs = pages.iter().map(source).collect::<Result<Vec<_>, _>>()?;
+    let same_types = pages.iter().zip(outs.iter()).all(|(p, o)| {
+        matches!(
+            (p, o),
+            (Samples::U8(_), SamplesMut::U8(_))
+                | (Samples::U16(_), SamplesMut::U16(_))
+                | (Samples::F32(_), SamplesMut::F32(_))
+        )
+    });
+    if pages.len() != outs.len() || !same_types {
+        return Err(LayoutError::Mismatch { inputs: pages.len(), outputs: outs.len() }.into());
+    }
+    let expected = w as usize * h as usize * nc;
+    let lens = pages.iter().map(|p| p.len()).chain(outs.iter().map(|o| o.len()));
+    for (index, found) in lens.enumerate() {
+        if found != expected {
+            let e = LayoutError::Length { index, found, expected, width: w, height: h, channels: nc };
+            return Err(e.into());
+        }
+    }
+    if pages.is_empty() {
+        return Ok(WarpReport::default());
+    }
+    let (wu, hu) = (w as usize, h as usize);
+    let srcs: Vec<Src<'_>> = pages
+        .iter()
+        .map(|p| match *p {
+            Samples::U8(data) => Src::U8(Source { data, w: wu, h: hu, nc }),
+            Samples::U16(data) => Src::U16(Source { data, w: wu, h: hu, nc }),
+            Samples::F32(data) => Src::F32(Source { data, w: wu, h: hu, nc }),
+        })
+        .collect();
     let plan = RemapPlan::new(s, w, h, opts.remap);
-    let band_px = plan.band_rows() as usize * w as usize;
+    let band_px = plan.band_rows() as usize * wu;
     if plan.num_bands() == 0 {
         return Err(WarpError::Empty);
     }
-    let mut bufs: Vec<Buf> = srcs
-        .iter()
-        .map(|src| match src {
-            Src::U8(s) => Buf::U8(vec![0; s.data.len()]),
-            Src::U16(s) => Buf::U16(vec![0; s.data.len()]),
-            Src::F32(s) => Buf::F32(vec![0.0; s.data.len()]),
-        })
-        .collect();
     // Transpose: for each band, the band's slice of every page.
+    let chunk = (band_px * nc).max(1);
     let mut bands: Vec<Vec<Dst<'_>>> = (0..plan.num_bands()).map(|_| Vec::new()).collect();
-    for (buf, src) in bufs.iter_mut().zip(&srcs) {
-        let nc = match src {
-            Src::U8(s) => s.nc,
-            Src::U16(s) => s.nc,
-            Src::F32(s) => s.nc,
-        };
-        let chunk = (band_px * nc).max(1);
-        match buf {
-            Buf::U8(d) => d.chunks_mut(chunk).zip(&mut bands).for_each(|(c, b)| b.push(Dst::U8(c))),
-            Buf::U16(d) => {
+    for out in outs.iter_mut() {
+        match out {
+            SamplesMut::U8(d) => {
+                d.chunks_mut(chunk).zip(&mut bands).for_each(|(c, b)| b.push(Dst::U8(c)))
+            }
+            SamplesMut::U16(d) => {
                 d.chunks_mut(chunk).zip(&mut bands).for_each(|(c, b)| b.push(Dst::U16(c)))
             }
-            Buf::F32(d) => {
+            SamplesMut::F32(d) => {
                 d.chunks_mut(chunk).zip(&mut bands).for_each(|(c, b)| b.push(Dst::F32(c)))
             }
         }
@@ -274,17 +385,12 @@ pub fn warp_pages(
                         Dst::U16(d) => d.len(),
                         Dst::F32(d) => d.len(),
                     };
-                    let nc = match src {
-                        Src::U8(s) => s.nc,
-                        Src::U16(s) => s.nc,
-                        Src::F32(s) => s.nc,
-                    };
                     let pos = &pos[..n / nc];
                     match (dst, src) {
                         (Dst::U8(d), Src::U8(s)) => fill(s, pos, d, interp, bg),
                         (Dst::U16(d), Src::U16(s)) => fill(s, pos, d, interp, bg),
                         (Dst::F32(d), Src::F32(s)) => fill(s, pos, d, interp, bg),
-                        _ => unreachable!("buffers are made from the page's own type"),
+                        _ => unreachable!("sample types are checked above"),
                     }
                 }
                 progress(plan.band_rows().min(h - b as u32 * plan.band_rows()) as u64);
@@ -295,6 +401,56 @@ pub fn warp_pages(
             a.merge(&b);
             a
         });
+    Ok(stats)
+}
+
+/// Warps pages of one size the same way: `O(q) = I(phi^-1(q))`, each output the size and
+/// type of its input. The preimages are computed once per band of rows and shared by all
+/// pages ([`warp_samples_into`]); `progress` is called with the number of output rows
+/// finished (from any thread).
+pub fn warp_pages(
+    s: &Spline,
+    pages: &[DynamicImage],
+    opts: &WarpOptions,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<(Vec<DynamicImage>, WarpReport), WarpError> {
+    let Some(first) = pages.first() else { return Ok((Vec::new(), WarpReport::default())) };
+    let (w, h) = (first.width(), first.height());
+    if let Some(p) = pages.iter().find(|p| (p.width(), p.height()) != (w, h)) {
+        return Err(WarpError::PageSize { expected: (w, h), found: (p.width(), p.height()) });
+    }
+    let nc = first.color().channel_count() as usize;
+    let srcs = pages.iter().map(source).collect::<Result<Vec<_>, _>>()?;
+    if let Some(p) = pages.iter().find(|p| p.color().channel_count() as usize != nc) {
+        return Err(WarpError::Unsupported(p.color()));
+    }
+    let samples: Vec<Samples<'_>> = srcs
+        .iter()
+        .map(|s| match s {
+            Src::U8(s) => Samples::U8(s.data),
+            Src::U16(s) => Samples::U16(s.data),
+            Src::F32(s) => Samples::F32(s.data),
+        })
+        .collect();
+    let mut bufs: Vec<Buf> = samples
+        .iter()
+        .map(|s| match s {
+            Samples::U8(d) => Buf::U8(vec![0; d.len()]),
+            Samples::U16(d) => Buf::U16(vec![0; d.len()]),
+            Samples::F32(d) => Buf::F32(vec![0.0; d.len()]),
+        })
+        .collect();
+    let mut outs: Vec<SamplesMut<'_>> = bufs
+        .iter_mut()
+        .map(|b| match b {
+            Buf::U8(d) => SamplesMut::U8(d),
+            Buf::U16(d) => SamplesMut::U16(d),
+            Buf::F32(d) => SamplesMut::F32(d),
+        })
+        .collect();
+    let layout = Layout { width: w, height: h, channels: nc };
+    let stats = warp_samples_into(s, layout, &samples, &mut outs, opts, progress)?;
+    drop(outs);
     let out = pages.iter().zip(bufs).map(|(p, b)| rebuild(p, p.width(), p.height(), b)).collect();
     Ok((out, stats))
 }

@@ -1,0 +1,292 @@
+//! `trimorph.Deformation`: a spline deformation `phi` and what can be done with it.
+//!
+//! Directions (the same as the library's, `trimorph::warp`): `phi` maps the reference
+//! domain to the deformed plane, both in pixels (x right, y down, pixel `(i, j)` centred at
+//! `(i, j)`). `map_points` is `p -> phi(p)`, `inverse_points` is `q -> phi^-1(q)`, and
+//! `warp` computes `O(q) = I(phi^-1(q))`, so a feature at `p` in the input appears at
+//! `phi(p)` in the output.
+
+use crate::arrays::{points_in, points_out, to_numpy, warp_any};
+use crate::errors::{io_error, value_error};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use std::path::PathBuf;
+use trimorph::io::{deformation as dio, read_text, write_atomic, IoError};
+use trimorph::mesh::{AdaptOptions, Mesh, MeshOptions};
+use trimorph::spline::Spline;
+use trimorph::warp::inverse::InverseOptions;
+use trimorph::warp::remap::RemapOptions;
+use trimorph::warp::{field, Interp, WarpOptions};
+
+/// The largest field `field()` computes (pixels), as `trimorph field` allows.
+const MAX_FIELD_PIXELS: u64 = 100_000_000;
+
+/// A C1 spline deformation `phi: R^2 -> R^2` over a triangle mesh (pixel coordinates).
+#[pyclass(module = "trimorph")]
+pub struct Deformation {
+    pub(crate) spline: Spline,
+    pub(crate) last: Option<trimorph::edit::LastEdit>,
+    pub(crate) report: Option<Py<PyAny>>,
+}
+
+impl Deformation {
+    /// A deformation without edit history or report.
+    pub fn new(spline: Spline) -> Deformation {
+        Deformation { spline, last: None, report: None }
+    }
+}
+
+fn inverse_options(tolerance: f64) -> PyResult<InverseOptions> {
+    if !(tolerance > 0.0 && tolerance.is_finite()) {
+        return Err(value_error("tolerance must be a positive number of pixels"));
+    }
+    Ok(InverseOptions { tolerance, ..Default::default() })
+}
+
+/// `(w, h)` as whole pixels within the field limit.
+fn grid_size(size: Option<(u32, u32)>, s: &Spline) -> PyResult<(u32, u32)> {
+    let (w, h) = match size {
+        Some(wh) => wh,
+        None => {
+            let (_, hi) = s.mesh().bbox();
+            (hi[0].max(0.0).floor() as u32 + 1, hi[1].max(0.0).floor() as u32 + 1)
+        }
+    };
+    if w == 0 || h == 0 || w as u64 * h as u64 > MAX_FIELD_PIXELS {
+        return Err(value_error(format!(
+            "field size {w}x{h} is empty or too large (at most 10^8 pixels); give size=(W, H)"
+        )));
+    }
+    Ok((w, h))
+}
+
+/// `(w, h)` of a frame as positive finite numbers.
+fn frame_size(size: (f64, f64)) -> PyResult<[f64; 2]> {
+    let (w, h) = size;
+    if !(w > 0.0 && h > 0.0 && w.is_finite() && h.is_finite()) {
+        return Err(value_error(format!("size: width and height must be positive, got {size:?}")));
+    }
+    Ok([w, h])
+}
+
+#[pymethods]
+impl Deformation {
+    /// Reads a deformation file (JSON, the format `trimorph` writes).
+    #[staticmethod]
+    fn load(py: Python<'_>, path: PathBuf) -> PyResult<Deformation> {
+        let text = read_text(&path).map_err(|e| io_error(&e))?;
+        let (spline, last) = py
+            .detach(|| dio::from_str(&text))
+            .map_err(|e| value_error(format!("cannot read deformation {}: {e}", path.display())))?;
+        Ok(Deformation { spline, last, report: None })
+    }
+
+    /// A deformation from the JSON text of a deformation file.
+    #[staticmethod]
+    fn from_json(py: Python<'_>, text: &str) -> PyResult<Deformation> {
+        let (spline, last) = py.detach(|| dio::from_str(text)).map_err(value_error)?;
+        Ok(Deformation { spline, last, report: None })
+    }
+
+    /// The deformation file's JSON text.
+    fn to_json(&self) -> String {
+        dio::to_string(&self.spline, self.last.as_ref())
+    }
+
+    /// Writes the deformation file (atomically: a temporary file renamed into place).
+    fn save(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
+        let text = self.to_json();
+        py.detach(|| write_atomic(&path, text.as_bytes())).map_err(|e: IoError| io_error(&e))
+    }
+
+    /// The identity over a `cols x rows` grid of cells (two triangles each) covering
+    /// `size = (w, h)` pixels from the origin; `snap` is the mesh's snapping denominator.
+    #[staticmethod]
+    #[pyo3(signature = (cols, rows, size, degree = 5, snap = 16))]
+    fn mesh_grid(
+        cols: usize,
+        rows: usize,
+        size: (f64, f64),
+        degree: usize,
+        snap: i64,
+    ) -> PyResult<Deformation> {
+        let [w, h] = frame_size(size)?;
+        if cols == 0 || rows == 0 || cols * rows > 1_000_000 {
+            return Err(value_error("cols and rows must be whole numbers >= 1 (at most 10^6 cells)"));
+        }
+        let mesh = Mesh::grid(cols, rows, w, h, MeshOptions { grid: snap }).map_err(value_error)?;
+        Ok(Deformation::new(Spline::identity(mesh, degree).map_err(value_error)?))
+    }
+
+    /// The identity over a mesh adapted to landmark sources `src` ((n, 2) pixels) in a frame
+    /// of `size = (w, h)`, like `trimorph mesh --landmarks`: refined where the landmarks are,
+    /// with a margin around the frame so a fit keeps the whole frame covered.
+    #[staticmethod]
+    #[pyo3(signature = (src, size, margin = None, max_edge = None, min_angle = 20.0, degree = 5, snap = None))]
+    fn mesh_landmarks(
+        py: Python<'_>,
+        src: &Bound<'_, PyAny>,
+        size: (f64, f64),
+        margin: Option<f64>,
+        max_edge: Option<f64>,
+        min_angle: f64,
+        degree: usize,
+        snap: Option<i64>,
+    ) -> PyResult<Deformation> {
+        let size = frame_size(size)?;
+        let sources = points_in(py, src, "src")?;
+        let lms = crate::fitting::landmarks_of(&sources, &sources, None, None)?;
+        let grid = snap.unwrap_or_else(|| trimorph::fit::frame::source_grid(&lms));
+        let ao = AdaptOptions { margin, max_edge, min_angle, grid, extra_points: Vec::new() };
+        let mesh = py
+            .detach(|| Mesh::landmark_adapted(&sources, size, &ao))
+            .map_err(value_error)?
+            .mesh;
+        Ok(Deformation::new(Spline::identity(mesh, degree).map_err(value_error)?))
+    }
+
+    /// Warps an image array: `O(q) = I(phi^-1(q))`, same shape and dtype (uint8, uint16 or
+    /// float32; 2-D or H x W x C). `interp` is "nearest", "bilinear" or "bicubic";
+    /// `background` fills pixels whose preimage is outside the mesh. Bit-identical to
+    /// `trimorph warp --image`. Releases the GIL while it works.
+    #[pyo3(signature = (array, interp = "bilinear", background = 0.0, tolerance = 0.01))]
+    fn warp<'py>(
+        &self,
+        py: Python<'py>,
+        array: &Bound<'py, PyAny>,
+        interp: &str,
+        background: f64,
+        tolerance: f64,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let interp: Interp = interp.parse().map_err(value_error)?;
+        if !background.is_finite() {
+            return Err(value_error("background must be a finite number"));
+        }
+        let opts = WarpOptions {
+            interp,
+            background,
+            remap: RemapOptions { inverse: inverse_options(tolerance)?, ..Default::default() },
+        };
+        Ok(warp_any(py, &self.spline, array, &opts)?.0)
+    }
+
+    /// `phi(p)` for each row of `xy` ((n, 2) float64); NaN rows outside the mesh.
+    fn map_points<'py>(
+        &self,
+        py: Python<'py>,
+        xy: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let pts = points_in(py, xy, "xy")?;
+        let out = py.detach(|| trimorph::warp::forward(&self.spline, &pts));
+        Ok(points_out(py, &out)?.into_any())
+    }
+
+    /// `phi^-1(q)` for each row of `xy` ((n, 2) float64), certified to `tolerance` pixels;
+    /// NaN rows with no preimage in the mesh. The same as `trimorph warp --points --inverse`.
+    #[pyo3(signature = (xy, tolerance = 0.01))]
+    fn inverse_points<'py>(
+        &self,
+        py: Python<'py>,
+        xy: &Bound<'py, PyAny>,
+        tolerance: f64,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let pts = points_in(py, xy, "xy")?;
+        let opts = inverse_options(tolerance)?;
+        let out: Vec<Option<[f64; 2]>> = py.detach(|| {
+            trimorph::warp::inverse(&self.spline, &pts, opts).into_iter().map(|r| r.map(|r| r.p)).collect()
+        });
+        Ok(points_out(py, &out)?.into_any())
+    }
+
+    /// The displacement field on a `size = (W, H)` pixel grid (default: the mesh's extent
+    /// from 0) as an (H, W, 2) float32 array, NaN where undefined: forward `phi(p) - p`, or
+    /// with `inverse=True` `phi^-1(q) - q` (the same values as `trimorph field`).
+    #[pyo3(signature = (inverse = false, size = None))]
+    fn field<'py>(
+        &self,
+        py: Python<'py>,
+        inverse: bool,
+        size: Option<(u32, u32)>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let (w, h) = grid_size(size, &self.spline)?;
+        let f = py.detach(|| {
+            if inverse {
+                field::inverse_field(&self.spline, w, h, InverseOptions::default())
+            } else {
+                field::forward_field(&self.spline, w, h)
+            }
+        });
+        let flat: Vec<f32> = f.data.iter().flat_map(|v| *v).collect();
+        Ok(to_numpy(py, flat, &[h as usize, w as usize, 2])?.into_any())
+    }
+
+    /// The fit report (a dict, the same keys as `trimorph fit --report`) when this
+    /// deformation was made by `trimorph.fit`, else None.
+    #[getter]
+    fn report(&self, py: Python<'_>) -> Option<Py<PyAny>> {
+        self.report.as_ref().map(|r| r.clone_ref(py))
+    }
+
+    /// The spline's degree.
+    #[getter]
+    fn degree(&self) -> usize {
+        self.spline.degree()
+    }
+
+    /// Number of control points.
+    #[getter]
+    fn num_points(&self) -> usize {
+        self.spline.num_points()
+    }
+
+    /// Number of mesh vertices.
+    #[getter]
+    fn num_vertices(&self) -> usize {
+        self.spline.mesh().num_vertices()
+    }
+
+    /// Number of mesh triangles.
+    #[getter]
+    fn num_triangles(&self) -> usize {
+        self.spline.mesh().num_triangles()
+    }
+
+    /// The reference mesh's bounding box `((x0, y0), (x1, y1))`.
+    #[getter]
+    fn bbox(&self) -> ((f64, f64), (f64, f64)) {
+        let (lo, hi) = self.spline.mesh().bbox();
+        ((lo[0], lo[1]), (hi[0], hi[1]))
+    }
+
+    /// An independent copy.
+    fn copy(&self, py: Python<'_>) -> Deformation {
+        Deformation {
+            spline: self.spline.clone(),
+            last: self.last.clone(),
+            report: self.report.as_ref().map(|r| r.clone_ref(py)),
+        }
+    }
+
+    fn __copy__(&self, py: Python<'_>) -> Deformation {
+        self.copy(py)
+    }
+
+    fn __deepcopy__(&self, py: Python<'_>, _memo: &Bound<'_, PyDict>) -> Deformation {
+        self.copy(py)
+    }
+
+    fn __repr__(&self) -> String {
+        let (lo, hi) = self.spline.mesh().bbox();
+        format!(
+            "Deformation(degree={}, vertices={}, triangles={}, control_points={}, bbox=(({}, {}), ({}, {})))",
+            self.spline.degree(),
+            self.spline.mesh().num_vertices(),
+            self.spline.mesh().num_triangles(),
+            self.spline.num_points(),
+            lo[0],
+            lo[1],
+            hi[0],
+            hi[1]
+        )
+    }
+}

@@ -1,0 +1,224 @@
+//! `trimorph.fit` and `trimorph.morph`: the library's landmark fit and image morph.
+//!
+//! `fit(src, dst, size=(w, h))` is `trimorph fit --size W,H` (a mesh adapted to the
+//! landmarks, covering the frame, certified fold-free with the barrier on); with
+//! `deformation=d` it is `trimorph fit DEF` (a fit on `d`'s mesh). The report is the same
+//! JSON the command line writes with `--report`, as a dict.
+
+use crate::arrays::{image_to_numpy, numpy_to_image, points_in};
+use crate::deformation::Deformation;
+use crate::errors::{unsolvable, value_error, variant_name};
+use pyo3::prelude::*;
+use pyo3::types::PyList;
+use trimorph::fit::frame::{fit_frame, FrameFitOptions};
+use trimorph::fit::landmarks::Landmark;
+use trimorph::fit::objective::{Barrier, Loss};
+use trimorph::fit::solve::{fit as fit_on, with_holdout, Bend, FitError, FitOptions};
+use trimorph::mesh::AdaptOptions;
+use trimorph::morph::{times_between, Morph, MorphError, MorphOptions, Schedule};
+use trimorph::warp::Interp;
+
+/// Landmarks from parallel point lists, optional weights and names.
+pub fn landmarks_of(
+    src: &[[f64; 2]],
+    dst: &[[f64; 2]],
+    weights: Option<Vec<f64>>,
+    names: Option<Vec<String>>,
+) -> PyResult<Vec<Landmark>> {
+    if src.len() != dst.len() {
+        return Err(value_error(format!(
+            "src has {} points but dst has {}; give one target per source",
+            src.len(),
+            dst.len()
+        )));
+    }
+    let n = src.len();
+    let weights = weights.unwrap_or_else(|| vec![1.0; n]);
+    if weights.len() != n {
+        return Err(value_error(format!("weights has {} values for {n} landmarks", weights.len())));
+    }
+    if let Some(names) = &names {
+        if names.len() != n {
+            return Err(value_error(format!("names has {} values for {n} landmarks", names.len())));
+        }
+    }
+    Ok((0..n)
+        .map(|i| Landmark {
+            name: names.as_ref().map(|v| v[i].clone()),
+            src: src[i],
+            dst: dst[i],
+            weight: weights[i],
+        })
+        .collect())
+}
+
+/// A fit error as the right Python exception.
+fn fit_exc(py: Python<'_>, e: FitError) -> PyErr {
+    if e.is_unsolvable() {
+        unsolvable(py, &variant_name(&e), e)
+    } else {
+        match e {
+            FitError::Internal(_) => crate::errors::TrimorphError::new_err(e.to_string()),
+            other => value_error(other),
+        }
+    }
+}
+
+/// A Python dict from a serializable value (through `json.loads`, so numbers keep their
+/// JSON meaning).
+fn to_dict(py: Python<'_>, v: &serde_json::Value) -> PyResult<Py<PyAny>> {
+    let text = serde_json::to_string(v).map_err(value_error)?;
+    Ok(py.import("json")?.call_method1("loads", (text,))?.unbind())
+}
+
+/// Fits a deformation to landmarks `src -> dst` ((n, 2) pixel arrays).
+///
+/// Without `deformation`, the mesh is adapted to the landmarks over a frame of
+/// `size = (w, h)` pixels and the fit covers the whole frame (`trimorph fit --size`); with
+/// it, the fit runs on that deformation's mesh. `loss` is "squares", "huber" or "cauchy"
+/// (scale `loss_scale` px), `bend` "auto" (generalized cross-validation) or a weight >= 0,
+/// `hard=True` makes every landmark an exact constraint, `barrier` keeps det J above
+/// `min_det`. Returns a Deformation whose `report` holds the fit report. Releases the GIL.
+#[pyfunction]
+#[pyo3(signature = (src, dst, size = None, weights = None, names = None, loss = "squares",
+    loss_scale = 2.0, bend = None, hard = false, barrier = true, min_det = 0.1, max_iters = 200,
+    radius = None, margin = None, max_edge = None, min_angle = 20.0, deformation = None))]
+#[allow(clippy::too_many_arguments)]
+pub fn fit(
+    py: Python<'_>,
+    src: &Bound<'_, PyAny>,
+    dst: &Bound<'_, PyAny>,
+    size: Option<(f64, f64)>,
+    weights: Option<Vec<f64>>,
+    names: Option<Vec<String>>,
+    loss: &str,
+    loss_scale: f64,
+    bend: Option<&Bound<'_, PyAny>>,
+    hard: bool,
+    barrier: bool,
+    min_det: f64,
+    max_iters: u64,
+    radius: Option<usize>,
+    margin: Option<f64>,
+    max_edge: Option<f64>,
+    min_angle: f64,
+    deformation: Option<PyRef<'_, Deformation>>,
+) -> PyResult<Deformation> {
+    let (s, d) = (points_in(py, src, "src")?, points_in(py, dst, "dst")?);
+    let lms = landmarks_of(&s, &d, weights, names)?;
+    let bend: Bend = match bend {
+        None => Bend::Auto,
+        Some(b) => match b.extract::<f64>() {
+            Ok(w) => w.to_string().parse(),
+            Err(_) => b.extract::<String>()?.parse(),
+        }
+        .map_err(|e: String| value_error(format!("bend: {e}")))?,
+    };
+    let opts = FitOptions {
+        loss: Loss::from_name(loss, loss_scale).map_err(|e| value_error(format!("loss: {e}")))?,
+        bend,
+        barrier: if barrier {
+            Some(Barrier::with_floor(min_det).map_err(|e| value_error(format!("min_det: {e}")))?)
+        } else {
+            None
+        },
+        radius,
+        max_iters,
+        hard,
+        ..FitOptions::default()
+    };
+    match (deformation, size) {
+        (Some(def), _) => {
+            let spline = def.spline.clone();
+            drop(def);
+            let f = py
+                .detach(|| fit_on(&spline, &lms, &opts))
+                .and_then(|f| {
+                    let rep = with_holdout(f.report, &f.spline, &[])?;
+                    Ok((f.spline, rep))
+                })
+                .map_err(|e| fit_exc(py, e))?;
+            let report = serde_json::to_value(&f.1).map_err(value_error)?;
+            Ok(Deformation { spline: f.0, last: None, report: Some(to_dict(py, &report)?) })
+        }
+        (None, Some(size)) => {
+            let size = [size.0, size.1];
+            let fopts = FrameFitOptions {
+                mesh: AdaptOptions { margin, max_edge, min_angle, grid: 0, extra_points: Vec::new() },
+                degree: 5,
+                fit: opts,
+            };
+            let r = py.detach(|| fit_frame(&lms, size, &fopts)).map_err(|e| fit_exc(py, e))?;
+            let rep = with_holdout(r.fit.report, &r.fit.spline, &[]).map_err(|e| fit_exc(py, e))?;
+            let mut v = serde_json::to_value(&rep).map_err(value_error)?;
+            v["frame"] = serde_json::to_value(&r.frame).map_err(value_error)?;
+            Ok(Deformation { spline: r.fit.spline, last: None, report: Some(to_dict(py, &v)?) })
+        }
+        (None, None) => Err(value_error(
+            "give size=(w, h) (the frame the landmarks live in) or deformation=d (a mesh to fit on)",
+        )),
+    }
+}
+
+fn morph_exc(py: Python<'_>, e: MorphError) -> PyErr {
+    match e {
+        MorphError::Fit { source, .. } if source.is_unsolvable() => {
+            unsolvable(py, &variant_name(&source), source)
+        }
+        other => value_error(other),
+    }
+}
+
+/// Morphs image `a` into image `b` (numpy arrays; the sizes and dtypes may differ) through
+/// landmarks `src` (in `a`'s pixels) -> `dst` (in `b`'s pixels), like `trimorph morph`:
+/// `b` is first brought into `a`'s frame by the landmarks' similarity (`align=True`), the
+/// two maps are fitted fold-free, and `frames` images at `t = 0 .. 1` are returned as a list
+/// of arrays of `a`'s frame and the morph's working type. Releases the GIL.
+#[pyfunction]
+#[pyo3(signature = (a, b, src, dst, frames = 11, shape = "linear", color = "linear",
+    interp = "bilinear", align = true, background = 0.0, t0 = 0.0, t1 = 1.0))]
+#[allow(clippy::too_many_arguments)]
+pub fn morph<'py>(
+    py: Python<'py>,
+    a: &Bound<'py, PyAny>,
+    b: &Bound<'py, PyAny>,
+    src: &Bound<'py, PyAny>,
+    dst: &Bound<'py, PyAny>,
+    frames: usize,
+    shape: &str,
+    color: &str,
+    interp: &str,
+    align: bool,
+    background: f64,
+    t0: f64,
+    t1: f64,
+) -> PyResult<Bound<'py, PyList>> {
+    let (img_a, gray_a) = numpy_to_image(py, a, "a")?;
+    let (img_b, gray_b) = numpy_to_image(py, b, "b")?;
+    let lms = landmarks_of(&points_in(py, src, "src")?, &points_in(py, dst, "dst")?, None, None)?;
+    if frames < 2 {
+        return Err(value_error(format!("frames must be at least 2, got {frames}")));
+    }
+    if !(background.is_finite() && background >= 0.0) {
+        return Err(value_error("background must be a number >= 0 (sample units)"));
+    }
+    let opts = MorphOptions {
+        shape: shape.parse::<Schedule>().map_err(|e| value_error(format!("shape: {e}")))?,
+        color: color.parse::<Schedule>().map_err(|e| value_error(format!("color: {e}")))?,
+        interp: interp.parse::<Interp>().map_err(value_error)?,
+        align,
+        background,
+        ..MorphOptions::default()
+    };
+    let times = times_between(frames, t0, t1).map_err(value_error)?;
+    let out = py
+        .detach(|| {
+            let m = Morph::new(&img_a, &img_b, &lms, &opts)?;
+            m.frames_at(&times, &|| {})
+        })
+        .map_err(|e| morph_exc(py, e))?;
+    let gray = gray_a && gray_b;
+    let arrays: Vec<Bound<'py, PyAny>> =
+        out.iter().map(|f| image_to_numpy(py, f, gray)).collect::<PyResult<_>>()?;
+    PyList::new(py, arrays)
+}

@@ -1,0 +1,30 @@
+//! Python bindings of trimorph: `import trimorph`.
+//!
+//! A thin layer over the library: every function here converts its arguments, releases the
+//! GIL around the library call it wraps ([`pyo3::Python::detach`]) and converts the result.
+//! No algorithm lives here, so what Python computes is what `trimorph` on the command line
+//! computes (the tests in `python/tests` check the bit-identity of warps).
+//!
+//! Errors: bad input raises `ValueError` (with the library's message), missing or unreadable
+//! files `OSError`, and edits or fits that cannot be solved [`errors::UnsolvableError`]
+//! (a subclass of `trimorph.TrimorphError`) carrying the typed error's kind and message.
+
+use pyo3::prelude::*;
+
+mod arrays;
+mod deformation;
+mod errors;
+mod fitting;
+
+/// The native module `trimorph._trimorph` (re-exported by the `trimorph` package).
+#[pymodule]
+fn _trimorph(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<deformation::Deformation>()?;
+    m.add_function(wrap_pyfunction!(fitting::fit, m)?)?;
+    m.add_function(wrap_pyfunction!(fitting::morph, m)?)?;
+    m.add_function(wrap_pyfunction!(arrays::read_image, m)?)?;
+    m.add("TrimorphError", m.py().get_type::<errors::TrimorphError>())?;
+    m.add("UnsolvableError", m.py().get_type::<errors::UnsolvableError>())?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    Ok(())
+}

@@ -1,0 +1,72 @@
+"""Errors as Python exceptions, and the GIL released during long calls."""
+
+import threading
+import time
+
+import numpy as np
+import pytest
+
+import trimorph
+
+
+def test_missing_file_is_file_not_found(tmp_path):
+    with pytest.raises(FileNotFoundError, match="nope.json"):
+        trimorph.Deformation.load(tmp_path / "nope.json")
+
+
+def test_malformed_file_is_value_error_naming_it(tmp_path):
+    p = tmp_path / "bad.json"
+    p.write_text('{"degree": 5, "vertices": [[0, 0]]}')
+    with pytest.raises(ValueError, match="bad.json"):
+        trimorph.Deformation.load(p)
+
+
+def test_save_into_missing_folder_is_os_error(fitted, tmp_path):
+    d, _ = fitted
+    with pytest.raises(OSError):
+        d.save(tmp_path / "no" / "such" / "dir" / "x.json")
+
+
+def test_bad_warp_arguments_are_value_errors(fitted):
+    d, _ = fitted
+    with pytest.raises(ValueError, match="dtype"):
+        d.warp(np.zeros((10, 10), np.int32))
+    with pytest.raises(ValueError, match="interpolation"):
+        d.warp(np.zeros((10, 10), np.uint8), interp="lanczos")
+    with pytest.raises(ValueError, match="shape"):
+        d.warp(np.zeros((2, 10, 10, 3), np.uint8))
+    with pytest.raises(ValueError, match="numpy array"):
+        d.warp([[1, 2], [3, 4]])
+    with pytest.raises(ValueError, match="empty"):
+        d.warp(np.zeros((0, 10), np.uint8))
+    with pytest.raises(ValueError, match="tolerance"):
+        d.warp(np.zeros((10, 10), np.uint8), tolerance=0)
+    with pytest.raises(ValueError, match=r"\(n, 2\)"):
+        d.map_points(np.zeros((3, 3)))
+
+
+def test_warp_releases_the_gil(fitted):
+    """Another Python thread keeps running while a long warp is in Rust."""
+    d, _ = fitted
+    img = (np.random.default_rng(0).random((2400, 2400, 3)) * 255).astype(np.uint8)
+    ticks = []
+    done = threading.Event()
+    span = {}
+
+    def work():
+        t0 = time.perf_counter()
+        d.warp(img)
+        span["warp"] = time.perf_counter() - t0
+        done.set()
+
+    th = threading.Thread(target=work)
+    th.start()
+    while not done.is_set():
+        ticks.append(time.perf_counter())
+        time.sleep(0.001)
+    th.join()
+    assert span["warp"] > 0.05, "the warp must be long enough to tell"
+    gaps = np.diff(ticks)
+    # Holding the GIL would stop this loop for the whole warp.
+    assert gaps.max() < 0.5 * span["warp"], (gaps.max(), span["warp"])
+    assert len(ticks) > 10

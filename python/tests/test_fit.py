@@ -1,0 +1,85 @@
+"""`trimorph.fit` and `trimorph.morph` against the command line."""
+
+import json
+
+import numpy as np
+import pytest
+
+import trimorph
+
+
+def test_fit_equals_cli_fit_frame_and_report(nuclei, cli, tmp_path):
+    out, rep = tmp_path / "phi.json", tmp_path / "rep.json"
+    cli("fit", "--size", "184,184", "--landmarks", nuclei["landmarks"], "-o", out, "--report", rep)
+    d = trimorph.fit(nuclei["src"], nuclei["dst"], size=(184, 184), names=nuclei["names"])
+    assert d.to_json() == out.read_text()
+    ref = json.loads(rep.read_text())
+    # Everything but the wall-clock time is the same.
+    assert {k: v for k, v in d.report.items() if k != "time_ms"} == {
+        k: v for k, v in ref.items() if k != "time_ms"
+    }
+    assert d.report["time_ms"] > 0
+    assert d.report["frame"]["covers_frame"] is True
+
+
+def test_fit_moves_sources_onto_targets(fitted, nuclei):
+    d, _ = fitted
+    mapped = d.map_points(nuclei["src"])
+    err = np.linalg.norm(mapped - nuclei["dst"], axis=1)
+    # The fit smooths (bend chosen by cross-validation); it gets within a few pixels.
+    assert err.max() < 10.0
+    assert set(d.report) >= {"frame"}
+
+
+def test_hard_fit_interpolates(nuclei):
+    d = trimorph.fit(nuclei["src"], nuclei["dst"], size=(184, 184), hard=True)
+    err = np.linalg.norm(d.map_points(nuclei["src"]) - nuclei["dst"], axis=1)
+    assert err.max() < 1e-6
+
+
+def test_fit_on_a_given_deformation_keeps_its_mesh(nuclei):
+    base = trimorph.Deformation.mesh_grid(6, 6, (184, 184))
+    d = trimorph.fit(nuclei["src"], nuclei["dst"], deformation=base, bend=0.01)
+    assert d.num_triangles == base.num_triangles
+    assert d.to_json() != base.to_json()
+
+
+def test_fit_options_are_checked(nuclei):
+    src, dst = nuclei["src"], nuclei["dst"]
+    with pytest.raises(ValueError, match="size"):
+        trimorph.fit(src, dst)
+    with pytest.raises(ValueError, match="unknown loss"):
+        trimorph.fit(src, dst, size=(184, 184), loss="l7")
+    with pytest.raises(ValueError, match="bend"):
+        trimorph.fit(src, dst, size=(184, 184), bend="lots")
+    with pytest.raises(ValueError, match="targets? per source|dst has"):
+        trimorph.fit(src, dst[:-1], size=(184, 184))
+    with pytest.raises(ValueError, match="weights"):
+        trimorph.fit(src, dst, size=(184, 184), weights=[1.0])
+    with pytest.raises(ValueError, match=r"\(n, 2\)"):
+        trimorph.fit(src.ravel(), dst, size=(184, 184))
+
+
+def test_conflicting_hard_landmarks_raise_unsolvable(nuclei):
+    src = np.vstack([nuclei["src"], nuclei["src"][:1]])
+    dst = np.vstack([nuclei["dst"], nuclei["dst"][:1] + 5.0])
+    with pytest.raises(trimorph.UnsolvableError) as e:
+        trimorph.fit(src, dst, size=(184, 184), hard=True)
+    assert e.value.kind == "Conflicting"
+    assert isinstance(e.value, trimorph.TrimorphError)
+
+
+def test_morph_frames_equal_the_cli_frames(nuclei, cli, tmp_path):
+    a = trimorph.read_image(nuclei["a"])
+    b = trimorph.read_image(nuclei["b"])
+    frames = trimorph.morph(a, b, nuclei["src"], nuclei["dst"], frames=3)
+    assert len(frames) == 3
+    out = tmp_path / "m"
+    cli("morph", nuclei["a"], nuclei["b"], "--landmarks", nuclei["landmarks"], "--frames", "3",
+        "-o", out, "--quiet")
+    files = sorted(out.glob("frame_*"))
+    assert len(files) == 3, files
+    for ours, f in zip(frames, files):
+        ref = trimorph.read_image(f)
+        assert ours.shape[:2] == a.shape[:2]
+        np.testing.assert_array_equal(ours, ref)
