@@ -83,7 +83,7 @@ fn warp_typed<'py, T: Sample>(
     s: &Spline,
     a: &Bound<'py, PyArrayDyn<T>>,
     opts: &WarpOptions,
-) -> PyResult<(Bound<'py, PyAny>, WarpReport)> {
+) -> PyResult<(Bound<'py, PyAny>, WarpReport, f64)> {
     let ro = a.readonly();
     let shape = ro.shape().to_vec();
     let (h, w, c) = image_dims(&shape)?;
@@ -96,6 +96,7 @@ fn warp_typed<'py, T: Sample>(
     };
     let data = c_order(&ro);
     let mut out = vec![T::default(); data.len()];
+    let t0 = std::time::Instant::now();
     let report = if c <= 4 {
         let layout = Layout { width: wu, height: hu, channels: c };
         py.detach(|| {
@@ -128,16 +129,19 @@ fn warp_typed<'py, T: Sample>(
         })
     }
     .map_err(value_error)?;
-    Ok((to_numpy(py, out, &shape)?.into_any(), report))
+    let inner = t0.elapsed().as_secs_f64();
+    Ok((to_numpy(py, out, &shape)?.into_any(), report, inner))
 }
 
 /// Warps a numpy image of dtype `uint8`, `uint16` or `float32` (see [`warp_typed`]).
+/// Returns the image, the library's report, and the seconds spent in the library call
+/// alone (for the numpy-overhead benchmark, `python/benches/numpy_overhead.py`).
 pub fn warp_any<'py>(
     py: Python<'py>,
     s: &Spline,
     array: &Bound<'py, PyAny>,
     opts: &WarpOptions,
-) -> PyResult<(Bound<'py, PyAny>, WarpReport)> {
+) -> PyResult<(Bound<'py, PyAny>, WarpReport, f64)> {
     let a = array
         .cast::<PyUntypedArray>()
         .map_err(|_| value_error("expected a numpy array (use numpy.asarray)"))?;
@@ -202,7 +206,8 @@ pub fn image_to_numpy<'py>(
         gray: bool,
         shape: &[usize],
     ) -> PyResult<Bound<'py, PyAny>> {
-        let v: Vec<T> = if gray && nc > 1 { v.iter().step_by(nc).copied().collect() } else { v.to_vec() };
+        let v: Vec<T> =
+            if gray && nc > 1 { v.iter().step_by(nc).copied().collect() } else { v.to_vec() };
         Ok(to_numpy(py, v, shape)?.into_any())
     }
     match img {
@@ -275,7 +280,9 @@ pub fn numpy_to_image(
             _ => return Err(bad()),
         }
     } else {
-        return Err(value_error(format!("{what}: unsupported dtype {dt} (uint8, uint16, float32)")));
+        return Err(value_error(format!(
+            "{what}: unsupported dtype {dt} (uint8, uint16, float32)"
+        )));
     };
     img.map(|i| (i, false)).ok_or_else(bad)
 }
@@ -285,12 +292,10 @@ pub fn numpy_to_image(
 /// `(H, W)` or `(H, W, C)`; several: stacked on a leading axis.
 #[pyfunction]
 pub fn read_image<'py>(py: Python<'py>, path: std::path::PathBuf) -> PyResult<Bound<'py, PyAny>> {
-    let stack = py
-        .detach(|| trimorph::io::raster::read_stack(&path))
-        .map_err(|e| match e {
-            trimorph::io::raster::RasterError::Io(io) => crate::errors::io_error(&io),
-            other => value_error(other),
-        })?;
+    let stack = py.detach(|| trimorph::io::raster::read_stack(&path)).map_err(|e| match e {
+        trimorph::io::raster::RasterError::Io(io) => crate::errors::io_error(&io),
+        other => value_error(other),
+    })?;
     let arrays: Vec<Bound<'py, PyAny>> = stack
         .pages
         .iter()

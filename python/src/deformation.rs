@@ -43,6 +43,18 @@ fn inverse_options(tolerance: f64) -> PyResult<InverseOptions> {
     Ok(InverseOptions { tolerance, ..Default::default() })
 }
 
+fn warp_options(interp: &str, background: f64, tolerance: f64) -> PyResult<WarpOptions> {
+    let interp: Interp = interp.parse().map_err(value_error)?;
+    if !background.is_finite() {
+        return Err(value_error("background must be a finite number"));
+    }
+    Ok(WarpOptions {
+        interp,
+        background,
+        remap: RemapOptions { inverse: inverse_options(tolerance)?, ..Default::default() },
+    })
+}
+
 /// `(w, h)` as whole pixels within the field limit.
 fn grid_size(size: Option<(u32, u32)>, s: &Spline) -> PyResult<(u32, u32)> {
     let (w, h) = match size {
@@ -112,7 +124,9 @@ impl Deformation {
     ) -> PyResult<Deformation> {
         let [w, h] = frame_size(size)?;
         if cols == 0 || rows == 0 || cols * rows > 1_000_000 {
-            return Err(value_error("cols and rows must be whole numbers >= 1 (at most 10^6 cells)"));
+            return Err(value_error(
+                "cols and rows must be whole numbers >= 1 (at most 10^6 cells)",
+            ));
         }
         let mesh = Mesh::grid(cols, rows, w, h, MeshOptions { grid: snap }).map_err(value_error)?;
         Ok(Deformation::new(Spline::identity(mesh, degree).map_err(value_error)?))
@@ -138,10 +152,8 @@ impl Deformation {
         let lms = crate::fitting::landmarks_of(&sources, &sources, None, None)?;
         let grid = snap.unwrap_or_else(|| trimorph::fit::frame::source_grid(&lms));
         let ao = AdaptOptions { margin, max_edge, min_angle, grid, extra_points: Vec::new() };
-        let mesh = py
-            .detach(|| Mesh::landmark_adapted(&sources, size, &ao))
-            .map_err(value_error)?
-            .mesh;
+        let mesh =
+            py.detach(|| Mesh::landmark_adapted(&sources, size, &ao)).map_err(value_error)?.mesh;
         Ok(Deformation::new(Spline::identity(mesh, degree).map_err(value_error)?))
     }
 
@@ -158,16 +170,32 @@ impl Deformation {
         background: f64,
         tolerance: f64,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let interp: Interp = interp.parse().map_err(value_error)?;
-        if !background.is_finite() {
-            return Err(value_error("background must be a finite number"));
-        }
-        let opts = WarpOptions {
-            interp,
-            background,
-            remap: RemapOptions { inverse: inverse_options(tolerance)?, ..Default::default() },
-        };
+        let opts = warp_options(interp, background, tolerance)?;
         Ok(warp_any(py, &self.spline, array, &opts)?.0)
+    }
+
+    /// `warp`, returning `(image, report, seconds)`: the library's report as a dict (pixels,
+    /// outside, folded, max_error_bound, the inverse map's path counts) and the time spent in
+    /// the library call alone, so that `total - seconds` is what numpy in and out costs
+    /// (`python/benches/numpy_overhead.py`).
+    #[pyo3(signature = (array, interp = "bilinear", background = 0.0, tolerance = 0.01))]
+    fn warp_profiled<'py>(
+        &self,
+        py: Python<'py>,
+        array: &Bound<'py, PyAny>,
+        interp: &str,
+        background: f64,
+        tolerance: f64,
+    ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyDict>, f64)> {
+        let opts = warp_options(interp, background, tolerance)?;
+        let (img, r, secs) = warp_any(py, &self.spline, array, &opts)?;
+        let d = PyDict::new(py);
+        d.set_item("pixels", r.pixels)?;
+        d.set_item("outside", r.outside)?;
+        d.set_item("folded", r.folded)?;
+        d.set_item("max_error_bound", r.max_error_bound)?;
+        d.set_item("paths", r.paths_line())?;
+        Ok((img, d, secs))
     }
 
     /// `phi(p)` for each row of `xy` ((n, 2) float64); NaN rows outside the mesh.
@@ -193,7 +221,10 @@ impl Deformation {
         let pts = points_in(py, xy, "xy")?;
         let opts = inverse_options(tolerance)?;
         let out: Vec<Option<[f64; 2]>> = py.detach(|| {
-            trimorph::warp::inverse(&self.spline, &pts, opts).into_iter().map(|r| r.map(|r| r.p)).collect()
+            trimorph::warp::inverse(&self.spline, &pts, opts)
+                .into_iter()
+                .map(|r| r.map(|r| r.p))
+                .collect()
         });
         Ok(points_out(py, &out)?.into_any())
     }

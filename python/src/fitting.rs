@@ -83,7 +83,6 @@ fn to_dict(py: Python<'_>, v: &serde_json::Value) -> PyResult<Py<PyAny>> {
 #[pyo3(signature = (src, dst, size = None, weights = None, names = None, loss = "squares",
     loss_scale = 2.0, bend = None, hard = false, barrier = true, min_det = 0.1, max_iters = 200,
     radius = None, margin = None, max_edge = None, min_angle = 20.0, deformation = None))]
-#[allow(clippy::too_many_arguments)]
 pub fn fit(
     py: Python<'_>,
     src: &Bound<'_, PyAny>,
@@ -177,7 +176,6 @@ fn morph_exc(py: Python<'_>, e: MorphError) -> PyErr {
 #[pyfunction]
 #[pyo3(signature = (a, b, src, dst, frames = 11, shape = "linear", color = "linear",
     interp = "bilinear", align = true, background = 0.0, t0 = 0.0, t1 = 1.0))]
-#[allow(clippy::too_many_arguments)]
 pub fn morph<'py>(
     py: Python<'py>,
     a: &Bound<'py, PyAny>,

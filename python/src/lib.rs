@@ -9,6 +9,9 @@
 //! files `OSError`, and edits or fits that cannot be solved [`errors::UnsolvableError`]
 //! (a subclass of `trimorph.TrimorphError`) carrying the typed error's kind and message.
 
+// Python functions take their options as keyword arguments, one Rust parameter each.
+#![allow(clippy::too_many_arguments)]
+
 use pyo3::prelude::*;
 
 mod arrays;

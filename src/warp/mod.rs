@@ -278,7 +278,9 @@ pub enum LayoutError {
     #[error("{0} channels per pixel (use 1 to 4: gray, gray+alpha, RGB, RGBA)")]
     Channels(usize),
     /// A buffer's length is not `width * height * channels`.
-    #[error("buffer {index} has {found} samples, expected {expected} ({width}x{height}x{channels})")]
+    #[error(
+        "buffer {index} has {found} samples, expected {expected} ({width}x{height}x{channels})"
+    )]
     Length {
         /// Which buffer (inputs first, then outputs).
         index: usize,
@@ -334,7 +336,8 @@ pub fn warp_samples_into(
     let lens = pages.iter().map(|p| p.len()).chain(outs.iter().map(|o| o.len()));
     for (index, found) in lens.enumerate() {
         if found != expected {
-            let e = LayoutError::Length { index, found, expected, width: w, height: h, channels: nc };
+            let e =
+                LayoutError::Length { index, found, expected, width: w, height: h, channels: nc };
             return Err(e.into());
         }
     }

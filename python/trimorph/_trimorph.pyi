@@ -1,0 +1,138 @@
+"""Type stubs of the native module (see the package docstring for the map directions)."""
+
+from os import PathLike
+from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
+
+import numpy as np
+import numpy.typing as npt
+
+_Path = Union[str, PathLike]
+_Points = npt.ArrayLike  # (n, 2) float64 pixels
+_Image = npt.NDArray[Union[np.uint8, np.uint16, np.float32]]
+
+__version__: str
+
+class TrimorphError(Exception):
+    """Base class of the errors trimorph raises besides ValueError and OSError."""
+
+class UnsolvableError(TrimorphError):
+    """An edit or a hard fit with no solution."""
+
+    kind: str
+    """The library's error variant (e.g. "Conflicting", "NotWeaklySolvable")."""
+
+class Deformation:
+    """A C1 spline deformation phi: R^2 -> R^2 over a triangle mesh, in pixels."""
+
+    @staticmethod
+    def load(path: _Path) -> "Deformation":
+        """Reads a deformation file (JSON, as `trimorph` writes it)."""
+    @staticmethod
+    def from_json(text: str) -> "Deformation":
+        """A deformation from the text of a deformation file."""
+    def to_json(self) -> str:
+        """The deformation file's text."""
+    def save(self, path: _Path) -> None:
+        """Writes the deformation file atomically (temporary file renamed into place)."""
+    @staticmethod
+    def mesh_grid(
+        cols: int, rows: int, size: Tuple[float, float], degree: int = 5, snap: int = 16
+    ) -> "Deformation":
+        """The identity over a cols x rows grid of cells covering size = (w, h) pixels."""
+    @staticmethod
+    def mesh_landmarks(
+        src: _Points,
+        size: Tuple[float, float],
+        margin: Optional[float] = None,
+        max_edge: Optional[float] = None,
+        min_angle: float = 20.0,
+        degree: int = 5,
+        snap: Optional[int] = None,
+    ) -> "Deformation":
+        """The identity over a mesh adapted to landmark sources in a w x h frame."""
+    def warp(
+        self,
+        array: _Image,
+        interp: str = "bilinear",
+        background: float = 0.0,
+        tolerance: float = 0.01,
+    ) -> _Image:
+        """O(q) = I(phi^-1(q)), same shape and dtype; bit-identical to `trimorph warp`."""
+    def warp_profiled(
+        self,
+        array: _Image,
+        interp: str = "bilinear",
+        background: float = 0.0,
+        tolerance: float = 0.01,
+    ) -> Tuple[_Image, Dict[str, Any], float]:
+        """warp, plus the library's report and the seconds spent in the library alone."""
+    def map_points(self, xy: _Points) -> npt.NDArray[np.float64]:
+        """phi(p) per row of xy ((n, 2)); NaN rows outside the mesh."""
+    def inverse_points(self, xy: _Points, tolerance: float = 0.01) -> npt.NDArray[np.float64]:
+        """phi^-1(q) per row of xy ((n, 2)), certified to tolerance px; NaN without preimage."""
+    def field(
+        self, inverse: bool = False, size: Optional[Tuple[int, int]] = None
+    ) -> npt.NDArray[np.float32]:
+        """(H, W, 2) displacements: phi(p) - p, or phi^-1(q) - q with inverse=True."""
+    def edit(self, ops: Sequence[Dict[str, Any]]) -> List[Dict[str, Any]]:
+        """Applies edit-script operations (dicts, as in `trimorph edit` scripts), all or none."""
+    def check(self, samples: int = 16) -> Dict[str, Any]:
+        """The report of `trimorph check`: exact C1, det J bounds, folds."""
+    def to_itk(
+        self, path: _Path, inverse: bool = False, size: Optional[Tuple[int, int]] = None
+    ) -> int:
+        """Writes an ITK HDF5 displacement-field transform (resampling direction by default)."""
+    @property
+    def report(self) -> Optional[Dict[str, Any]]:
+        """The fit report when made by `trimorph.fit`, else None."""
+    @property
+    def degree(self) -> int: ...
+    @property
+    def num_points(self) -> int: ...
+    @property
+    def num_vertices(self) -> int: ...
+    @property
+    def num_triangles(self) -> int: ...
+    @property
+    def bbox(self) -> Tuple[Tuple[float, float], Tuple[float, float]]: ...
+    def copy(self) -> "Deformation": ...
+
+def fit(
+    src: _Points,
+    dst: _Points,
+    size: Optional[Tuple[float, float]] = None,
+    weights: Optional[Sequence[float]] = None,
+    names: Optional[Sequence[str]] = None,
+    loss: str = "squares",
+    loss_scale: float = 2.0,
+    bend: Union[None, str, float] = None,
+    hard: bool = False,
+    barrier: bool = True,
+    min_det: float = 0.1,
+    max_iters: int = 200,
+    radius: Optional[int] = None,
+    margin: Optional[float] = None,
+    max_edge: Optional[float] = None,
+    min_angle: float = 20.0,
+    deformation: Optional[Deformation] = None,
+) -> Deformation:
+    """Fits phi with phi(src) ~ dst; the result's `report` holds the fit report."""
+
+def morph(
+    a: _Image,
+    b: _Image,
+    src: _Points,
+    dst: _Points,
+    frames: int = 11,
+    shape: str = "linear",
+    color: str = "linear",
+    interp: str = "bilinear",
+    align: bool = True,
+    background: float = 0.0,
+    t0: float = 0.0,
+    t1: float = 1.0,
+) -> List[_Image]:
+    """Frames of the morph from a to b (like `trimorph morph`), in a's frame."""
+
+def read_image(path: _Path) -> _Image:
+    """Pages of a PNG / TIFF / JPEG file as numpy (the command line's decoder)."""

@@ -1,0 +1,19 @@
+#!/usr/bin/env bash
+# The whole test suite: Rust (`cargo test`: unit, property, integration, doc) and Python
+# (the `trimorph` package installed by pip into a virtual environment, then pytest).
+# Extra arguments go to `cargo test`. Needs Rust and Python >= 3.9 with venv; the Python
+# packages come from PyPI on the first run (then cached in target/venv).
+set -euo pipefail
+cd "$(dirname "$0")"
+
+echo "== cargo test"
+cargo test "$@"
+
+echo "== python: pip install ./python[test], then pytest python/tests"
+VENV="${TRIMORPH_VENV:-target/venv}"
+PYTHON="${PYTHON:-python3}"
+[ -x "$VENV/bin/python" ] || "$PYTHON" -m venv "$VENV"
+# The extension builds in release mode; keep its build cached beside the Rust one.
+export CARGO_TARGET_DIR="$PWD/target/python"
+"$VENV/bin/python" -m pip install --quiet --disable-pip-version-check "./python[test]"
+TRIMORPH_BIN="$PWD/target/debug/trimorph" "$VENV/bin/python" -m pytest -q python/tests
