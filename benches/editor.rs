@@ -14,7 +14,7 @@ use trimorph::server::doc::Doc;
 use trimorph::server::handle;
 
 fn bench(c: &mut Criterion) {
-    let (s, model, frame) = trimorph::cli::bundled_scene().unwrap();
+    let (s, model, frame) = trimorph::bundled::scene().unwrap();
     let dir = std::env::temp_dir();
     let mut g = c.benchmark_group("editor");
     g.sample_size(30);

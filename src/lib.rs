@@ -9,9 +9,10 @@
 //!   weighted least squares) -- thesis Part I, ch. 4 and 6-9;
 //! * [`ecles`]: editing parameters under affine constraints (ECLES) -- thesis ch. 2 and 5;
 //! * [`mesh`], [`spline`], [`edit`]: 2DSD spline deformations and their editing -- thesis
-//!   Part II;
+//!   Part II ([`edit::script`]: edit scripts as typed operations);
 //! * [`warp`]: points and images through a deformation (forward and inverse);
 //! * [`prism`]: 2.5D deformations of 3D models in a layer of prisms (PrisMystic);
+//! * [`bundled`]: the data compiled in (microscope image, time-lapse, the bundled scene);
 //! * [`fit`]: deformations fitted to matched landmarks (argmin over ECLES);
 //! * [`morph`]: image morphing through two fitted deformations blended exactly;
 //! * [`render`]: pictures (plots, deformations);
@@ -25,6 +26,7 @@
 // Index loops are the clearest way to write the matrix algorithms here.
 #![allow(clippy::needless_range_loop)]
 
+pub mod bundled;
 pub mod cli;
 pub mod ecles;
 pub mod edit;

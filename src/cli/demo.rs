@@ -16,8 +16,6 @@ use serde_json::json;
 use std::io::Write;
 use std::path::Path;
 
-const CELL_PNG: &[u8] = include_bytes!("../../data/microscopy/cell.png");
-
 /// The demo's edit script (also written next to its outputs).
 pub fn demo_script() -> serde_json::Value {
     // Grid vertices are at multiples of (550/6, 660/6) = (91.67, 110).
@@ -73,7 +71,7 @@ pub fn run(dir: &Path) -> Result<()> {
     writeln!(o, "== 2. a C1 spline deformation over a microscope image (2DSD)\n")?;
     drop(o);
     let img = dir.join("cell.png");
-    write_atomic(&img, CELL_PNG)?;
+    write_atomic(&img, crate::bundled::CELL_PNG)?;
     let id = dir.join("identity.json");
     spline_cmds::mesh(spline_cmds::MeshArgs {
         points: None,
@@ -216,4 +214,16 @@ pub fn run(dir: &Path) -> Result<()> {
     );
     super::demo_fit::run(&dir.join("fit"))?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::edit::script::{Op, Script};
+
+    #[test]
+    fn the_demo_script_reads_as_three_moves() {
+        let s = Script::from_value(&super::demo_script()).unwrap();
+        let names: Vec<&str> = s.ops.iter().map(Op::name).collect();
+        assert_eq!(names, ["translate", "rotate", "scale"]);
+    }
 }

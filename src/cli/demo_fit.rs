@@ -8,49 +8,18 @@
 
 use super::fit_batch::{self, BatchArgs};
 use super::fit_cmd::SolverArgs;
-use crate::exact::rat_int;
 use crate::io::deformation;
 use crate::io::model::save_model;
 use crate::io::write_atomic;
-use crate::mesh::{Mesh, MeshOptions};
-use crate::prism::identity_layers;
-use crate::prism::organism::{worm, WormOptions};
-use crate::spline::Spline;
 use anyhow::{Context, Result};
-use std::collections::BTreeMap;
 use std::path::Path;
 
-const FRAMES: [&[u8]; 10] = [
-    include_bytes!("../../data/microscopy/timelapse/frame_00.png"),
-    include_bytes!("../../data/microscopy/timelapse/frame_01.png"),
-    include_bytes!("../../data/microscopy/timelapse/frame_02.png"),
-    include_bytes!("../../data/microscopy/timelapse/frame_03.png"),
-    include_bytes!("../../data/microscopy/timelapse/frame_04.png"),
-    include_bytes!("../../data/microscopy/timelapse/frame_05.png"),
-    include_bytes!("../../data/microscopy/timelapse/frame_06.png"),
-    include_bytes!("../../data/microscopy/timelapse/frame_07.png"),
-    include_bytes!("../../data/microscopy/timelapse/frame_08.png"),
-    include_bytes!("../../data/microscopy/timelapse/frame_09.png"),
-];
-const TRACKS: &str = include_str!("../../data/microscopy/timelapse/tracks.csv");
+const FRAMES: [&[u8]; 10] = crate::bundled::TIMELAPSE_FRAMES;
 
 /// Per-frame landmark CSVs from the tracks (`track_id,frame,y,x`): source = the nucleus in
 /// frame 0, target = the same nucleus in frame k. Returns the number of tracks used.
 fn write_landmarks(dir: &Path) -> Result<usize> {
-    let mut pos: BTreeMap<(u32, u32), [f64; 2]> = BTreeMap::new();
-    for (i, line) in TRACKS.lines().enumerate().skip(1) {
-        let f: Vec<&str> = line.split(',').map(str::trim).collect();
-        let parse = || -> Option<(u32, u32, f64, f64)> {
-            Some((
-                f.first()?.parse().ok()?,
-                f.get(1)?.parse().ok()?,
-                f.get(2)?.parse().ok()?,
-                f.get(3)?.parse().ok()?,
-            ))
-        };
-        let (id, frame, y, x) = parse().with_context(|| format!("tracks.csv line {}", i + 1))?;
-        pos.insert((id, frame), [x, y]);
-    }
+    let pos = crate::bundled::track_positions()?;
     let ids: Vec<u32> = pos.keys().filter(|k| k.1 == 0).map(|k| k.0).collect();
     std::fs::create_dir_all(dir)?;
     for k in 0..FRAMES.len() as u32 {
@@ -65,24 +34,6 @@ fn write_landmarks(dir: &Path) -> Result<usize> {
     Ok(ids.len())
 }
 
-/// The bundled scene: a worm-like organism model (generated, lying across the frame) in a
-/// layer of prisms (z in [-16, 16]) over an 8x8-cell identity mesh of time-lapse frame 0
-/// (511 x 511 px), and that frame.
-pub fn bundled_scene() -> Result<(Spline, crate::prism::Model, image::DynamicImage)> {
-    let mut model =
-        worm(&WormOptions { length: 380.0, radius: 14.0, bend: 35.0, rings: 120, around: 24 });
-    for v in model.vertices.iter_mut() {
-        v[0] += 65.0;
-        v[1] += 250.0;
-    }
-    let mesh = Mesh::grid(8, 8, 511.0, 511.0, MeshOptions::default())?;
-    let mut s = Spline::identity(mesh, 5)?;
-    let z = identity_layers(&s, rat_int(-16), rat_int(16))?;
-    s.set_z_layers(Some(z));
-    let frame = image::load_from_memory(FRAMES[0]).context("bundled frame 0")?;
-    Ok((s, model, frame))
-}
-
 /// Runs demo part 4 into `dir`.
 pub fn run(dir: &Path) -> Result<()> {
     println!(
@@ -95,7 +46,7 @@ pub fn run(dir: &Path) -> Result<()> {
     }
     let lms = dir.join("landmarks");
     let tracks = write_landmarks(&lms)?;
-    let (s, model, _) = bundled_scene()?;
+    let (s, model, _) = crate::bundled::scene()?;
     let model_path = dir.join("worm.obj");
     save_model(&model, &model.vertices, &model_path)?;
     let scene = dir.join("scene.json");

@@ -1,7 +1,7 @@
 //! `trimorph editor [DEF.json] [--model M.obj] [--image FRAME] [--port 8080]`: the local web
 //! editor ([`crate::server`]).
 
-use super::demo_fit::bundled_scene;
+use crate::bundled::scene as bundled_scene;
 use crate::io::{deformation, read_text};
 use crate::mesh::{Mesh, MeshOptions};
 use crate::prism::identity_layers;

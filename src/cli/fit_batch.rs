@@ -27,24 +27,18 @@
 //!   frame, which is cheap).
 
 use super::fit_cmd::{fit_error, summary, SolverArgs};
-use crate::fit::landmarks::Landmark;
 use crate::fit::sequence::{
-    check_names, content_hash, Action, Anchor, Event, Frame, FrameResult, Sequence, SequenceError,
-    SequenceOptions, SequenceSummary, Store, StoreError, Stored, Targets,
+    check_names, content_hash, Action, Anchor, Event, Frame, Sequence, SequenceError,
+    SequenceOptions, Targets,
 };
 use crate::fit::track::TrackOptions;
-use crate::io::landmarks::read_landmarks;
-use crate::io::model::{load_model, save_model};
-use crate::io::raster::{write_stack, Stack};
+use crate::io::frames::{read_frames, read_targets, scene_model};
 use crate::io::{deformation, read_text, write_atomic};
-use crate::prism::{bind, deform, Binding, Model};
-use crate::render::deformation::save_png;
-use crate::render::overlay::{overlay, silhouette, Mark};
-use crate::warp::pullback::pull_back;
-use crate::warp::Interp;
+use crate::prism::{bind, Model};
+use crate::render::sequence::FrameFiles;
 use anyhow::{anyhow, bail, Context, Result};
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::Instant;
 
 /// Arguments of the batch fit.
@@ -69,93 +63,12 @@ pub struct BatchArgs<'a> {
     pub solver: SolverArgs<'a>,
 }
 
-/// The frames of a directory (sorted image files) or of a (multi-page) TIFF, and whether
-/// each is float gray (held as RGB float, written back as gray).
-fn read_frames(path: &Path) -> Result<(Vec<Frame>, Vec<bool>)> {
-    let mut frames = Vec::new();
-    let mut gray_float = Vec::new();
-    if path.is_dir() {
-        let mut files: Vec<PathBuf> = std::fs::read_dir(path)
-            .with_context(|| format!("cannot list {}", path.display()))?
-            .filter_map(|e| e.ok().map(|e| e.path()))
-            .filter(|p| {
-                matches!(
-                    p.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref(),
-                    Some("png" | "tif" | "tiff" | "jpg" | "jpeg")
-                )
-            })
-            .collect();
-        files.sort();
-        if files.is_empty() {
-            bail!("no image files (png, tif, jpg) in {}", path.display());
-        }
-        for f in &files {
-            // Through the raster reader: sizes are checked before decoding.
-            let mut stack = crate::io::raster::read_stack(f)
-                .with_context(|| format!("cannot read frame {}", f.display()))?;
-            let img = stack.pages.swap_remove(0);
-            let stem = f.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-            frames.push(Frame::new(stem, f.display().to_string(), img));
-            gray_float.push(stack.gray_float);
-        }
-    } else {
-        let stack = crate::io::raster::read_stack(path)
-            .with_context(|| format!("cannot read frames {}", path.display()))?;
-        let base = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-        for (i, p) in stack.pages.into_iter().enumerate() {
-            frames.push(Frame::new(
-                format!("{base}_{i:03}"),
-                format!("{}, page {i}", path.display()),
-                p,
-            ));
-            gray_float.push(stack.gray_float);
-        }
-    }
-    Ok((frames, gray_float))
-}
-
 /// `i/n` -> `(i, n)` with `0 <= i < n`.
 pub fn parse_shard(spec: &str) -> Result<(usize, usize)> {
     spec.split_once('/')
         .and_then(|(i, n)| Some((i.trim().parse::<usize>().ok()?, n.trim().parse::<usize>().ok()?)))
         .filter(|&(i, n)| n >= 1 && i < n)
         .ok_or_else(|| anyhow!("--shard: expected i/n with 0 <= i < n, e.g. 0/4"))
-}
-
-/// The scene's model: `--model-file`, else the scene's `"model"` key (relative to the scene).
-fn scene_model(scene: &Path, explicit: Option<&Path>) -> Result<Option<(PathBuf, Model)>> {
-    let path = match explicit {
-        Some(p) => Some(p.to_path_buf()),
-        None => {
-            let v: serde_json::Value = serde_json::from_str(&read_text(scene)?)?;
-            v.get("model").and_then(|m| m.as_str()).map(|m| {
-                let p = PathBuf::from(m);
-                if p.is_absolute() {
-                    p
-                } else {
-                    scene.parent().unwrap_or(Path::new(".")).join(p)
-                }
-            })
-        }
-    };
-    match path {
-        None => Ok(None),
-        Some(p) => {
-            let m = load_model(&p).with_context(|| format!("cannot load model {}", p.display()))?;
-            Ok(Some((p, m)))
-        }
-    }
-}
-
-fn name_sources(lms: &mut [Landmark], model: Option<&Model>) {
-    let Some(m) = model else { return };
-    for l in lms.iter_mut() {
-        if let Some((_, v)) = l.name.as_ref().and_then(|n| m.landmarks.iter().find(|(k, _)| k == n))
-        {
-            let p = m.vertices[*v as usize];
-            l.src = [p[0], p[1]];
-        }
-    }
 }
 
 /// `--anchor` and `--key-every`.
@@ -179,113 +92,8 @@ fn anchor(a: &BatchArgs) -> Result<Anchor> {
 /// Where each frame's targets come from.
 fn targets(a: &BatchArgs, frames: &[Frame], model: Option<&Model>) -> Result<Targets> {
     let anchor = anchor(a)?;
-    if a.landmarks.is_dir() {
-        let mut out = Vec::with_capacity(frames.len());
-        for f in frames {
-            let p = ["csv", "json"]
-                .iter()
-                .map(|e| a.landmarks.join(format!("{}.{e}", f.name)))
-                .find(|p| p.exists())
-                .ok_or_else(|| {
-                    anyhow!("no landmarks for frame {} in {}", f.name, a.landmarks.display())
-                })?;
-            let mut l =
-                read_landmarks(&p).with_context(|| format!("cannot read {}", p.display()))?;
-            name_sources(&mut l, model);
-            out.push(l);
-        }
-        return Ok(Targets::PerFrame(out));
-    }
-    let mut first = read_landmarks(a.landmarks)
-        .with_context(|| format!("cannot read landmarks {}", a.landmarks.display()))?;
-    name_sources(&mut first, model);
-    Ok(if a.track {
-        Targets::Tracked { first, anchor, options: TrackOptions::default() }
-    } else {
-        Targets::Fixed(first)
-    })
-}
-
-/// The output files of a frame.
-struct Files<'a> {
-    out: &'a Path,
-    model: Option<&'a (PathBuf, Model, Binding)>,
-    gray_float: &'a [bool],
-    background: f64,
-}
-
-impl Files<'_> {
-    fn path(&self, stem: &str, ext: &str) -> PathBuf {
-        self.out.join(format!("{stem}.{ext}"))
-    }
-
-    fn registered(&self, index: usize, frame: &Frame) -> PathBuf {
-        let float = matches!(
-            frame.image,
-            image::DynamicImage::ImageRgb32F(_) | image::DynamicImage::ImageRgba32F(_)
-        ) || self.gray_float[index];
-        self.path(&frame.name, if float { "registered.tif" } else { "registered.png" })
-    }
-
-    /// Every output except the report.
-    fn outputs(&self, index: usize, frame: &Frame) -> Vec<PathBuf> {
-        let mut v = vec![
-            self.path(&frame.name, "json"),
-            self.registered(index, frame),
-            self.path(&frame.name, "overlay.png"),
-        ];
-        if self.model.is_some() {
-            v.push(self.path(&frame.name, "obj"));
-        }
-        v
-    }
-
-    fn save(&self, r: &FrameResult, frame: &Frame) -> Result<()> {
-        let stem = &frame.name;
-        let s = &r.spline;
-        write_atomic(&self.path(stem, "json"), deformation::to_string(s, None).as_bytes())?;
-        let (w, h) = (frame.image.width(), frame.image.height());
-        let reg = pull_back(s, &frame.image, w, h, Interp::Bilinear, self.background)?;
-        let stack = Stack { pages: vec![reg], gray_float: self.gray_float[r.index] };
-        write_stack(&self.registered(r.index, frame), &stack)?;
-        let mut outline = Vec::new();
-        if let Some((_, m, b)) = self.model {
-            let moved = deform(m, b, s);
-            save_model(m, &moved, &self.path(stem, "obj"))?;
-            outline = silhouette(&moved, &m.triangles);
-        }
-        let marks: Vec<Mark> =
-            r.report.residuals.iter().map(|x| Mark { mapped: x.mapped, target: x.dst }).collect();
-        let ov = overlay(frame.gray().as_raw(), w, h, &outline, &marks)
-            .ok_or_else(|| anyhow!("empty frame"))?;
-        save_png(&ov, &self.path(stem, "overlay.png"))?;
-        let text = serde_json::to_string_pretty(&r.report_json())?;
-        write_atomic(&self.path(stem, "report.json"), text.as_bytes())?;
-        Ok(())
-    }
-}
-
-impl Store for Files<'_> {
-    fn stored(&self, index: usize, frame: &Frame) -> Result<Stored, StoreError> {
-        let report = read_text(&self.path(&frame.name, "report.json"))
-            .ok()
-            .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok());
-        let missing: Vec<String> = self
-            .outputs(index, frame)
-            .iter()
-            .filter(|p| !p.exists())
-            .map(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default())
-            .collect();
-        let spline = read_text(&self.path(&frame.name, "json"))
-            .ok()
-            .and_then(|t| deformation::from_str(&t).ok())
-            .map(|(s, _)| s);
-        Ok(Stored { report, missing, spline })
-    }
-
-    fn save(&self, result: &FrameResult, frame: &Frame) -> Result<(), StoreError> {
-        Files::save(self, result, frame).map_err(Into::into)
-    }
+    let track = a.track.then_some((anchor, TrackOptions::default()));
+    Ok(read_targets(a.landmarks, frames, model, track)?)
 }
 
 /// A library error as the CLI reports it (fit errors keep their exit code).
@@ -303,36 +111,6 @@ fn sequence_error(e: SequenceError, a: &BatchArgs, frames: &[Frame]) -> anyhow::
         }
         other => anyhow::Error::new(other),
     }
-}
-
-/// The summary file of `--report`.
-fn summary_json(sum: &SequenceSummary, anchor: Option<Anchor>) -> serde_json::Value {
-    let errors = |e: Option<crate::fit::sequence::Errors>| {
-        e.map(|e| serde_json::json!({"count": e.count, "rms": e.rms, "max": e.max}))
-    };
-    let frames: Vec<serde_json::Value> = sum
-        .frames
-        .iter()
-        .map(|f| {
-            let (action, reason) = match &f.action {
-                Action::Skipped => ("skipped", None),
-                Action::Fitted(r) => ("fitted", Some(r.to_string())),
-            };
-            serde_json::json!({
-                "frame": f.name, "action": action, "reason": reason, "fit": errors(f.fit),
-                "tre": errors(f.tre), "drift": f.drift, "tracking_lost": f.lost,
-            })
-        })
-        .collect();
-    serde_json::json!({
-        "frames": frames,
-        "range": [sum.range.0, sum.range.1],
-        "total": sum.total,
-        "anchor": anchor.map(|a| a.to_string()),
-        "tre": sum.tre.map(|t| serde_json::json!({"frames": t.frames, "count": t.count, "rms": t.rms, "max": t.max})),
-        "drift_max": sum.drift_max,
-        "track_ms": sum.track_ms,
-    })
 }
 
 /// Runs the batch fit; see the module docs.
@@ -375,7 +153,7 @@ pub fn run(a: BatchArgs) -> Result<()> {
         .with_context(|| format!("cannot create {}", a.output.display()))?;
     // Leftovers of an earlier run that was killed mid-write.
     crate::io::remove_stale_temps(a.output, crate::io::STALE_AFTER);
-    let store = Files {
+    let store = FrameFiles {
         out: a.output,
         model: bound.as_ref(),
         gray_float: &gray_float,
@@ -439,7 +217,7 @@ pub fn run(a: BatchArgs) -> Result<()> {
         )?;
     }
     if let Some(p) = a.report {
-        let text = serde_json::to_string_pretty(&summary_json(&sum, anchor))?;
+        let text = serde_json::to_string_pretty(&sum.to_json(anchor))?;
         write_atomic(p, text.as_bytes())?;
     }
     Ok(())

@@ -7,7 +7,6 @@ mod bench;
 mod demo;
 mod demo_fit;
 mod editor_cmd;
-pub use demo_fit::bundled_scene;
 mod fit_batch;
 mod fit_cmd;
 mod match_cmd;

@@ -1,18 +1,16 @@
 //! `trimorph mesh`, `trimorph edit` and `trimorph check`.
 
 use super::{Exit, EXIT_INPUT, EXIT_UNSOLVABLE};
-use crate::ecles::EclesError;
-use crate::edit::select::Neighborhood;
-use crate::edit::{EditError, Editor, Mode};
-use crate::exact::{parse_rat, rat_to_string, Rat};
+use crate::edit::script::{self, OpReport, Script, ScriptError};
+use crate::edit::Editor;
+use crate::exact::parse_rat;
 use crate::io::deformation::{self, LastEdit};
 use crate::io::{read_text, write_atomic};
 use crate::mesh::{Mesh, MeshOptions};
-use crate::spline::jacobian::{certify, CertifyOptions, DetJ, SAMPLE_LEVEL};
+use crate::spline::jacobian::{certify, CertifyOptions};
 use crate::spline::{Spline, ZLayers};
 use anyhow::{anyhow, bail, Context, Result};
-use num_traits::Zero;
-use serde_json::{json, Value};
+use serde_json::json;
 use std::io::Write;
 use std::path::Path;
 
@@ -180,246 +178,50 @@ fn load(path: &Path) -> Result<(Spline, Option<LastEdit>)> {
         .with_context(|| format!("cannot read deformation {}", path.display()))
 }
 
-fn rats(v: &Value, what: &str) -> Result<Vec<Rat>> {
-    let arr = v.as_array().ok_or_else(|| anyhow!("{what}: expected an array of numbers"))?;
-    arr.iter()
-        .map(|x| {
-            let t = match x {
-                Value::Number(n) => n.to_string(),
-                Value::String(s) => s.clone(),
-                _ => bail!("{what}: `{x}` is not a number"),
-            };
-            parse_rat(&t).map_err(|e| anyhow!("{what}: {e}"))
-        })
-        .collect()
-}
-
-fn unsolvable(e: &EditError) -> bool {
-    matches!(
-        e,
-        EditError::Ecles(
-            EclesError::NotWeaklySolvable { .. } | EclesError::NotStronglySolvable { .. }
-        )
-    )
-}
-
-/// Applies one operation of an edit script.
-fn apply_op(ed: &mut Editor, op: &Value, k: usize) -> Result<LastEdit> {
-    let ctx = |m: String| anyhow!("operation {k}: {m}");
-    let o = op.as_object().ok_or_else(|| ctx("expected an object".into()))?;
-    if o.get("op").and_then(Value::as_str) == Some("constrain") {
-        return add_constraints(ed, o, k).map(|()| LastEdit::default());
-    }
-    let anchors: Vec<usize> = match o.get("anchors") {
-        Some(Value::Array(a)) => a
-            .iter()
-            .map(|x| {
-                x.as_u64()
-                    .map(|u| u as usize)
-                    .ok_or_else(|| ctx(format!("anchor `{x}` is not a point index")))
-            })
-            .collect::<Result<_>>()?,
-        Some(Value::Object(near)) => {
-            let list = near
-                .get("near")
-                .and_then(Value::as_array)
-                .ok_or_else(|| ctx("anchors: expected {\"near\": [[x, y], ...]}".into()))?;
-            let pos: Vec<[f64; 2]> = list
-                .iter()
-                .map(|p| {
-                    let v = p
-                        .as_array()
-                        .filter(|a| a.len() == 2)
-                        .and_then(|a| Some([a[0].as_f64()?, a[1].as_f64()?]));
-                    v.ok_or_else(|| ctx(format!("near: `{p}` is not [x, y]")))
-                })
-                .collect::<Result<_>>()?;
-            let mut idx = ed.nearest_points(&pos);
-            idx.dedup();
-            idx
-        }
-        _ => {
-            return Err(ctx(
-                "missing \"anchors\" (point indices or {\"near\": [[x, y], ...]})".into()
-            ))
-        }
-    };
-    let derived: Vec<usize> = match o.get("derived") {
-        None | Some(Value::Null) => Vec::new(),
-        Some(Value::Array(a)) => a
-            .iter()
-            .map(|x| {
-                x.as_u64()
-                    .map(|u| u as usize)
-                    .ok_or_else(|| ctx(format!("derived `{x}` is not a point index")))
-            })
-            .collect::<Result<_>>()?,
-        Some(x) => return Err(ctx(format!("derived: expected an array, found {x}"))),
-    };
-    let hood = match o.get("neighborhood") {
-        None | Some(Value::Null) => Neighborhood::Radius(2),
-        Some(Value::String(s)) if s == "all" => Neighborhood::All,
-        Some(Value::Number(n)) if n.as_u64().is_some() => {
-            Neighborhood::Radius(n.as_u64().expect("the match guard checked as_u64") as usize)
-        }
-        Some(x) => {
-            return Err(ctx(format!("neighborhood: expected a whole number or \"all\", found {x}")))
-        }
-    };
-    let mode: Mode = match o.get("mode") {
-        None | Some(Value::Null) => Mode::Xy,
-        Some(Value::String(s)) => s.parse().map_err(ctx)?,
-        Some(x) => return Err(ctx(format!("mode: expected \"xy\", \"z0\" or \"z1\", found {x}"))),
-    };
-    let kind = o
-        .get("op")
-        .and_then(Value::as_str)
-        .ok_or_else(|| ctx("missing \"op\" (translate, rotate, scale or constrain)".into()))?;
-    let run = |ed: &mut Editor| -> Result<(), EditError> {
-        ed.select(&anchors, &derived, &hood, mode)?;
-        Ok(())
-    };
-    let wrap = |e: EditError| -> anyhow::Error {
-        let code = if unsolvable(&e) { EXIT_UNSOLVABLE } else { EXIT_INPUT };
-        Exit { code, message: format!("operation {k} ({kind}): {e}"), printed: false }.into()
-    };
-    run(ed).map_err(wrap)?;
-    let get = |key: &str| o.get(key).ok_or_else(|| ctx(format!("{kind} needs \"{key}\"")));
-    match kind {
-        "translate" => {
-            let by = rats(get("by")?, "by")?;
-            ed.translate(&by).map_err(wrap)?;
-        }
-        "rotate" => {
-            let c = rats(get("center")?, "center")?;
-            if c.len() != 2 {
-                return Err(ctx("center: expected [x, y]".into()));
-            }
-            let angle = get("angle")?
-                .as_f64()
-                .ok_or_else(|| ctx("angle: expected a number (radians)".into()))?;
-            ed.rotate([c[0].clone(), c[1].clone()], angle).map_err(wrap)?;
-        }
-        "scale" => {
-            let c = rats(get("center")?, "center")?;
-            let f = rats(&json!([get("factor")?]), "factor")?;
-            ed.scale(&c, &f[0]).map_err(wrap)?;
-        }
-        other => return Err(ctx(format!("unknown op `{other}` (use translate, rotate or scale)"))),
-    }
-    let sel = ed.selection().expect("select succeeded above, so a selection is set");
-    Ok(LastEdit { anchors: sel.anchors.clone(), derived: sel.derived.clone() })
-}
-
-/// The `constrain` operation: `pin` (indices), `horizontal` / `vertical` (lists of index
-/// lists), `equal_displacement` (list of `[a, b]` pairs).
-fn add_constraints(ed: &mut Editor, o: &serde_json::Map<String, Value>, k: usize) -> Result<()> {
-    use crate::edit::extra::Extra;
-    let fail = |m: String| -> anyhow::Error {
-        Exit {
-            code: EXIT_INPUT,
-            message: format!("operation {k} (constrain): {m}"),
-            printed: false,
-        }
-        .into()
-    };
-    let idx_list = |v: &Value, what: &str| -> Result<Vec<usize>> {
-        v.as_array()
-            .ok_or_else(|| fail(format!("{what}: expected an array of point indices")))?
-            .iter()
-            .map(|x| {
-                x.as_u64()
-                    .map(|u| u as usize)
-                    .ok_or_else(|| fail(format!("{what}: `{x}` is not a point index")))
-            })
-            .collect()
-    };
-    let lists = |key: &str| -> Result<Vec<Vec<usize>>> {
-        match o.get(key) {
-            None => Ok(Vec::new()),
-            Some(Value::Array(a)) => a.iter().map(|l| idx_list(l, key)).collect(),
-            Some(x) => Err(fail(format!("{key}: expected an array of index lists, found {x}"))),
-        }
-    };
-    let mut new = Vec::new();
-    let pts = ed.spline().points();
-    if let Some(p) = o.get("pin") {
-        for i in idx_list(p, "pin")? {
-            new.push(Extra::pin(i, pts).map_err(|e| fail(e.to_string()))?);
-        }
-    }
-    for (key, axis) in [("horizontal", 1), ("vertical", 0)] {
-        for l in lists(key)? {
-            new.push(Extra::line(l, axis, pts).map_err(|e| fail(e.to_string()))?);
-        }
-    }
-    for l in lists("equal_displacement")? {
-        if l.len() != 2 {
-            return Err(fail("equal_displacement: each entry is [a, b]".into()));
-        }
-        new.push(Extra::equal_displacement(l[0], l[1], pts).map_err(|e| fail(e.to_string()))?);
-    }
-    if new.is_empty() {
-        return Err(fail(
-            "no constraint given (pin, horizontal, vertical or equal_displacement)".into(),
-        ));
-    }
-    for e in new {
-        ed.add_constraint(e).map_err(|e| fail(e.to_string()))?;
-    }
-    Ok(())
-}
-
-/// Applies an edit script (JSON text: an array of operations) to `ed`, writing one progress
-/// line per operation to `log`. Errors name `source` (the script file) and the operation
-/// index; an unsolvable operation carries [`EXIT_UNSOLVABLE`]. Returns the number of
-/// operations and the anchors / derived points of the last move.
+/// Applies an edit script (JSON text: an array of operations) to `ed` with
+/// [`crate::edit::script`], writing one progress line per operation to `log`. Errors name
+/// `source` (the script file) and the operation index; an unsolvable operation carries
+/// [`EXIT_UNSOLVABLE`]. On an error `ed` is as it was. Returns the number of operations and
+/// the anchors / derived points of the last move.
 pub fn run_script(
     ed: &mut Editor,
     text: &str,
     source: &str,
     log: &mut dyn Write,
 ) -> Result<(usize, Option<LastEdit>)> {
-    let ops: Value = serde_json::from_str(text).map_err(|e| {
-        anyhow!(
-            "{source}, line {}: not valid JSON ({e}); an edit script is a JSON array of operations",
-            e.line()
-        )
-    })?;
-    let ops = ops.as_array().ok_or_else(|| {
-        anyhow!(
-            "{source}: expected a JSON array of operations, e.g. [{{\"op\": \"translate\", ...}}]"
-        )
-    })?;
-    let mut last = None;
-    for (k, op) in ops.iter().enumerate() {
-        let l = apply_op(ed, op, k).map_err(|e| match e.downcast::<Exit>() {
-            Ok(x) => Exit { message: format!("{source}: {}", x.message), ..x }.into(),
-            Err(e) => {
-                let text = super::error_text(&e);
-                if text.starts_with("operation ") {
-                    anyhow!("{source}: {text}")
-                } else {
-                    anyhow!("{source}: operation {k}: {text}")
-                }
-            }
-        })?;
-        let Some(sel) = ed.selection() else {
-            writeln!(log, "operation {k}: {} constraints in force", ed.constraints().len())?;
-            continue;
+    let fail = |e: ScriptError| -> anyhow::Error {
+        let code = if e.is_unsolvable() { EXIT_UNSOLVABLE } else { EXIT_INPUT };
+        let message = match e {
+            ScriptError::Json { .. } => format!("{source}, {e}"),
+            e => format!("{source}: {e}"),
         };
-        writeln!(
-            log,
-            "operation {k}: {} anchors, {} derived, {} relevant conditions (rank {}), {}",
-            l.anchors.len(),
-            l.derived.len(),
-            sel.session().relevant().len(),
-            sel.session().rank(),
-            if sel.strong { "strongly solvable" } else { "weakly solvable" }
-        )?;
-        last = Some(l);
+        Exit { code, message, printed: false }.into()
+    };
+    let script = Script::from_json_str(text).map_err(fail)?;
+    let mut written = Ok(());
+    let reports = script::run_script(ed, &script.ops, &mut |k, r| {
+        if written.is_ok() {
+            written = writeln!(log, "{}", progress_line(k, r));
+        }
+    })
+    .map_err(fail)?;
+    written?;
+    Ok((reports.len(), script::last_edit(&reports)))
+}
+
+/// The progress line of operation `k`.
+fn progress_line(k: usize, r: &OpReport) -> String {
+    match r {
+        OpReport::Constrained { in_force, .. } => {
+            format!("operation {k}: {in_force} constraints in force")
+        }
+        OpReport::Moved { anchors, derived, relevant, rank, strong } => format!(
+            "operation {k}: {} anchors, {} derived, {relevant} relevant conditions (rank {rank}), {}",
+            anchors.len(),
+            derived.len(),
+            if *strong { "strongly solvable" } else { "weakly solvable" }
+        ),
     }
-    Ok((ops.len(), last))
 }
 
 /// `trimorph edit DEF --script EDITS -o OUT`.
@@ -474,92 +276,7 @@ pub fn edit(def: &Path, script: &Path, output: &Path, bounded: Option<u32>) -> R
     Ok(())
 }
 
-/// The first control point with a coordinate that is not a finite `f64` (an exact value
-/// beyond the `f64` range): `(point, axis, value)`.
-pub fn non_finite_point(s: &Spline) -> Option<(usize, usize, f64)> {
-    (0..s.num_points()).find_map(|p| {
-        let q = s.point_f64(p);
-        (0..2).find(|&a| !q[a].is_finite()).map(|a| (p, a, q[a]))
-    })
-}
-
-/// One line with the certificate's numbers: the sampled minimum, the certified lower bound
-/// and whether phi is certified fold-free (with the folding and undecided triangles).
-pub fn det_j_line(c: &DetJ) -> String {
-    let list = |v: &[usize]| {
-        let shown: Vec<String> = v.iter().take(20).map(|t| t.to_string()).collect();
-        let more = if v.len() > 20 { format!(", ... ({} in all)", v.len()) } else { String::new() };
-        format!("[{}{more}]", shown.join(", "))
-    };
-    let verdict = if c.fold_free {
-        "certified fold-free".to_string()
-    } else {
-        format!(
-            "NOT certified fold-free: folding triangles {}, undecided triangles {}",
-            list(&c.folding),
-            list(&c.undecided)
-        )
-    };
-    format!(
-        "det J: sampled minimum {} (level-{} lattice of every triangle), certified lower bound {}; {verdict}",
-        c.sampled_min, SAMPLE_LEVEL, c.lower_bound
-    )
-}
-
-/// The `trimorph check` report of a spline.
-pub fn check_report(s: &Spline, samples_per_side: usize) -> Value {
-    let res = s.c1_residuals();
-    let nonzero = res.iter().filter(|r| !r[0].is_zero() || !r[1].is_zero()).count();
-    let max_res = res
-        .iter()
-        .flat_map(|r| r.iter().cloned())
-        .map(|r| if r < Rat::zero() { -r } else { r })
-        .max()
-        .unwrap_or_else(Rat::zero);
-    let m = s.mesh();
-    let cache = s.eval_cache();
-    let k = samples_per_side.max(1);
-    // The --samples scan counts folded samples; the minimum reported is the common one of
-    // the certificate (the same number as `field --jacobian`, `edit` and the editor).
-    let (mut folds, mut samples) = (0usize, 0usize);
-    for t in 0..m.num_triangles() {
-        for i in 0..=k {
-            for j in 0..=k - i {
-                let b = [i as f64 / k as f64, j as f64 / k as f64, (k - i - j) as f64 / k as f64];
-                let jm = cache.jacobian(t, b);
-                let det = jm[0][0] * jm[1][1] - jm[0][1] * jm[1][0];
-                samples += 1;
-                if det <= 0.0 {
-                    folds += 1;
-                }
-            }
-        }
-    }
-    let cert = certify(s, &CertifyOptions::default());
-    let worst = cert.worst.map(|(t, p)| json!({"triangle": t, "point": p}));
-    json!({
-        "degree": s.degree(),
-        "vertices": m.num_vertices(),
-        "triangles": m.num_triangles(),
-        "interior_edges": m.num_interior_edges(),
-        "control_points": s.num_points(),
-        "c1_conditions": s.quads().len(),
-        "c1_nonzero_residuals": nonzero,
-        "c1_max_abs_residual": rat_to_string(&max_res),
-        "c1_holds": nonzero == 0,
-        "c1_residuals": res.iter().map(|r| [rat_to_string(&r[0]), rat_to_string(&r[1])]).collect::<Vec<_>>(),
-        "jacobian_samples": samples,
-        "min_jacobian_det": cert.sampled_min,
-        "min_jacobian_det_at": worst,
-        "fold_samples": folds,
-        "folds": folds > 0 || !cert.folding.is_empty(),
-        "det_j_lower_bound": cert.lower_bound,
-        "fold_free": cert.fold_free,
-        "folding_triangles": cert.folding,
-        "undecided_triangles": cert.undecided,
-        "z_layers": s.z_layers().is_some(),
-    })
-}
+pub use crate::spline::check::{check_report, det_j_line, non_finite_point};
 
 /// `trimorph check DEF`: exit 0 when C1 holds exactly, 1 otherwise.
 pub fn check(def: &Path, samples: usize) -> Result<()> {

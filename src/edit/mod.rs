@@ -26,8 +26,12 @@
 //!
 //! Hints are computed in `f64` and rounded to multiples of `2^-20` (they need not be exact;
 //! the constraints are). Anchor positions are exact.
+//!
+//! [`script`] holds the operations as typed values (edit scripts, the editor server's drag
+//! steps) and runs a script all or nothing.
 
 pub mod extra;
+pub mod script;
 pub mod select;
 
 use crate::ecles::{ConstraintSystem, EclesError, InitOptions, Session};
@@ -47,6 +51,17 @@ pub enum Mode {
     Z0,
     /// The top surface sigma1 of a 2.5D deformation.
     Z1,
+}
+
+impl Mode {
+    /// The mode's name in files and requests (`xy`, `z0`, `z1`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Mode::Xy => "xy",
+            Mode::Z0 => "z0",
+            Mode::Z1 => "z1",
+        }
+    }
 }
 
 impl std::str::FromStr for Mode {

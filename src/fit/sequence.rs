@@ -54,6 +54,7 @@
 
 mod anchor;
 mod key;
+mod summary;
 #[cfg(test)]
 mod tests;
 
@@ -196,6 +197,14 @@ pub enum SequenceError {
     /// Key frames every 0 frames.
     #[error("key frames every 0 frames: the spacing must be at least 1")]
     KeyEvery,
+    /// A frame index beyond the sequence ([`Sequence::run_frame`]).
+    #[error("frame {index} does not exist (the sequence has {frames})")]
+    FrameIndex {
+        /// The index.
+        index: usize,
+        /// Frames in the sequence.
+        frames: usize,
+    },
     /// Tracking into a frame failed.
     #[error("tracking into frame {name}: {source}")]
     Track {
@@ -509,13 +518,12 @@ impl<'a> Sequence<'a> {
         &self.held
     }
 
-    /// Tracks the targets (tracked sequences), then fits the shard's frames, asking `store`
-    /// what it holds and giving it every new result; `progress` hears of every step.
-    pub fn run(
+    /// Tracks the targets of a tracked sequence (always from the first frame, so that every
+    /// shard and every single-frame task agrees): the tracking and its time in ms.
+    fn track(
         &self,
-        store: &dyn Store,
         progress: &(dyn Fn(Event<'_>) + Sync),
-    ) -> Result<SequenceSummary, SequenceError> {
+    ) -> Result<(Option<Tracking>, f64), SequenceError> {
         let t0 = Instant::now();
         let tracking = match &self.targets {
             Targets::Tracked { first, anchor, options } => {
@@ -531,26 +539,56 @@ impl<'a> Sequence<'a> {
         if tracking.is_some() {
             progress(Event::Tracked { frames: self.frames.len(), ms: track_ms });
         }
+        Ok((tracking, track_ms))
+    }
+
+    /// The warm start of frame `k` in a tracked sequence: the store's deformation for frame
+    /// `k - 1`, or the scene (frame 0, or nothing stored).
+    fn warm_start(&self, k: usize, store: &dyn Store) -> Result<Spline, SequenceError> {
+        if k == 0 {
+            return Ok(self.scene.clone());
+        }
+        let prev =
+            store.stored(k - 1, &self.frames[k - 1]).map_err(|e| self.store_err(k - 1, e))?;
+        Ok(prev.spline.unwrap_or_else(|| self.scene.clone()))
+    }
+
+    /// Fits frame `k` alone (of all the frames, whatever the shard), for one task per frame
+    /// (an array job, a task graph): exactly what [`Sequence::run`] does for that frame. A
+    /// tracked sequence tracks from the first frame and warm-starts from the store's result
+    /// for frame `k - 1` (the scene when there is none, so tasks must then run in frame order
+    /// to match a whole run); the frame is skipped when the store's results are current, and
+    /// a new result goes to `store` (a file store writes each output atomically, so a rerun
+    /// resumes).
+    pub fn run_frame(
+        &self,
+        k: usize,
+        store: &dyn Store,
+        progress: &(dyn Fn(Event<'_>) + Sync),
+    ) -> Result<FrameOutcome, SequenceError> {
+        if k >= self.frames.len() {
+            return Err(SequenceError::FrameIndex { index: k, frames: self.frames.len() });
+        }
+        let (tracking, _) = self.track(progress)?;
         let sets = self.frame_sets(tracking.as_ref());
-        let scene_hash = key::spline_hash(self.scene);
+        let ctx = self.context(store, progress, &sets, tracking.as_ref());
+        let warm = if tracking.is_some() { self.warm_start(k, store)? } else { self.scene.clone() };
+        Ok(ctx.one(k, &warm)?.0)
+    }
+
+    /// Tracks the targets (tracked sequences), then fits the shard's frames, asking `store`
+    /// what it holds and giving it every new result; `progress` hears of every step.
+    pub fn run(
+        &self,
+        store: &dyn Store,
+        progress: &(dyn Fn(Event<'_>) + Sync),
+    ) -> Result<SequenceSummary, SequenceError> {
+        let (tracking, track_ms) = self.track(progress)?;
+        let sets = self.frame_sets(tracking.as_ref());
         let (lo, hi) = self.range;
-        let ctx = Ctx {
-            seq: self,
-            store,
-            progress,
-            sets: &sets,
-            tracking: tracking.as_ref(),
-            scene_hash,
-        };
+        let ctx = self.context(store, progress, &sets, tracking.as_ref());
         let frames: Vec<FrameOutcome> = if tracking.is_some() {
-            let mut warm = if lo > 0 {
-                let prev = store
-                    .stored(lo - 1, &self.frames[lo - 1])
-                    .map_err(|e| self.store_err(lo - 1, e))?;
-                prev.spline.unwrap_or_else(|| self.scene.clone())
-            } else {
-                self.scene.clone()
-            };
+            let mut warm = self.warm_start(lo, store)?;
             let mut out = Vec::with_capacity(hi - lo);
             for k in lo..hi {
                 let (o, s) = ctx.one(k, &warm)?;
@@ -585,6 +623,17 @@ impl<'a> Sequence<'a> {
             tre,
             drift_max,
         })
+    }
+
+    /// What fitting one frame needs.
+    fn context<'s>(
+        &'s self,
+        store: &'s dyn Store,
+        progress: &'s (dyn Fn(Event<'_>) + Sync),
+        sets: &'s [Vec<(String, Landmark)>],
+        tracking: Option<&'s Tracking>,
+    ) -> Ctx<'s, 'a> {
+        Ctx { seq: self, store, progress, sets, tracking, scene_hash: key::spline_hash(self.scene) }
     }
 
     fn store_err(&self, index: usize, source: StoreError) -> SequenceError {

@@ -5,3 +5,4 @@ pub mod font;
 pub mod model;
 pub mod overlay;
 pub mod plot;
+pub mod sequence;

@@ -13,9 +13,9 @@ pub mod pairs;
 
 use super::paths::confine;
 use super::ServerError;
+use crate::edit::script::{Motion, Translate};
 use crate::edit::select::Neighborhood;
-use crate::edit::{exact, EditError, Editor, LastEdit, Mode};
-use crate::exact::Rat;
+use crate::edit::{EditError, Editor, LastEdit, Mode};
 use crate::fit::landmarks::Landmark;
 use crate::fit::solve::{fit, FitOptions};
 use crate::io::landmarks::read_landmarks;
@@ -73,26 +73,10 @@ pub struct Frame {
     pub png: Vec<u8>,
 }
 
-/// A drag operation, relative to the positions at selection time.
-#[derive(Clone, Debug)]
-pub enum Op {
-    /// Translation (2 values in xy mode, 1 in z modes).
-    Translate(Vec<f64>),
-    /// Rotation about a centre by an angle in radians (xy mode).
-    Rotate {
-        /// Centre (mesh coordinates).
-        center: [f64; 2],
-        /// Angle (radians, counter-clockwise in the y-down image plane's maths sense).
-        angle: f64,
-    },
-    /// Scaling about a centre by a positive factor.
-    Scale {
-        /// Centre (2 values in xy mode, 1 in z modes).
-        center: Vec<f64>,
-        /// Factor.
-        factor: f64,
-    },
-}
+/// A drag operation, relative to the positions at selection time: the edit-script
+/// vocabulary ([`crate::edit::script::Motion`]) with finite `f64` numbers, each made exact
+/// as it is (the page sends binary doubles).
+pub type Op = Motion<f64>;
 
 /// The editor's document; see the module docs.
 pub struct Doc {
@@ -309,7 +293,7 @@ impl Doc {
             let back = self.last_op.clone().unwrap_or_else(|| {
                 let dim =
                     if self.editor.selection().is_some_and(|s| s.mode == Mode::Xy) { 2 } else { 1 };
-                Op::Translate(vec![0.0; dim])
+                Motion::Translate(Translate { by: vec![0.0; dim] })
             });
             self.apply(&back)?;
             return Err(e);
@@ -351,23 +335,7 @@ impl Doc {
     }
 
     fn apply(&mut self, op: &Op) -> Result<(), ServerError> {
-        let ex = |v: f64| exact(v).map_err(edit_err);
-        let r = match op {
-            Op::Translate(v) => {
-                let v: Vec<Rat> = v.iter().map(|&x| ex(x)).collect::<Result<_, _>>()?;
-                self.editor.translate(&v)
-            }
-            Op::Rotate { center, angle } => {
-                let c = [ex(center[0])?, ex(center[1])?];
-                self.editor.rotate(c, *angle)
-            }
-            Op::Scale { center, factor } => {
-                let c: Vec<Rat> = center.iter().map(|&x| ex(x)).collect::<Result<_, _>>()?;
-                let f = ex(*factor)?;
-                self.editor.scale(&c, &f)
-            }
-        };
-        r.map_err(edit_err)
+        op.to_exact().and_then(|m| m.apply(&mut self.editor)).map_err(edit_err)
     }
 
     fn push_undo(&mut self, s: Spline) {
@@ -680,16 +648,18 @@ fn check_op(op: &Op) -> Result<(), ServerError> {
         }
     };
     match op {
-        Op::Translate(v) => far("translation", v),
-        Op::Rotate { center, angle } => {
-            far("rotation centre", center)?;
+        Motion::Translate(t) => far("translation", &t.by),
+        Motion::Rotate(r) => {
+            far("rotation centre", &r.center)?;
+            let angle = r.angle;
             if angle.abs() > 1e3 {
                 return Err(ServerError::Unprocessable(format!("angle {angle} rad: refused")));
             }
             Ok(())
         }
-        Op::Scale { center, factor } => {
-            far("scale centre", center)?;
+        Motion::Scale(s) => {
+            far("scale centre", &s.center)?;
+            let factor = s.factor;
             if !(SCALE_RANGE[0]..=SCALE_RANGE[1]).contains(&factor.abs()) {
                 return Err(ServerError::Unprocessable(format!(
                     "scale factor {factor} is outside {SCALE_RANGE:?}: refused"
@@ -730,9 +700,5 @@ pub fn add_det_j(v: &mut Value, c: &DetJ) {
 
 /// The mode's name in the API.
 pub fn mode_name(m: Mode) -> &'static str {
-    match m {
-        Mode::Xy => "xy",
-        Mode::Z0 => "z0",
-        Mode::Z1 => "z1",
-    }
+    m.name()
 }

@@ -17,7 +17,7 @@
 //! | `GET /api/warp[?step=8]` | | the live warp's coarse inverse map ([`views::inverse_grid`]) |
 //! | `POST /api/pick` | `{x, y, max_dist?}` | `{index, point}` (nearest control point) |
 //! | `POST /api/select` | `{anchors, radius?, mode?}` (`radius` null: all) | selection |
-//! | `POST /api/update` | `{op: translate, v}` / `{op: rotate, center, angle}` / `{op: scale, center, factor}` | geometry |
+//! | `POST /api/update` | `{op: translate, v}` (or `by`) / `{op: rotate, center, angle}` / `{op: scale, center, factor}`: a [`crate::edit::script::Motion`] | geometry |
 //! | `POST /api/clear` | | state |
 //! | `POST /api/undo`, `/api/redo` | | geometry |
 //! | `POST /api/save` | `{path, scene?}` | `{saved, written}` (`written`: a scene's copies of its model and frame) |
@@ -334,22 +334,7 @@ fn route(
         }
         ("POST", "/api/update") => {
             let b = parse()?;
-            let op = match text(&b, "op")? {
-                "translate" => Op::Translate(nums(&b, "v")?),
-                "rotate" => {
-                    let c = nums(&b, "center")?;
-                    if c.len() != 2 {
-                        return Err(ServerError::BadRequest("`center` needs 2 values".into()));
-                    }
-                    Op::Rotate { center: [c[0], c[1]], angle: num(&b, "angle")? }
-                }
-                "scale" => Op::Scale { center: nums(&b, "center")?, factor: num(&b, "factor")? },
-                other => {
-                    return Err(ServerError::BadRequest(format!(
-                        "unknown op `{other}` (translate, rotate or scale)"
-                    )))
-                }
-            };
+            let op = Op::from_value(&b).map_err(|e| ServerError::BadRequest(e.to_string()))?;
             doc.update(&op)?;
             Ok(with_geometry(doc, json!({ "update_ms": doc.last_update_ms })))
         }

@@ -15,6 +15,7 @@
 //! layout ([`ZLayers`]); they obey the same C1 conditions with one coordinate.
 
 pub mod c1;
+pub mod check;
 pub mod eval;
 mod intform;
 pub mod jacobian;

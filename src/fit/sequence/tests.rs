@@ -354,3 +354,27 @@ fn on_the_bundled_time_lapse_both_trackings_follow_the_nuclei() {
     let alive = |v: &[Vec<Option<[f64; 2]>>]| v[9].iter().filter(|p| p.is_some()).count();
     assert!(alive(&chain) >= 8 && alive(&first) >= 2, "{} {}", alive(&chain), alive(&first));
 }
+
+#[test]
+fn frames_fitted_one_by_one_equal_a_whole_run_and_then_resume() {
+    let (s, fr) = (scene(), frames(3));
+    for targets in [tracked(Anchor::Chain), Targets::Fixed(landmarks())] {
+        let seq = Sequence::new(&s, &fr, targets, SequenceOptions::default()).unwrap();
+        let (whole, single) = (Memory::default(), Memory::default());
+        seq.run(&whole, &|_| {}).unwrap();
+        for k in 0..fr.len() {
+            let o = seq.run_frame(k, &single, &|_| {}).unwrap();
+            assert_eq!((o.index, o.action), (k, Action::Fitted(Reason::New)));
+        }
+        let (a, b) = (whole.frames.lock().unwrap(), single.frames.lock().unwrap());
+        for k in 0..fr.len() {
+            assert_eq!(a[&k].1.points(), b[&k].1.points(), "frame {k}");
+            assert_eq!(a[&k].0["resume"], b[&k].0["resume"], "frame {k}");
+            assert_eq!(a[&k].0["fit"], b[&k].0["fit"], "frame {k}");
+        }
+        drop(b);
+        assert_eq!(seq.run_frame(1, &single, &|_| {}).unwrap().action, Action::Skipped);
+        let e = seq.run_frame(3, &single, &|_| {}).unwrap_err();
+        assert!(matches!(e, SequenceError::FrameIndex { index: 3, frames: 3 }), "{e}");
+    }
+}

@@ -1,0 +1,97 @@
+//! The numbers `trimorph check` reports for a spline deformation: the C1 residuals of the
+//! smoothness conditions (thesis eqs. 12.6-12.7, ch. 13: `phi` is C1 exactly when every condition's
+//! residual is zero), and the det J certificate ([`crate::spline::jacobian`]) with a scan
+//! of the `(k + 1)(k + 2) / 2` barycentric lattice points of step `1/k` in each triangle.
+
+use super::jacobian::{certify, CertifyOptions, DetJ, SAMPLE_LEVEL};
+use super::Spline;
+use crate::exact::{rat_to_string, Rat};
+use num_traits::Zero;
+use serde_json::{json, Value};
+
+/// The first control point with a coordinate that is not a finite `f64` (an exact value
+/// beyond the `f64` range): `(point, axis, value)`.
+pub fn non_finite_point(s: &Spline) -> Option<(usize, usize, f64)> {
+    (0..s.num_points()).find_map(|p| {
+        let q = s.point_f64(p);
+        (0..2).find(|&a| !q[a].is_finite()).map(|a| (p, a, q[a]))
+    })
+}
+
+/// One line with the certificate's numbers: the sampled minimum, the certified lower bound
+/// and whether phi is certified fold-free (with the folding and undecided triangles).
+pub fn det_j_line(c: &DetJ) -> String {
+    let list = |v: &[usize]| {
+        let shown: Vec<String> = v.iter().take(20).map(|t| t.to_string()).collect();
+        let more = if v.len() > 20 { format!(", ... ({} in all)", v.len()) } else { String::new() };
+        format!("[{}{more}]", shown.join(", "))
+    };
+    let verdict = if c.fold_free {
+        "certified fold-free".to_string()
+    } else {
+        format!(
+            "NOT certified fold-free: folding triangles {}, undecided triangles {}",
+            list(&c.folding),
+            list(&c.undecided)
+        )
+    };
+    format!(
+        "det J: sampled minimum {} (level-{} lattice of every triangle), certified lower bound {}; {verdict}",
+        c.sampled_min, SAMPLE_LEVEL, c.lower_bound
+    )
+}
+
+/// The `trimorph check` report of a spline.
+pub fn check_report(s: &Spline, samples_per_side: usize) -> Value {
+    let res = s.c1_residuals();
+    let nonzero = res.iter().filter(|r| !r[0].is_zero() || !r[1].is_zero()).count();
+    let max_res = res
+        .iter()
+        .flat_map(|r| r.iter().cloned())
+        .map(|r| if r < Rat::zero() { -r } else { r })
+        .max()
+        .unwrap_or_else(Rat::zero);
+    let m = s.mesh();
+    let cache = s.eval_cache();
+    let k = samples_per_side.max(1);
+    // The --samples scan counts folded samples; the minimum reported is the common one of
+    // the certificate (the same number as `field --jacobian`, `edit` and the editor).
+    let (mut folds, mut samples) = (0usize, 0usize);
+    for t in 0..m.num_triangles() {
+        for i in 0..=k {
+            for j in 0..=k - i {
+                let b = [i as f64 / k as f64, j as f64 / k as f64, (k - i - j) as f64 / k as f64];
+                let jm = cache.jacobian(t, b);
+                let det = jm[0][0] * jm[1][1] - jm[0][1] * jm[1][0];
+                samples += 1;
+                if det <= 0.0 {
+                    folds += 1;
+                }
+            }
+        }
+    }
+    let cert = certify(s, &CertifyOptions::default());
+    let worst = cert.worst.map(|(t, p)| json!({"triangle": t, "point": p}));
+    json!({
+        "degree": s.degree(),
+        "vertices": m.num_vertices(),
+        "triangles": m.num_triangles(),
+        "interior_edges": m.num_interior_edges(),
+        "control_points": s.num_points(),
+        "c1_conditions": s.quads().len(),
+        "c1_nonzero_residuals": nonzero,
+        "c1_max_abs_residual": rat_to_string(&max_res),
+        "c1_holds": nonzero == 0,
+        "c1_residuals": res.iter().map(|r| [rat_to_string(&r[0]), rat_to_string(&r[1])]).collect::<Vec<_>>(),
+        "jacobian_samples": samples,
+        "min_jacobian_det": cert.sampled_min,
+        "min_jacobian_det_at": worst,
+        "fold_samples": folds,
+        "folds": folds > 0 || !cert.folding.is_empty(),
+        "det_j_lower_bound": cert.lower_bound,
+        "fold_free": cert.fold_free,
+        "folding_triangles": cert.folding,
+        "undecided_triangles": cert.undecided,
+        "z_layers": s.z_layers().is_some(),
+    })
+}
