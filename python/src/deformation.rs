@@ -11,6 +11,9 @@ use crate::errors::{io_error, value_error};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::path::PathBuf;
+use serde_json::{Map, Value};
+use trimorph::edit::script::{Script, ScriptError};
+use trimorph::edit::{Editor, Extra, LastEdit};
 use trimorph::io::{deformation as dio, read_text, write_atomic, IoError};
 use trimorph::mesh::{AdaptOptions, Mesh, MeshOptions};
 use trimorph::spline::Spline;
@@ -22,17 +25,48 @@ use trimorph::warp::{field, Interp, WarpOptions};
 const MAX_FIELD_PIXELS: u64 = 100_000_000;
 
 /// A C1 spline deformation `phi: R^2 -> R^2` over a triangle mesh (pixel coordinates).
+///
+/// Besides the spline it keeps what a deformation file carries: the last edit, the stored
+/// constraints (`"constraints"`, kept by every later edit), and the keys other tools add
+/// (`"pinned"`, a scene's `"model"` / `"image"` / `"landmarks"`), so that load + save loses
+/// nothing.
 #[pyclass(module = "trimorph")]
 pub struct Deformation {
     pub(crate) spline: Spline,
-    pub(crate) last: Option<trimorph::edit::LastEdit>,
+    pub(crate) last: Option<LastEdit>,
+    pub(crate) extras: Vec<Extra>,
+    pub(crate) kept: Map<String, Value>,
     pub(crate) report: Option<Py<PyAny>>,
 }
 
 impl Deformation {
     /// A deformation without edit history or report.
     pub fn new(spline: Spline) -> Deformation {
-        Deformation { spline, last: None, report: None }
+        Deformation { spline, last: None, extras: Vec::new(), kept: Map::new(), report: None }
+    }
+
+    /// A deformation from a file's text (`source` names it in errors).
+    fn parse(text: &str, source: &str) -> Result<Deformation, String> {
+        let (spline, last) =
+            dio::from_str(text).map_err(|e| format!("cannot read deformation {source}: {e}"))?;
+        let extras = dio::constraints_from_str(text, &spline)
+            .map_err(|e| format!("cannot read the constraints of {source}: {e}"))?;
+        let doc: Value = serde_json::from_str(text).map_err(|e| format!("{source}: {e}"))?;
+        let written = dio::to_json_with(&spline, last.as_ref(), &extras);
+        let kept = match doc {
+            Value::Object(m) => m.into_iter().filter(|(k, _)| written.get(k).is_none()).collect(),
+            _ => Map::new(),
+        };
+        Ok(Deformation { spline, last, extras, kept, report: None })
+    }
+
+    /// The file's JSON text.
+    fn text(&self) -> String {
+        let mut v = dio::to_json_with(&self.spline, self.last.as_ref(), &self.extras);
+        for (k, x) in &self.kept {
+            v[k] = x.clone();
+        }
+        trimorph::io::json_rows(&v)
     }
 }
 
@@ -87,22 +121,86 @@ impl Deformation {
     #[staticmethod]
     fn load(py: Python<'_>, path: PathBuf) -> PyResult<Deformation> {
         let text = read_text(&path).map_err(|e| io_error(&e))?;
-        let (spline, last) = py
-            .detach(|| dio::from_str(&text))
-            .map_err(|e| value_error(format!("cannot read deformation {}: {e}", path.display())))?;
-        Ok(Deformation { spline, last, report: None })
+        let source = path.display().to_string();
+        py.detach(|| Deformation::parse(&text, &source)).map_err(value_error)
     }
 
     /// A deformation from the JSON text of a deformation file.
     #[staticmethod]
     fn from_json(py: Python<'_>, text: &str) -> PyResult<Deformation> {
-        let (spline, last) = py.detach(|| dio::from_str(text)).map_err(value_error)?;
-        Ok(Deformation { spline, last, report: None })
+        py.detach(|| Deformation::parse(text, "(text)")).map_err(value_error)
     }
 
     /// The deformation file's JSON text.
     fn to_json(&self) -> String {
-        dio::to_string(&self.spline, self.last.as_ref())
+        self.text()
+    }
+
+    /// Applies an edit script: a list of operations as dicts, exactly as in the JSON scripts
+    /// of `trimorph edit` (e.g. `{"op": "translate", "anchors": [12], "by": [3, 0]}`;
+    /// `rotate`, `scale`, `constrain`; exact values may be strings like "7/2"). All or
+    /// nothing: if an operation fails, the deformation is left exactly as it was.
+    /// Unsolvable moves raise `UnsolvableError`; malformed operations `ValueError` naming the
+    /// operation's index and key. Returns one report dict per operation.
+    fn edit<'py>(&mut self, py: Python<'py>, ops: &Bound<'py, PyAny>) -> PyResult<Py<PyAny>> {
+        let text: String = py.import("json")?.call_method1("dumps", (ops,))?.extract()?;
+        let script = Script::from_json_str(&text).map_err(value_error)?;
+        let (spline, extras) = (self.spline.clone(), self.extras.clone());
+        enum Fail {
+            Stored(trimorph::edit::EditError),
+            Script(ScriptError),
+            Absurd(String),
+        }
+        let result = py.detach(move || -> Result<_, Fail> {
+            let mut ed = Editor::new(spline);
+            for e in extras {
+                ed.add_constraint(e).map_err(Fail::Stored)?;
+            }
+            let reports = script.run(&mut ed).map_err(Fail::Script)?;
+            // The editor's bound on coordinates (`trimorph edit` refuses the same).
+            if let Some(what) = trimorph::server::doc::absurd_point(ed.spline()) {
+                return Err(Fail::Absurd(what));
+            }
+            Ok((reports, ed))
+        });
+        let (reports, ed) = result.map_err(|f| match f {
+            Fail::Script(e) if e.is_unsolvable() => {
+                let kind = match &e {
+                    ScriptError::Edit { source: trimorph::edit::EditError::Ecles(x), .. } => {
+                        crate::errors::variant_name(x)
+                    }
+                    _ => "NotSolvable".to_string(),
+                };
+                crate::errors::unsolvable(py, &kind, &e)
+            }
+            Fail::Script(e) => value_error(&e),
+            Fail::Stored(e) => crate::errors::TrimorphError::new_err(format!(
+                "a stored constraint of this deformation does not hold: {e}"
+            )),
+            Fail::Absurd(what) => value_error(format!(
+                "after the edits {what}, beyond {} pixels: refused (the deformation is unchanged)",
+                trimorph::server::doc::MAX_COORD
+            )),
+        })?;
+        if let Some(l) = trimorph::edit::script::last_edit(&reports) {
+            self.last = Some(l);
+        }
+        self.extras = ed.constraints().to_vec();
+        self.spline = ed.into_spline();
+        let v = serde_json::to_value(&reports).map_err(value_error)?;
+        crate::fitting::to_dict(py, &v)
+    }
+
+    /// The report of `trimorph check` as a dict: exact C1, the certified det J bounds, folds
+    /// (`samples` per triangle side for the sampled minimum).
+    #[pyo3(signature = (samples = 12))]
+    fn check(&self, py: Python<'_>, samples: usize) -> PyResult<Py<PyAny>> {
+        // As `trimorph check`: the scan costs samples^2 evaluations per triangle.
+        if !(1..=1000).contains(&samples) {
+            return Err(value_error(format!("samples {samples}: use 1 to 1000 per triangle side")));
+        }
+        let v = py.detach(|| trimorph::spline::check::check_report(&self.spline, samples));
+        crate::fitting::to_dict(py, &v)
     }
 
     /// Writes the deformation file (atomically: a temporary file renamed into place).
@@ -294,6 +392,8 @@ impl Deformation {
         Deformation {
             spline: self.spline.clone(),
             last: self.last.clone(),
+            extras: self.extras.clone(),
+            kept: self.kept.clone(),
             report: self.report.as_ref().map(|r| r.clone_ref(py)),
         }
     }

@@ -66,7 +66,7 @@ fn fit_exc(py: Python<'_>, e: FitError) -> PyErr {
 
 /// A Python dict from a serializable value (through `json.loads`, so numbers keep their
 /// JSON meaning).
-fn to_dict(py: Python<'_>, v: &serde_json::Value) -> PyResult<Py<PyAny>> {
+pub fn to_dict(py: Python<'_>, v: &serde_json::Value) -> PyResult<Py<PyAny>> {
     let text = serde_json::to_string(v).map_err(value_error)?;
     Ok(py.import("json")?.call_method1("loads", (text,))?.unbind())
 }
@@ -138,7 +138,9 @@ pub fn fit(
                 })
                 .map_err(|e| fit_exc(py, e))?;
             let report = serde_json::to_value(&f.1).map_err(value_error)?;
-            Ok(Deformation { spline: f.0, last: None, report: Some(to_dict(py, &report)?) })
+            let mut d = Deformation::new(f.0);
+            d.report = Some(to_dict(py, &report)?);
+            Ok(d)
         }
         (None, Some(size)) => {
             let size = [size.0, size.1];
@@ -151,7 +153,9 @@ pub fn fit(
             let rep = with_holdout(r.fit.report, &r.fit.spline, &[]).map_err(|e| fit_exc(py, e))?;
             let mut v = serde_json::to_value(&rep).map_err(value_error)?;
             v["frame"] = serde_json::to_value(&r.frame).map_err(value_error)?;
-            Ok(Deformation { spline: r.fit.spline, last: None, report: Some(to_dict(py, &v)?) })
+            let mut d = Deformation::new(r.fit.spline);
+            d.report = Some(to_dict(py, &v)?);
+            Ok(d)
         }
         (None, None) => Err(value_error(
             "give size=(w, h) (the frame the landmarks live in) or deformation=d (a mesh to fit on)",

@@ -76,7 +76,7 @@ class Deformation:
         """(H, W, 2) displacements: phi(p) - p, or phi^-1(q) - q with inverse=True."""
     def edit(self, ops: Sequence[Dict[str, Any]]) -> List[Dict[str, Any]]:
         """Applies edit-script operations (dicts, as in `trimorph edit` scripts), all or none."""
-    def check(self, samples: int = 16) -> Dict[str, Any]:
+    def check(self, samples: int = 12) -> Dict[str, Any]:
         """The report of `trimorph check`: exact C1, det J bounds, folds."""
     def to_itk(
         self, path: _Path, inverse: bool = False, size: Optional[Tuple[int, int]] = None
