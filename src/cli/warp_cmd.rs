@@ -322,7 +322,7 @@ pub fn field(
     let ext = ext_of(output);
     let itk = crate::io::itk::is_h5_path(output);
     if !itk && !matches!(ext.as_str(), "npy" | "tif" | "tiff") {
-        bail!("{}: use a .npy, .tif or .h5 (ITK transform) output", output.display());
+        bail!("{}: use a .npy or .tif output (or .h5 for an ITK transform)", output.display());
     }
     if let Some(jp) = jacobian.filter(|jp| ext_of(jp) != "png") {
         bail!("{}: the Jacobian map is a PNG picture; name it .png", jp.display());

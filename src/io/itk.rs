@@ -186,9 +186,12 @@ pub fn to_h5_bytes(f: &ItkDisplacementField, path: &Path) -> Result<Vec<u8>, Itk
         });
     }
     let mut b = hdf5_pure::FileBuilder::new();
+    // ITK writes its own version, its HDF5 library's and the OS's here; nothing reads them.
+    // These say who wrote the file instead (no ITK or HDF5 C library was involved).
+    let writer = format!("trimorph {} (ITK 5 transform layout)", env!("CARGO_PKG_VERSION"));
     let meta = [
-        ("ITKVersion", "5.4.0"),
-        ("HDFVersion", "hdf5-pure (trimorph)"),
+        ("ITKVersion", writer.as_str()),
+        ("HDFVersion", "hdf5-pure 0.47 (pure Rust)"),
         ("OSName", std::env::consts::OS),
         ("OSVersion", std::env::consts::ARCH),
     ];

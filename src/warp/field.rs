@@ -237,7 +237,9 @@ mod tests {
                 "{a:?} vs {b:?}"
             );
         }
-        assert_eq!(f64s[5 * 32 + 5], [2.0, -1.0]);
+        // f64 evaluation of the shift by (2, -1), to within its rounding.
+        let d = f64s[5 * 32 + 5];
+        assert!((d[0] - 2.0).abs() < 1e-12 && (d[1] + 1.0).abs() < 1e-12, "{d:?}");
         assert_eq!(
             g64.iter().filter(|v| v[0].is_nan()).count(),
             g.data.iter().filter(|v| v[0].is_nan()).count()

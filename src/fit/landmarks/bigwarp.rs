@@ -67,10 +67,10 @@ pub fn parse_bigwarp_with_notes(
         }
         match width {
             None => width = Some((f.len(), line)),
-            Some((n, first)) if n != f.len() => return Err(err(format!(
-                "{} fields, but line {first} has {n}: a BigWarp table is either 2D (6) or 3D (8)",
-                f.len()
-            ))),
+            Some((n, first)) if n != f.len() => {
+                let what = "a BigWarp table is either 2D (6 fields) or 3D (8)";
+                return Err(err(format!("{} fields, but line {first} has {n}: {what}", f.len())));
+            }
             Some(_) => {}
         }
         match f[1].trim() {
