@@ -16,6 +16,7 @@ import os
 import subprocess
 from pathlib import Path
 
+import h5py
 import numpy as np
 import pytest
 import SimpleITK as sitk
@@ -92,6 +93,28 @@ def case(tmp_path_factory):
     }
 
 
+def test_h5py_sees_itk_layout(case):
+    with h5py.File(case["dir"] / "F.h5", "r") as f:
+        strings = ["ITKVersion", "HDFVersion", "OSName", "OSVersion"]
+        for name in strings + ["TransformGroup/0/TransformType"]:
+            ds = f[name]
+            assert ds.shape == (1,), name
+            # ITK reads its strings as variable-length ASCII (C_S1, H5T_VARIABLE).
+            info = h5py.check_string_dtype(ds.dtype)
+            assert info is not None and info.length is None and info.encoding == "ascii", name
+        assert f["TransformGroup/0/TransformType"][0] == b"DisplacementFieldTransform_double_2_2"
+        assert list(f["TransformGroup"].keys()) == ["0"]
+        fixed = f["TransformGroup/0/TranformFixedParameters"]
+        params = f["TransformGroup/0/TranformParameters"]
+        assert fixed.dtype == np.float64 and params.dtype == np.float64
+        assert fixed[()].tolist() == [W, H, 0, 0, 1, 1, 1, 0, 0, 1]
+        assert params.shape == (2 * W * H,)
+        # x fastest, (dx, dy) interleaved: entry (x, y) is phi^-1 at (x, y) minus (x, y).
+        v = params[()].reshape(H, W, 2)
+        x, y = 300, 123
+        assert np.abs(v[y, x] - (case["inv"][y * W + x] - [x, y])).max() <= INVERSE_TOL
+
+
 def test_sitk_reads_the_transform_with_its_pixel_grid(case):
     t = sitk.ReadTransform(str(case["dir"] / "F.h5"))
     assert t.GetName() == "DisplacementFieldTransform"
@@ -159,9 +182,9 @@ def test_resample_reproduces_warp_image_with_background(case):
     img = sitk.GetArrayFromImage(sitk.ReadImage(str(frame))).astype(np.float32)
     assert img.shape == (H, W)
     tifffile.imwrite(d / "in.tif", img)
-    run("warp", d / "def.json", "--image", d / "in.tif", "-o", d / "out.tif",
-        f"--background={BACKGROUND}")
-    want = tifffile.imread(d / "out.tif")
+    out = d / "out.tif"
+    run("warp", d / "def.json", "--image", d / "in.tif", "-o", out, f"--background={BACKGROUND}")
+    want = tifffile.imread(out)
     assert want.dtype == np.float32 and want.shape == (H, W)
     moving = sitk.GetImageFromArray(img)
     t = sitk.ReadTransform(str(d / "F.h5"))
