@@ -370,6 +370,24 @@ mod tests {
         assert!(e.contains("x.h5") && e.contains("5 displacements"), "{e}");
     }
 
+    /// ITK 5 writes `TransformFixedParameters` / `TransformParameters` (spelled right); the
+    /// reader takes those too (the layout SimpleITK 2.5 / ITK 5.4 writes).
+    #[test]
+    fn the_spelling_itk_5_writes_is_read() {
+        let mut b = hdf5_pure::FileBuilder::new();
+        let mut group = b.create_group(GROUP);
+        let mut t = group.create_group("0");
+        ascii_vlen(t.create_dataset("TransformType"), TRANSFORM_TYPE);
+        t.create_dataset(FIXED_NEW).with_f64_data(&field().fixed_parameters());
+        let params: Vec<f64> = (0..12).map(f64::from).collect();
+        t.create_dataset(PARAMS_NEW).with_f64_data(&params);
+        group.add_group(t.finish());
+        b.add_group(group.finish());
+        let f = from_h5_bytes(b.finish().unwrap(), Path::new("sitk.h5")).unwrap();
+        assert_eq!(f.size, [3, 2]);
+        assert_eq!(f.data[1], [2.0, 3.0], "x fastest, components interleaved");
+    }
+
     #[test]
     fn foreign_files_are_refused_with_the_dataset_named() {
         let p = Path::new("other.h5");
