@@ -5,7 +5,7 @@ use crate::fit::frame::{fit_frame, FrameFitOptions};
 use crate::fit::landmarks::{holdout, Landmark};
 use crate::fit::objective::{Barrier, Loss};
 use crate::fit::solve::{fit, with_holdout, Bend, FitError, FitOptions, FitReport};
-use crate::io::landmarks::read_landmarks_noted;
+use crate::io::landmarks::read_landmarks_with_notes;
 use crate::io::{deformation, read_text, write_atomic};
 use crate::mesh::AdaptOptions;
 use anyhow::{bail, Context, Result};
@@ -207,10 +207,13 @@ fn read_split(
     seed: u64,
     hard: bool,
 ) -> Result<(Vec<Landmark>, Vec<Landmark>)> {
-    let (lms, notes) = read_landmarks_noted(landmarks)
+    let (lms, notes) = read_landmarks_with_notes(landmarks)
         .with_context(|| format!("cannot read landmarks {}", landmarks.display()))?;
+    if let Some(z) = &notes.constant_z {
+        eprintln!("warning: {}: {z}", landmarks.display());
+    }
     if hard {
-        for n in &notes {
+        for n in &notes.approximations {
             eprintln!("warning: {}: {n}", landmarks.display());
         }
     }

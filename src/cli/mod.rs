@@ -9,6 +9,7 @@ mod demo_fit;
 mod editor_cmd;
 mod fit_batch;
 mod fit_cmd;
+mod itk_cmd;
 mod match_cmd;
 mod model_cmd;
 mod morph_cmd;
@@ -295,14 +296,19 @@ enum Command {
         flat: bool,
     },
     /// Dense displacement field (forward phi(p) - p, or --inverse phi^-1(q) - q) as float
-    /// TIFF or .npy, and optionally a Jacobian-determinant map (PNG) with a fold report.
+    /// TIFF or .npy, or an ITK transform (.h5: phi^-1(q) - q, or --inverse phi(p) - p), and
+    /// optionally a Jacobian-determinant map (PNG) with a fold report.
     Field {
         /// The deformation.
         deformation: PathBuf,
-        /// Output field (.tif: RGB float32 dx, dy, valid; .npy: float32 (H, W, 2), NaN outside).
+        /// Output field (.tif: RGB float32 dx, dy, valid; .npy: float32 (H, W, 2), NaN outside;
+        /// .h5: ITK HDF5 DisplacementFieldTransform_double_2_2 in pixel units, f64, NaN
+        /// where undefined, by default phi^-1(q) - q so that ITK's Resample reproduces
+        /// `trimorph warp --image`).
         #[arg(short, long)]
         output: PathBuf,
-        /// The inverse field instead of the forward one.
+        /// The other direction: .npy/.tif hold phi^-1(q) - q instead of phi(p) - p; .h5 holds
+        /// phi(p) - p instead of phi^-1(q) - q.
         #[arg(long)]
         inverse: bool,
         /// Also write the Jacobian determinant as a colour map (PNG): blue compression, white

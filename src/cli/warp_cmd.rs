@@ -309,7 +309,7 @@ pub fn run(a: WarpArgs) -> Result<()> {
     Ok(())
 }
 
-/// `trimorph field DEF -o FIELD.(tif|npy) [--inverse] [--jacobian JAC.png] [--size W,H]`.
+/// `trimorph field DEF -o FIELD.(tif|npy|h5) [--inverse] [--jacobian JAC.png] [--size W,H]`.
 pub fn field(
     def: &Path,
     output: &Path,
@@ -320,8 +320,9 @@ pub fn field(
     use crate::warp::field as wf;
     let ext_of = |p: &Path| p.extension().and_then(|e| e.to_str()).unwrap_or("").to_lowercase();
     let ext = ext_of(output);
-    if !matches!(ext.as_str(), "npy" | "tif" | "tiff") {
-        bail!("{}: use a .npy or .tif output", output.display());
+    let itk = crate::io::itk::is_h5_path(output);
+    if !itk && !matches!(ext.as_str(), "npy" | "tif" | "tiff") {
+        bail!("{}: use a .npy or .tif output (or .h5 for an ITK transform)", output.display());
     }
     if let Some(jp) = jacobian.filter(|jp| ext_of(jp) != "png") {
         bail!("{}: the Jacobian map is a PNG picture; name it .png", jp.display());
@@ -349,6 +350,11 @@ pub fn field(
             def.display()
         );
     }
+    let mut out = std::io::stdout().lock();
+    if itk {
+        super::itk_cmd::field_h5(&s, w, h, output, inverse_field, &mut out)?;
+        return jacobian_map(&s, w, h, jacobian, &mut out);
+    }
     let f = if inverse_field {
         wf::inverse_field(&s, w, h, InverseOptions::default())
     } else {
@@ -367,15 +373,26 @@ pub fn field(
     };
     write_atomic(output, &bytes)?;
     let undefined = f.data.iter().filter(|v| v[0].is_nan()).count();
-    let mut out = std::io::stdout().lock();
     writeln!(
         out,
         "{} displacement field {w}x{h} -> {} ({undefined} pixels undefined)",
         if inverse_field { "inverse (phi^-1(q) - q)" } else { "forward (phi(p) - p)" },
         output.display()
     )?;
+    jacobian_map(&s, w, h, jacobian, &mut out)
+}
+
+/// `--jacobian JAC.png` of `trimorph field`: the colour map of `det J` and its report lines.
+fn jacobian_map(
+    s: &crate::spline::Spline,
+    w: u32,
+    h: u32,
+    jacobian: Option<&Path>,
+    out: &mut impl Write,
+) -> Result<()> {
+    use crate::warp::field as wf;
     if let Some(jp) = jacobian {
-        let (dets, rep) = wf::jacobian_det(&s, w, h);
+        let (dets, rep) = wf::jacobian_det(s, w, h);
         let img = image::RgbaImage::from_fn(w, h, |x, y| {
             image::Rgba(wf::det_color(dets[(y * w + x) as usize]))
         });

@@ -25,7 +25,13 @@
 //!   default the *moving* point becomes `src` and the *fixed* point `dst` (the deformation
 //!   sends the moving image's landmarks onto the fixed image's); `swap = true` reverses
 //!   this on import and export. Names come from the first field (`Pt-<index>` is written
-//!   for unnamed landmarks); weights are not stored (1 on import).
+//!   for unnamed landmarks); weights are not stored (1 on import). BigWarp's 3D table
+//!   (its default export), `"Pt-0","true","x_moving","y_moving","z_moving","x_fixed",
+//!   "y_fixed","z_fixed"`, is read when z is constant (every placed active row has the same
+//!   moving z and the same fixed z): z is dropped and reported as a [`ConstantZ`] note
+//!   ([`parse_bigwarp_with_notes`]). A table whose z varies is refused, naming the first line
+//!   that differs: a 2D deformation cannot honour varying z. All rows of a table have the
+//!   same number of fields; tables are written in the 2D form.
 //! * [`LandmarkFormat::Json`]:
 //!   `{"landmarks":[{"name":"a","src":[x,y],"dst":[x,y],"weight":1.0}, ...]}`, name and
 //!   weight optional.
@@ -33,6 +39,11 @@
 //! Everything here works on strings; reading and writing files is in `crate::io::landmarks`.
 
 use super::rng::SplitMix64;
+
+mod bigwarp;
+pub use bigwarp::{
+    parse_bigwarp, parse_bigwarp_noted, parse_bigwarp_with_notes, to_bigwarp, ConstantZ,
+};
 use serde::{Deserialize, Serialize};
 
 /// One matched pair: `src` in the reference domain (mesh coordinates), `dst` where the
@@ -111,6 +122,15 @@ fn approximation(
     })
 }
 
+/// What reading a landmark text noticed besides the landmarks.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ReadNotes {
+    /// Coordinates whose decimal text an `f64` cannot hold (see [`parse_noted`]).
+    pub approximations: Vec<Approximation>,
+    /// Set when a BigWarp 3D table's constant z was dropped.
+    pub constant_z: Option<ConstantZ>,
+}
+
 /// Errors of the landmark text formats.
 #[derive(Debug, thiserror::Error)]
 pub enum LandmarkError {
@@ -162,8 +182,8 @@ pub enum LandmarkFormat {
 impl LandmarkFormat {
     /// The format of a file from its extension (without the dot, any case) and its text:
     /// `json` -> [`Json`](Self::Json); otherwise [`BigWarp`](Self::BigWarp) when the first
-    /// non-empty line starts with a double quote and has 6 fields whose second is `true` or
-    /// `false`; otherwise [`Csv`](Self::Csv). Without an extension, text starting with `{`
+    /// non-empty line starts with a double quote and has 6 (2D) or 8 (3D) fields whose second
+    /// is `true` or `false`; otherwise [`Csv`](Self::Csv). Without an extension, text starting with `{`
     /// is JSON.
     pub fn detect(extension: Option<&str>, text: &str) -> LandmarkFormat {
         let ext = extension.map(str::to_ascii_lowercase);
@@ -174,7 +194,7 @@ impl LandmarkFormat {
         if let Some(line) = first {
             if line.starts_with('"') {
                 if let Ok(f) = split_csv(line) {
-                    if f.len() == 6 && matches!(f[1].trim(), "true" | "false") {
+                    if matches!(f.len(), 6 | 8) && matches!(f[1].trim(), "true" | "false") {
                         return LandmarkFormat::BigWarp;
                     }
                 }
@@ -219,6 +239,19 @@ pub fn parse_noted(
         LandmarkFormat::Csv => parse_csv_noted(text),
         LandmarkFormat::BigWarp => parse_bigwarp_noted(text, false),
         LandmarkFormat::Json => parse_json_noted(text),
+    }
+}
+
+/// [`parse_noted`] with every note: the approximations and, for a BigWarp 3D table, the
+/// dropped constant z ([`ConstantZ`]), which a reader should show as a warning.
+pub fn parse_with_notes(
+    text: &str,
+    format: LandmarkFormat,
+) -> Result<(Vec<Landmark>, ReadNotes), LandmarkError> {
+    match format {
+        LandmarkFormat::BigWarp => parse_bigwarp_with_notes(text, false),
+        _ => parse_noted(text, format)
+            .map(|(l, approximations)| (l, ReadNotes { approximations, constant_z: None })),
     }
 }
 
@@ -376,79 +409,6 @@ pub fn to_csv(lms: &[Landmark]) -> Result<String, LandmarkError> {
             "{name},{},{},{},{},{}\n",
             l.src[0], l.src[1], l.dst[0], l.dst[1], l.weight
         ));
-    }
-    Ok(s)
-}
-
-/// Parses a BigWarp landmark table: moving -> `src`, fixed -> `dst`, or the reverse when
-/// `swap`. Inactive rows and rows with an unset (infinite) point are skipped.
-pub fn parse_bigwarp(text: &str, swap: bool) -> Result<Vec<Landmark>, LandmarkError> {
-    parse_bigwarp_noted(text, swap).map(|(l, _)| l)
-}
-
-/// [`parse_bigwarp`] with the approximated coordinates (see [`parse_noted`]).
-pub fn parse_bigwarp_noted(
-    text: &str,
-    swap: bool,
-) -> Result<(Vec<Landmark>, Vec<Approximation>), LandmarkError> {
-    let mut out = Vec::new();
-    let mut notes = Vec::new();
-    for (k, raw) in text.lines().enumerate() {
-        let line = k + 1;
-        let err = |message: String| LandmarkError::Line { line, message };
-        if raw.trim().is_empty() {
-            continue;
-        }
-        let f = split_csv(raw.trim()).map_err(err)?;
-        if f.len() == 8 {
-            return Err(err("3D BigWarp landmarks are not supported (8 fields)".into()));
-        }
-        if f.len() != 6 {
-            return Err(err(format!("expected 6 fields (BigWarp 2D), found {}", f.len())));
-        }
-        match f[1].trim() {
-            "true" => {}
-            "false" => continue,
-            other => return Err(err(format!("active flag {other:?} is not true/false"))),
-        }
-        let mut v = [0.0; 4];
-        for c in 0..4 {
-            let t = f[c + 2].trim();
-            v[c] = match t.parse::<f64>() {
-                Ok(x) if x.is_nan() => return Err(err(format!("field {}: NaN", c + 3))),
-                Ok(x) => x,
-                Err(_) => return Err(err(format!("field {}: {t:?} is not a number", c + 3))),
-            };
-        }
-        if v.iter().any(|x| x.is_infinite()) {
-            continue; // a point BigWarp has not placed yet
-        }
-        let (moving, fixed) = ([v[0], v[1]], [v[2], v[3]]);
-        let (src, dst) = if swap { (fixed, moving) } else { (moving, fixed) };
-        let name = if f[0].is_empty() { None } else { Some(f[0].clone()) };
-        for c in 0..4 {
-            // Fields 3-4 are the moving point, 5-6 the fixed one.
-            let field = COORDS[if swap { (c + 2) % 4 } else { c }];
-            notes.extend(approximation(out.len(), &name, field, f[c + 2].trim(), v[c]));
-        }
-        out.push(Landmark { name, src, dst, weight: 1.0 });
-    }
-    notes.sort_by_key(|n| (n.index, COORDS.iter().position(|&c| c == n.field)));
-    Ok((out, notes))
-}
-
-/// Writes a BigWarp landmark table (all rows active): `src` -> moving, `dst` -> fixed, or
-/// the reverse when `swap`. Unnamed landmarks are called `Pt-<index>`; weights are lost.
-pub fn to_bigwarp(lms: &[Landmark], swap: bool) -> Result<String, LandmarkError> {
-    validate(lms)?;
-    let q = |s: &str| format!("\"{}\"", s.replace('"', "\"\""));
-    let mut s = String::new();
-    for (i, l) in lms.iter().enumerate() {
-        let name = l.name.clone().unwrap_or_else(|| format!("Pt-{i}"));
-        let (m, f) = if swap { (l.dst, l.src) } else { (l.src, l.dst) };
-        let nums: Vec<String> =
-            [m[0], m[1], f[0], f[1]].iter().map(|v| q(&v.to_string())).collect();
-        s.push_str(&format!("{},\"true\",{}\n", q(&name), nums.join(",")));
     }
     Ok(s)
 }
@@ -638,46 +598,6 @@ mod tests {
                 ));
             }
         }
-    }
-
-    #[test]
-    fn bigwarp_import_skips_inactive_and_unset_and_maps_moving_to_src() {
-        let text = "\"Pt-0\",\"true\",\"10.5\",\"20.0\",\"11.0\",\"21.25\"\n\
-                    \"Pt-1\",\"false\",\"1.0\",\"2.0\",\"3.0\",\"4.0\"\n\
-                    \"Pt-2\",\"true\",\"5.0\",\"6.0\",\"Infinity\",\"Infinity\"\n\
-                    \"nucleus\",\"true\",\"-1.0\",\"0.0\",\"7.0\",\"8.0\"\n";
-        let l = parse_bigwarp(text, false).unwrap();
-        assert_eq!(
-            l,
-            vec![
-                lm(Some("Pt-0"), [10.5, 20.0], [11.0, 21.25], 1.0),
-                lm(Some("nucleus"), [-1.0, 0.0], [7.0, 8.0], 1.0)
-            ]
-        );
-        let s = parse_bigwarp(text, true).unwrap();
-        assert_eq!(s[0].src, [11.0, 21.25]);
-        assert_eq!(s[0].dst, [10.5, 20.0]);
-        assert!(parse_bigwarp("\"a\",\"yes\",\"1\",\"2\",\"3\",\"4\"\n", false).is_err());
-        assert!(parse_bigwarp("\"a\",\"true\",\"1\",\"2\",\"3\"\n", false).is_err());
-        let e = parse_bigwarp("\"a\",\"true\",\"1\",\"2\",\"3\",\"4\",\"5\",\"6\"\n", false);
-        assert!(e.unwrap_err().to_string().contains("3D"));
-    }
-
-    #[test]
-    fn bigwarp_round_trip_and_swap() {
-        let lms = sample();
-        let text = to_bigwarp(&lms, false).unwrap();
-        assert!(text.lines().all(|l| l.starts_with('"') && l.contains(",\"true\",")));
-        assert!(text.contains("\"Pt-1\""));
-        let back = parse_bigwarp(&text, false).unwrap();
-        for (a, b) in lms.iter().zip(&back) {
-            assert_eq!((a.src, a.dst), (b.src, b.dst));
-            assert_eq!(b.weight, 1.0);
-        }
-        assert_eq!(back[2].name, lms[2].name);
-        assert_eq!(back[1].name.as_deref(), Some("Pt-1"));
-        let swapped = parse_bigwarp(&to_bigwarp(&lms, true).unwrap(), false).unwrap();
-        assert_eq!((swapped[0].src, swapped[0].dst), (lms[0].dst, lms[0].src));
     }
 
     #[test]

@@ -3,7 +3,9 @@
 //! writing is atomic.
 
 use super::{read_text, write_atomic, IoError};
-use crate::fit::landmarks::{self, Approximation, Landmark, LandmarkError, LandmarkFormat};
+use crate::fit::landmarks::{
+    self, Approximation, Landmark, LandmarkError, LandmarkFormat, ReadNotes,
+};
 use std::path::{Path, PathBuf};
 
 /// Errors of landmark files, with the path.
@@ -51,9 +53,18 @@ pub fn read_landmarks(path: &Path) -> Result<Vec<Landmark>, LandmarkIoError> {
 pub fn read_landmarks_noted(
     path: &Path,
 ) -> Result<(Vec<Landmark>, Vec<Approximation>), LandmarkIoError> {
+    read_landmarks_with_notes(path).map(|(l, n)| (l, n.approximations))
+}
+
+/// [`read_landmarks`] with every note ([`landmarks::parse_with_notes`]): the approximated
+/// coordinates and, for a BigWarp 3D table, the constant z that was dropped (a reader shows
+/// it as a warning, as `trimorph fit` does).
+pub fn read_landmarks_with_notes(
+    path: &Path,
+) -> Result<(Vec<Landmark>, ReadNotes), LandmarkIoError> {
     let text = read_text(path)?;
     let format = detect_format(path, &text);
-    let (lms, notes) = landmarks::parse_noted(&text, format)
+    let (lms, notes) = landmarks::parse_with_notes(&text, format)
         .map_err(|source| LandmarkIoError::Format { path: path.to_path_buf(), source })?;
     let mut seen = std::collections::HashMap::new();
     for (i, l) in lms.iter().enumerate() {

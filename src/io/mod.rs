@@ -7,6 +7,7 @@
 pub mod colormesh;
 pub mod deformation;
 pub mod frames;
+pub mod itk;
 pub mod landmarks;
 pub mod model;
 pub mod raster;

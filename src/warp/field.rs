@@ -8,7 +8,9 @@
 //!
 //! Pixels where the map is undefined (outside the mesh, or no preimage) are NaN. Files:
 //! `.npy` (float32, shape `(H, W, 2)` for fields, C order) or float TIFF (RGB float32:
-//! `dx`, `dy` and a validity channel 1/0).
+//! `dx`, `dy` and a validity channel 1/0). [`forward_field_f64`] and [`inverse_field_f64`]
+//! give the same fields in `f64` (the `f32` ones are these rounded to nearest), for the ITK
+//! transform files of [`crate::io::itk`].
 
 use super::inverse::InverseOptions;
 use super::remap::{preimage_grid, RemapOptions};
@@ -45,38 +47,53 @@ pub struct FoldReport {
 
 /// The forward displacement field `phi(p) - p` on a `w x h` pixel grid.
 pub fn forward_field(s: &Spline, w: u32, h: u32) -> Field {
-    let pts: Vec<[f64; 2]> =
-        (0..h).flat_map(|y| (0..w).map(move |x| [x as f64, y as f64])).collect();
-    let mut out = vec![None; pts.len()];
-    s.eval_many(&pts, &mut out);
-    let data = pts
-        .iter()
-        .zip(&out)
-        .map(|(p, q)| match q {
-            Some(q) => [(q[0] - p[0]) as f32, (q[1] - p[1]) as f32],
-            None => [f32::NAN; 2],
-        })
-        .collect();
-    Field { width: w, height: h, data }
+    Field { width: w, height: h, data: to_f32(forward_field_f64(s, w, h)) }
 }
 
 /// The inverse displacement field `phi^-1(q) - q` on a `w x h` pixel grid, from the same
 /// certified preimages as the image warp ([`super::remap`]).
 pub fn inverse_field(s: &Spline, w: u32, h: u32, opts: InverseOptions) -> Field {
+    Field { width: w, height: h, data: to_f32(inverse_field_f64(s, w, h, opts)) }
+}
+
+/// [`forward_field`] in `f64`, computed in `f64`: `u(p) = phi(p) - p` at every pixel centre
+/// `p = (x, y)`, row-major (x fastest), `NaN` outside the mesh.
+pub fn forward_field_f64(s: &Spline, w: u32, h: u32) -> Vec<[f64; 2]> {
+    let pts: Vec<[f64; 2]> =
+        (0..h).flat_map(|y| (0..w).map(move |x| [x as f64, y as f64])).collect();
+    let mut out = vec![None; pts.len()];
+    s.eval_many(&pts, &mut out);
+    pts.iter()
+        .zip(&out)
+        .map(|(p, q)| match q {
+            Some(q) => [q[0] - p[0], q[1] - p[1]],
+            None => [f64::NAN; 2],
+        })
+        .collect()
+}
+
+/// [`inverse_field`] in `f64`, computed in `f64`: `v(q) = phi^-1(q) - q` at every pixel
+/// centre `q = (x, y)`, row-major (x fastest), `NaN` where `q` has no preimage. The
+/// preimages are those of the image warp ([`preimage_grid`]), each within `opts.tolerance`
+/// of the Newton solution [`super::inverse()`] gives.
+pub fn inverse_field_f64(s: &Spline, w: u32, h: u32, opts: InverseOptions) -> Vec<[f64; 2]> {
     let (pre, _) = preimage_grid(s, w, h, RemapOptions { inverse: opts, ..Default::default() });
-    let data = pre
-        .iter()
+    pre.iter()
         .enumerate()
         .map(|(i, p)| {
             let q = [(i % w as usize) as f64, (i / w as usize) as f64];
             if p[0].is_nan() {
-                [f32::NAN; 2]
+                [f64::NAN; 2]
             } else {
-                [(p[0] - q[0]) as f32, (p[1] - q[1]) as f32]
+                [p[0] - q[0], p[1] - q[1]]
             }
         })
-        .collect();
-    Field { width: w, height: h, data }
+        .collect()
+}
+
+/// Each component rounded to the nearest `f32` (the storage type of [`Field`]).
+fn to_f32(v: Vec<[f64; 2]>) -> Vec<[f32; 2]> {
+    v.into_iter().map(|d| [d[0] as f32, d[1] as f32]).collect()
 }
 
 /// `det J` of phi at every pixel of a `w x h` grid (`NaN` outside the mesh) and the fold
@@ -203,6 +220,30 @@ mod tests {
         assert_eq!(rep.folds, 0);
         assert_eq!(rep.samples, 30 * 20);
         assert!(rep.certificate.fold_free && rep.certificate.lower_bound <= 1.0);
+    }
+
+    /// The `f64` fields (ITK export) are the `f32` ones before rounding.
+    #[test]
+    fn f64_fields_round_to_the_f32_ones() {
+        let s = shifted();
+        let (f, f64s) = (forward_field(&s, 32, 22), forward_field_f64(&s, 32, 22));
+        let (g, g64) = (
+            inverse_field(&s, 32, 22, InverseOptions::default()),
+            inverse_field_f64(&s, 32, 22, InverseOptions::default()),
+        );
+        for (a, b) in f.data.iter().zip(&f64s).chain(g.data.iter().zip(&g64)) {
+            assert!(
+                (a[0].is_nan() && b[0].is_nan()) || *a == [b[0] as f32, b[1] as f32],
+                "{a:?} vs {b:?}"
+            );
+        }
+        // f64 evaluation of the shift by (2, -1), to within its rounding.
+        let d = f64s[5 * 32 + 5];
+        assert!((d[0] - 2.0).abs() < 1e-12 && (d[1] + 1.0).abs() < 1e-12, "{d:?}");
+        assert_eq!(
+            g64.iter().filter(|v| v[0].is_nan()).count(),
+            g.data.iter().filter(|v| v[0].is_nan()).count()
+        );
     }
 
     #[test]
