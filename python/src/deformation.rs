@@ -10,10 +10,11 @@ use crate::arrays::{points_in, points_out, to_numpy, warp_any};
 use crate::errors::{io_error, value_error};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use std::path::PathBuf;
 use serde_json::{Map, Value};
+use std::path::PathBuf;
+use trimorph::edit::extra::Extra;
 use trimorph::edit::script::{Script, ScriptError};
-use trimorph::edit::{Editor, Extra, LastEdit};
+use trimorph::edit::{Editor, LastEdit};
 use trimorph::io::{deformation as dio, read_text, write_atomic, IoError};
 use trimorph::mesh::{AdaptOptions, Mesh, MeshOptions};
 use trimorph::spline::Spline;
@@ -142,7 +143,21 @@ impl Deformation {
     /// nothing: if an operation fails, the deformation is left exactly as it was.
     /// Unsolvable moves raise `UnsolvableError`; malformed operations `ValueError` naming the
     /// operation's index and key. Returns one report dict per operation.
-    fn edit<'py>(&mut self, py: Python<'py>, ops: &Bound<'py, PyAny>) -> PyResult<Py<PyAny>> {
+    ///
+    /// `bounded_bits` (default 24, as `trimorph edit`): after each operation the free points
+    /// of the edit are rounded to multiples of `2^-bits` and the rest recomputed exactly, so
+    /// C1 still holds exactly but the numbers stay small over long histories; `None` keeps
+    /// every value exact (as `trimorph edit --unbounded`).
+    #[pyo3(signature = (ops, bounded_bits = Some(24)))]
+    fn edit<'py>(
+        &mut self,
+        py: Python<'py>,
+        ops: &Bound<'py, PyAny>,
+        bounded_bits: Option<u32>,
+    ) -> PyResult<Py<PyAny>> {
+        if bounded_bits.is_some_and(|b| !(8..=62).contains(&b)) {
+            return Err(value_error("bounded_bits must be between 8 and 62 (or None)"));
+        }
         let text: String = py.import("json")?.call_method1("dumps", (ops,))?.extract()?;
         let script = Script::from_json_str(&text).map_err(value_error)?;
         let (spline, extras) = (self.spline.clone(), self.extras.clone());
@@ -153,6 +168,8 @@ impl Deformation {
         }
         let result = py.detach(move || -> Result<_, Fail> {
             let mut ed = Editor::new(spline);
+            // As `trimorph edit`: a spline with no determining set keeps exact values.
+            let note = ed.set_bounded(bounded_bits).err().map(|e| e.to_string());
             for e in extras {
                 ed.add_constraint(e).map_err(Fail::Stored)?;
             }
@@ -161,9 +178,9 @@ impl Deformation {
             if let Some(what) = trimorph::server::doc::absurd_point(ed.spline()) {
                 return Err(Fail::Absurd(what));
             }
-            Ok((reports, ed))
+            Ok((reports, ed, note))
         });
-        let (reports, ed) = result.map_err(|f| match f {
+        let (reports, ed, note) = result.map_err(|f| match f {
             Fail::Script(e) if e.is_unsolvable() => {
                 let kind = match &e {
                     ScriptError::Edit { source: trimorph::edit::EditError::Ecles(x), .. } => {
@@ -182,6 +199,15 @@ impl Deformation {
                 trimorph::server::doc::MAX_COORD
             )),
         })?;
+        if let Some(n) = note {
+            let msg = format!("{n}; keeping exact values unbounded");
+            PyErr::warn(
+                py,
+                &py.get_type::<pyo3::exceptions::PyUserWarning>(),
+                &std::ffi::CString::new(msg)?,
+                1,
+            )?;
+        }
         if let Some(l) = trimorph::edit::script::last_edit(&reports) {
             self.last = Some(l);
         }
@@ -347,6 +373,39 @@ impl Deformation {
         });
         let flat: Vec<f32> = f.data.iter().flat_map(|v| *v).collect();
         Ok(to_numpy(py, flat, &[h as usize, w as usize, 2])?.into_any())
+    }
+
+    /// Writes an ITK HDF5 transform (`DisplacementFieldTransform_double_2_2`, ITK's pixel
+    /// grid: origin 0, spacing 1, identity direction) over `size = (W, H)` (default: the
+    /// mesh's extent from 0), exactly as `trimorph field DEF -o F.h5`.
+    ///
+    /// Direction: by default the file holds `phi^-1(q) - q`, the direction ITK resamples in:
+    /// SimpleITK's `Resample(moving, reference, transform)` reproduces `warp`, and
+    /// `transform.TransformPoint(q)` is `inverse_points(q)`. With `inverse=True` it holds
+    /// `phi(p) - p` (`TransformPoint(p)` is `map_points(p)`). Undefined displacements are NaN
+    /// (ITK resamples them to the background). Returns the number of undefined grid points.
+    #[pyo3(signature = (path, inverse = false, size = None, tolerance = 0.01))]
+    fn to_itk(
+        &self,
+        py: Python<'_>,
+        path: PathBuf,
+        inverse: bool,
+        size: Option<(u32, u32)>,
+        tolerance: f64,
+    ) -> PyResult<usize> {
+        use trimorph::io::itk::{displacement_transform, write_h5, FieldDirection, ItkError};
+        let (w, h) = grid_size(size, &self.spline)?;
+        let opts = inverse_options(tolerance)?;
+        let dir = if inverse { FieldDirection::Forward } else { FieldDirection::Resampling };
+        py.detach(|| {
+            let f = displacement_transform(&self.spline, w, h, dir, opts)?;
+            write_h5(&f, &path)?;
+            Ok(f.undefined())
+        })
+        .map_err(|e: ItkError| match e {
+            ItkError::Io(io) => io_error(&io),
+            other => value_error(other),
+        })
     }
 
     /// The fit report (a dict, the same keys as `trimorph fit --report`) when this

@@ -29,9 +29,21 @@ def test_edit_equals_cli_edit(cli, tmp_path):
     script.write_text(json.dumps(OPS))
     cli("edit", base, "--script", script, "-o", out)
     reports = d.edit(OPS)
-    assert len(reports) == 3 and all("anchors" in r["Moved"] for r in reports)
+    assert len(reports) == 3 and all(r["kind"] == "moved" and r["anchors"] for r in reports)
     assert d.to_json() == out.read_text()
     assert d.check()["c1_holds"] is True
+
+
+def test_unbounded_edit_equals_cli_unbounded(cli, tmp_path):
+    d, _, _ = grid_and_row()
+    base, script, out = tmp_path / "id.json", tmp_path / "s.json", tmp_path / "out.json"
+    d.save(base)
+    script.write_text(json.dumps(OPS))
+    cli("edit", base, "--script", script, "-o", out, "--unbounded")
+    d.edit(OPS, bounded_bits=None)
+    assert d.to_json() == out.read_text()
+    with pytest.raises(ValueError, match="bounded_bits"):
+        d.edit(OPS, bounded_bits=3)
 
 
 def test_constraints_persist_through_save_and_make_moves_unsolvable(tmp_path):

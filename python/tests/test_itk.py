@@ -206,3 +206,27 @@ def test_inverse_file_is_the_forward_map(case):
     assert not np.isnan(ref).any() and not np.isnan(got).any()
     err = np.abs(got - ref).max()
     assert err <= FORWARD_TOL, err
+
+
+def test_python_to_itk_writes_the_cli_file(case, tmp_path):
+    """`Deformation.to_itk` is `trimorph field -o F.h5`, in both directions."""
+    import trimorph
+
+    d = trimorph.Deformation.load(case["dir"] / "def.json")
+    for inverse, name in [(False, "F.h5"), (True, "Fi.h5")]:
+        out = tmp_path / name
+        undefined = d.to_itk(out, inverse=inverse)
+        with h5py.File(out, "r") as ours, h5py.File(case["dir"] / name, "r") as ref:
+            for key in ["TranformFixedParameters", "TranformParameters"]:
+                np.testing.assert_array_equal(
+                    ours[f"TransformGroup/0/{key}"][()], ref[f"TransformGroup/0/{key}"][()]
+                )
+            v = ours["TransformGroup/0/TranformParameters"][()]
+            assert undefined == int(np.isnan(v[0::2]).sum())
+    t = sitk.ReadTransform(str(tmp_path / "F.h5"))
+    q = np.array([[300.0, 123.0], [17.0, 402.0]])
+    np.testing.assert_allclose(
+        [t.TransformPoint(tuple(p)) for p in q.tolist()], d.inverse_points(q), atol=INVERSE_TOL
+    )
+    with pytest.raises(ValueError, match=r"\.h5"):
+        d.to_itk(tmp_path / "F.txt")

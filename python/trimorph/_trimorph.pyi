@@ -74,12 +74,18 @@ class Deformation:
         self, inverse: bool = False, size: Optional[Tuple[int, int]] = None
     ) -> npt.NDArray[np.float32]:
         """(H, W, 2) displacements: phi(p) - p, or phi^-1(q) - q with inverse=True."""
-    def edit(self, ops: Sequence[Dict[str, Any]]) -> List[Dict[str, Any]]:
+    def edit(
+        self, ops: Sequence[Dict[str, Any]], bounded_bits: Optional[int] = 24
+    ) -> List[Dict[str, Any]]:
         """Applies edit-script operations (dicts, as in `trimorph edit` scripts), all or none."""
     def check(self, samples: int = 12) -> Dict[str, Any]:
         """The report of `trimorph check`: exact C1, det J bounds, folds."""
     def to_itk(
-        self, path: _Path, inverse: bool = False, size: Optional[Tuple[int, int]] = None
+        self,
+        path: _Path,
+        inverse: bool = False,
+        size: Optional[Tuple[int, int]] = None,
+        tolerance: float = 0.01,
     ) -> int:
         """Writes an ITK HDF5 displacement-field transform (resampling direction by default)."""
     @property
