@@ -10,8 +10,8 @@ use trimorph::fit::landmarks::Landmark;
 use trimorph::fit::solve::{fit, FitOptions};
 use trimorph::mesh::{Mesh, MeshOptions};
 use trimorph::spline::Spline;
-use trimorph::warp::pullback::pull_back;
-use trimorph::warp::Interp;
+use trimorph::warp::inverse::InverseOptions;
+use trimorph::warp::{warp_image, Interp};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     // The image: the bundled microscope picture (any `image::DynamicImage` will do).
@@ -45,8 +45,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!("fit: rms {:.3} px", fitted.report.fit.rms);
     fitted.spline.check_c1()?;
 
-    // The image pulled back through phi onto the reference frame (bilinear, black outside).
-    let warped = pull_back(&fitted.spline, &img, w, h, Interp::Bilinear, 0.0)?;
+    // The image warped through phi: O(q) = I(phi^-1(q)) (bilinear, black outside the mesh).
+    let (warped, report) =
+        warp_image(&fitted.spline, &img, Interp::Bilinear, 0.0, InverseOptions::default())?;
+    println!("warp: {} of {} pixels outside the deformed mesh", report.outside, report.pixels);
     let out = std::env::temp_dir().join("library_warped.png");
     warped.save(&out)?;
     println!("-> {}", out.display());
