@@ -8,6 +8,7 @@ pub mod colormesh;
 pub mod deformation;
 pub mod landmarks;
 pub mod model;
+pub mod ngff;
 pub mod raster;
 
 use std::fs;
