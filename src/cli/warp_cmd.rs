@@ -198,7 +198,7 @@ pub fn run(a: WarpArgs) -> Result<()> {
                 bail!("--background must be a finite number");
             }
             let t_decode = std::time::Instant::now();
-            let stack = crate::io::raster::read_stack(img_path)?;
+            let (stack, ngff_in) = super::ngff_cmd::read_input(img_path)?;
             let decode_s = t_decode.elapsed().as_secs_f64();
             let first = &stack.pages[0];
             let (w, h) = (first.width(), first.height());
@@ -223,7 +223,7 @@ pub fn run(a: WarpArgs) -> Result<()> {
             }
             let out_stack = Stack { pages: warped, gray_float: stack.gray_float };
             let t_encode = std::time::Instant::now();
-            crate::io::raster::write_stack(a.output, &out_stack)?;
+            super::ngff_cmd::write_output(a.output, &out_stack, ngff_in.as_ref())?;
             let encode_s = t_encode.elapsed().as_secs_f64();
             writeln!(
                 out,
@@ -309,19 +309,27 @@ pub fn run(a: WarpArgs) -> Result<()> {
     Ok(())
 }
 
-/// `trimorph field DEF -o FIELD.(tif|npy) [--inverse] [--jacobian JAC.png] [--size W,H]`.
+/// `trimorph field DEF -o FIELD.(tif|npy|zarr) [--inverse] [--both] [--jacobian JAC.png]
+/// [--size W,H]`.
 pub fn field(
     def: &Path,
     output: &Path,
     inverse_field: bool,
+    both: bool,
     jacobian: Option<&Path>,
     size: Option<&str>,
 ) -> Result<()> {
     use crate::warp::field as wf;
     let ext_of = |p: &Path| p.extension().and_then(|e| e.to_str()).unwrap_or("").to_lowercase();
     let ext = ext_of(output);
-    if !matches!(ext.as_str(), "npy" | "tif" | "tiff") {
-        bail!("{}: use a .npy or .tif output", output.display());
+    if !matches!(ext.as_str(), "npy" | "tif" | "tiff" | "zarr") {
+        bail!("{}: use a .npy, .tif or .zarr output", output.display());
+    }
+    if both && ext != "zarr" {
+        bail!(
+            "{}: --both writes an NGFF bijection, which only an OME-Zarr (.zarr) store holds",
+            output.display()
+        );
     }
     if let Some(jp) = jacobian.filter(|jp| ext_of(jp) != "png") {
         bail!("{}: the Jacobian map is a PNG picture; name it .png", jp.display());
@@ -349,31 +357,35 @@ pub fn field(
             def.display()
         );
     }
-    let f = if inverse_field {
-        wf::inverse_field(&s, w, h, InverseOptions::default())
-    } else {
-        wf::forward_field(&s, w, h)
-    };
-    let bytes = match ext.as_str() {
-        "npy" => wf::to_npy(&f),
-        // "tif" | "tiff", checked above.
-        _ => {
-            let mut c = std::io::Cursor::new(Vec::new());
-            image::DynamicImage::ImageRgb32F(wf::to_rgb32f(&f))
-                .write_to(&mut c, image::ImageFormat::Tiff)
-                .context("cannot encode the float TIFF")?;
-            c.into_inner()
-        }
-    };
-    write_atomic(output, &bytes)?;
-    let undefined = f.data.iter().filter(|v| v[0].is_nan()).count();
     let mut out = std::io::stdout().lock();
-    writeln!(
-        out,
-        "{} displacement field {w}x{h} -> {} ({undefined} pixels undefined)",
-        if inverse_field { "inverse (phi^-1(q) - q)" } else { "forward (phi(p) - p)" },
-        output.display()
-    )?;
+    if ext == "zarr" {
+        super::ngff_cmd::field_zarr(&s, output, (w, h), inverse_field, both, &mut out)?;
+    } else {
+        let f = if inverse_field {
+            wf::inverse_field(&s, w, h, InverseOptions::default())
+        } else {
+            wf::forward_field(&s, w, h)
+        };
+        let bytes = match ext.as_str() {
+            "npy" => wf::to_npy(&f),
+            // "tif" | "tiff", checked above.
+            _ => {
+                let mut c = std::io::Cursor::new(Vec::new());
+                image::DynamicImage::ImageRgb32F(wf::to_rgb32f(&f))
+                    .write_to(&mut c, image::ImageFormat::Tiff)
+                    .context("cannot encode the float TIFF")?;
+                c.into_inner()
+            }
+        };
+        write_atomic(output, &bytes)?;
+        let undefined = f.data.iter().filter(|v| v[0].is_nan()).count();
+        writeln!(
+            out,
+            "{} displacement field {w}x{h} -> {} ({undefined} pixels undefined)",
+            if inverse_field { "inverse (phi^-1(q) - q)" } else { "forward (phi(p) - p)" },
+            output.display()
+        )?;
+    }
     if let Some(jp) = jacobian {
         let (dets, rep) = wf::jacobian_det(&s, w, h);
         let img = image::RgbaImage::from_fn(w, h, |x, y| {
