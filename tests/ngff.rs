@@ -93,10 +93,10 @@ fn field_zarr_is_the_resampling_direction_at_pixel_centres() {
     assert!(!f.join("coordinateTransformations/forward").exists());
     let data = field_array(&store, "inverse", w, h);
     let n = (w * h) as usize;
-    let s = spline(def);
+    let sp = spline(def);
     let pts: Vec<[f64; 2]> =
         (0..h).flat_map(|y| (0..w).map(move |x| [x as f64, y as f64])).collect();
-    let inv = trimorph::warp::inverse(&s, &pts, InverseOptions::default());
+    let inv = trimorph::warp::inverse(&sp, &pts, InverseOptions::default());
     let (mut both, mut nan, mut worst) = (0, 0, 0.0f64);
     for (i, (q, r)) in pts.iter().zip(&inv).enumerate() {
         let (dy, dx) = (data[i], data[n + i]);
@@ -137,11 +137,11 @@ fn field_zarr_both_is_a_bijection_and_inverse_flag_is_forward() {
     assert_eq!(t["inverse"]["path"], "coordinateTransformations/inverse");
     let fwd = field_array(&store, "forward", w, h);
     let inv = field_array(&store, "inverse", w, h);
-    let s = spline(def);
+    let sp = spline(def);
     let pts: Vec<[f64; 2]> =
         (0..h).flat_map(|y| (0..w).map(move |x| [x as f64, y as f64])).collect();
     let n = pts.len();
-    for (i, (p, q)) in pts.iter().zip(trimorph::warp::forward(&s, &pts)).enumerate() {
+    for (i, (p, q)) in pts.iter().zip(trimorph::warp::forward(&sp, &pts)).enumerate() {
         let q = q.expect("the fitted mesh covers the frame");
         assert_eq!([fwd[n + i], fwd[i]], [q[0] - p[0], q[1] - p[1]], "forward at {p:?}");
     }
