@@ -251,9 +251,11 @@ fn parse_axes(store: &Path, ms: &serde_json::Value) -> Result<Vec<Axis>, NgffErr
             "space" => AxisKind::Space,
             "time" => AxisKind::Time,
             "channel" => AxisKind::Channel,
-            other => return Err(axes_err(format!(
+            other => {
+                return Err(axes_err(format!(
                 "axis `{name}` has type `{other}`; only space, time and channel axes are supported"
-            ))),
+            )))
+            }
         };
         let unit = a.get("unit").and_then(|u| u.as_str()).map(str::to_string);
         axes.push(Axis { name: name.clone(), kind, unit });
