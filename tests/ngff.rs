@@ -255,7 +255,7 @@ fn warp_of_a_v3_float_cyx_image_equals_warping_each_plane() {
     let data: Vec<f32> =
         frames.iter().flat_map(|f| f.pixels().map(|p| p.0[0] as f32 / 255.0)).collect();
     let a = ArrayBuilder::new(vec![2, 511, 511], vec![1, 128, 128], data_type::float32(), 0.0f32)
-        .bytes_to_bytes_codecs(vec![Arc::new(ZstdCodec::new(3.into(), false))])
+        .bytes_to_bytes_codecs(vec![Arc::new(ZstdCodec::new(3, false))])
         .build(store, "/0")
         .unwrap();
     a.store_metadata().unwrap();

@@ -138,7 +138,7 @@ fn write_field(
         data_type::float64(),
         f64::NAN,
     )
-    .bytes_to_bytes_codecs(vec![Arc::new(ZstdCodec::new(ZSTD_LEVEL.into(), false))])
+    .bytes_to_bytes_codecs(vec![Arc::new(ZstdCodec::new(ZSTD_LEVEL, false))])
     .dimension_names(Some(["c", "y", "x"]))
     .attributes(obj(array_attrs))
     .build(store.clone(), &format!("{group}/0"))
