@@ -323,7 +323,7 @@ pub fn field(
     let ext_of = |p: &Path| p.extension().and_then(|e| e.to_str()).unwrap_or("").to_lowercase();
     let ext = ext_of(output);
     if !matches!(ext.as_str(), "npy" | "tif" | "tiff" | "zarr") {
-        bail!("{}: use a .npy, .tif or .zarr output", output.display());
+        bail!("{}: use a .npy or .tif output (or .zarr for an OME-Zarr store)", output.display());
     }
     if both && ext != "zarr" {
         bail!(
