@@ -192,6 +192,22 @@ pub fn strip_bom(s: String) -> String {
     }
 }
 
+/// A copy of `v` with the keys of every object in sorted order. `serde_json`'s
+/// `preserve_order` feature (enabled by the `zarrs` dependency) makes maps keep insertion
+/// order; [`json_rows`] sorts, so the files it writes keep the key order they always had.
+pub fn sorted_keys(v: &serde_json::Value) -> serde_json::Value {
+    use serde_json::Value;
+    match v {
+        Value::Object(m) => {
+            let mut keys: Vec<&String> = m.keys().collect();
+            keys.sort();
+            Value::Object(keys.into_iter().map(|k| (k.clone(), sorted_keys(&m[k]))).collect())
+        }
+        Value::Array(a) => Value::Array(a.iter().map(sorted_keys).collect()),
+        other => other.clone(),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -258,21 +274,5 @@ mod tests {
         let p = dir.path().join("missing-dir").join("out.json");
         assert!(write_atomic(&p, b"x").is_err());
         assert!(!p.exists());
-    }
-}
-
-/// A copy of `v` with the keys of every object in sorted order. `serde_json`'s
-/// `preserve_order` feature (enabled by the `zarrs` dependency) makes maps keep insertion
-/// order; [`json_rows`] sorts, so the files it writes keep the key order they always had.
-pub fn sorted_keys(v: &serde_json::Value) -> serde_json::Value {
-    use serde_json::Value;
-    match v {
-        Value::Object(m) => {
-            let mut keys: Vec<&String> = m.keys().collect();
-            keys.sort();
-            Value::Object(keys.into_iter().map(|k| (k.clone(), sorted_keys(&m[k]))).collect())
-        }
-        Value::Array(a) => Value::Array(a.iter().map(sorted_keys).collect()),
-        other => other.clone(),
     }
 }
