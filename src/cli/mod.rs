@@ -13,6 +13,7 @@ mod itk_cmd;
 mod match_cmd;
 mod model_cmd;
 mod morph_cmd;
+mod ngff_cmd;
 mod solve;
 pub mod spline_cmds;
 mod warp_cmd;
@@ -152,7 +153,8 @@ enum Command {
     Warp {
         /// The deformation.
         deformation: PathBuf,
-        /// Input image (PNG, TIFF, JPEG).
+        /// Input image (PNG, TIFF, JPEG), or an OME-Zarr image (.zarr, Zarr v2 or v3: 2D
+        /// with optional t and c axes, level 0; every (t, c) plane is warped the same way).
         #[arg(long)]
         image: Option<PathBuf>,
         /// Input points (CSV `x,y`).
@@ -164,7 +166,8 @@ enum Command {
         /// Input 3D model (OBJ, PLY or XYZ) to move through the 2.5D deformation psi.
         #[arg(long)]
         model: Option<PathBuf>,
-        /// Output image, CSV, or (for --mesh) .png / .obj / .ply.
+        /// Output image (.png, .tif, .jpg; .zarr for an OME-Zarr input: same axes, dtype,
+        /// chunks and metadata, level 0 only), CSV, or (for --mesh) .png / .obj / .ply.
         #[arg(short, long)]
         output: PathBuf,
         /// Size W,H of the picture drawn from --mesh (default: the undeformed mesh's extent).
@@ -295,22 +298,29 @@ enum Command {
         #[arg(long)]
         flat: bool,
     },
-    /// Dense displacement field (forward phi(p) - p, or --inverse phi^-1(q) - q) as float
-    /// TIFF or .npy, or an ITK transform (.h5: phi^-1(q) - q, or --inverse phi(p) - p), and
-    /// optionally a Jacobian-determinant map (PNG) with a fold report.
+    /// Dense displacement field as float TIFF or .npy (forward phi(p) - p, or --inverse
+    /// phi^-1(q) - q), as an ITK transform (.h5: phi^-1(q) - q, or --inverse phi(p) - p), or
+    /// as an OME-Zarr NGFF `displacements` store (.zarr: by default the resampling direction
+    /// phi^-1(q) - q, warped -> original pixels; --inverse phi(p) - p; --both a `bijection`
+    /// holding the two), and optionally a Jacobian-determinant map (PNG) with a fold report.
     Field {
         /// The deformation.
         deformation: PathBuf,
-        /// Output field (.tif: RGB float32 dx, dy, valid; .npy: float32 (H, W, 2), NaN outside;
-        /// .h5: ITK HDF5 DisplacementFieldTransform_double_2_2 in pixel units, f64, NaN
-        /// where undefined, by default phi^-1(q) - q so that ITK's Resample reproduces
-        /// `trimorph warp --image`).
+        /// Output field (.tif: RGB float32 dx, dy, valid; .npy: float32 (H, W, 2), NaN
+        /// outside; .h5: ITK HDF5 DisplacementFieldTransform_double_2_2 in pixel units, f64,
+        /// NaN where undefined, by default phi^-1(q) - q so that ITK's Resample reproduces
+        /// `trimorph warp --image`; .zarr: float64 (2, H, W) = (c, y, x), c = 0 the y
+        /// displacement, NaN where undefined).
         #[arg(short, long)]
         output: PathBuf,
-        /// The other direction: .npy/.tif hold phi^-1(q) - q instead of phi(p) - p; .h5 holds
-        /// phi(p) - p instead of phi^-1(q) - q.
+        /// The other direction: .npy/.tif hold phi^-1(q) - q instead of phi(p) - p; .h5 and
+        /// .zarr hold phi(p) - p instead of phi^-1(q) - q.
         #[arg(long)]
         inverse: bool,
+        /// .zarr only: write both fields as an NGFF `bijection` (forward phi(p) - p,
+        /// inverse phi^-1(q) - q).
+        #[arg(long)]
+        both: bool,
         /// Also write the Jacobian determinant as a colour map (PNG): blue compression, white
         /// 1, orange expansion, red folds.
         #[arg(long)]
@@ -682,9 +692,14 @@ pub fn run() -> i32 {
                 port,
             })
         }
-        Command::Field { deformation, output, inverse, jacobian, size } => {
-            warp_cmd::field(&deformation, &output, inverse, jacobian.as_deref(), size.as_deref())
-        }
+        Command::Field { deformation, output, inverse, both, jacobian, size } => warp_cmd::field(
+            &deformation,
+            &output,
+            inverse,
+            both,
+            jacobian.as_deref(),
+            size.as_deref(),
+        ),
         Command::Match { a, b, output, ratio, threshold, features, format } => {
             match_cmd::run(match_cmd::MatchArgs {
                 a: &a,

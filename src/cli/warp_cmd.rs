@@ -198,7 +198,7 @@ pub fn run(a: WarpArgs) -> Result<()> {
                 bail!("--background must be a finite number");
             }
             let t_decode = std::time::Instant::now();
-            let stack = crate::io::raster::read_stack(img_path)?;
+            let (stack, ngff_in) = super::ngff_cmd::read_input(img_path)?;
             let decode_s = t_decode.elapsed().as_secs_f64();
             let first = &stack.pages[0];
             let (w, h) = (first.width(), first.height());
@@ -223,7 +223,7 @@ pub fn run(a: WarpArgs) -> Result<()> {
             }
             let out_stack = Stack { pages: warped, gray_float: stack.gray_float };
             let t_encode = std::time::Instant::now();
-            crate::io::raster::write_stack(a.output, &out_stack)?;
+            super::ngff_cmd::write_output(a.output, &out_stack, ngff_in.as_ref())?;
             let encode_s = t_encode.elapsed().as_secs_f64();
             writeln!(
                 out,
@@ -309,11 +309,13 @@ pub fn run(a: WarpArgs) -> Result<()> {
     Ok(())
 }
 
-/// `trimorph field DEF -o FIELD.(tif|npy|h5) [--inverse] [--jacobian JAC.png] [--size W,H]`.
+/// `trimorph field DEF -o FIELD.(tif|npy|h5|zarr) [--inverse] [--both] [--jacobian JAC.png]
+/// [--size W,H]`.
 pub fn field(
     def: &Path,
     output: &Path,
     inverse_field: bool,
+    both: bool,
     jacobian: Option<&Path>,
     size: Option<&str>,
 ) -> Result<()> {
@@ -321,8 +323,17 @@ pub fn field(
     let ext_of = |p: &Path| p.extension().and_then(|e| e.to_str()).unwrap_or("").to_lowercase();
     let ext = ext_of(output);
     let itk = crate::io::itk::is_h5_path(output);
-    if !itk && !matches!(ext.as_str(), "npy" | "tif" | "tiff") {
-        bail!("{}: use a .npy or .tif output (or .h5 for an ITK transform)", output.display());
+    if !itk && !matches!(ext.as_str(), "npy" | "tif" | "tiff" | "zarr") {
+        bail!(
+            "{}: use a .npy or .tif output (or .h5 for an ITK transform, .zarr for an OME-Zarr store)",
+            output.display()
+        );
+    }
+    if both && ext != "zarr" {
+        bail!(
+            "{}: --both writes an NGFF bijection, which only an OME-Zarr (.zarr) store holds",
+            output.display()
+        );
     }
     if let Some(jp) = jacobian.filter(|jp| ext_of(jp) != "png") {
         bail!("{}: the Jacobian map is a PNG picture; name it .png", jp.display());
@@ -353,6 +364,10 @@ pub fn field(
     let mut out = std::io::stdout().lock();
     if itk {
         super::itk_cmd::field_h5(&s, w, h, output, inverse_field, &mut out)?;
+        return jacobian_map(&s, w, h, jacobian, &mut out);
+    }
+    if ext == "zarr" {
+        super::ngff_cmd::field_zarr(&s, output, (w, h), inverse_field, both, &mut out)?;
         return jacobian_map(&s, w, h, jacobian, &mut out);
     }
     let f = if inverse_field {

@@ -159,7 +159,8 @@ pub fn displacement_transform(
     let data = match direction {
         FieldDirection::Resampling => inverse_field_f64(s, w, h, opts),
         FieldDirection::Forward => forward_field_f64(s, w, h),
-    };
+    }
+    .data;
     Ok(ItkDisplacementField {
         size: [w, h],
         origin: [0.0; 2],

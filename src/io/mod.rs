@@ -10,6 +10,7 @@ pub mod frames;
 pub mod itk;
 pub mod landmarks;
 pub mod model;
+pub mod ngff;
 pub mod raster;
 
 use std::fs;
@@ -138,6 +139,7 @@ fn process_runs(pid: u32) -> bool {
 /// JSON text that stays readable for matrices: objects have one key per line, arrays of
 /// arrays one row per line, everything else is compact.
 pub fn json_rows(v: &serde_json::Value) -> String {
+    let v = &sorted_keys(v);
     fn go(v: &serde_json::Value, indent: usize, out: &mut String) {
         use serde_json::Value;
         let pad = "  ".repeat(indent + 1);
@@ -189,6 +191,22 @@ pub fn strip_bom(s: String) -> String {
     match s.strip_prefix('\u{feff}') {
         Some(rest) => rest.to_string(),
         None => s,
+    }
+}
+
+/// A copy of `v` with the keys of every object in sorted order. `serde_json`'s
+/// `preserve_order` feature (enabled by the `zarrs` dependency) makes maps keep insertion
+/// order; [`json_rows`] sorts, so the files it writes keep the key order they always had.
+pub fn sorted_keys(v: &serde_json::Value) -> serde_json::Value {
+    use serde_json::Value;
+    match v {
+        Value::Object(m) => {
+            let mut keys: Vec<&String> = m.keys().collect();
+            keys.sort();
+            Value::Object(keys.into_iter().map(|k| (k.clone(), sorted_keys(&m[k]))).collect())
+        }
+        Value::Array(a) => Value::Array(a.iter().map(sorted_keys).collect()),
+        other => other.clone(),
     }
 }
 

@@ -6,6 +6,10 @@
 //! * Jacobian determinant `det J(p)` of phi at `p`: below 1 compression, above 1 expansion,
 //!   at most 0 a fold (phi is not injective there).
 //!
+//! [`Field`] holds `f32` (the `.npy` / TIFF files); [`Field64`] the same values in `f64`
+//! ([`forward_field_f64`], [`inverse_field_f64`]) for the OME-Zarr stores of
+//! [`crate::io::ngff`].
+//!
 //! Pixels where the map is undefined (outside the mesh, or no preimage) are NaN. Files:
 //! `.npy` (float32, shape `(H, W, 2)` for fields, C order) or float TIFF (RGB float32:
 //! `dx`, `dy` and a validity channel 1/0). [`forward_field_f64`] and [`inverse_field_f64`]
@@ -47,38 +51,66 @@ pub struct FoldReport {
 
 /// The forward displacement field `phi(p) - p` on a `w x h` pixel grid.
 pub fn forward_field(s: &Spline, w: u32, h: u32) -> Field {
-    Field { width: w, height: h, data: to_f32(forward_field_f64(s, w, h)) }
+    Field { width: w, height: h, data: to_f32(forward_field_f64(s, w, h).data) }
 }
 
 /// The inverse displacement field `phi^-1(q) - q` on a `w x h` pixel grid, from the same
 /// certified preimages as the image warp ([`super::remap`]).
 pub fn inverse_field(s: &Spline, w: u32, h: u32, opts: InverseOptions) -> Field {
-    Field { width: w, height: h, data: to_f32(inverse_field_f64(s, w, h, opts)) }
+    Field { width: w, height: h, data: to_f32(inverse_field_f64(s, w, h, opts).data) }
 }
 
-/// [`forward_field`] in `f64`, computed in `f64`: `u(p) = phi(p) - p` at every pixel centre
-/// `p = (x, y)`, row-major (x fastest), `NaN` outside the mesh.
-pub fn forward_field_f64(s: &Spline, w: u32, h: u32) -> Vec<[f64; 2]> {
+/// Each component rounded to the nearest `f32` (the storage type of [`Field`]).
+fn to_f32(v: Vec<[f64; 2]>) -> Vec<[f32; 2]> {
+    v.into_iter().map(|d| [d[0] as f32, d[1] as f32]).collect()
+}
+
+/// A dense 2-component field in full precision (`f64`), row-major (x fastest), `[NaN, NaN]`
+/// where undefined. Same layout and meaning as [`Field`] (which rounds it to `f32`); used
+/// by the file formats that store float64 (ITK HDF5, [`crate::io::itk`]; OME-Zarr,
+/// [`crate::io::ngff`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Field64 {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// `(dx, dy)` per pixel, in pixels.
+    pub data: Vec<[f64; 2]>,
+}
+
+impl Field64 {
+    /// Number of pixels where the field is undefined (NaN).
+    pub fn undefined(&self) -> usize {
+        self.data.iter().filter(|v| v[0].is_nan()).count()
+    }
+}
+
+/// [`forward_field`] in `f64`: `u(p) = phi(p) - p` at every pixel centre `p = (x, y)` of a
+/// `w x h` grid (reference domain), from the same evaluation as [`super::forward`].
+pub fn forward_field_f64(s: &Spline, w: u32, h: u32) -> Field64 {
     let pts: Vec<[f64; 2]> =
         (0..h).flat_map(|y| (0..w).map(move |x| [x as f64, y as f64])).collect();
     let mut out = vec![None; pts.len()];
     s.eval_many(&pts, &mut out);
-    pts.iter()
+    let data = pts
+        .iter()
         .zip(&out)
         .map(|(p, q)| match q {
             Some(q) => [q[0] - p[0], q[1] - p[1]],
             None => [f64::NAN; 2],
         })
-        .collect()
+        .collect();
+    Field64 { width: w, height: h, data }
 }
 
-/// [`inverse_field`] in `f64`, computed in `f64`: `v(q) = phi^-1(q) - q` at every pixel
-/// centre `q = (x, y)`, row-major (x fastest), `NaN` where `q` has no preimage. The
-/// preimages are those of the image warp ([`preimage_grid`]), each within `opts.tolerance`
-/// of the Newton solution [`super::inverse()`] gives.
-pub fn inverse_field_f64(s: &Spline, w: u32, h: u32, opts: InverseOptions) -> Vec<[f64; 2]> {
+/// [`inverse_field`] in `f64`: `v(q) = phi^-1(q) - q` at every pixel centre `q` of a
+/// `w x h` grid (deformed plane), from the same certified preimages as the image warp
+/// ([`preimage_grid`], error bound within `opts.tolerance`).
+pub fn inverse_field_f64(s: &Spline, w: u32, h: u32, opts: InverseOptions) -> Field64 {
     let (pre, _) = preimage_grid(s, w, h, RemapOptions { inverse: opts, ..Default::default() });
-    pre.iter()
+    let data = pre
+        .iter()
         .enumerate()
         .map(|(i, p)| {
             let q = [(i % w as usize) as f64, (i / w as usize) as f64];
@@ -88,12 +120,8 @@ pub fn inverse_field_f64(s: &Spline, w: u32, h: u32, opts: InverseOptions) -> Ve
                 [p[0] - q[0], p[1] - q[1]]
             }
         })
-        .collect()
-}
-
-/// Each component rounded to the nearest `f32` (the storage type of [`Field`]).
-fn to_f32(v: Vec<[f64; 2]>) -> Vec<[f32; 2]> {
-    v.into_iter().map(|d| [d[0] as f32, d[1] as f32]).collect()
+        .collect();
+    Field64 { width: w, height: h, data }
 }
 
 /// `det J` of phi at every pixel of a `w x h` grid (`NaN` outside the mesh) and the fold
@@ -224,26 +252,25 @@ mod tests {
 
     /// The `f64` fields (ITK export) are the `f32` ones before rounding.
     #[test]
-    fn f64_fields_round_to_the_f32_ones() {
+    fn f64_fields_agree_with_the_f32_ones() {
         let s = shifted();
-        let (f, f64s) = (forward_field(&s, 32, 22), forward_field_f64(&s, 32, 22));
+        let (f, f64f) = (forward_field(&s, 32, 22), forward_field_f64(&s, 32, 22));
         let (g, g64) = (
             inverse_field(&s, 32, 22, InverseOptions::default()),
             inverse_field_f64(&s, 32, 22, InverseOptions::default()),
         );
-        for (a, b) in f.data.iter().zip(&f64s).chain(g.data.iter().zip(&g64)) {
-            assert!(
-                (a[0].is_nan() && b[0].is_nan()) || *a == [b[0] as f32, b[1] as f32],
-                "{a:?} vs {b:?}"
-            );
+        for (a, b) in f.data.iter().zip(&f64f.data).chain(g.data.iter().zip(&g64.data)) {
+            assert_eq!(a[0].is_nan(), b[0].is_nan());
+            if !a[0].is_nan() {
+                assert_eq!(*a, [b[0] as f32, b[1] as f32]);
+            }
         }
-        // f64 evaluation of the shift by (2, -1), to within its rounding.
-        let d = f64s[5 * 32 + 5];
-        assert!((d[0] - 2.0).abs() < 1e-12 && (d[1] + 1.0).abs() < 1e-12, "{d:?}");
-        assert_eq!(
-            g64.iter().filter(|v| v[0].is_nan()).count(),
-            g.data.iter().filter(|v| v[0].is_nan()).count()
-        );
+        assert_eq!(f64f.undefined(), f.data.iter().filter(|v| v[0].is_nan()).count());
+        assert_eq!(g64.undefined(), g.data.iter().filter(|v| v[0].is_nan()).count());
+        // The shift (2, -1), up to the f64 rounding of evaluating the spline.
+        const EVAL_EPS: f64 = 1e-12;
+        let v = f64f.data[5 * 32 + 5];
+        assert!((v[0] - 2.0).abs() < EVAL_EPS && (v[1] + 1.0).abs() < EVAL_EPS, "{v:?}");
     }
 
     #[test]

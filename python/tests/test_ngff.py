@@ -1,0 +1,167 @@
+"""OME-Zarr (NGFF) from Python: trimorph's displacement stores read with zarr-python, and
+OME-Zarr images written by zarr-python warped by `trimorph warp`.
+
+Drives the CLI binary: $TRIMORPH_BIN, else <repo>/target/debug/trimorph (`cargo build`).
+"""
+
+import csv
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import tifffile
+import zarr
+from numcodecs import Blosc
+
+REPO = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(REPO / "tests" / "data"))
+from make_ngff import load as load_png  # noqa: E402  (8-bit gray PNG, stdlib zlib)
+
+# A stored inverse displacement (interpolated certified preimages) and `warp --points
+# --inverse` (Newton) are each within the default tolerance 0.01 px of the true preimage.
+INVERSE_AGREEMENT_PX = 0.02
+FRAMES = REPO / "data" / "microscopy" / "timelapse"
+
+
+def binary():
+    b = os.environ.get("TRIMORPH_BIN") or str(REPO / "target" / "debug" / "trimorph")
+    if not Path(b).is_file():
+        pytest.fail(f"trimorph binary not found at {b}: run `cargo build` or set TRIMORPH_BIN")
+    return b
+
+
+def run(*args):
+    r = subprocess.run([binary(), *map(str, args)], capture_output=True, text=True)
+    assert r.returncode == 0, f"{args}: exit {r.returncode}\n{r.stdout}\n{r.stderr}"
+    return r
+
+
+@pytest.fixture(scope="session")
+def fitted(tmp_path_factory):
+    """A real deformation fitted to the bundled nucleus tracks (frame 0 -> 9, 511 x 511)."""
+    d = tmp_path_factory.mktemp("fit") / "fit.json"
+    run("fit", "--landmarks", FRAMES / "tracks_0_9.csv", "--size", "511,511", "-o", d)
+    return d
+
+
+def points_through(defn, pts, tmp, inverse):
+    p = tmp / "p.csv"
+    with open(p, "w") as f:
+        f.write("x,y\n")
+        for x, y in pts:
+            f.write(f"{x},{y}\n")
+    q = tmp / "q.csv"
+    run("warp", defn, "--points", p, "-o", q, *(["--inverse"] if inverse else []))
+    with open(q) as f:
+        rows = list(csv.reader(f))[1:]
+    return np.array([[float(a) if a else np.nan for a in r] for r in rows])
+
+
+def pixel_centres(w, h):
+    ys, xs = np.mgrid[0:h, 0:w]
+    return np.stack([xs.ravel(), ys.ravel()], axis=1).astype(float)
+
+
+def test_field_store_is_read_by_zarr_python(fitted, tmp_path):
+    w, h = 40, 620  # taller than the fitted mesh: some pixels have no preimage
+    store = tmp_path / "F.zarr"
+    run("field", fitted, "-o", store, "--size", f"{w},{h}")
+    root = zarr.open_group(str(store), mode="r")
+    ome = root.attrs["ome"]
+    t = ome["coordinateTransformations"][0]
+    assert t["type"] == "displacements"
+    assert (t["input"], t["output"]) == ("warped", "original")
+    assert [c["name"] for c in ome["coordinateSystems"]] == ["original", "warped"]
+    field_group = zarr.open_group(str(store / t["path"]), mode="r")
+    ms = field_group.attrs["ome"]["multiscales"][0]
+    axes = ms["coordinateSystems"][0]["axes"]
+    assert [a["name"] for a in axes] == ["c", "y", "x"]
+    assert axes[0]["type"] == "displacement"
+    a = zarr.open_array(str(store / t["path"] / ms["datasets"][0]["path"]), mode="r")
+    assert a.shape == (2, h, w) and a.dtype == np.float64
+    v = a[:]
+    pts = pixel_centres(w, h)
+    pre = points_through(fitted, pts, tmp_path, inverse=True)
+    dy, dx = v[0].ravel(), v[1].ravel()
+    defined = ~np.isnan(pre[:, 0])
+    assert np.array_equal(defined, ~np.isnan(dx)), "NaN exactly where no preimage exists"
+    assert np.isnan(dy[~defined]).all() and 0 < defined.sum() < len(pts)
+    err = np.maximum(np.abs(pts[defined, 0] + dx[defined] - pre[defined, 0]),
+                     np.abs(pts[defined, 1] + dy[defined] - pre[defined, 1]))
+    assert err.max() <= INVERSE_AGREEMENT_PX, err.max()
+    assert np.nanmax(np.abs(dx)) > 1.0, "a real, non-trivial field"
+
+
+def test_both_writes_a_bijection_with_the_forward_map(fitted, tmp_path):
+    w, h = 64, 48
+    store = tmp_path / "B.zarr"
+    run("field", fitted, "-o", store, "--both", "--size", f"{w},{h}")
+    t = zarr.open_group(str(store), mode="r").attrs["ome"]["coordinateTransformations"][0]
+    assert t["type"] == "bijection"
+    assert (t["input"], t["output"]) == ("original", "warped")
+    fwd = zarr.open_array(str(store / t["forward"]["path"] / "0"), mode="r")[:]
+    inv = zarr.open_array(str(store / t["inverse"]["path"] / "0"), mode="r")[:]
+    assert fwd.shape == inv.shape == (2, h, w)
+    pts = pixel_centres(w, h)
+    img = points_through(fitted, pts, tmp_path, inverse=False)
+    # Same f64 subtraction as trimorph's, of the same shortest-round-trip decimals: exact.
+    assert np.array_equal(fwd[1].ravel(), img[:, 0] - pts[:, 0])
+    assert np.array_equal(fwd[0].ravel(), img[:, 1] - pts[:, 1])
+    # Forward then inverse comes back to the pixel (where the warped point stays inside).
+    assert np.nanmax(np.abs(inv)) > 0
+
+
+def ome_image(path, data, axes, zarr_format, compressors):
+    g = zarr.open_group(str(path), mode="w", zarr_format=zarr_format)
+    chunks = tuple(1 if i < data.ndim - 2 else 128 for i in range(data.ndim))
+    a = g.create_array("0", shape=data.shape, chunks=chunks, dtype=data.dtype, compressors=compressors)
+    a[:] = data
+    ms = [{
+        "axes": [{"name": n, "type": {"t": "time", "c": "channel"}.get(n, "space")} for n in axes],
+        "datasets": [{"path": "0", "coordinateTransformations": [{"type": "scale", "scale": [1.0] * data.ndim}]}],
+    }]
+    if zarr_format == 2:
+        ms[0]["version"] = "0.4"
+        g.attrs["multiscales"] = ms
+    else:
+        g.attrs["ome"] = {"version": "0.5", "multiscales": ms}
+
+
+def check_warp_per_plane(fitted, tmp_path, src, data):
+    out = tmp_path / "out.zarr"
+    run("warp", fitted, "--image", src, "-o", out)
+    got = zarr.open_array(str(out / "0"), mode="r")
+    assert got.shape == data.shape and got.dtype == data.dtype
+    got = got[:]
+    planes = data.reshape(-1, *data.shape[-2:])
+    for k, plane in enumerate(planes):
+        tif = tmp_path / f"p{k}.tif"
+        tifffile.imwrite(tif, plane)
+        wt = tmp_path / f"w{k}.tif"
+        run("warp", fitted, "--image", tif, "-o", wt)
+        want = tifffile.imread(wt)
+        assert np.array_equal(got.reshape(planes.shape)[k], want), f"plane {k}"
+        assert not np.array_equal(want, plane), "the deformation moves the plane"
+    return zarr.open_group(str(out), mode="r")
+
+
+def test_v2_blosc_time_series_is_warped_plane_by_plane(fitted, tmp_path):
+    data = np.stack([load_png(FRAMES / f"frame_0{k}.png") for k in range(3)])  # (t, y, x) uint8
+    src = tmp_path / "t.zarr"
+    ome_image(src, data, "tyx", 2, Blosc(cname="lz4", clevel=5, shuffle=Blosc.SHUFFLE))
+    g = check_warp_per_plane(fitted, tmp_path, src, data)
+    assert g.attrs["multiscales"][0]["axes"][0]["type"] == "time"
+    assert g["0"].metadata.zarr_format == 2
+
+
+def test_v3_channel_image_is_warped_plane_by_plane(fitted, tmp_path):
+    frames = [load_png(FRAMES / f"frame_0{k}.png").astype(np.uint16) for k in (4, 5)]
+    data = np.stack([frames[0] * 257, frames[1] * 100 + 7]).astype(np.uint16)  # (c, y, x)
+    src = tmp_path / "c.zarr"
+    ome_image(src, data, "cyx", 3, "auto")
+    g = check_warp_per_plane(fitted, tmp_path, src, data)
+    assert g.attrs["ome"]["multiscales"][0]["axes"][0]["type"] == "channel"
+    assert g["0"].metadata.zarr_format == 3
