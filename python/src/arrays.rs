@@ -287,11 +287,40 @@ pub fn numpy_to_image(
     img.map(|i| (i, false)).ok_or_else(bad)
 }
 
+fn ngff_error(e: trimorph::io::ngff::NgffError) -> PyErr {
+    match e {
+        trimorph::io::ngff::NgffError::Io(io) => crate::errors::io_error(&io),
+        other => value_error(other),
+    }
+}
+
+/// `trimorph.read_ome_zarr(path)`: the full-resolution level of an OME-Zarr image (Zarr v2
+/// or v3; axes `[t,] [c,] y, x`; uint8, uint16 or float32) as `(array, axes)`: the array in
+/// the store's axis order and dtype, and the axis names. The same reader as
+/// `trimorph warp --image X.zarr`.
+#[pyfunction]
+pub fn read_ome_zarr<'py>(
+    py: Python<'py>,
+    path: std::path::PathBuf,
+) -> PyResult<(Bound<'py, PyAny>, Vec<String>)> {
+    let img = py.detach(|| trimorph::io::ngff::read_image(&path)).map_err(ngff_error)?;
+    let planes: Vec<Bound<'py, PyAny>> =
+        img.pages.iter().map(|p| image_to_numpy(py, p, true)).collect::<PyResult<_>>()?;
+    let shape: Vec<usize> = img.shape.iter().map(|&n| n as usize).collect();
+    let stacked = py.import("numpy")?.call_method1("stack", (planes,))?;
+    let arr = stacked.call_method1("reshape", (shape,))?;
+    Ok((arr, img.axes.iter().map(|a| a.name.clone()).collect()))
+}
+
 /// `trimorph.read_image(path)`: the pages of a PNG / TIFF / JPEG file as numpy arrays, with
 /// the command line's decoder (`trimorph warp --image` reads files this way). One page:
-/// `(H, W)` or `(H, W, C)`; several: stacked on a leading axis.
+/// `(H, W)` or `(H, W, C)`; several: stacked on a leading axis. An OME-Zarr store (`.zarr`)
+/// is read by [`read_ome_zarr`] (the array only).
 #[pyfunction]
 pub fn read_image<'py>(py: Python<'py>, path: std::path::PathBuf) -> PyResult<Bound<'py, PyAny>> {
+    if trimorph::io::ngff::is_zarr_path(&path) {
+        return Ok(read_ome_zarr(py, path)?.0);
+    }
     let stack = py.detach(|| trimorph::io::raster::read_stack(&path)).map_err(|e| match e {
         trimorph::io::raster::RasterError::Io(io) => crate::errors::io_error(&io),
         other => value_error(other),

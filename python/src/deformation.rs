@@ -408,6 +408,43 @@ impl Deformation {
         })
     }
 
+    /// Writes an OME-Zarr (NGFF coordinate-transformations proposal) displacement store,
+    /// exactly as `trimorph field DEF -o F.zarr`: a float64 `(2, H, W)` = `(c, y, x)` array
+    /// (`c = 0` the y displacement, as the proposal orders components by output axis), NaN
+    /// where undefined. By default `phi^-1(q) - q` (the resampling direction, from the
+    /// `warped` to the `original` pixel coordinate system); `inverse=True` holds
+    /// `phi(p) - p`; `both=True` a `bijection` with the two. Written atomically.
+    #[pyo3(signature = (path, inverse = false, both = false, size = None, tolerance = 0.01))]
+    fn to_ngff(
+        &self,
+        py: Python<'_>,
+        path: PathBuf,
+        inverse: bool,
+        both: bool,
+        size: Option<(u32, u32)>,
+        tolerance: f64,
+    ) -> PyResult<()> {
+        if both && inverse {
+            return Err(value_error("both=True writes both directions; leave out inverse"));
+        }
+        let (w, h) = grid_size(size, &self.spline)?;
+        let opts = inverse_options(tolerance)?;
+        py.detach(|| {
+            let forward = (both || inverse).then(|| field::forward_field_f64(&self.spline, w, h));
+            let backward =
+                (both || !inverse).then(|| field::inverse_field_f64(&self.spline, w, h, opts));
+            trimorph::io::ngff::field::write_displacements(
+                &path,
+                forward.as_ref(),
+                backward.as_ref(),
+            )
+        })
+        .map_err(|e| match e {
+            trimorph::io::ngff::NgffError::Io(io) => io_error(&io),
+            other => value_error(other),
+        })
+    }
+
     /// The fit report (a dict, the same keys as `trimorph fit --report`) when this
     /// deformation was made by `trimorph.fit`, else None.
     #[getter]

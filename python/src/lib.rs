@@ -26,6 +26,7 @@ fn _trimorph(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(fitting::fit, m)?)?;
     m.add_function(wrap_pyfunction!(fitting::morph, m)?)?;
     m.add_function(wrap_pyfunction!(arrays::read_image, m)?)?;
+    m.add_function(wrap_pyfunction!(arrays::read_ome_zarr, m)?)?;
     m.add("TrimorphError", m.py().get_type::<errors::TrimorphError>())?;
     m.add("UnsolvableError", m.py().get_type::<errors::UnsolvableError>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;

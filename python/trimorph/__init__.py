@@ -21,6 +21,7 @@ from ._trimorph import (  # noqa: F401
     fit,
     morph,
     read_image,
+    read_ome_zarr,
 )
 
 __all__ = [
@@ -30,5 +31,6 @@ __all__ = [
     "fit",
     "morph",
     "read_image",
+    "read_ome_zarr",
     "__version__",
 ]

@@ -88,6 +88,15 @@ class Deformation:
         tolerance: float = 0.01,
     ) -> int:
         """Writes an ITK HDF5 displacement-field transform (resampling direction by default)."""
+    def to_ngff(
+        self,
+        path: _Path,
+        inverse: bool = False,
+        both: bool = False,
+        size: Optional[Tuple[int, int]] = None,
+        tolerance: float = 0.01,
+    ) -> None:
+        """Writes an OME-Zarr NGFF displacement store ((2, H, W) float64, c = 0 is dy)."""
     @property
     def report(self) -> Optional[Dict[str, Any]]:
         """The fit report when made by `trimorph.fit`, else None."""
@@ -142,3 +151,6 @@ def morph(
 
 def read_image(path: _Path) -> _Image:
     """Pages of a PNG / TIFF / JPEG file as numpy (the command line's decoder)."""
+
+def read_ome_zarr(path: _Path) -> Tuple[npt.NDArray[Any], List[str]]:
+    """Level 0 of an OME-Zarr image in the store's axis order, and the axis names."""
