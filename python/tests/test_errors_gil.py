@@ -52,8 +52,11 @@ def test_warp_releases_the_gil(fitted):
     ticks meanwhile. Were the GIL held through a warp, the main thread would stall for a
     whole call, so its longest pause would be at least one call's duration.
     """
+    import sys
+
     d, _ = fitted
-    img = (np.random.default_rng(0).random((3000, 3000, 3)) * 255).astype(np.uint8)
+    # Large enough that one warp takes many milliseconds even in a release build.
+    img = (np.random.default_rng(0).random((5000, 5000, 3)) * 255).astype(np.uint8)
     ticks, calls = [], []
     done = threading.Event()
 
@@ -65,12 +68,19 @@ def test_warp_releases_the_gil(fitted):
             calls.append(time.perf_counter() - t0)
         done.set()
 
-    th = threading.Thread(target=work)
-    th.start()
-    while not done.is_set():
-        ticks.append(time.perf_counter())
-        time.sleep(0.001)
-    th.join()
+    # Hand the GIL over quickly between the worker's Python lines, so that the main thread's
+    # pauses measure the warps, not the interpreter's switch interval.
+    old = sys.getswitchinterval()
+    sys.setswitchinterval(1e-4)
+    try:
+        th = threading.Thread(target=work)
+        th.start()
+        while not done.is_set():
+            ticks.append(time.perf_counter())
+            time.sleep(0.001)
+        th.join()
+    finally:
+        sys.setswitchinterval(old)
     call = float(np.median(calls))
     assert call > 0.01, f"each warp must be long enough to tell ({call:.4f} s)"
     gaps = np.diff(ticks)
