@@ -300,7 +300,8 @@ impl Deformation {
 
     /// `warp`, returning `(image, report, seconds)`: the library's report as a dict (pixels,
     /// outside, folded, max_error_bound, the inverse map's path counts) and the time spent in
-    /// the library call alone, so that `total - seconds` is what numpy in and out costs
+    /// what the Rust API `warp_pages` also does (allocating the output and the library
+    /// call), so that `total - seconds` is what numpy in and out costs
     /// (`python/benches/numpy_overhead.py`).
     #[pyo3(signature = (array, interp = "bilinear", background = 0.0, tolerance = 0.01))]
     fn warp_profiled<'py>(
