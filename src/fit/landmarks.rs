@@ -520,14 +520,16 @@ pub fn holdout(
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
 
-    fn lm(name: Option<&str>, src: [f64; 2], dst: [f64; 2], weight: f64) -> Landmark {
+    /// A landmark (shared with the BigWarp tests).
+    pub(super) fn lm(name: Option<&str>, src: [f64; 2], dst: [f64; 2], weight: f64) -> Landmark {
         Landmark { name: name.map(String::from), src, dst, weight }
     }
 
-    fn sample() -> Vec<Landmark> {
+    /// Landmarks with awkward names and values (shared with the BigWarp tests).
+    pub(super) fn sample() -> Vec<Landmark> {
         vec![
             lm(Some("a"), [0.1, 2.0 / 3.0], [1e-300, -7.25], 1.0),
             lm(None, [512.0, 3.0], [0.30000000000000004, 1e21], 2.5),

@@ -143,20 +143,9 @@ pub fn to_bigwarp(lms: &[Landmark], swap: bool) -> Result<String, LandmarkError>
 
 #[cfg(test)]
 mod tests {
+    use super::super::tests::{lm, sample};
     use super::super::{parse_with_notes, LandmarkFormat};
     use super::*;
-
-    fn lm(name: Option<&str>, src: [f64; 2], dst: [f64; 2], weight: f64) -> Landmark {
-        Landmark { name: name.map(String::from), src, dst, weight }
-    }
-
-    fn sample() -> Vec<Landmark> {
-        vec![
-            lm(Some("a"), [0.1, 2.0 / 3.0], [1e-300, -7.25], 1.0),
-            lm(None, [512.0, 3.0], [0.30000000000000004, 1e21], 2.5),
-            lm(Some("with, comma \"q\""), [-1.0, 0.0], [5.0, 6.0], 0.125),
-        ]
-    }
 
     #[test]
     fn bigwarp_import_skips_inactive_and_unset_and_maps_moving_to_src() {
