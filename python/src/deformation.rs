@@ -71,14 +71,14 @@ impl Deformation {
     }
 }
 
-fn inverse_options(tolerance: f64) -> PyResult<InverseOptions> {
+pub(crate) fn inverse_options(tolerance: f64) -> PyResult<InverseOptions> {
     if !(tolerance > 0.0 && tolerance.is_finite()) {
         return Err(value_error("tolerance must be a positive number of pixels"));
     }
     Ok(InverseOptions { tolerance, ..Default::default() })
 }
 
-fn warp_options(interp: &str, background: f64, tolerance: f64) -> PyResult<WarpOptions> {
+pub(crate) fn warp_options(interp: &str, background: f64, tolerance: f64) -> PyResult<WarpOptions> {
     let interp: Interp = interp.parse().map_err(value_error)?;
     if !background.is_finite() {
         return Err(value_error("background must be a finite number"));
@@ -501,6 +501,13 @@ impl Deformation {
 
     fn __deepcopy__(&self, py: Python<'_>, _memo: &Bound<'_, PyDict>) -> Deformation {
         self.copy(py)
+    }
+
+    /// Pickling (for `copy`, `multiprocessing`, Dask workers): the deformation file's text,
+    /// exact, so the unpickled deformation warps bit for bit alike.
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyAny>, (String,))> {
+        let f = py.import("trimorph")?.getattr("_deformation_from_json")?;
+        Ok((f, (self.to_json(),)))
     }
 
     fn __repr__(&self) -> String {

@@ -18,6 +18,7 @@ mod arrays;
 mod deformation;
 mod errors;
 mod fitting;
+mod tiles;
 
 /// The native module `trimorph._trimorph` (re-exported by the `trimorph` package).
 #[pymodule]
@@ -27,6 +28,8 @@ fn _trimorph(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(fitting::morph, m)?)?;
     m.add_function(wrap_pyfunction!(arrays::read_image, m)?)?;
     m.add_function(wrap_pyfunction!(arrays::read_ome_zarr, m)?)?;
+    m.add_function(wrap_pyfunction!(tiles::tile_inputs, m)?)?;
+    m.add_function(wrap_pyfunction!(tiles::warp_tile, m)?)?;
     m.add("TrimorphError", m.py().get_type::<errors::TrimorphError>())?;
     m.add("UnsolvableError", m.py().get_type::<errors::UnsolvableError>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;

@@ -11,6 +11,10 @@ A deformation ``phi`` maps the reference domain to the deformed plane, both in p
 
 Long calls release the GIL. Bad input raises ``ValueError``; unsolvable edits and hard
 fits raise ``UnsolvableError`` (a ``TrimorphError``).
+
+Images larger than memory and long sequences: ``trimorph.dask`` (needs ``dask``); its
+building blocks ``tile_inputs`` and ``warp_tile`` warp one output tile from the input it
+needs, bit-identical to ``Deformation.warp`` on the whole image.
 """
 
 from ._trimorph import (  # noqa: F401
@@ -22,6 +26,8 @@ from ._trimorph import (  # noqa: F401
     morph,
     read_image,
     read_ome_zarr,
+    tile_inputs,
+    warp_tile,
 )
 
 __all__ = [
@@ -32,5 +38,12 @@ __all__ = [
     "morph",
     "read_image",
     "read_ome_zarr",
+    "tile_inputs",
+    "warp_tile",
     "__version__",
 ]
+
+
+def _deformation_from_json(text):
+    """Rebuilds a pickled ``Deformation`` (see ``Deformation.__reduce__``)."""
+    return Deformation.from_json(text)

@@ -378,6 +378,53 @@ impl EvalCache {
         out
     }
 
+    /// A box `(lo, hi)` containing `phi(T)` for triangle `t`: the bounding box of its control
+    /// points. The Bernstein weights are non-negative and sum to one, so every value of the
+    /// patch is a convex combination of its control points (thesis ch. 12, convex hull
+    /// property of Bezier triangles).
+    pub fn patch_bbox(&self, t: usize) -> ([f64; 2], [f64; 2]) {
+        let n = self.mi.len();
+        let mut lo = [f64::INFINITY; 2];
+        let mut hi = [f64::NEG_INFINITY; 2];
+        for q in &self.pts[t * n..(t + 1) * n] {
+            for a in 0..2 {
+                lo[a] = lo[a].min(q[a]);
+                hi[a] = hi[a].max(q[a]);
+            }
+        }
+        (lo, hi)
+    }
+
+    /// A bound `L` with `|J(p) u| <= L |u|` for every `p` in triangle `t` (spectral norm of
+    /// the Jacobian; mesh units in and out).
+    ///
+    /// By the formula of the module docs, `J = d sum_{|m|=d-1} B_m(b) J_m` with the constant
+    /// matrices `J_m[r][a] = sum_c g_c[a] q_(m+e_c)[r]`; the weights `B_m` are non-negative
+    /// and sum to one, so `|J|_2 <= d max_m |J_m|_F`.
+    pub fn jacobian_bound(&self, t: usize) -> f64 {
+        let d = self.degree;
+        if d == 0 {
+            return 0.0;
+        }
+        let n = self.mi.len();
+        let q = &self.pts[t * n..(t + 1) * n];
+        let g = self.frames[t].gradients();
+        let mut worst = 0.0f64;
+        for up in &self.up {
+            let mut fro2 = 0.0;
+            for axis in 0..2 {
+                for r in 0..2 {
+                    let v = g[0][axis] * q[up[0]][r]
+                        + g[1][axis] * q[up[1]][r]
+                        + g[2][axis] * q[up[2]][r];
+                    fro2 += v * v;
+                }
+            }
+            worst = worst.max(fro2.sqrt());
+        }
+        d as f64 * worst * (1.0 + 1e-9)
+    }
+
     /// Jacobian `[[dphi_x/dx, dphi_x/dy], [dphi_y/dx, dphi_y/dy]]` on triangle `t`.
     pub fn jacobian(&self, t: usize, b: [f64; 3]) -> [[f64; 2]; 2] {
         let d = self.degree;

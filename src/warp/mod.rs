@@ -30,6 +30,7 @@ pub mod remap;
 pub mod sample;
 mod sample_simd;
 mod sample_simd_color;
+pub mod tiles;
 
 use crate::spline::Spline;
 use image::{DynamicImage, ImageBuffer};
@@ -82,6 +83,9 @@ pub enum WarpError {
     /// Caller-owned buffers do not fit their layout ([`warp_samples_into`]).
     #[error(transparent)]
     Layout(#[from] LayoutError),
+    /// A tile or its input window does not fit ([`tiles::warp_tile_into`]).
+    #[error(transparent)]
+    Tile(#[from] tiles::TileError),
 }
 
 /// What happened while warping an image: the statistics of its preimages

@@ -55,17 +55,16 @@
 //! Coordinates: output pixel `(i, j)` is the point `q = (i, j)` of the deformed plane;
 //! preimages are in mesh (input pixel) units.
 
+mod fill;
 mod geometry;
 mod raster;
 mod stats;
 
 pub use stats::RemapStats;
 
-use super::inverse::{InverseMap, InverseOptions, Preimage};
+use super::inverse::{InverseMap, InverseOptions};
 use crate::spline::Spline;
-use crate::warp::sample::fast_floor;
-use geometry::{affine_inverse_norm, bbox, clip_box, signed_area, CurvatureGrid};
-use raster::raster;
+use geometry::{affine_inverse_norm, bbox, signed_area, CurvatureGrid};
 use rayon::prelude::*;
 
 /// Options of the fast preimage computation.
@@ -83,6 +82,49 @@ impl Default for RemapOptions {
     fn default() -> Self {
         RemapOptions { inverse: InverseOptions::default(), cell: 32.0, band_rows: 32 }
     }
+}
+
+/// A rectangle of output pixels: columns `x0 .. x0 + w`, rows `y0 .. y0 + h` (pixel
+/// `(i, j)` is the point `(i, j)`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Rect {
+    /// First column.
+    pub x0: u32,
+    /// First row.
+    pub y0: u32,
+    /// Columns.
+    pub w: u32,
+    /// Rows.
+    pub h: u32,
+}
+
+impl Rect {
+    /// Number of pixels.
+    pub fn len(&self) -> usize {
+        self.w as usize * self.h as usize
+    }
+
+    /// No pixels.
+    pub fn is_empty(&self) -> bool {
+        self.w == 0 || self.h == 0
+    }
+}
+
+impl RemapOptions {
+    /// The side of the lattice squares a plan uses: [`RemapOptions::cell`], or 8 px when
+    /// that is not a finite number of at least 1/16 px.
+    pub fn lattice_cell(&self) -> f64 {
+        if self.cell.is_finite() && self.cell >= MIN_SQUARE {
+            self.cell
+        } else {
+            8.0
+        }
+    }
+}
+
+/// Whether the mesh covers a convex region (its boundary is its vertices' convex hull).
+pub(crate) fn mesh_is_convex(m: &crate::mesh::Mesh) -> bool {
+    geometry::is_convex(m)
 }
 
 /// Smallest lattice square option (reference pixels).
@@ -469,7 +511,24 @@ impl Refiner<'_> {
 impl<'a> RemapPlan<'a> {
     /// Maps the lattice forward, refines it under the bound and bins the triangles by band.
     pub fn new(s: &'a Spline, w: u32, h: u32, opts: RemapOptions) -> RemapPlan<'a> {
-        let cell = if opts.cell.is_finite() && opts.cell >= MIN_SQUARE { opts.cell } else { 8.0 };
+        RemapPlan::new_window(s, w, h, opts, None)
+    }
+
+    /// [`RemapPlan::new`] for the lattice squares that meet the reference box `window`
+    /// (`(lo, hi)`; `None`: all of them) only. The lattice and every square's pieces are
+    /// those of the whole plan (each square is refined from its own corners alone, and the
+    /// corners are located in the mesh without a hint from their neighbours), so
+    /// [`RemapPlan::fill_rect`] gives exactly the whole plan's preimages on every output
+    /// pixel all of whose pieces come from squares meeting `window`
+    /// ([`crate::warp::tiles`] chooses the window so that a tile's pixels are such).
+    pub fn new_window(
+        s: &'a Spline,
+        w: u32,
+        h: u32,
+        opts: RemapOptions,
+        window: Option<([f64; 2], [f64; 2])>,
+    ) -> RemapPlan<'a> {
+        let cell = opts.lattice_cell();
         let opts = RemapOptions { cell, band_rows: opts.band_rows.max(1), ..opts };
         let map = InverseMap::new(s, opts.inverse);
         // Curvature buckets: as small as 8 px where that costs at most about 16,000 local
@@ -490,19 +549,24 @@ impl<'a> RemapPlan<'a> {
             let y = if j + 1 == ny { hi[1] } else { lo[1] + j as f64 * cell };
             [x, y]
         };
-        let pts: Vec<[f64; 2]> = (0..ny).flat_map(|j| (0..nx).map(move |i| at(i, j))).collect();
-        let vals: Vec<Corner> = pts
-            .par_chunks(nx)
-            .flat_map_iter(|row| {
-                let refiner = &refiner;
-                let mut hint = None;
-                row.iter().map(move |&p| {
-                    let c = refiner.eval(p, hint);
-                    hint = c.map(|c| c.1).or(hint);
-                    c
-                })
-            })
-            .collect();
+        // The squares `i in ia..ib`, `j in ja..jb` (square (i, j) spans lattice points i, i+1
+        // and j, j+1): all of them, or those meeting the window.
+        let span = |lo_w: f64, hi_w: f64, o: f64, n: usize| {
+            let a = ((lo_w - o) / cell).floor() - 1.0;
+            let b = ((hi_w - o) / cell).floor() + 2.0;
+            let clamp = |v: f64| v.clamp(0.0, n.saturating_sub(1) as f64) as usize;
+            (clamp(a), clamp(b))
+        };
+        let ((ia, ib), (ja, jb)) = match window {
+            None => ((0, nx.saturating_sub(1)), (0, ny.saturating_sub(1))),
+            Some((wl, wh)) => (span(wl[0], wh[0], lo[0], nx), span(wl[1], wh[1], lo[1], ny)),
+        };
+        let (mx, my) = (ib + 1 - ia.min(ib), jb + 1 - ja.min(jb));
+        let pts: Vec<[f64; 2]> = (ja..=jb).flat_map(|j| (ia..=ib).map(move |i| at(i, j))).collect();
+        // Each corner located without a hint, so that its value (which triangle evaluates a
+        // point on an edge) does not depend on which squares the plan covers.
+        let vals: Vec<Corner> = pts.par_iter().map(|&p| refiner.eval(p, None)).collect();
+        let (nx, ny) = (mx, my);
         let rows: Vec<Pieces> = (0..ny.saturating_sub(1))
             .into_par_iter()
             .map(|j| {
@@ -589,168 +653,9 @@ impl<'a> RemapPlan<'a> {
         folds: Option<&mut [bool]>,
         scratch: &mut BandScratch,
     ) -> RemapStats {
-        let w = self.w as usize;
-        let rows_total = self.h as usize;
-        let y0 = band * self.opts.band_rows as usize;
-        let rows = (self.opts.band_rows as usize).min(self.h as usize - y0);
-        let out = &mut out[..rows * w];
-        out.fill([f64::NAN; 2]);
-        let mut st = RemapStats::default();
-        let (ylo, yhi) = (y0 as f64 - 1.0, (y0 + rows) as f64 + 1.0);
-        let BandScratch { near, mask, tried } = scratch;
-        near.clear();
-        near.extend(
-            self.rows
-                .iter()
-                .enumerate()
-                .filter(|(_, r)| r.y[1] >= ylo && r.y[0] <= yhi)
-                .map(|r| r.0),
-        );
-        let near = &*near;
-        // Which pixels the last piece drawn there is folded (only when there are folds).
-        let any_fold = near
-            .iter()
-            .map(|&j| &self.rows[j])
-            .any(|r| r.blocks.iter().any(|b| b.folded) || r.tris.iter().any(|t| t.folded));
-        let mut mask = any_fold.then(|| {
-            mask.clear();
-            mask.resize(rows * w, false);
-            &mut mask[..]
-        });
-        for r in near.iter().map(|&j| &self.rows[j]) {
-            for b in &r.blocks {
-                if b.y[1] < ylo || b.y[0] > yhi {
-                    continue;
-                }
-                let n = b.k + 1;
-                let mut written = 0;
-                for j in 0..b.k {
-                    let py = b.p0[1] + j as f64 * b.step[1];
-                    for i in 0..b.k {
-                        let o = b.off + j * n + i;
-                        let qq = [r.pool[o], r.pool[o + 1], r.pool[o + n], r.pool[o + n + 1]];
-                        let (qlo, qhi) = (
-                            qq.iter().map(|v| v[1]).fold(f64::INFINITY, f64::min),
-                            qq.iter().map(|v| v[1]).fold(f64::NEG_INFINITY, f64::max),
-                        );
-                        if qhi < ylo || qlo > yhi {
-                            continue;
-                        }
-                        // No pixel centre in the sub-rectangle's image (both halves are
-                        // inside its bounding box): nothing to draw.
-                        let (xlo, xhi) = (
-                            qq.iter().map(|v| v[0]).fold(f64::INFINITY, f64::min),
-                            qq.iter().map(|v| v[0]).fold(f64::NEG_INFINITY, f64::max),
-                        );
-                        if fast_floor(xhi + 1e-7) < xlo - 1e-7
-                            || fast_floor(qhi + 1e-7) < qlo - 1e-7
-                        {
-                            continue;
-                        }
-                        let px = b.p0[0] + i as f64 * b.step[0];
-                        let pp = [
-                            [px, py],
-                            [px + b.step[0], py],
-                            [px, py + b.step[1]],
-                            [px + b.step[0], py + b.step[1]],
-                        ];
-                        for h in [[0, 1, 3], [0, 3, 2]] {
-                            written += raster(
-                                &h.map(|c| pp[c]),
-                                &h.map(|c| qq[c]),
-                                out,
-                                y0,
-                                w,
-                                mask.as_deref_mut().map(|m| (m, b.folded)),
-                            );
-                        }
-                    }
-                }
-                if b.folded {
-                    if written > 0 {
-                        let (lo, hi) = bbox(&r.pool[b.off..b.off + n * n]);
-                        st.merge(&RemapStats {
-                            fold_box: Some(clip_box(lo, hi, w, rows_total)),
-                            ..Default::default()
-                        });
-                    }
-                } else if written > 0 {
-                    st.max_error_bound = st.max_error_bound.max(b.bound);
-                }
-            }
-            for t in &r.tris {
-                if t.y[1] < ylo || t.y[0] > yhi {
-                    continue;
-                }
-                let written =
-                    raster(&t.p, &t.q, out, y0, w, mask.as_deref_mut().map(|m| (m, t.folded)));
-                if t.folded {
-                    if written > 0 {
-                        let (lo, hi) = bbox(&t.q);
-                        st.merge(&RemapStats {
-                            fold_box: Some(clip_box(lo, hi, w, rows_total)),
-                            ..Default::default()
-                        });
-                    }
-                } else if written > 0 {
-                    st.max_error_bound = st.max_error_bound.max(t.bound);
-                }
-            }
-        }
-        st.folded = mask.as_ref().map_or(0, |m| m.iter().filter(|&&f| f).count());
-        if let Some(f) = folds {
-            match &mask {
-                Some(m) => f[..rows * w].copy_from_slice(m),
-                None => f[..rows * w].fill(false),
-            }
-        }
-        // Newton for the unfilled pixels near border pieces (each pixel tried once).
-        let boxes = || {
-            near.iter()
-                .flat_map(|&j| &self.rows[j].newton)
-                .filter(|b| b.r[3] >= ylo && b.r[1] <= yhi)
-        };
-        tried.clear();
-        if boxes().next().is_some() {
-            tried.resize(rows * w, false);
-        }
-        for b in boxes() {
-            let r = b.r;
-            let ya = r[1].ceil().max(y0 as f64) as usize;
-            let yb = (r[3].floor() as isize).min((y0 + rows) as isize - 1);
-            let xa = r[0].ceil().max(0.0) as usize;
-            let xb = (r[2].floor() as isize).min(w as isize - 1);
-            for y in ya as isize..=yb {
-                let y = y as usize;
-                let mut prev: Option<Preimage> = None;
-                for x in xa as isize..=xb {
-                    let k = (y - y0) * w + x as usize;
-                    let o = &mut out[k];
-                    if !o[0].is_nan() || tried[k] {
-                        continue;
-                    }
-                    tried[k] = true;
-                    let q = [x as f64, y as f64];
-                    let seeded = self.map.invert_from(q, b.seed.at(q), b.seed.tri);
-                    if seeded.is_some() {
-                        st.newton_seeded += 1;
-                    }
-                    match seeded.or_else(|| self.map.invert(q, prev.as_ref())) {
-                        Some(pm) => {
-                            *o = pm.p;
-                            st.newton_solves += 1;
-                            st.max_error_bound = st.max_error_bound.max(pm.error_bound);
-                            prev = Some(pm);
-                        }
-                        None => st.newton_failed += 1,
-                    }
-                }
-            }
-        }
-        st.outside = out.iter().filter(|p| p[0].is_nan()).count();
-        st.pixels = rows * w;
-        st.interpolated = rows * w - st.outside - st.newton_solves;
-        st
+        let y0 = band as u32 * self.opts.band_rows;
+        let rows = self.opts.band_rows.min(self.h - y0);
+        self.fill_rect(Rect { x0: 0, y0, w: self.w, h: rows }, out, folds, scratch)
     }
 }
 

@@ -2,6 +2,7 @@
 //! centre gets the preimage under the triangle's affine map (see the parent module).
 
 use super::geometry::bbox;
+use super::Rect;
 use crate::warp::sample::fast_floor;
 
 #[inline(always)]
@@ -9,27 +10,35 @@ fn fast_ceil(x: f64) -> f64 {
     -fast_floor(-x)
 }
 
-/// Rasterizes the image `q` of the reference triangle `p` into the band `out` (rows
-/// `y0 ..`, `w` per row): each covered pixel centre gets `L^-1(q)`. Returns the number of
+/// Rasterizes the image `q` of the reference triangle `p` into the window `win` of the
+/// output (`out`: `win.h` rows of `win.w` pixels, row-major; the whole output is `w` pixels
+/// wide): each covered pixel centre of the window gets `L^-1(q)`. Returns the number of
 /// pixels written.
+///
+/// A pixel's value does not depend on the window: the covered span of each row is found
+/// with the whole output's clipping, and the value at column `x` is `start + (x - x0) px`
+/// from the span's first column `x0`, whatever part of the span the window keeps. So
+/// windows that tile the output get exactly the values of one whole-output pass.
 #[inline]
 pub(super) fn raster(
     p: &[[f64; 2]; 3],
     q: &[[f64; 2]; 3],
     out: &mut [[f64; 2]],
-    y0: usize,
+    win: Rect,
     w: usize,
     mut fold_mask: Option<(&mut [bool], bool)>,
 ) -> usize {
-    let rows = out.len() / w;
-    // The pixel centres of the bounding box first: most pieces of a finely split block
-    // cover none, and then the setup (a division) is skipped.
+    let (wx0, wy0, ww) = (win.x0 as usize, win.y0 as usize, win.w as usize);
+    let rows = win.h as usize;
+    let wx1 = wx0 + ww; // exclusive
+                        // The pixel centres of the bounding box first: most pieces of a finely split block
+                        // cover none, and then the setup (a division) is skipped.
     let (lo, hi) = bbox(q);
-    let ya = fast_ceil(lo[1] - 1e-7).max(y0 as f64) as usize;
-    let yb = (fast_floor(hi[1] + 1e-7) as isize).min((y0 + rows) as isize - 1);
+    let ya = fast_ceil(lo[1] - 1e-7).max(wy0 as f64) as usize;
+    let yb = (fast_floor(hi[1] + 1e-7) as isize).min((wy0 + rows) as isize - 1);
     let xa = fast_ceil(lo[0] - 1e-7).max(0.0) as usize;
     let xb = (fast_floor(hi[0] + 1e-7) as isize).min(w as isize - 1);
-    if yb < ya as isize || xb < xa as isize {
+    if yb < ya as isize || xb < xa as isize || xb < wx0 as isize || xa >= wx1 {
         return 0;
     }
     let (e1, e2) = ([q[1][0] - q[0][0], q[1][1] - q[0][1]], [q[2][0] - q[0][0], q[2][1] - q[0][1]]);
@@ -88,16 +97,21 @@ pub(super) fn raster(
             continue;
         }
         let (x0, x1) = (x0 as usize, x1 as usize);
-        let row = &mut out[(y - y0) * w..(y - y0 + 1) * w];
+        // The window's part of the span [x0, x1].
+        let (xs, xe) = (x0.max(wx0), x1.min(wx1 - 1));
+        if xe < xs {
+            continue;
+        }
+        let row = &mut out[(y - wy0) * ww..(y - wy0 + 1) * ww];
         let start =
             [pc[0] + py[0] * yf + px[0] * x0 as f64, pc[1] + py[1] * yf + px[1] * x0 as f64];
-        for (k, o) in row[x0..=x1].iter_mut().enumerate() {
+        for (k, o) in (xs - x0..).zip(row[xs - wx0..=xe - wx0].iter_mut()) {
             let kf = k as f64;
             *o = [start[0] + kf * px[0], start[1] + kf * px[1]];
         }
-        written += x1 + 1 - x0;
+        written += xe + 1 - xs;
         if let Some((mask, folded)) = fold_mask.as_mut() {
-            mask[(y - y0) * w + x0..=(y - y0) * w + x1].fill(*folded);
+            mask[(y - wy0) * ww + xs - wx0..=(y - wy0) * ww + xe - wx0].fill(*folded);
         }
     }
     written

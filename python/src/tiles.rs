@@ -1,0 +1,134 @@
+//! Tiled warps for out-of-core and distributed use (`trimorph.dask.warp`): which input a
+//! tile needs ([`tile_inputs`]) and the warp of one tile from that input alone
+//! ([`warp_tile`]), bit-identical to the tile's pixels of `Deformation.warp` on the whole
+//! image (the library's `warp::tiles`).
+//!
+//! Rectangles are `(y0, x0, h, w)` in pixels, numpy order (rows first).
+
+use crate::arrays::{c_order, to_numpy, Sample};
+use crate::deformation::{warp_options, Deformation};
+use crate::errors::value_error;
+use numpy::PyUntypedArrayMethods;
+use numpy::{dtype, PyArrayDescrMethods, PyArrayDyn, PyArrayMethods, PyUntypedArray};
+use pyo3::prelude::*;
+use trimorph::warp::remap::RemapOptions;
+use trimorph::warp::tiles::{warp_tile_into, Rect, TilePlanner};
+use trimorph::warp::{Samples, SamplesMut, WarpOptions};
+
+/// A `(y0, x0, h, w)` rectangle as the library's.
+fn rect((y0, x0, h, w): (u32, u32, u32, u32)) -> Rect {
+    Rect { x0, y0, w, h }
+}
+
+/// The remap options `Deformation.warp` uses for `tolerance`.
+fn remap_options(tolerance: f64) -> PyResult<RemapOptions> {
+    Ok(warp_options("bilinear", 0.0, tolerance)?.remap)
+}
+
+/// For each output tile `(y0, x0, h, w)` of an image of `shape = (H, W)`, the input
+/// rectangle its warp reads (`None`: the tile is all background and reads nothing). The
+/// rectangles come from bounds on the spline (its Jacobian and control points), not from
+/// solving the inverse, so they cost little; `resolution` (reference pixels, default a tenth
+/// of the smallest tile side, at least 32) trades planning time for tighter rectangles.
+#[pyfunction]
+#[pyo3(signature = (deformation, shape, tiles, tolerance = 0.01, resolution = None))]
+pub fn tile_inputs(
+    py: Python<'_>,
+    deformation: &Deformation,
+    shape: (u32, u32),
+    tiles: Vec<(u32, u32, u32, u32)>,
+    tolerance: f64,
+    resolution: Option<f64>,
+) -> PyResult<Vec<Option<(u32, u32, u32, u32)>>> {
+    let ro = remap_options(tolerance)?;
+    let (h, w) = shape;
+    let smallest = tiles.iter().map(|t| t.2.min(t.3)).min().unwrap_or(0) as f64;
+    let res = resolution.unwrap_or((smallest / 10.0).max(32.0));
+    let s = &deformation.spline;
+    Ok(py.detach(|| {
+        let planner = TilePlanner::with_resolution(s, (w, h), &ro, res);
+        tiles.iter().map(|&t| planner.input_rect(rect(t)).map(|r| (r.y0, r.x0, r.h, r.w))).collect()
+    }))
+}
+
+fn warp_tile_typed<'py, T: Sample>(
+    py: Python<'py>,
+    deformation: &Deformation,
+    a: &Bound<'py, PyArrayDyn<T>>,
+    origin: (u32, u32),
+    shape: (u32, u32),
+    tile: Rect,
+    opts: &WarpOptions,
+) -> PyResult<Bound<'py, PyAny>> {
+    let ro = a.readonly();
+    let wshape = ro.shape().to_vec();
+    let (planes, wh, ww) = match *wshape {
+        [wh, ww] => (1, wh, ww),
+        [n, wh, ww] => (n, wh, ww),
+        _ => {
+            return Err(value_error(format!(
+                "window: expected shape (h, w) or (planes, h, w), got {wshape:?}"
+            )))
+        }
+    };
+    let (Ok(wh32), Ok(ww32)) = (u32::try_from(wh), u32::try_from(ww)) else {
+        return Err(value_error(format!("window of shape {wshape:?} is too large")));
+    };
+    let window = Rect { x0: origin.1, y0: origin.0, w: ww32, h: wh32 };
+    let data = c_order(&ro);
+    let plane = wh * ww;
+    let mut out = vec![T::default(); planes * tile.len()];
+    let s = &deformation.spline;
+    let (h, w) = shape;
+    py.detach(|| {
+        let ins: Vec<Samples<'_>> =
+            (0..planes).map(|k| T::samples(&data[k * plane..(k + 1) * plane])).collect();
+        let mut outs: Vec<SamplesMut<'_>> =
+            out.chunks_mut(tile.len().max(1)).take(planes).map(|c| T::samples_mut(c)).collect();
+        warp_tile_into(s, (w, h), tile, window, 1, &ins, &mut outs, opts)
+    })
+    .map_err(value_error)?;
+    let oshape: Vec<usize> = if wshape.len() == 2 {
+        vec![tile.h as usize, tile.w as usize]
+    } else {
+        vec![planes, tile.h as usize, tile.w as usize]
+    };
+    Ok(to_numpy(py, out, &oshape)?.into_any())
+}
+
+/// Warps the output tile `(y0, x0, h, w)` of an image of `shape = (H, W)` from `window`, the
+/// input pixels of the rectangle at `origin = (y, x)` (a 2-D array, or `(planes, h, w)` for
+/// planes warped alike), which must contain `tile_inputs` of the tile. Returns the tile
+/// (2-D, or `(planes, h, w)`), bit-identical to the same pixels of `Deformation.warp` on the
+/// whole image with the same `interp`, `background` and `tolerance`. Releases the GIL.
+#[pyfunction]
+#[pyo3(signature = (deformation, window, origin, shape, tile, interp = "bilinear", background = 0.0, tolerance = 0.01))]
+pub fn warp_tile<'py>(
+    py: Python<'py>,
+    deformation: &Deformation,
+    window: &Bound<'py, PyAny>,
+    origin: (u32, u32),
+    shape: (u32, u32),
+    tile: (u32, u32, u32, u32),
+    interp: &str,
+    background: f64,
+    tolerance: f64,
+) -> PyResult<Bound<'py, PyAny>> {
+    let opts = warp_options(interp, background, tolerance)?;
+    let tile = rect(tile);
+    let a = window
+        .cast::<PyUntypedArray>()
+        .map_err(|_| value_error("window: expected a numpy array (use numpy.asarray)"))?;
+    let dt = a.dtype();
+    if dt.is_equiv_to(&dtype::<u8>(py)) {
+        warp_tile_typed(py, deformation, a.cast::<PyArrayDyn<u8>>()?, origin, shape, tile, &opts)
+    } else if dt.is_equiv_to(&dtype::<u16>(py)) {
+        warp_tile_typed(py, deformation, a.cast::<PyArrayDyn<u16>>()?, origin, shape, tile, &opts)
+    } else if dt.is_equiv_to(&dtype::<f32>(py)) {
+        warp_tile_typed(py, deformation, a.cast::<PyArrayDyn<f32>>()?, origin, shape, tile, &opts)
+    } else {
+        Err(value_error(format!(
+            "window: unsupported dtype {dt} (use uint8, uint16 or float32; convert with .astype)"
+        )))
+    }
+}

@@ -1,0 +1,204 @@
+"""trimorph on Dask: warps of images larger than memory, and batches of frames.
+
+A spline map is small and global, so the solve stays on one machine and only the data
+work is distributed (no scheduler of our own: Dask's, on a laptop or a cluster).
+
+``warp(arr, deformation)`` returns a lazy dask array ``O(q) = I(phi^-1(q))`` of ``arr``'s
+shape and dtype (2-D, or with leading time/channel axes; the last two axes are y, x).
+Each output chunk is one task that reads only the input chunks its preimage touches: the
+input rectangle of a chunk comes from certified bounds on the spline
+(``trimorph.tile_inputs``: its Jacobian and control points, not a solve), and the task
+(``trimorph.warp_tile``) fails rather than sample outside it. Every chunk is bit-identical
+to the same pixels of ``Deformation.warp`` on the whole array in memory.
+
+``read_ome_zarr`` / ``to_ome_zarr`` open an OME-Zarr image as a dask array and write a
+result with the source's NGFF metadata (axes, scale, omero) kept.
+
+``fit_frames`` fits a sequence frame by frame on a ``dask.distributed`` client, writing
+what ``trimorph fit --frames`` writes.
+"""
+
+from __future__ import annotations
+
+import itertools
+from bisect import bisect_right
+
+import numpy as np
+
+from . import _trimorph
+
+__all__ = ["warp", "warp_graph_inputs", "read_ome_zarr", "to_ome_zarr", "fit_frames"]
+
+_DTYPES = (np.uint8, np.uint16, np.float32)
+
+
+def _bounds(chunks):
+    """Start offsets of the chunks along one axis, and the end."""
+    return [0, *itertools.accumulate(chunks)]
+
+
+def _overlap(starts, lo, hi):
+    """Indices of the chunks (with ``starts``) that meet ``[lo, hi)``."""
+    first = bisect_right(starts, lo) - 1
+    last = bisect_right(starts, hi - 1) - 1
+    return range(max(first, 0), min(last, len(starts) - 2) + 1)
+
+
+def _warp_block(deformation, blocks, origins, rect, tile, shape, interp, background, tolerance):
+    """One output chunk: assemble the input window from the chunks it meets, warp it."""
+    y0, x0, h, w = rect
+    first = blocks[0][0]
+    lead = first.shape[:-2]
+    window = np.empty(lead + (h, w), dtype=first.dtype)
+    for row, row_origins in zip(blocks, origins):
+        for b, (by, bx) in zip(row, row_origins):
+            b = np.asarray(b)
+            ya, xa = max(by, y0), max(bx, x0)
+            yb, xb = min(by + b.shape[-2], y0 + h), min(bx + b.shape[-1], x0 + w)
+            window[..., ya - y0 : yb - y0, xa - x0 : xb - x0] = b[..., ya - by : yb - by, xa - bx : xb - bx]
+    planes = window.reshape((-1, h, w))
+    out = _trimorph.warp_tile(
+        deformation, planes, (y0, x0), shape, tile, interp, background, tolerance
+    )
+    return out.reshape(lead + (tile[2], tile[3]))
+
+
+def _background_block(deformation, lead, dtype, shape, tile, interp, background, tolerance):
+    """An output chunk no preimage reaches: the background, as the library converts it."""
+    planes = int(np.prod(lead, dtype=np.int64)) if lead else 1
+    dummy = np.zeros((planes, 1, 1), dtype=dtype)
+    out = _trimorph.warp_tile(deformation, dummy, (0, 0), shape, tile, interp, background, tolerance)
+    return out.reshape(tuple(lead) + (tile[2], tile[3]))
+
+
+def warp_graph_inputs(shape, chunks, deformation, tolerance=0.01, resolution=None):
+    """For each output tile (chunk indices ``(i, j)`` of the last two axes), the input
+    rectangle ``(y0, x0, h, w)`` its warp reads, or ``None``: what ``warp`` builds its task
+    graph from. ``shape`` is ``(H, W)``, ``chunks`` the output's ``(y chunks, x chunks)``."""
+    ys, xs = _bounds(chunks[0]), _bounds(chunks[1])
+    tiles = [
+        (ys[i], xs[j], chunks[0][i], chunks[1][j])
+        for i in range(len(chunks[0]))
+        for j in range(len(chunks[1]))
+    ]
+    rects = _trimorph.tile_inputs(deformation, tuple(shape), tiles, tolerance, resolution)
+    nx = len(chunks[1])
+    return {(k // nx, k % nx): (tiles[k], rects[k]) for k in range(len(tiles))}
+
+
+def warp(
+    arr,
+    deformation,
+    interp="bilinear",
+    background=0.0,
+    tolerance=0.01,
+    chunks=None,
+    resolution=None,
+):
+    """Warps a dask array lazily: ``O(q) = I(phi^-1(q))`` on the last two axes (y, x) of
+    every plane, same shape and dtype (uint8, uint16 or float32).
+
+    ``chunks`` sets the output's chunks on the last two axes (``(y, x)`` sizes, or anything
+    ``dask.array.core.normalize_chunks`` takes); by default the input's. Leading axes keep
+    the input's chunks. Each output chunk reads only the input chunks that meet its
+    certified input rectangle (``warp_graph_inputs``), so memory per task is about one
+    output chunk and its preimage, whatever the image size. The result is bit-identical to
+    ``deformation.warp`` on each plane in memory.
+    """
+    import dask.array as da
+    from dask.base import tokenize
+    from dask.highlevelgraph import HighLevelGraph
+
+    arr = da.asarray(arr)
+    if arr.ndim < 2:
+        raise ValueError(f"expected an array with y and x as its last two axes, got shape {arr.shape}")
+    if arr.dtype not in [np.dtype(t) for t in _DTYPES]:
+        raise ValueError(f"unsupported dtype {arr.dtype} (use uint8, uint16 or float32; convert with .astype)")
+    if 0 in arr.shape:
+        raise ValueError(f"the image is empty (shape {arr.shape})")
+    if not np.isfinite(background):
+        raise ValueError("background must be a finite number")
+    H, W = arr.shape[-2:]
+    if chunks is None:
+        yx = arr.chunks[-2:]
+    else:
+        yx = da.core.normalize_chunks(chunks, (H, W), dtype=arr.dtype)
+    lead_chunks = arr.chunks[:-2]
+    out_chunks = tuple(lead_chunks) + tuple(yx)
+    plan = warp_graph_inputs((H, W), yx, deformation, tolerance, resolution)
+    ys, xs = _bounds(arr.chunks[-2]), _bounds(arr.chunks[-1])
+    token = tokenize(arr.name, deformation.to_json(), interp, background, tolerance, out_chunks)
+    name = f"trimorph-warp-{token}"
+    dname = f"trimorph-deformation-{token}"
+    dsk = {dname: deformation}
+    for lead in itertools.product(*[range(len(c)) for c in lead_chunks]):
+        lead_shape = tuple(c[i] for c, i in zip(lead_chunks, lead))
+        for (i, j), (tile, rect) in plan.items():
+            key = (name, *lead, i, j)
+            if rect is None:
+                dsk[key] = (
+                    _background_block, dname, lead_shape, arr.dtype.str, (H, W), tile,
+                    interp, float(background), float(tolerance),
+                )
+                continue
+            y0, x0, h, w = rect
+            iy, ix = _overlap(ys, y0, y0 + h), _overlap(xs, x0, x0 + w)
+            blocks = [[(arr.name, *lead, a, b) for b in ix] for a in iy]
+            origins = [[(ys[a], xs[b]) for b in ix] for a in iy]
+            dsk[key] = (
+                _warp_block, dname, blocks, origins, rect, tile, (H, W),
+                interp, float(background), float(tolerance),
+            )
+    graph = HighLevelGraph.from_collections(name, dsk, dependencies=[arr])
+    meta = np.empty((0,) * arr.ndim, dtype=arr.dtype)
+    return da.Array(graph, name, out_chunks, meta=meta)
+
+
+def read_ome_zarr(url, level=0):
+    """An OME-Zarr image's resolution ``level`` as a dask array (its stored chunks), and the
+    group's attributes (``multiscales``, ``omero``, ...) to pass to ``to_ome_zarr``."""
+    import dask.array as da
+    import zarr
+
+    group = zarr.open_group(str(url), mode="r")
+    attrs = dict(group.attrs)
+    ms = attrs.get("multiscales") or attrs.get("ome", {}).get("multiscales")
+    if not ms:
+        raise ValueError(f"{url}: not an OME-Zarr image (no multiscales metadata)")
+    datasets = ms[0].get("datasets", [])
+    if not 0 <= level < len(datasets):
+        raise ValueError(f"{url}: level {level} out of range ({len(datasets)} levels)")
+    arr = group[datasets[level]["path"]]
+    return da.from_zarr(arr), {"attrs": attrs, "level": level, "zarr_format": group.metadata.zarr_format}
+
+
+def to_ome_zarr(arr, url, like, compute=True):
+    """Writes ``arr`` (a dask array, e.g. ``warp``'s result) as a one-level OME-Zarr image at
+    ``url``, with the metadata ``like`` from ``read_ome_zarr`` (axes, the level's scale and
+    translation, omero channels and the rest of the group attributes kept; only the
+    warped level is listed). Written chunk by chunk by Dask (``compute=False``: the
+    delayed write)."""
+    import copy
+
+    import dask.array as da
+    import zarr
+
+    attrs = copy.deepcopy(like["attrs"])
+    holder = attrs["ome"] if "multiscales" not in attrs and "ome" in attrs else attrs
+    ms = holder["multiscales"][0]
+    ds = dict(ms["datasets"][like["level"]])
+    ds["path"] = "0"
+    ms["datasets"] = [ds]
+    fmt = like.get("zarr_format", 2)
+    group = zarr.open_group(str(url), mode="w", zarr_format=fmt)
+    group.attrs.update(attrs)
+    chunks = tuple(c[0] for c in arr.chunks)
+    target = group.create_array("0", shape=arr.shape, dtype=arr.dtype, chunks=chunks)
+    return da.to_zarr(arr.rechunk(chunks), target, compute=compute)
+
+
+def fit_frames(*args, **kwargs):
+    """See ``trimorph._dask_fit.fit_frames``."""
+    from ._dask_fit import fit_frames as run
+
+    return run(*args, **kwargs)
