@@ -160,7 +160,10 @@ def read_ome_zarr(url, level=0):
     import dask.array as da
     import zarr
 
-    group = zarr.open_group(str(url), mode="r")
+    try:
+        group = zarr.open_group(str(url), mode="r")
+    except (FileNotFoundError, zarr.errors.GroupNotFoundError, ValueError) as e:
+        raise ValueError(f"{url}: not an OME-Zarr image (no zarr group with multiscales metadata: {e})") from e
     attrs = dict(group.attrs)
     ms = attrs.get("multiscales") or attrs.get("ome", {}).get("multiscales")
     if not ms:
@@ -192,9 +195,11 @@ def to_ome_zarr(arr, url, like, compute=True):
     fmt = like.get("zarr_format", 2)
     group = zarr.open_group(str(url), mode="w", zarr_format=fmt)
     group.attrs.update(attrs)
+    # Regular chunks, the stored ones: each task writes whole stored chunks, no locks.
     chunks = tuple(c[0] for c in arr.chunks)
+    arr = arr.rechunk(chunks)
     target = group.create_array("0", shape=arr.shape, dtype=arr.dtype, chunks=chunks)
-    return da.to_zarr(arr.rechunk(chunks), target, compute=compute)
+    return da.store(arr, target, lock=False, compute=compute)
 
 
 def fit_frames(*args, **kwargs):
