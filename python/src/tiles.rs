@@ -12,7 +12,7 @@ use numpy::PyUntypedArrayMethods;
 use numpy::{dtype, PyArrayDescrMethods, PyArrayDyn, PyArrayMethods, PyUntypedArray};
 use pyo3::prelude::*;
 use trimorph::warp::remap::RemapOptions;
-use trimorph::warp::tiles::{warp_tile_into, Rect, TilePlanner};
+use trimorph::warp::tiles::{warp_tile_into, Rect, TileLayout, TilePlanner};
 use trimorph::warp::{Samples, SamplesMut, WarpOptions};
 
 /// A `(y0, x0, h, w)` rectangle as the library's.
@@ -85,7 +85,8 @@ fn warp_tile_typed<'py, T: Sample>(
             (0..planes).map(|k| T::samples(&data[k * plane..(k + 1) * plane])).collect();
         let mut outs: Vec<SamplesMut<'_>> =
             out.chunks_mut(tile.len().max(1)).take(planes).map(|c| T::samples_mut(c)).collect();
-        warp_tile_into(s, (w, h), tile, window, 1, &ins, &mut outs, opts)
+        let layout = TileLayout { size: (w, h), tile, window, channels: 1 };
+        warp_tile_into(s, layout, &ins, &mut outs, opts)
     })
     .map_err(value_error)?;
     let oshape: Vec<usize> = if wshape.len() == 2 {

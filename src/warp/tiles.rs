@@ -8,12 +8,14 @@
 //! **Which input a tile needs.** Let `R` be the box of a tile's pixel centres. On a mesh
 //! triangle `T` the map is a Bezier patch with `|J| <= L_T`
 //! ([`EvalCache::jacobian_bound`](crate::spline::eval::EvalCache::jacobian_bound); `L` the
-//! largest over the mesh). Cut `T` into `k^2` pieces of diameter `d` (the `k`-fold
-//! subdivision, `d` about [`TilePlanner::with_resolution`]'s resolution): a piece `tau`
-//! with corner `a` has `phi(tau)` within `L_T d` of `phi(a)`, and inside the box `C_T` of
+//! largest over the mesh). Cut `T` into `k^2` pieces (the `k`-fold subdivision, about
+//! [`TilePlanner::with_resolution`]'s resolution across): every point of a piece `tau` is
+//! within `rho` of one of its corners (`rho` its circumradius when no angle is obtuse,
+//! else its diameter), so `phi(tau)` lies in the box of its corners' images grown by
+//! `L_T rho`, and inside the box `C_T` of
 //! the triangle's control points (convex hull property;
 //! [`EvalCache::patch_bbox`](crate::spline::eval::EvalCache::patch_bbox)). With `D(R, e)`
-//! the union of the reference boxes of the pieces whose disc and whose `C_T` both come
+//! the union of the reference boxes of the pieces whose image box and whose `C_T` both come
 //! within `e` of `R`:
 //!
 //! * a pixel solved by Newton's method has `|phi(p) - q|` far below a pixel, so `p` lies in
@@ -92,12 +94,11 @@ pub enum TileError {
 }
 
 /// A piece of a mesh triangle (one of the `k^2` triangles of its `k`-fold subdivision):
-/// the image of its first corner, a radius that contains the image of the whole piece
-/// around it (`L_T` times the piece's diameter), and the piece's reference box.
+/// a box containing its image, and its reference box.
 #[derive(Clone, Copy, Debug)]
 struct Piece {
-    q: [f64; 2],
-    r: f64,
+    /// A box containing the piece's image: its corners' images grown by `L_T rho`.
+    q: ([f64; 2], [f64; 2]),
     dom: ([f64; 2], [f64; 2]),
     /// The whole triangle's image box (its control points').
     img: ([f64; 2], [f64; 2]),
@@ -140,41 +141,98 @@ impl TilePlanner {
     /// stretching), and planning evaluates `phi` about `2 A / resolution^2` times for a
     /// mesh of area `A`. A tenth of the tile side is a good choice.
     ///
-    /// For a piece `tau` with corner `a` and diameter `d`, `phi(tau)` lies within `L_T d`
-    /// of `phi(a)` (`L_T` the triangle's [`jacobian_bound`](crate::spline::eval::EvalCache::jacobian_bound),
-    /// the segment from `a` stays in the triangle); a tile needs `tau` only if that disc
-    /// comes within the reach of the module docs of the tile.
+    /// A piece's image lies in its corners' images grown by `L_T rho` (`L_T` the triangle's
+    /// [`jacobian_bound`](crate::spline::eval::EvalCache::jacobian_bound), the segments from
+    /// the corners stay in the triangle); a tile needs the piece only if that box comes
+    /// within the reach of the module docs of the tile.
     pub fn with_resolution(
         s: &Spline,
         size: (u32, u32),
         opts: &RemapOptions,
         resolution: f64,
     ) -> TilePlanner {
+        TilePlanner::build(s, size, opts, resolution, None)
+    }
+
+    /// [`TilePlanner::with_resolution`] for the tiles inside `region` only (other tiles
+    /// must not be asked): triangles whose image box is far from the region are skipped,
+    /// so one tile's planner costs what the triangles near it cost.
+    pub fn near(
+        s: &Spline,
+        size: (u32, u32),
+        opts: &RemapOptions,
+        resolution: f64,
+        region: Rect,
+    ) -> TilePlanner {
+        TilePlanner::build(s, size, opts, resolution, Some(region))
+    }
+
+    fn build(
+        s: &Spline,
+        size: (u32, u32),
+        opts: &RemapOptions,
+        resolution: f64,
+        region: Option<Rect>,
+    ) -> TilePlanner {
         let m = s.mesh();
         let cache = s.eval_cache();
         let res = if resolution.is_finite() && resolution >= 1.0 { resolution } else { RESOLUTION };
-        let mut lip = 0.0f64;
+        let cell = opts.lattice_cell();
+        let bounds: Vec<f64> = (0..m.num_triangles()).map(|t| cache.jacobian_bound(t)).collect();
+        let lip = bounds.iter().copied().fold(0.0, f64::max);
+        let convex = mesh_is_convex(m);
+        // The largest reach a query uses (the lattice window's), for skipping triangles.
+        let reach = lattice_reach(lip, cell) + 1.0;
+        let keep = |img: ([f64; 2], [f64; 2])| match region {
+            Some(r) if convex => {
+                let (lo, hi) = img;
+                lo[0] <= (r.x0 + r.w) as f64 + reach
+                    && hi[0] >= r.x0 as f64 - reach
+                    && lo[1] <= (r.y0 + r.h) as f64 + reach
+                    && hi[1] >= r.y0 as f64 - reach
+            }
+            _ => true,
+        };
         let mut pieces = Vec::new();
-        for t in 0..m.num_triangles() {
-            let lt = cache.jacobian_bound(t);
-            lip = lip.max(lt);
+        for (t, &lt) in bounds.iter().enumerate() {
+            let img = cache.patch_bbox(t);
+            if !keep(img) {
+                continue;
+            }
             let v = m.triangle(t).map(|x| m.vertex(x));
-            let d2 = |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).hypot(a[1] - b[1]);
-            let diam = d2(v[0], v[1]).max(d2(v[0], v[2])).max(d2(v[1], v[2]));
+            let dist = |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).hypot(a[1] - b[1]);
+            let (e0, e1, e2) = (dist(v[1], v[2]), dist(v[0], v[2]), dist(v[0], v[1]));
+            let diam = e0.max(e1).max(e2);
+            // Every point of a triangle is within `rho` of a corner: the circumradius when
+            // no angle is obtuse (the circumcentre is the farthest point), else the diameter.
+            let sq = [e0 * e0, e1 * e1, e2 * e2];
+            let obtuse = sq[0] > sq[1] + sq[2] || sq[1] > sq[0] + sq[2] || sq[2] > sq[0] + sq[1];
+            let area2 = ((v[1][0] - v[0][0]) * (v[2][1] - v[0][1])
+                - (v[2][0] - v[0][0]) * (v[1][1] - v[0][1]))
+                .abs();
+            let rho = if obtuse || area2 == 0.0 {
+                diam
+            } else {
+                (e0 * e1 * e2 / (2.0 * area2)).min(diam)
+            };
             let k = ((diam / res).ceil() as usize).clamp(1, 4096);
             let kf = k as f64;
             let at = |i: usize, j: usize| {
                 let b = [(k - i - j) as f64 / kf, i as f64 / kf, j as f64 / kf];
                 let p = [0, 1].map(|a| b[0] * v[0][a] + b[1] * v[1][a] + b[2] * v[2][a]);
-                (p, b)
+                (p, cache.value(t, b))
             };
-            let r = lt * diam / kf;
-            let img = cache.patch_bbox(t);
+            // Pieces are similar to the triangle: `rho / k` for each.
+            let r = lt * rho / kf;
+            let corners: Vec<Vec<([f64; 2], [f64; 2])>> =
+                (0..=k).map(|i| (0..=k - i).map(|j| at(i, j)).collect()).collect();
             let mut push = |c: [(usize, usize); 3]| {
-                let [a, b, c] = c.map(|(i, j)| at(i, j));
+                let [a, b, c] = c.map(|(i, j)| corners[i][j]);
                 let lo = [0, 1].map(|x| a.0[x].min(b.0[x]).min(c.0[x]));
                 let hi = [0, 1].map(|x| a.0[x].max(b.0[x]).max(c.0[x]));
-                pieces.push(Piece { q: cache.value(t, a.1), r, dom: (lo, hi), img });
+                let qlo = [0, 1].map(|x| a.1[x].min(b.1[x]).min(c.1[x]) - r);
+                let qhi = [0, 1].map(|x| a.1[x].max(b.1[x]).max(c.1[x]) + r);
+                pieces.push(Piece { q: (qlo, qhi), dom: (lo, hi), img });
             };
             for i in 0..k {
                 for j in 0..k - i {
@@ -185,14 +243,7 @@ impl TilePlanner {
                 }
             }
         }
-        TilePlanner {
-            size,
-            pieces,
-            lip,
-            cell: opts.lattice_cell(),
-            tol: opts.inverse.tolerance,
-            convex: mesh_is_convex(m),
-        }
+        TilePlanner { size, pieces, lip, cell, tol: opts.inverse.tolerance, convex }
     }
 
     /// The bound `L` on `|J|` over the mesh.
@@ -210,11 +261,9 @@ impl TilePlanner {
         let r_hi = [(tile.x0 + tile.w - 1) as f64 + reach, (tile.y0 + tile.h - 1) as f64 + reach];
         let mut acc = None;
         for p in &self.pieces {
-            let e = p.r;
-            let meets = p.q[0] - e <= r_hi[0]
-                && p.q[0] + e >= r_lo[0]
-                && p.q[1] - e <= r_hi[1]
-                && p.q[1] + e >= r_lo[1];
+            let (qlo, qhi) = p.q;
+            let meets =
+                qlo[0] <= r_hi[0] && qhi[0] >= r_lo[0] && qlo[1] <= r_hi[1] && qhi[1] >= r_lo[1];
             let (lo, hi) = p.img;
             let meets = meets
                 && lo[0] <= r_hi[0]
@@ -231,8 +280,7 @@ impl TilePlanner {
     /// The reference box whose lattice squares can draw into `tile` (`None`: none can, the
     /// tile is all background).
     pub fn lattice_window(&self, tile: Rect) -> Option<([f64; 2], [f64; 2])> {
-        let reach = std::f64::consts::SQRT_2 * self.lip * self.cell + 2.0 * self.lip + 2.0;
-        self.domain(tile, reach)
+        self.domain(tile, lattice_reach(self.lip, self.cell))
             .map(|(lo, hi)| ([lo[0] - 1.0, lo[1] - 1.0], [hi[0] + 1.0, hi[1] + 1.0]))
     }
 
@@ -260,6 +308,12 @@ impl TilePlanner {
     }
 }
 
+/// How far (output pixels) a piece of the plan that draws into a tile can have its
+/// corners' images from the tile: `sqrt 2 L c + 2 L + 2` (module docs).
+fn lattice_reach(lip: f64, cell: f64) -> f64 {
+    std::f64::consts::SQRT_2 * lip * cell + 2.0 * lip + 2.0
+}
+
 fn inside(r: Rect, (w, h): (u32, u32)) -> bool {
     r.x0 as u64 + r.w as u64 <= w as u64 && r.y0 as u64 + r.h as u64 <= h as u64
 }
@@ -275,22 +329,32 @@ fn in_window(p: [f64; 2], win: Rect, (w, h): (u32, u32)) -> bool {
     ok(p[0], win.x0, win.w, w) && ok(p[1], win.y0, win.h, h)
 }
 
-/// Warps the output pixels of `tile` of a `size = (W, H)` image, given only the input
-/// pixels of `window` (which must contain [`TilePlanner::input_rect`] of the tile):
-/// `pages` hold the window's samples (`window.w * window.h * channels` each, interleaved,
-/// row-major), `outs` receive the tile's (`tile.w * tile.h * channels`). The result is
-/// bit-identical to the tile's pixels in [`super::warp_samples_into`] of the whole image
-/// (see the module docs); `opts` must be the same.
+/// Where a tile and its input window lie in the image, for [`warp_tile_into`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TileLayout {
+    /// The whole image, `(W, H)` (input and output alike).
+    pub size: (u32, u32),
+    /// The output pixels to compute.
+    pub tile: Rect,
+    /// The input pixels given; must contain [`TilePlanner::input_rect`] of the tile.
+    pub window: Rect,
+    /// Channels per pixel, 1 to 4 (as [`super::Layout::channels`]).
+    pub channels: usize,
+}
+
+/// Warps the output pixels of `layout.tile` given only the input pixels of
+/// `layout.window`: `pages` hold the window's samples (`window.w * window.h * channels`
+/// each, interleaved, row-major), `outs` receive the tile's (`tile.w * tile.h * channels`).
+/// The result is bit-identical to the tile's pixels in [`super::warp_samples_into`] of the
+/// whole image (see the module docs); `opts` must be the same.
 pub fn warp_tile_into(
     s: &Spline,
-    size: (u32, u32),
-    tile: Rect,
-    window: Rect,
-    channels: usize,
+    layout: TileLayout,
     pages: &[Samples<'_>],
     outs: &mut [SamplesMut<'_>],
     opts: &WarpOptions,
 ) -> Result<WarpReport, WarpError> {
+    let TileLayout { size, tile, window, channels } = layout;
     let nc = channels;
     if !(1..=4).contains(&nc) {
         return Err(LayoutError::Channels(nc).into());
@@ -327,7 +391,7 @@ pub fn warp_tile_into(
         return Ok(WarpReport::default());
     }
     let res = (tile.w.max(tile.h) as f64 / 8.0).max(RESOLUTION);
-    let planner = TilePlanner::with_resolution(s, size, &opts.remap, res);
+    let planner = TilePlanner::near(s, size, &opts.remap, res, tile);
     let tw = tile.w as usize;
     let mut pos = vec![[f64::NAN; 2]; tile.len()];
     let mut stats = WarpReport { pixels: tile.len(), outside: tile.len(), ..Default::default() };

@@ -23,7 +23,17 @@ pub(super) struct CurvatureGrid {
 }
 
 impl CurvatureGrid {
-    pub(super) fn new(s: &Spline, bucket: f64) -> CurvatureGrid {
+    /// The grid over the mesh's bounding box, with `bucket`-wide buckets (coarser when
+    /// there would be more than a million). With `window`, only the triangles that meet
+    /// it (grown by a bucket) are bounded: the buckets that meet the window get exactly
+    /// the whole grid's bounds (a bucket's bound is the largest over the sub-triangles
+    /// overlapping it, all of which belong to such triangles); the others stay 0 and must
+    /// not be asked.
+    pub(super) fn new(
+        s: &Spline,
+        bucket: f64,
+        window: Option<([f64; 2], [f64; 2])>,
+    ) -> CurvatureGrid {
         let m = s.mesh();
         let (lo, hi) = m.bbox();
         let mut cell = bucket.max(1e-9);
@@ -49,6 +59,16 @@ impl CurvatureGrid {
             .map(|t| {
                 let v = m.triangle(t).map(|i| m.vertex(i));
                 let (tlo, thi) = bbox(&v);
+                if let Some((wlo, whi)) = window {
+                    let c = cell;
+                    let meets = tlo[0] <= whi[0] + c
+                        && thi[0] >= wlo[0] - c
+                        && tlo[1] <= whi[1] + c
+                        && thi[1] >= wlo[1] - c;
+                    if !meets {
+                        return Vec::new();
+                    }
+                }
                 let n =
                     (((thi[0] - tlo[0]).max(thi[1] - tlo[1]) / cell).ceil() as usize).clamp(1, 64);
                 cache

@@ -537,8 +537,6 @@ impl<'a> RemapPlan<'a> {
         let (blo, bhi) = s.mesh().bbox();
         let area = ((bhi[0] - blo[0]) * (bhi[1] - blo[1])).max(0.0);
         let bucket = (2.0 * area / CURVATURE_BOUNDS).sqrt().clamp(8.0, 32.0);
-        let refiner =
-            Refiner { s, curv: CurvatureGrid::new(s, bucket), tol: opts.inverse.tolerance };
         // Lattice over the mesh's bounding box; squares of side `cell`, the last row and
         // column narrower so that the lattice ends exactly on the box.
         let (lo, hi) = s.mesh().bbox();
@@ -562,6 +560,10 @@ impl<'a> RemapPlan<'a> {
             Some((wl, wh)) => (span(wl[0], wh[0], lo[0], nx), span(wl[1], wh[1], lo[1], ny)),
         };
         let (mx, my) = (ib + 1 - ia.min(ib), jb + 1 - ja.min(jb));
+        // Curvature bounds for the squares covered (all of the mesh without a window).
+        let covered = window.map(|_| (at(ia, ja), at(ib, jb)));
+        let curv = CurvatureGrid::new(s, bucket, covered);
+        let refiner = Refiner { s, curv, tol: opts.inverse.tolerance };
         let pts: Vec<[f64; 2]> = (ja..=jb).flat_map(|j| (ia..=ib).map(move |i| at(i, j))).collect();
         // Each corner located without a hint, so that its value (which triangle evaluates a
         // point on an edge) does not depend on which squares the plan covers.
