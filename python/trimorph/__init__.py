@@ -15,6 +15,7 @@ fits raise ``UnsolvableError`` (a ``TrimorphError``).
 
 from ._trimorph import (  # noqa: F401
     Deformation,
+    FrameSequence,
     TrimorphError,
     UnsolvableError,
     __version__,
@@ -26,6 +27,7 @@ from ._trimorph import (  # noqa: F401
 
 __all__ = [
     "Deformation",
+    "FrameSequence",
     "TrimorphError",
     "UnsolvableError",
     "fit",

@@ -1,6 +1,7 @@
 """Type stubs of the native module (see the package docstring for the map directions)."""
 
 from os import PathLike
+from pathlib import Path
 from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
@@ -111,6 +112,55 @@ class Deformation:
     @property
     def bbox(self) -> Tuple[Tuple[float, float], Tuple[float, float]]: ...
     def copy(self) -> "Deformation": ...
+
+class FrameSequence:
+    """One scene fitted to every frame of a sequence, one frame per call: the per-frame work
+    of `trimorph fit --model MODEL --frames FRAMES --landmarks LANDMARKS -o OUT_DIR`.
+
+    Reads the scene (and its model), the frames (a folder or a multi-page TIFF) and the
+    landmarks (a file: first-frame targets, tracked with `track=True`; a folder: one
+    `<frame>.csv`/`.json` per frame) as `fit --frames` does; bad input raises ValueError
+    naming the file. Picklable: the receiver rebuilds it from its (absolute) arguments.
+    """
+
+    def __init__(
+        self,
+        model: _Path,
+        frames: _Path,
+        landmarks: _Path,
+        out_dir: _Path,
+        *,
+        track: bool = False,
+        anchor: Optional[str] = None,
+        key_every: Optional[int] = None,
+        holdout: int = 0,
+        seed: int = 1,
+        background: float = 0.0,
+        model_file: Optional[_Path] = None,
+        loss: str = "squares",
+        loss_scale: float = 2.0,
+        bend: Union[str, float, None] = None,
+        hard: bool = False,
+        barrier: bool = True,
+        min_det: float = 0.1,
+        max_iters: int = 200,
+        radius: Optional[int] = None,
+    ) -> None: ...
+    def __len__(self) -> int:
+        """Number of frames."""
+    @property
+    def names(self) -> List[str]:
+        """The frames' names in order (outputs `<name>.json`, `<name>.report.json`, ...)."""
+    @property
+    def tracked(self) -> bool:
+        """Whether frame k warm-starts from frame k - 1's stored result (run in order)."""
+    @property
+    def out_dir(self) -> Path:
+        """The output folder (absolute)."""
+    def run_frame(self, k: int) -> Dict[str, Any]:
+        """Fits frame k and writes the files `fit --frames` writes for it (atomically, the
+        report last), or skips it when they are current. Returns its report dict with
+        `status` ("fitted" / "skipped") and `reason`. IndexError for k >= len()."""
 
 def fit(
     src: _Points,
