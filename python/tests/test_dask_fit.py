@@ -106,7 +106,7 @@ def test_independent_frames_equal_cli_and_a_rerun_resumes(demo, cli, client, tmp
     assert f"0 frames fitted, {FRAMES_INDEPENDENT} skipped" in p.stdout, p.stdout
 
 
-def test_tracked_sequence_is_a_chain_equal_to_cli(demo, cli, client, tmp_path):
+def test_tracked_sequence_is_a_chain_of_batches_equal_to_cli(demo, cli, client, tmp_path):
     frames, scene = demo / "frames4", demo / "scene.json"
     first = demo / "landmarks" / "frame_00.csv"
     cli_out, dask_out = tmp_path / "cli", tmp_path / "dask"
@@ -114,7 +114,7 @@ def test_tracked_sequence_is_a_chain_equal_to_cli(demo, cli, client, tmp_path):
     cli("fit", "--model", scene, "--frames", frames, "--landmarks", first, "-o", cli_out, *opts)
     res = fit_frames(
         scene, frames, first, dask_out, client=client, track=True, anchor="first",
-        holdout=2, seed=3,
+        holdout=2, seed=3, batch=3,
     )
     names = [f"frame_{k:02}" for k in range(FRAMES_TRACKED)]
     assert [r["status"] for r in res] == ["fitted"] * FRAMES_TRACKED
@@ -159,5 +159,7 @@ def test_bad_input_raises_a_value_error_naming_the_file(demo, tmp_path):
         fit_frames(scene, empty, demo / "landmarks", tmp_path / "out")
     with pytest.raises(ValueError, match="add --track"):
         fit_frames(scene, frames, demo / "landmarks", tmp_path / "out", anchor="first")
+    with pytest.raises(ValueError, match="batch must be a whole number of frames >= 1"):
+        fit_frames(scene, frames, demo / "landmarks", tmp_path / "out", batch=0)
     with pytest.raises(ValueError, match="no landmarks for frame frame_00"):
         fit_frames(scene, frames, tmp_path, tmp_path / "out")

@@ -35,9 +35,10 @@ _Path = Union[str, PathLike]
 __all__ = ["fit_frames"]
 
 
-def _run(seq: FrameSequence, k: int, after: Any = None) -> Dict[str, Any]:
-    """Frame ``k``'s task; ``after`` (the previous frame's result) only orders the chain."""
-    return seq.run_frame(k)
+def _run(seq: FrameSequence, ks: List[int], after: Any = None) -> List[Dict[str, Any]]:
+    """The task of frames ``ks`` (in order); ``after`` (the previous task's result) only
+    orders the chain."""
+    return [seq.run_frame(k) for k in ks]
 
 
 def fit_frames(
@@ -48,6 +49,7 @@ def fit_frames(
     *,
     client: Optional[Any] = None,
     retries: int = 2,
+    batch: int = 1,
     **options: Any,
 ) -> List[Dict[str, Any]]:
     """Fits the scene ``model`` to every frame on Dask; returns the per-frame report dicts.
@@ -61,6 +63,8 @@ def fit_frames(
 
     ``client``: a ``dask.distributed.Client`` (tasks get ``retries`` retries); without one,
     the current default scheduler (a client made current, or Dask's local threads).
+    ``batch``: frames per task (consecutive ones, fitted in order), to spread Dask's
+    per-task cost over several small frames; the outputs are the same for any batch.
     Returns one dict per frame in frame order: the frame's report (as in
     ``<name>.report.json``) with ``status`` ("fitted" or "skipped") and ``reason``.
     """
@@ -68,23 +72,29 @@ def fit_frames(
 
     import dask
 
+    if not (isinstance(batch, int) and batch >= 1):
+        raise ValueError(f"batch must be a whole number of frames >= 1, got {batch!r}")
     seq = FrameSequence(model, frames, landmarks, out_dir, **options)
     run_id = uuid.uuid4().hex[:12]
-    keys = [f"trimorph-fit-{k}-{run_id}" for k in range(len(seq))]
+    n = len(seq)
+    parts = [list(range(lo, min(lo + batch, n))) for lo in range(0, n, batch)]
+    keys = [f"trimorph-fit-{ks[0]}-{run_id}" for ks in parts]
     if client is not None:
         # Sent once to one worker; others fetch it (and read the inputs once each).
         seq_f = client.scatter(seq, hash=False)
         futures, prev = [], None
-        for k, key in enumerate(keys):
-            f = client.submit(_run, seq_f, k, prev, key=key, retries=retries, pure=False)
+        for ks, key in zip(parts, keys):
+            f = client.submit(_run, seq_f, ks, prev, key=key, retries=retries, pure=False)
             prev = f if seq.tracked else None
             futures.append(f)
-        return client.gather(futures)
-    seq_d = dask.delayed(seq, pure=False, traverse=False)
-    run = dask.delayed(_run, pure=False)
-    tasks, prev = [], None
-    for k, key in enumerate(keys):
-        t = run(seq_d, k, prev, dask_key_name=key)
-        prev = t if seq.tracked else None
-        tasks.append(t)
-    return list(dask.compute(*tasks))
+        done = client.gather(futures)
+    else:
+        seq_d = dask.delayed(seq, pure=False, traverse=False)
+        run = dask.delayed(_run, pure=False)
+        tasks, prev = [], None
+        for ks, key in zip(parts, keys):
+            t = run(seq_d, ks, prev, dask_key_name=key)
+            prev = t if seq.tracked else None
+            tasks.append(t)
+        done = dask.compute(*tasks)
+    return [r for part in done for r in part]
