@@ -148,7 +148,7 @@ impl FrameSequence {
                     background,
                 )
             })
-            .map_err(inputs_exc)?;
+            .map_err(|e| inputs_exc(*e))?;
         // The checks of the sequence itself (a hold-out that leaves landmarks to fit, ...).
         inputs.sequence(fit.clone(), holdout, seed, None).map_err(|e| sequence_exc(py, e))?;
         Ok(FrameSequence {

@@ -260,8 +260,20 @@ pub struct SequenceInputs {
 impl SequenceInputs {
     /// Reads the scene (and its model: `model`, else the scene's `"model"` key, bound to the
     /// scene), the frames (a folder or a stack, [`read_frames`]) and the landmarks
-    /// ([`read_targets`]; tracked with `track`), in this order, as `trimorph fit --frames`.
+    /// ([`read_targets`]; tracked with `track`), in this order, as `trimorph fit --frames`
+    /// (the error is boxed: it is large).
     pub fn load(
+        scene: &Path,
+        model: Option<&Path>,
+        frames: &Path,
+        landmarks: &Path,
+        track: Option<Anchor>,
+        background: f64,
+    ) -> Result<SequenceInputs, Box<SequenceInputsError>> {
+        Self::read(scene, model, frames, landmarks, track, background).map_err(Box::new)
+    }
+
+    fn read(
         scene: &Path,
         model: Option<&Path>,
         frames: &Path,
@@ -372,13 +384,13 @@ mod tests {
         let scene = dir.path().join("scene.json");
         std::fs::write(&scene, "{\"not\": \"a deformation\"}").unwrap();
         let lms = dir.path().join("l.csv");
-        let e = SequenceInputs::load(&scene, None, dir.path(), &lms, None, 0.0).unwrap_err();
+        let e = SequenceInputs::load(&scene, None, dir.path(), &lms, None, 0.0).err().unwrap();
         assert!(
             e.to_string().starts_with(&format!("cannot read scene {}", scene.display())),
             "{e}"
         );
-        let e = SequenceInputs::load(&scene, None, dir.path(), &lms, None, f64::NAN).unwrap_err();
-        assert!(matches!(e, SequenceInputsError::Background(_)), "{e}");
+        let e = SequenceInputs::load(&scene, None, dir.path(), &lms, None, f64::NAN).err().unwrap();
+        assert!(matches!(*e, SequenceInputsError::Background(_)), "{e}");
     }
 
     #[test]
