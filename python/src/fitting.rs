@@ -53,7 +53,7 @@ pub fn landmarks_of(
 }
 
 /// A fit error as the right Python exception.
-fn fit_exc(py: Python<'_>, e: FitError) -> PyErr {
+pub fn fit_exc(py: Python<'_>, e: FitError) -> PyErr {
     if e.is_unsolvable() {
         unsolvable(py, &variant_name(&e), e)
     } else {
@@ -69,6 +69,43 @@ fn fit_exc(py: Python<'_>, e: FitError) -> PyErr {
 pub fn to_dict(py: Python<'_>, v: &serde_json::Value) -> PyResult<Py<PyAny>> {
     let text = serde_json::to_string(v).map_err(value_error)?;
     Ok(py.import("json")?.call_method1("loads", (text,))?.unbind())
+}
+
+/// The library's fit options from the keywords of `fit` (and of `FrameSequence`): `loss`
+/// "squares", "huber" or "cauchy" (scale `loss_scale` px), `bend` "auto" or a weight >= 0,
+/// the fold barrier with floor `min_det` when `barrier`. The same options as `trimorph fit`'s
+/// `--loss --loss-scale --bend --hard --no-barrier --min-det --max-iters --radius`.
+pub fn fit_options(
+    loss: &str,
+    loss_scale: f64,
+    bend: Option<&Bound<'_, PyAny>>,
+    hard: bool,
+    barrier: bool,
+    min_det: f64,
+    max_iters: u64,
+    radius: Option<usize>,
+) -> PyResult<FitOptions> {
+    let bend: Bend = match bend {
+        None => Bend::Auto,
+        Some(b) => match b.extract::<f64>() {
+            Ok(w) => w.to_string().parse(),
+            Err(_) => b.extract::<String>()?.parse(),
+        }
+        .map_err(|e: String| value_error(format!("bend: {e}")))?,
+    };
+    Ok(FitOptions {
+        loss: Loss::from_name(loss, loss_scale).map_err(|e| value_error(format!("loss: {e}")))?,
+        bend,
+        barrier: if barrier {
+            Some(Barrier::with_floor(min_det).map_err(|e| value_error(format!("min_det: {e}")))?)
+        } else {
+            None
+        },
+        radius,
+        max_iters,
+        hard,
+        ..FitOptions::default()
+    })
 }
 
 /// Fits a deformation to landmarks `src -> dst` ((n, 2) pixel arrays).
@@ -105,27 +142,7 @@ pub fn fit(
 ) -> PyResult<Deformation> {
     let (s, d) = (points_in(py, src, "src")?, points_in(py, dst, "dst")?);
     let lms = landmarks_of(&s, &d, weights, names)?;
-    let bend: Bend = match bend {
-        None => Bend::Auto,
-        Some(b) => match b.extract::<f64>() {
-            Ok(w) => w.to_string().parse(),
-            Err(_) => b.extract::<String>()?.parse(),
-        }
-        .map_err(|e: String| value_error(format!("bend: {e}")))?,
-    };
-    let opts = FitOptions {
-        loss: Loss::from_name(loss, loss_scale).map_err(|e| value_error(format!("loss: {e}")))?,
-        bend,
-        barrier: if barrier {
-            Some(Barrier::with_floor(min_det).map_err(|e| value_error(format!("min_det: {e}")))?)
-        } else {
-            None
-        },
-        radius,
-        max_iters,
-        hard,
-        ..FitOptions::default()
-    };
+    let opts = fit_options(loss, loss_scale, bend, hard, barrier, min_det, max_iters, radius)?;
     match (deformation, size) {
         (Some(def), _) => {
             let spline = def.spline.clone();

@@ -18,12 +18,14 @@ mod arrays;
 mod deformation;
 mod errors;
 mod fitting;
+mod sequence;
 mod tiles;
 
 /// The native module `trimorph._trimorph` (re-exported by the `trimorph` package).
 #[pymodule]
 fn _trimorph(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<deformation::Deformation>()?;
+    m.add_class::<sequence::FrameSequence>()?;
     m.add_function(wrap_pyfunction!(fitting::fit, m)?)?;
     m.add_function(wrap_pyfunction!(fitting::morph, m)?)?;
     m.add_function(wrap_pyfunction!(arrays::read_image, m)?)?;

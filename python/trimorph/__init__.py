@@ -19,6 +19,7 @@ needs, bit-identical to ``Deformation.warp`` on the whole image.
 
 from ._trimorph import (  # noqa: F401
     Deformation,
+    FrameSequence,
     TrimorphError,
     UnsolvableError,
     __version__,
@@ -32,6 +33,7 @@ from ._trimorph import (  # noqa: F401
 
 __all__ = [
     "Deformation",
+    "FrameSequence",
     "TrimorphError",
     "UnsolvableError",
     "fit",

@@ -1,6 +1,7 @@
 """Type stubs of the native module (see the package docstring for the map directions)."""
 
 from os import PathLike
+from pathlib import Path
 from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
@@ -112,6 +113,55 @@ class Deformation:
     def bbox(self) -> Tuple[Tuple[float, float], Tuple[float, float]]: ...
     def copy(self) -> "Deformation": ...
 
+class FrameSequence:
+    """One scene fitted to every frame of a sequence, one frame per call: the per-frame work
+    of `trimorph fit --model MODEL --frames FRAMES --landmarks LANDMARKS -o OUT_DIR`.
+
+    Reads the scene (and its model), the frames (a folder or a multi-page TIFF) and the
+    landmarks (a file: first-frame targets, tracked with `track=True`; a folder: one
+    `<frame>.csv`/`.json` per frame) as `fit --frames` does; bad input raises ValueError
+    naming the file. Picklable: the receiver rebuilds it from its (absolute) arguments.
+    """
+
+    def __init__(
+        self,
+        model: _Path,
+        frames: _Path,
+        landmarks: _Path,
+        out_dir: _Path,
+        *,
+        track: bool = False,
+        anchor: Optional[str] = None,
+        key_every: Optional[int] = None,
+        holdout: int = 0,
+        seed: int = 1,
+        background: float = 0.0,
+        model_file: Optional[_Path] = None,
+        loss: str = "squares",
+        loss_scale: float = 2.0,
+        bend: Union[str, float, None] = None,
+        hard: bool = False,
+        barrier: bool = True,
+        min_det: float = 0.1,
+        max_iters: int = 200,
+        radius: Optional[int] = None,
+    ) -> None: ...
+    def __len__(self) -> int:
+        """Number of frames."""
+    @property
+    def names(self) -> List[str]:
+        """The frames' names in order (outputs `<name>.json`, `<name>.report.json`, ...)."""
+    @property
+    def tracked(self) -> bool:
+        """Whether frame k warm-starts from frame k - 1's stored result (run in order)."""
+    @property
+    def out_dir(self) -> Path:
+        """The output folder (absolute)."""
+    def run_frame(self, k: int) -> Dict[str, Any]:
+        """Fits frame k and writes the files `fit --frames` writes for it (atomically, the
+        report last), or skips it when they are current. Returns its report dict with
+        `status` ("fitted" / "skipped") and `reason`. IndexError for k >= len()."""
+
 def fit(
     src: _Points,
     dst: _Points,
@@ -154,3 +204,28 @@ def read_image(path: _Path) -> _Image:
 
 def read_ome_zarr(path: _Path) -> Tuple[npt.NDArray[Any], List[str]]:
     """Level 0 of an OME-Zarr image in the store's axis order, and the axis names."""
+
+_Rect = Tuple[int, int, int, int]
+
+def tile_inputs(
+    deformation: Deformation,
+    shape: Tuple[int, int],
+    tiles: Sequence[_Rect],
+    tolerance: float = 0.01,
+    resolution: Optional[float] = None,
+) -> List[Optional[_Rect]]:
+    """For each output tile (y0, x0, h, w) of an (H, W) image, the input rectangle its warp
+    reads (certified from bounds on the spline), or None when the tile is all background."""
+
+def warp_tile(
+    deformation: Deformation,
+    window: _Image,
+    origin: Tuple[int, int],
+    shape: Tuple[int, int],
+    tile: _Rect,
+    interp: str = "bilinear",
+    background: float = 0.0,
+    tolerance: float = 0.01,
+) -> _Image:
+    """The output tile (y0, x0, h, w) warped from the input window at origin (y, x), 2-D or
+    (planes, h, w); bit-identical to Deformation.warp on the whole image."""

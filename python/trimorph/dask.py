@@ -202,8 +202,4 @@ def to_ome_zarr(arr, url, like, compute=True):
     return da.store(arr, target, lock=False, compute=compute)
 
 
-def fit_frames(*args, **kwargs):
-    """See ``trimorph._dask_fit.fit_frames``."""
-    from ._dask_fit import fit_frames as run
-
-    return run(*args, **kwargs)
+from ._dask_fit import fit_frames  # noqa: E402  (documented there)

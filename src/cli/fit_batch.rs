@@ -27,16 +27,10 @@
 //!   frame, which is cheap).
 
 use super::fit_cmd::{fit_error, summary, SolverArgs};
-use crate::fit::sequence::{
-    check_names, content_hash, Action, Anchor, Event, Frame, Sequence, SequenceError,
-    SequenceOptions, Targets,
-};
-use crate::fit::track::TrackOptions;
-use crate::io::frames::{read_frames, read_targets, scene_model};
-use crate::io::{deformation, read_text, write_atomic};
-use crate::prism::{bind, Model};
-use crate::render::sequence::FrameFiles;
-use anyhow::{anyhow, bail, Context, Result};
+use crate::fit::sequence::{Action, Anchor, Event, Frame, SequenceError};
+use crate::io::write_atomic;
+use crate::render::sequence::{choose_anchor, SequenceInputs};
+use anyhow::{anyhow, Context, Result};
 use std::io::Write;
 use std::path::Path;
 use std::time::Instant;
@@ -71,31 +65,6 @@ pub fn parse_shard(spec: &str) -> Result<(usize, usize)> {
         .ok_or_else(|| anyhow!("--shard: expected i/n with 0 <= i < n, e.g. 0/4"))
 }
 
-/// `--anchor` and `--key-every`.
-fn anchor(a: &BatchArgs) -> Result<Anchor> {
-    if !a.track && (a.anchor.is_some() || a.key_every.is_some()) {
-        bail!("--anchor and --key-every choose how --track follows the landmarks; add --track");
-    }
-    match (a.anchor.unwrap_or("chain"), a.key_every) {
-        ("chain", None) => Ok(Anchor::Chain),
-        ("first", None) => Ok(Anchor::First),
-        ("keyframes", Some(n)) if n >= 1 => Ok(Anchor::KeyFrames(n)),
-        ("keyframes", Some(_)) => bail!("--key-every must be at least 1"),
-        ("keyframes", None) => {
-            bail!("--anchor keyframes needs --key-every N (a key frame every N frames)")
-        }
-        ("chain" | "first", Some(_)) => bail!("--key-every goes with --anchor keyframes"),
-        (other, _) => bail!("--anchor: unknown anchor `{other}` (use chain, first or keyframes)"),
-    }
-}
-
-/// Where each frame's targets come from.
-fn targets(a: &BatchArgs, frames: &[Frame], model: Option<&Model>) -> Result<Targets> {
-    let anchor = anchor(a)?;
-    let track = a.track.then_some((anchor, TrackOptions::default()));
-    Ok(read_targets(a.landmarks, frames, model, track)?)
-}
-
 /// A library error as the CLI reports it (fit errors keep their exit code).
 fn sequence_error(e: SequenceError, a: &BatchArgs, frames: &[Frame]) -> anyhow::Error {
     match e {
@@ -117,48 +86,21 @@ fn sequence_error(e: SequenceError, a: &BatchArgs, frames: &[Frame]) -> anyhow::
 pub fn run(a: BatchArgs) -> Result<()> {
     let t0 = Instant::now();
     let fit_opts = a.solver.options()?;
-    if !a.background.is_finite() {
-        bail!("--background must be a finite number (sample units), got {}", a.background);
-    }
     let shard = a.shard.map(parse_shard).transpose()?;
-    let (scene, _) = deformation::from_str(&read_text(a.scene)?)
-        .with_context(|| format!("cannot read scene {}", a.scene.display()))?;
-    let model = scene_model(a.scene, a.model)?;
-    let mut key_extra = std::collections::BTreeMap::new();
-    let bound = match model {
-        Some((p, m)) => {
-            let b =
-                bind(&m, &scene).with_context(|| format!("cannot bind model {}", p.display()))?;
-            let bytes =
-                std::fs::read(&p).with_context(|| format!("cannot read model {}", p.display()))?;
-            key_extra.insert("model_hash".to_string(), content_hash(&bytes));
-            Some((p, m, b))
-        }
-        None => None,
-    };
-    key_extra.insert("registered".to_string(), format!("bilinear, background {}", a.background));
-    let (frames, gray_float) = read_frames(a.frames)?;
-    check_names(&frames)?;
-    let targets = targets(&a, &frames, bound.as_ref().map(|(_, m, _)| m))?;
-    let anchor = match &targets {
-        Targets::Tracked { anchor, .. } => Some(*anchor),
-        _ => None,
-    };
-    let opts =
-        SequenceOptions { fit: fit_opts, holdout: a.holdout, seed: a.seed, shard, key_extra };
-    let seq = Sequence::new(&scene, &frames, targets, opts)
-        .map_err(|e| sequence_error(e, &a, &frames))?;
+    let track = choose_anchor(a.track, a.anchor, a.key_every)?;
+    let inputs =
+        SequenceInputs::load(a.scene, a.model, a.frames, a.landmarks, track, a.background)?;
+    let frames = &inputs.frames[..];
+    let anchor = inputs.anchor();
+    let seq = inputs
+        .sequence(fit_opts, a.holdout, a.seed, shard)
+        .map_err(|e| sequence_error(e, &a, frames))?;
     let (lo, hi) = seq.range();
     std::fs::create_dir_all(a.output)
         .with_context(|| format!("cannot create {}", a.output.display()))?;
     // Leftovers of an earlier run that was killed mid-write.
     crate::io::remove_stale_temps(a.output, crate::io::STALE_AFTER);
-    let store = FrameFiles {
-        out: a.output,
-        model: bound.as_ref(),
-        gray_float: &gray_float,
-        background: a.background,
-    };
+    let store = inputs.files(a.output);
     let bar = super::warp_cmd::progress_bar((hi - lo) as u64, hi - lo > 1, "fit");
     let on_event = |e: Event<'_>| {
         if let Event::Frame(_) = e {
@@ -167,7 +109,7 @@ pub fn run(a: BatchArgs) -> Result<()> {
     };
     let result = seq.run(&store, &on_event);
     bar.finish_and_clear();
-    let sum = result.map_err(|e| sequence_error(e, &a, &frames))?;
+    let sum = result.map_err(|e| sequence_error(e, &a, frames))?;
     let mut stdout = std::io::stdout();
     for f in &sum.frames {
         let drift = f

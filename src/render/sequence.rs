@@ -9,16 +9,30 @@
 //! is one), `<stem>.overlay.png` (frame, model outline, landmarks) and `<stem>.report.json`,
 //! written last: a frame counts as done only once its report exists. Every file is written
 //! to a temporary file and renamed ([`crate::io::write_atomic`]).
+//!
+//! [`SequenceInputs`] reads everything `trimorph fit --model SCENE --frames F --landmarks L`
+//! reads (the scene, its model bound to it, the frames, every frame's targets and the
+//! resume-key entries the files depend on), so that the command line and the Python
+//! bindings (`trimorph.FrameSequence`) fit and write exactly the same.
 
-use crate::fit::sequence::{Frame, FrameResult, Store, StoreError, Stored};
+use crate::fit::sequence::{
+    check_names, content_hash, Anchor, Frame, FrameResult, Sequence, SequenceError,
+    SequenceOptions, Store, StoreError, Stored, Targets,
+};
+use crate::fit::solve::FitOptions;
+use crate::fit::track::TrackOptions;
+use crate::io::deformation::DeformationError;
+use crate::io::frames::{read_frames, read_targets, scene_model, FramesError, InputsError};
 use crate::io::model::{save_model, ModelIoError};
 use crate::io::raster::{write_stack, RasterError, Stack};
 use crate::io::{deformation, read_text, write_atomic, IoError};
-use crate::prism::{deform, Binding, Model};
+use crate::prism::{bind, deform, Binding, Model, PrismError};
 use crate::render::deformation::{save_png, RenderError};
 use crate::render::overlay::{overlay, silhouette, Mark};
+use crate::spline::Spline;
 use crate::warp::pullback::pull_back;
 use crate::warp::{Interp, WarpError};
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 /// Why a frame's files could not be written.
@@ -135,6 +149,204 @@ impl Store for FrameFiles<'_> {
     }
 }
 
+/// Why `track`, `anchor` and `key_every` do not choose a way of tracking (the messages name
+/// the command-line options; the Python keywords have the same names).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum AnchorChoiceError {
+    /// An anchor or a key frame spacing without tracking.
+    #[error("--anchor and --key-every choose how --track follows the landmarks; add --track")]
+    NoTrack,
+    /// Key frames every 0 frames.
+    #[error("--key-every must be at least 1")]
+    KeyEveryZero,
+    /// Key frames without a spacing.
+    #[error("--anchor keyframes needs --key-every N (a key frame every N frames)")]
+    NoKeyEvery,
+    /// A spacing with another anchor.
+    #[error("--key-every goes with --anchor keyframes")]
+    KeyEveryWithout,
+    /// An unknown anchor name.
+    #[error("--anchor: unknown anchor `{0}` (use chain, first or keyframes)")]
+    Unknown(String),
+}
+
+/// How a sequence is tracked: `None` without `track`; with it, `anchor` (`chain`, the default,
+/// `first` or `keyframes`, which needs `key_every >= 1`).
+pub fn choose_anchor(
+    track: bool,
+    anchor: Option<&str>,
+    key_every: Option<usize>,
+) -> Result<Option<Anchor>, AnchorChoiceError> {
+    if !track {
+        return if anchor.is_some() || key_every.is_some() {
+            Err(AnchorChoiceError::NoTrack)
+        } else {
+            Ok(None)
+        };
+    }
+    match (anchor.unwrap_or("chain"), key_every) {
+        ("chain", None) => Ok(Some(Anchor::Chain)),
+        ("first", None) => Ok(Some(Anchor::First)),
+        ("keyframes", Some(n)) if n >= 1 => Ok(Some(Anchor::KeyFrames(n))),
+        ("keyframes", Some(_)) => Err(AnchorChoiceError::KeyEveryZero),
+        ("keyframes", None) => Err(AnchorChoiceError::NoKeyEvery),
+        ("chain" | "first", Some(_)) => Err(AnchorChoiceError::KeyEveryWithout),
+        (other, _) => Err(AnchorChoiceError::Unknown(other.to_string())),
+    }
+}
+
+/// Why the inputs of a sequence fit could not be read.
+#[derive(Debug, thiserror::Error)]
+pub enum SequenceInputsError {
+    /// A background that is not a number.
+    #[error("--background must be a finite number (sample units), got {0}")]
+    Background(f64),
+    /// The scene file cannot be read.
+    #[error(transparent)]
+    SceneIo(IoError),
+    /// The scene is not a deformation.
+    #[error("cannot read scene {}: {source}", path.display())]
+    Scene {
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        source: DeformationError,
+    },
+    /// The model does not fit the scene.
+    #[error("cannot bind model {}: {source}", path.display())]
+    Bind {
+        /// The model file.
+        path: PathBuf,
+        /// The cause.
+        source: PrismError,
+    },
+    /// The model file cannot be read (for its hash).
+    #[error("cannot read model {}: {source}", path.display())]
+    ModelFile {
+        /// The model file.
+        path: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// The model or the landmarks.
+    #[error(transparent)]
+    Inputs(#[from] InputsError),
+    /// The frames.
+    #[error(transparent)]
+    Frames(#[from] FramesError),
+    /// Frames with one name.
+    #[error(transparent)]
+    Sequence(#[from] SequenceError),
+}
+
+/// Everything a sequence fit reads, loaded (see the module docs).
+pub struct SequenceInputs {
+    /// The scene (every frame's fit starts from it, or from the previous frame's result).
+    pub scene: Spline,
+    /// The scene's model: its file, the model and its binding to the scene.
+    pub model: Option<(PathBuf, Model, Binding)>,
+    /// The frames, in order.
+    pub frames: Vec<Frame>,
+    /// Per frame, whether it is float gray.
+    pub gray_float: Vec<bool>,
+    /// Every frame's targets.
+    pub targets: Targets,
+    /// Resume-key entries of the outputs: the model file's hash, the resampling.
+    pub key_extra: BTreeMap<String, String>,
+    /// The registered frames' value where `phi` leaves the frame (sample units).
+    pub background: f64,
+}
+
+impl SequenceInputs {
+    /// Reads the scene (and its model: `model`, else the scene's `"model"` key, bound to the
+    /// scene), the frames (a folder or a stack, [`read_frames`]) and the landmarks
+    /// ([`read_targets`]; tracked with `track`), in this order, as `trimorph fit --frames`
+    /// (the error is boxed: it is large).
+    pub fn load(
+        scene: &Path,
+        model: Option<&Path>,
+        frames: &Path,
+        landmarks: &Path,
+        track: Option<Anchor>,
+        background: f64,
+    ) -> Result<SequenceInputs, Box<SequenceInputsError>> {
+        Self::read(scene, model, frames, landmarks, track, background).map_err(Box::new)
+    }
+
+    fn read(
+        scene: &Path,
+        model: Option<&Path>,
+        frames: &Path,
+        landmarks: &Path,
+        track: Option<Anchor>,
+        background: f64,
+    ) -> Result<SequenceInputs, SequenceInputsError> {
+        if !background.is_finite() {
+            return Err(SequenceInputsError::Background(background));
+        }
+        let text = read_text(scene).map_err(SequenceInputsError::SceneIo)?;
+        let (spline, _) = deformation::from_str(&text)
+            .map_err(|source| SequenceInputsError::Scene { path: scene.to_path_buf(), source })?;
+        let mut key_extra = BTreeMap::new();
+        let model = match scene_model(scene, model)? {
+            Some((p, m)) => {
+                let b = bind(&m, &spline)
+                    .map_err(|source| SequenceInputsError::Bind { path: p.clone(), source })?;
+                let bytes = std::fs::read(&p)
+                    .map_err(|source| SequenceInputsError::ModelFile { path: p.clone(), source })?;
+                key_extra.insert("model_hash".to_string(), content_hash(&bytes));
+                Some((p, m, b))
+            }
+            None => None,
+        };
+        key_extra.insert("registered".to_string(), format!("bilinear, background {background}"));
+        let (frames, gray_float) = read_frames(frames)?;
+        check_names(&frames)?;
+        let track = track.map(|a| (a, TrackOptions::default()));
+        let targets = read_targets(landmarks, &frames, model.as_ref().map(|(_, m, _)| m), track)?;
+        Ok(SequenceInputs {
+            scene: spline,
+            model,
+            frames,
+            gray_float,
+            targets,
+            key_extra,
+            background,
+        })
+    }
+
+    /// The anchor of a tracked sequence.
+    pub fn anchor(&self) -> Option<Anchor> {
+        match &self.targets {
+            Targets::Tracked { anchor, .. } => Some(*anchor),
+            _ => None,
+        }
+    }
+
+    /// The sequence to fit with these fit options, hold-out and shard (the resume key
+    /// gets [`SequenceInputs::key_extra`]).
+    pub fn sequence(
+        &self,
+        fit: FitOptions,
+        holdout: usize,
+        seed: u64,
+        shard: Option<(usize, usize)>,
+    ) -> Result<Sequence<'_>, SequenceError> {
+        let opts = SequenceOptions { fit, holdout, seed, shard, key_extra: self.key_extra.clone() };
+        Sequence::new(&self.scene, &self.frames, self.targets.clone(), opts)
+    }
+
+    /// The files of the fit in folder `out` (see [`FrameFiles`]).
+    pub fn files<'a>(&'a self, out: &'a Path) -> FrameFiles<'a> {
+        FrameFiles {
+            out,
+            model: self.model.as_ref(),
+            gray_float: &self.gray_float,
+            background: self.background,
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -142,6 +354,44 @@ mod tests {
     use crate::fit::sequence::{Action, Sequence, SequenceOptions, Targets};
     use crate::mesh::{Mesh, MeshOptions};
     use crate::spline::Spline;
+
+    #[test]
+    fn anchors_are_chosen_as_the_command_line_spells_them() {
+        assert_eq!(choose_anchor(false, None, None), Ok(None));
+        assert_eq!(choose_anchor(true, None, None), Ok(Some(Anchor::Chain)));
+        assert_eq!(choose_anchor(true, Some("first"), None), Ok(Some(Anchor::First)));
+        assert_eq!(choose_anchor(true, Some("keyframes"), Some(3)), Ok(Some(Anchor::KeyFrames(3))));
+        assert_eq!(choose_anchor(false, Some("first"), None), Err(AnchorChoiceError::NoTrack));
+        assert_eq!(
+            choose_anchor(true, Some("keyframes"), Some(0)),
+            Err(AnchorChoiceError::KeyEveryZero)
+        );
+        assert_eq!(
+            choose_anchor(true, Some("keyframes"), None),
+            Err(AnchorChoiceError::NoKeyEvery)
+        );
+        assert_eq!(choose_anchor(true, None, Some(2)), Err(AnchorChoiceError::KeyEveryWithout));
+        let e = choose_anchor(true, Some("middle"), None).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "--anchor: unknown anchor `middle` (use chain, first or keyframes)"
+        );
+    }
+
+    #[test]
+    fn inputs_name_the_bad_scene_and_refuse_a_nan_background() {
+        let dir = tempfile::tempdir().unwrap();
+        let scene = dir.path().join("scene.json");
+        std::fs::write(&scene, "{\"not\": \"a deformation\"}").unwrap();
+        let lms = dir.path().join("l.csv");
+        let e = SequenceInputs::load(&scene, None, dir.path(), &lms, None, 0.0).err().unwrap();
+        assert!(
+            e.to_string().starts_with(&format!("cannot read scene {}", scene.display())),
+            "{e}"
+        );
+        let e = SequenceInputs::load(&scene, None, dir.path(), &lms, None, f64::NAN).err().unwrap();
+        assert!(matches!(*e, SequenceInputsError::Background(_)), "{e}");
+    }
 
     #[test]
     fn a_frame_writes_every_file_and_a_rerun_skips_it() {
