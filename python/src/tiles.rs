@@ -15,8 +15,11 @@ use trimorph::warp::remap::RemapOptions;
 use trimorph::warp::tiles::{warp_tile_into, Rect, TileLayout, TilePlanner};
 use trimorph::warp::{Samples, SamplesMut, WarpOptions};
 
+/// A rectangle as Python gives it: `(y0, x0, h, w)`.
+type PyRect = (u32, u32, u32, u32);
+
 /// A `(y0, x0, h, w)` rectangle as the library's.
-fn rect((y0, x0, h, w): (u32, u32, u32, u32)) -> Rect {
+fn rect((y0, x0, h, w): PyRect) -> Rect {
     Rect { x0, y0, w, h }
 }
 
@@ -36,10 +39,10 @@ pub fn tile_inputs(
     py: Python<'_>,
     deformation: &Deformation,
     shape: (u32, u32),
-    tiles: Vec<(u32, u32, u32, u32)>,
+    tiles: Vec<PyRect>,
     tolerance: f64,
     resolution: Option<f64>,
-) -> PyResult<Vec<Option<(u32, u32, u32, u32)>>> {
+) -> PyResult<Vec<Option<PyRect>>> {
     let ro = remap_options(tolerance)?;
     let (h, w) = shape;
     let smallest = tiles.iter().map(|t| t.2.min(t.3)).min().unwrap_or(0) as f64;
@@ -110,7 +113,7 @@ pub fn warp_tile<'py>(
     window: &Bound<'py, PyAny>,
     origin: (u32, u32),
     shape: (u32, u32),
-    tile: (u32, u32, u32, u32),
+    tile: PyRect,
     interp: &str,
     background: f64,
     tolerance: f64,
