@@ -13,6 +13,10 @@
 //!   one; target: bent within 2x of mild (issue 18).
 //! * `warp_150x225_gray8_folded`: the folded map of `tests/data/warp_folded_150x225.json`;
 //!   target under 10 ms (issue 18).
+//! * `tiles_4096_gray8_1024`: the 4096 x 4096 warp of `warp_4096_gray8_bilinear` done as 16
+//!   tiles of 1024 x 1024, each planned and warped from its own input window
+//!   (`warp::tiles`, what a Dask task does), one after the other: the tiling's overhead
+//!   (issue 21).
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use image::{DynamicImage, GrayImage, ImageBuffer, Luma, Rgb, Rgba};
@@ -23,7 +27,8 @@ use trimorph::exact::rat_int;
 use trimorph::mesh::{Mesh, MeshOptions};
 use trimorph::spline::Spline;
 use trimorph::warp::remap::{preimage_grid, RemapOptions};
-use trimorph::warp::{forward, warp_pages, WarpOptions};
+use trimorph::warp::tiles::{warp_tile_into, Rect, TileLayout, TilePlanner};
+use trimorph::warp::{forward, warp_pages, Samples, SamplesMut, WarpOptions};
 
 /// A 10 x 10 grid (200 triangles) over `[0, size-1]^2`, degree 5, with two interior vertices
 /// dragged by a few percent of the image size.
@@ -76,6 +81,31 @@ fn bench(c: &mut Criterion) {
         b.iter(|| {
             let (out, _) = warp_pages(&mild, std::slice::from_ref(&img), &opts, &|_| {}).unwrap();
             black_box(out)
+        })
+    });
+    // Tile by tile, each from its planned window (the copy into the window included).
+    let planner = TilePlanner::with_resolution(&s, (n, n), &opts.remap, 102.4);
+    let tiles: Vec<(Rect, Rect)> = (0..16u32)
+        .map(|k| {
+            let t = Rect { x0: k % 4 * 1024, y0: k / 4 * 1024, w: 1024, h: 1024 };
+            (t, planner.input_rect(t).expect("every tile has input"))
+        })
+        .collect();
+    let raw = img.as_luma8().expect("gray image").as_raw();
+    let mut out = vec![0u8; 1024 * 1024];
+    g.bench_function("tiles_4096_gray8_1024", |b| {
+        b.iter(|| {
+            for &(tile, win) in &tiles {
+                let mut w = Vec::with_capacity(win.len());
+                for y in win.y0..win.y0 + win.h {
+                    let a = (y * n + win.x0) as usize;
+                    w.extend_from_slice(&raw[a..a + win.w as usize]);
+                }
+                let layout = TileLayout { size: (n, n), tile, window: win, channels: 1 };
+                let pages = [Samples::U8(&w)];
+                warp_tile_into(&s, layout, &pages, &mut [SamplesMut::U8(&mut out)], &opts).unwrap();
+                black_box(&out);
+            }
         })
     });
     g.bench_function("preimages_4096", |b| {
