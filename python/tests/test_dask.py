@@ -7,6 +7,7 @@ mid-run.
 import os
 import signal
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -249,3 +250,26 @@ def test_bad_input_is_refused_by_name(tracks):
         tdask.warp(da.from_array(np.zeros(5, np.uint8)), d)
     with pytest.raises(ValueError, match="multiscales"):
         tdask.read_ome_zarr(FRAMES)
+
+
+def test_a_failed_write_leaves_the_old_store_as_it_was(tmp_path):
+    """to_ome_zarr writes beside the target and renames: a write that fails midway (here a
+    chunk whose task raises) keeps the store that was there."""
+    src = Path(__file__).resolve().parents[2] / "tests" / "data" / "ngff_tcyx_u16_v2_blosc.zarr"
+    arr, like = tdask.read_ome_zarr(src)
+    dst = tmp_path / "out.zarr"
+    tdask.to_ome_zarr(arr, dst, like)
+    before = np.asarray(tdask.read_ome_zarr(dst)[0])
+
+    def boom(block, block_info=None):
+        if block_info[None]["chunk-location"][-1] == 1:
+            raise RuntimeError("disk full")
+        return block + 1
+
+    bad = arr.map_blocks(boom, dtype=arr.dtype)
+    with pytest.raises(RuntimeError, match="disk full"):
+        tdask.to_ome_zarr(bad, dst, like)
+    assert np.array_equal(np.asarray(tdask.read_ome_zarr(dst)[0]), before)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.zarr"]
+    tdask.to_ome_zarr(arr + 1, dst, like)
+    assert np.array_equal(np.asarray(tdask.read_ome_zarr(dst)[0]), before + 1)

@@ -179,8 +179,36 @@ def to_ome_zarr(arr, url, like, compute=True):
     """Writes ``arr`` (a dask array, e.g. ``warp``'s result) as a one-level OME-Zarr image at
     ``url``, with the metadata ``like`` from ``read_ome_zarr`` (axes, the level's scale and
     translation, omero channels and the rest of the group attributes kept; only the
-    warped level is listed). Written chunk by chunk by Dask (``compute=False``: the
-    delayed write)."""
+    warped level is listed), chunk by chunk by Dask.
+
+    A local path is written to a temporary store beside it and renamed into place when every
+    chunk is written, so a failed run leaves an existing store as it was. With
+    ``compute=False`` (the delayed write, to compute later with other work) the store is
+    written in place."""
+    import os
+    import shutil
+    import uuid
+
+    local = compute and "://" not in str(url)
+    if not local:
+        return _write_ome_zarr(arr, url, like, compute)
+    final = os.path.abspath(str(url))
+    tmp = f"{final}.tmp-{uuid.uuid4().hex[:8]}"
+    try:
+        _write_ome_zarr(arr, tmp, like, True)
+        if os.path.exists(final):
+            old = f"{final}.old-{uuid.uuid4().hex[:8]}"
+            os.replace(final, old)
+            os.replace(tmp, final)
+            shutil.rmtree(old, ignore_errors=True)
+        else:
+            os.replace(tmp, final)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    return None
+
+
+def _write_ome_zarr(arr, url, like, compute):
     import copy
 
     import dask.array as da
