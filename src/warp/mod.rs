@@ -19,6 +19,10 @@
 //!   for the paths and the time bound, [`RemapStats::paths_line`] for the counts).
 //!   [`field::jacobian_det`] (its [`field::FoldReport`]) says where folds are.
 //!
+//! * tiles: [`tiles::warp_tile_into`] computes one output rectangle from only the input
+//!   window [`tiles::TilePlanner`] certifies it needs, bit-identical to the whole warp (for
+//!   out-of-core and distributed warps).
+//!
 //! Images keep their type: 8- and 16-bit gray, gray+alpha, RGB, RGBA and 32-bit float RGB
 //! and RGBA; every channel is resampled with the same map (nearest, bilinear or bicubic).
 

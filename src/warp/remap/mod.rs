@@ -34,8 +34,10 @@
 //! size (1 px); the output pixels around such pieces are then solved by Newton
 //! ([`InverseMap`]) one by one, as are smallest pieces that still miss the bound. Newton
 //! starts from the piece's affine inverse `L^-1(q)` (within a fraction of a pixel of the
-//! preimage, so it converges in one or two iterations), then from the neighbouring pixel's
-//! preimage, then from the forward samples ([`InverseMap::invert`]). Pieces with reversed
+//! preimage, so it converges in one or two iterations), then from the forward samples
+//! ([`InverseMap::invert_from_buckets`]); never from a neighbouring pixel's preimage, so that
+//! a pixel's preimage does not depend on which pixels are computed with it (tiles,
+//! [`crate::warp::tiles`]). Pieces with reversed
 //! orientation (`det J < 0`) and smallest pieces across a crease (`det J = 0`) are drawn and
 //! counted as folded ([`RemapStats::folded`], [`RemapStats::fold_box`]). Where `phi` is not
 //! injective a pixel has several preimages and shows the layer rasterized last (lattice
@@ -47,8 +49,8 @@
 //! block attempt of `(k + 1)^2 <= (2 s + 1)^2` evaluations for side `s` (stopped at the first
 //! strip that fails); over the `log2 c + 1` levels that is at most about `4 (log2 c + 1)`
 //! evaluations per reference pixel (24 for 32 px), whatever `phi` does. Each output pixel is
-//! then tried by Newton at most once, for at most `max_iter (1 + 1 + 12)` iterations (seed,
-//! neighbour, forward samples; 350 with the default 25); a seeded solve takes one or two. So
+//! then tried by Newton at most once, for at most `max_iter (1 + 12)` iterations (seed,
+//! forward samples; 325 with the default 25); a seeded solve takes one or two. So
 //! the worst case is linear in the pixels, and a fold costs Newton only for the pixels next
 //! to its crease (a band about a pixel wide), not for the folded region.
 //!
