@@ -5,6 +5,9 @@
 //!
 //! Modules follow the data flow; lower modules never import higher ones:
 //!
+//! * [`json`]: strict JSON reading (duplicate keys refused), used by every reader;
+//! * [`memory`]: the process's memory budget, checked before large buffers are allocated
+//!   (below every other module);
 //! * [`exact`]: exact integer / rational linear algebra (fraction-free LDU, exact solve,
 //!   weighted least squares) -- thesis Part I, ch. 4 and 6-9;
 //! * [`ecles`]: editing parameters under affine constraints (ECLES) -- thesis ch. 2 and 5;
@@ -33,6 +36,8 @@ pub mod edit;
 pub mod exact;
 pub mod fit;
 pub mod io;
+pub mod json;
+pub mod memory;
 pub mod mesh;
 pub mod morph;
 pub mod prism;

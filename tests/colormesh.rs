@@ -283,3 +283,18 @@ fn files_names_and_invalid_meshes() {
     assert_eq!(load(&p).unwrap(), m);
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
 }
+
+#[test]
+fn a_binary_ply_error_names_its_element_once() {
+    // Found by the adversarial pass: "face 0: face 0: vertex index ..." in binary files,
+    // where the location already names the element.
+    let m = mesh_of(&noisy(6, 5), 1, ColorMode::Flat);
+    let mut bytes = write_ply(&m, PlyFormat::BinaryLittleEndian);
+    let body = bytes.windows(11).position(|w| w == b"end_header\n").unwrap() + 11;
+    // Vertex 1's x (doubles x, y, z per vertex; flat colours are per face).
+    bytes[body + 24..body + 32].copy_from_slice(&f64::NAN.to_le_bytes());
+    let e = read_ply(&bytes, Path::new("bad.ply")).unwrap_err();
+    let msg = format_error(e, Location::Element { name: "vertex".into(), index: 1 });
+    assert!(msg.contains("vertex 1: coordinates (NaN"), "{msg}");
+    assert!(!msg.contains("vertex 1: vertex 1"), "{msg}");
+}

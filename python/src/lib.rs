@@ -18,6 +18,7 @@ mod arrays;
 mod deformation;
 mod errors;
 mod fitting;
+mod memory;
 mod sequence;
 mod tiles;
 
@@ -32,6 +33,8 @@ fn _trimorph(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(arrays::read_ome_zarr, m)?)?;
     m.add_function(wrap_pyfunction!(tiles::tile_inputs, m)?)?;
     m.add_function(wrap_pyfunction!(tiles::warp_tile, m)?)?;
+    m.add_function(wrap_pyfunction!(memory::set_max_memory, m)?)?;
+    m.add_function(wrap_pyfunction!(memory::max_memory, m)?)?;
     m.add("TrimorphError", m.py().get_type::<errors::TrimorphError>())?;
     m.add("UnsolvableError", m.py().get_type::<errors::UnsolvableError>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;

@@ -86,3 +86,38 @@ def test_warp_releases_the_gil(fitted):
     gaps = np.diff(ticks)
     assert gaps.max() < 0.5 * call, (gaps.max(), call)
     assert len(ticks) > 20
+
+
+def test_an_image_over_the_memory_budget_is_a_memory_error_and_the_budget_resets(tmp_path):
+    # A 512 x 512 RGBA 16-bit PNG decodes to 2 MiB: over a 1 MiB budget.
+    import zlib
+    import struct
+
+    def chunk(kind, data):
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+
+    row = b"\0" + b"\0" * (512 * 8)
+    png = (
+        b"\x89PNG\r\n\x1a\n"
+        + chunk(b"IHDR", struct.pack(">IIBBBBB", 512, 512, 16, 6, 0, 0, 0))
+        + chunk(b"IDAT", zlib.compress(row * 512))
+        + chunk(b"IEND", b"")
+    )
+    path = tmp_path / "big.png"
+    path.write_bytes(png)
+    assert trimorph.read_image(path).shape == (512, 512, 4)
+    default = trimorph.max_memory()
+    try:
+        trimorph.set_max_memory("1M")
+        assert trimorph.max_memory() == 1 << 20
+        with pytest.raises(MemoryError, match="big.png.*over the budget of 1.0 MiB"):
+            trimorph.read_image(path)
+        trimorph.set_max_memory(4 << 20)
+        assert trimorph.read_image(path).dtype == np.uint16
+        with pytest.raises(ValueError, match="at least 1 MiB"):
+            trimorph.set_max_memory(10)
+        with pytest.raises(ValueError, match="memory size"):
+            trimorph.set_max_memory("lots")
+    finally:
+        trimorph.set_max_memory(None)
+    assert trimorph.max_memory() == default

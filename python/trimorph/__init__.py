@@ -10,7 +10,9 @@ A deformation ``phi`` maps the reference domain to the deformed plane, both in p
 * ``trimorph.fit(src, dst, size=(w, h))`` fits ``phi`` with ``phi(src) ~ dst``.
 
 Long calls release the GIL. Bad input raises ``ValueError``; unsolvable edits and hard
-fits raise ``UnsolvableError`` (a ``TrimorphError``).
+fits raise ``UnsolvableError`` (a ``TrimorphError``). Inputs that would exceed the memory
+budget (``set_max_memory``, default half of the memory the process may use) raise
+``MemoryError`` before anything large is allocated.
 
 Images larger than memory and long sequences: ``trimorph.dask`` (needs ``dask``); its
 building blocks ``tile_inputs`` and ``warp_tile`` warp one output tile from the input it
@@ -24,9 +26,11 @@ from ._trimorph import (  # noqa: F401
     UnsolvableError,
     __version__,
     fit,
+    max_memory,
     morph,
     read_image,
     read_ome_zarr,
+    set_max_memory,
     tile_inputs,
     warp_tile,
 )
@@ -37,9 +41,11 @@ __all__ = [
     "TrimorphError",
     "UnsolvableError",
     "fit",
+    "max_memory",
     "morph",
     "read_image",
     "read_ome_zarr",
+    "set_max_memory",
     "tile_inputs",
     "warp_tile",
     "__version__",

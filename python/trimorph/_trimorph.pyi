@@ -202,6 +202,12 @@ def morph(
 def read_image(path: _Path) -> _Image:
     """Pages of a PNG / TIFF / JPEG file as numpy (the command line's decoder)."""
 
+def set_max_memory(size: Union[int, str, None] = None) -> None:
+    """The process's memory budget (bytes, or "4G"); None restores the default."""
+
+def max_memory() -> int:
+    """The process's memory budget in bytes."""
+
 def read_ome_zarr(path: _Path) -> Tuple[npt.NDArray[Any], List[str]]:
     """Level 0 of an OME-Zarr image in the store's axis order, and the axis names."""
 

@@ -184,6 +184,12 @@ pub fn run_single(
     // every other fit error is about the landmarks.
     let in_file = |e: FitError| match e {
         FitError::TooLarge { .. } => anyhow::anyhow!("{}: {e}", def.display()),
+        // Options come from the command line, not from the landmark file: `--pin` names
+        // the deformation's control points.
+        FitError::Options(_) if pin.is_some() && e.to_string().contains("pinned") => {
+            anyhow::anyhow!("--pin: {}: {e}", def.display())
+        }
+        FitError::Options(_) => anyhow::anyhow!("{e}"),
         e => in_landmarks(fit_error(e), landmarks),
     };
     let f = fit(&s, &fitted, &opts).map_err(in_file)?;

@@ -30,8 +30,16 @@ pub const EXIT_UNSOLVABLE: i32 = 2;
 #[derive(Parser, Debug)]
 #[command(name = "trimorph", version, about, long_about = None)]
 pub struct Cli {
+    /// Memory budget for large buffers, e.g. 4G or 512M (default: half of the memory this
+    /// process may use; also TRIMORPH_MAX_MEMORY). Inputs that need more are refused.
+    #[arg(long, global = true, value_name = "SIZE", value_parser = parse_memory)]
+    max_memory: Option<u64>,
     #[command(subcommand)]
     command: Command,
+}
+
+fn parse_memory(s: &str) -> Result<u64, String> {
+    crate::memory::parse_size(s).map_err(|e| e.to_string())
 }
 
 #[derive(Subcommand, Debug)]
@@ -548,6 +556,7 @@ pub fn run() -> i32 {
         Ok(cli) => cli,
         Err(e) => return usage_exit(&e),
     };
+    crate::memory::set_limit(cli.max_memory);
     let result = match cli.command {
         Command::Solve { system, output } => solve::run(&system, output.as_deref()),
         Command::Demo { output } => demo::run(&output),

@@ -194,6 +194,13 @@ pub fn run(a: MorphArgs<'_>) -> Result<()> {
     let exact_times = times_between(a.frames, t0, t1)?;
     let mut newton_solves = 0;
     let times: Vec<f64> = exact_times.iter().map(rat_to_f64).collect();
+    // Every frame is held for the animations and the sheet, with an 8-bit RGBA copy each.
+    let (fw, fh) = (morph.image_a().width(), morph.image_a().height());
+    let px = fw as u64 * fh as u64;
+    let per_frame = px * (morph.image_a().color().bytes_per_pixel() as u64 + 4);
+    crate::memory::check(crate::memory::bytes_of(a.frames as u64, per_frame), || {
+        format!("{} frames of {fw} x {fh} (held for the animations)", a.frames)
+    })?;
     let bar = progress_bar(a.frames as u64, !a.quiet, "morph");
     let frames: Vec<DynamicImage> = match a.preview {
         None => {

@@ -111,7 +111,12 @@ pub fn mesh(a: MeshArgs) -> Result<()> {
             match a.outline {
                 None => Mesh::delaunay(&pts, opts),
                 Some(o) => {
-                    let outline_pts = read_points_csv(&read_text(o)?, &o.display().to_string())?;
+                    let mut outline_pts =
+                        read_points_csv(&read_text(o)?, &o.display().to_string())?;
+                    // A closed polygon (last vertex repeating the first) is the same outline.
+                    if outline_pts.len() > 3 && outline_pts.first() == outline_pts.last() {
+                        outline_pts.pop();
+                    }
                     let first = pts.len();
                     pts.extend(outline_pts.iter().copied());
                     let idx: Vec<usize> = (first..pts.len()).collect();

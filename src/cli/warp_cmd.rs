@@ -207,6 +207,16 @@ pub fn run(a: WarpArgs) -> Result<()> {
                 background,
                 remap: RemapOptions { inverse: opts, ..Default::default() },
             };
+            // The input stays while the output is computed and then encoded in memory.
+            let in_bytes: u64 = stack.pages.iter().map(|p| p.as_bytes().len() as u64).sum();
+            crate::memory::check(in_bytes.saturating_mul(3), || {
+                format!(
+                    "warping {} page(s) of {w} x {h} {:?} (input, output and its encoding)",
+                    stack.pages.len(),
+                    first.color()
+                )
+            })
+            .with_context(|| img_path.display().to_string())?;
             let rows = h as u64 * stack.pages.len().max(1) as u64;
             let bar = progress_bar(rows, w as u64 * rows >= 4 << 20, "warping");
             let t_warp = std::time::Instant::now();
@@ -361,6 +371,10 @@ pub fn field(
             def.display()
         );
     }
+    // Two f64 components per pixel, and their encoded copy.
+    let field_bytes = crate::memory::bytes_of(w as u64 * h as u64, 2 * 8 * 2);
+    crate::memory::check(field_bytes, || format!("a {w} x {h} displacement field"))
+        .with_context(|| def.display().to_string())?;
     let mut out = std::io::stdout().lock();
     if itk {
         super::itk_cmd::field_h5(&s, w, h, output, inverse_field, &mut out)?;

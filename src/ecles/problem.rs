@@ -263,11 +263,14 @@ fn sparse_rows(o: &Map<String, Value>, n: usize) -> Result<Vec<Vec<(usize, Int)>
     Ok(out)
 }
 
+/// Largest bit size of a weight's numerator and denominator (weights from about 1e-38 to
+/// 1e38 pass; a weight of 1e10000 made a 3.5 KB problem take minutes).
+pub const MAX_WEIGHT_BITS: u64 = 128;
+
 impl Problem {
     /// Parses a problem from JSON text.
     pub fn from_json(text: &str) -> Result<Problem, ProblemError> {
-        let doc: Value =
-            serde_json::from_str(text).map_err(|e| ProblemError::Json(e.to_string()))?;
+        let doc: Value = crate::json::parse(text).map_err(|e| ProblemError::Json(e.to_string()))?;
         let doc =
             doc.as_object().ok_or_else(|| key_err("(top level)", "expected a JSON object"))?;
         let p = rows(
@@ -359,6 +362,14 @@ impl Problem {
                 let val = num(v, &path)?;
                 if val <= Rat::zero() {
                     return Err(key_err(path, "weights must be positive"));
+                }
+                // Weights only say how much each derived value matters relative to the
+                // others; huge exact numbers (1e10000) only make the exact solve crawl.
+                if val.numer().bits() > MAX_WEIGHT_BITS || val.denom().bits() > MAX_WEIGHT_BITS {
+                    return Err(key_err(
+                        path,
+                        format!("weights must have a numerator and a denominator below 2^{MAX_WEIGHT_BITS} (about 1e38); rescale the weights (only their ratios matter)"),
+                    ));
                 }
                 weights[pos_of(i, &path)?] = val;
             }
@@ -544,6 +555,30 @@ mod tests {
             r#"{"R": [[1, -1]], "P": [["1/3"], [0.1]], "anchors": {"0": ["2/3"]}, "derived": [1]}"#;
         let s = Problem::from_json(t).unwrap().solve().unwrap();
         assert_eq!(s.to_json()["P"], json!([["2/3"], ["2/3"]]));
+    }
+
+    #[test]
+    fn weights_with_huge_exact_values_are_refused_before_solving() {
+        // Found by the adversarial pass: weights of 1e+-10000 made `solve` run for minutes.
+        let t = |w: &str| {
+            format!(
+                r#"{{"R": [[1, 1, 1]], "P": [[1], [2], [3]], "anchors": {{"0": [4]}}, "derived": [1, 2], "weights": {{"1": {w}, "2": 1}}}}"#
+            )
+        };
+        for w in ["1e10000", "1e-10000", "\"1/1000000000000000000000000000000000000000000000\""] {
+            let e = Problem::from_json(&t(w)).unwrap_err().to_string();
+            assert!(e.contains("weights.\"1\"") && e.contains("2^128"), "{w}: {e}");
+        }
+        let ok = Problem::from_json(&t("1e30")).unwrap().solve().unwrap();
+        assert_eq!(ok.to_json()["P"][0], json!(["4"]));
+    }
+
+    #[test]
+    fn a_key_given_twice_is_refused() {
+        let t =
+            r#"{"R": [[1, 1]], "P": [[1], [2]], "anchors": {"0": [1], "0": [2]}, "derived": [1]}"#;
+        let e = Problem::from_json(t).unwrap_err().to_string();
+        assert!(e.contains("duplicate key \"0\""), "{e}");
     }
 
     #[test]

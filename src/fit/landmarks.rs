@@ -435,7 +435,7 @@ struct JsonLandmarks {
 
 /// Parses the JSON format; weights must be `> 0`.
 pub fn parse_json(text: &str) -> Result<Vec<Landmark>, LandmarkError> {
-    let file: JsonLandmarks = serde_json::from_str(text)?;
+    let file: JsonLandmarks = crate::json::from_str(text)?;
     let lms: Vec<Landmark> = file
         .landmarks
         .into_iter()

@@ -666,7 +666,22 @@ pub fn read_ply_raw(
                 }
                 Ok(())
             };
-            item().map_err(|m| fail(path, at(&body), m))?;
+            item().map_err(|m| {
+                let loc = at(&body);
+                // A binary file's location already names the element ("face 3"): the
+                // message does not say it again.
+                let m = match &loc {
+                    Location::Element { name, index } => {
+                        let tag = format!("{name} {index}");
+                        match m.strip_prefix(&tag) {
+                            Some(rest) => rest.trim_start_matches(':').trim_start().to_string(),
+                            None => m,
+                        }
+                    }
+                    _ => m,
+                };
+                fail(path, loc, m)
+            })?;
         }
     }
     Ok(RawPly {

@@ -40,7 +40,15 @@ pub enum DeformationError {
     /// The spline is invalid (for example not C1).
     #[error("spline: {0}")]
     Spline(#[from] SplineError),
+    /// Reading the file would exceed the process's memory budget ([`crate::memory`]).
+    #[error(transparent)]
+    Memory(#[from] crate::memory::OverBudget),
 }
+
+/// Peak memory of reading a deformation, per byte of its text: the JSON tree (every exact
+/// number kept as its text), the exact control points, the mesh and the spline's tables.
+/// Measured: see `io::deformation::tests::reading_memory_per_file_byte_is_bounded`.
+pub const READ_BYTES_PER_FILE_BYTE: u64 = 16;
 
 use crate::edit::extra::Extra;
 pub use crate::edit::LastEdit;
@@ -220,8 +228,11 @@ pub fn from_str_unchecked(text: &str) -> Result<(Spline, Option<LastEdit>), Defo
 }
 
 fn read(text: &str, require_c1: bool) -> Result<(Spline, Option<LastEdit>), DeformationError> {
-    let doc: Value =
-        serde_json::from_str(text).map_err(|e| DeformationError::Json(e.to_string()))?;
+    let need = crate::memory::bytes_of(text.len() as u64, READ_BYTES_PER_FILE_BYTE);
+    crate::memory::check(need, || {
+        format!("reading a deformation file of {}", crate::memory::format_size(text.len() as u64))
+    })?;
+    let doc: Value = crate::json::parse(text).map_err(|e| DeformationError::Json(e.to_string()))?;
     let doc =
         doc.as_object().ok_or_else(|| DeformationError::Format("not a JSON object".into()))?;
     if doc.get("format").and_then(Value::as_str) != Some("trimorph.deformation") {
@@ -258,9 +269,18 @@ fn read(text: &str, require_c1: bool) -> Result<(Spline, Option<LastEdit>), Defo
     for v in verts.iter().flatten() {
         grid = grid.lcm(v.denom());
     }
+    // The file's own `grid` (the snapping denominator it was made with) joins by the least
+    // common multiple: a vertex at 1/3 on a file grid of 16 needs 48, not 16 (which would
+    // snap it silently).
+    let file_grid = match doc.get("grid") {
+        None => 1,
+        Some(v) => v.as_i64().filter(|g| (1..=1 << 20).contains(g)).ok_or_else(|| {
+            key("grid", format!("expected a whole number from 1 to 2^20, found {v}"))
+        })?,
+    };
     let grid = match grid {
-        Int::Small(g) if g <= 1 << 20 => {
-            g.max(doc.get("grid").and_then(Value::as_i64).unwrap_or(1))
+        Int::Small(g) if num_integer::Integer::lcm(&g, &file_grid) <= 1 << 20 => {
+            num_integer::Integer::lcm(&g, &file_grid)
         }
         _ => {
             return Err(key(

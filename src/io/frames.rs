@@ -146,7 +146,7 @@ pub fn scene_model(
     let path = match explicit {
         Some(p) => Some(p.to_path_buf()),
         None => {
-            let v: serde_json::Value = serde_json::from_str(&read_text(scene)?)?;
+            let v: serde_json::Value = crate::json::parse(&read_text(scene)?)?;
             v.get("model").and_then(|m| m.as_str()).map(|m| {
                 let p = PathBuf::from(m);
                 if p.is_absolute() {

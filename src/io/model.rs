@@ -180,7 +180,7 @@ fn read_xyz(bytes: &[u8], path: &Path) -> Result<Model, ModelIoError> {
 fn read_landmarks(path: &Path, vertices: &[[f64; 3]]) -> Result<Vec<(String, u32)>, ModelIoError> {
     let text = super::read_text(path)?;
     let v: serde_json::Value =
-        serde_json::from_str(&text).map_err(|e| fmt_err(path, Some(e.line()), e.to_string()))?;
+        crate::json::parse(&text).map_err(|e| fmt_err(path, Some(e.line()), e.to_string()))?;
     let obj =
         v.as_object().ok_or_else(|| fmt_err(path, None, "expected {\"name\": [x, y, z], ...}"))?;
     let mut out = Vec::new();

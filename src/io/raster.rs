@@ -61,6 +61,14 @@ pub enum RasterError {
         /// Page number (0-based).
         page: usize,
     },
+    /// Decoding would exceed the process's memory budget ([`crate::memory`]).
+    #[error("{path}: {source}")]
+    Memory {
+        /// The file.
+        path: PathBuf,
+        /// The budget check that failed.
+        source: crate::memory::OverBudget,
+    },
     /// The output cannot hold what is being written.
     #[error("{path}: {reason}")]
     Encode {
@@ -92,7 +100,8 @@ pub fn read_stack(path: &Path) -> Result<Stack, RasterError> {
     let bytes =
         std::fs::read(path).map_err(|source| IoError::Read { path: path.to_path_buf(), source })?;
     let derr = |reason: String| RasterError::Decode { path: path.to_path_buf(), reason };
-    if bytes.starts_with(b"II*\0") || bytes.starts_with(b"MM\0*") {
+    // Classic TIFF (42) and BigTIFF (43), either byte order.
+    if [b"II*\0", b"MM\0*", b"II+\0", b"MM\0+"].iter().any(|m| bytes.starts_with(*m)) {
         return read_tiff(path, &bytes);
     }
     let mut reader = image::ImageReader::new(Cursor::new(&bytes))
@@ -112,9 +121,25 @@ pub fn read_stack(path: &Path) -> Result<Stack, RasterError> {
     limits.max_image_height = Some(h);
     limits.max_alloc = Some(MAX_PIXELS * 16);
     reader.limits(limits);
-    let img = reader.decode().map_err(|e| derr(e.to_string()))?;
+    let decoder = reader.into_decoder().map_err(|e| derr(e.to_string()))?;
+    let need = image::ImageDecoder::total_bytes(&decoder);
+    let color = image::ImageDecoder::color_type(&decoder);
+    crate::memory::check(need, || format!("decoding {w} x {h} {color:?}"))
+        .map_err(|source| RasterError::Memory { path: path.to_path_buf(), source })?;
+    if reader_format_is_jpeg(&bytes) && !jpeg_is_complete(&bytes) {
+        return Err(derr(
+            "the JPEG stream ends before its end-of-image marker (the file is truncated)".into(),
+        ));
+    }
+    let img = DynamicImage::from_decoder(decoder).map_err(|e| derr(e.to_string()))?;
     check_type(path, 0, &img)?;
     Ok(Stack { pages: vec![img], gray_float: false })
+}
+
+/// Reads one image: the single page of a PNG or JPEG, the first page of a TIFF (with the
+/// limits, the memory budget and the completeness checks of [`read_stack`]).
+pub fn read_image(path: &Path) -> Result<DynamicImage, RasterError> {
+    Ok(read_stack(path)?.pages.swap_remove(0))
 }
 
 fn check_size(path: &Path, page: usize, width: u32, height: u32) -> Result<(), RasterError> {
@@ -157,11 +182,22 @@ fn read_tiff(path: &Path, bytes: &[u8]) -> Result<Stack, RasterError> {
     let mut dec = Decoder::new(Cursor::new(bytes)).map_err(derr)?.with_limits(limits);
     let mut pages = Vec::new();
     let mut gray_float = false;
+    let mut held = 0u64;
     loop {
         let page = pages.len();
         let (w, h) = dec.dimensions().map_err(derr)?;
         check_size(path, page, w, h)?;
         let ct = dec.colortype().map_err(derr)?;
+        // Every page's decoded samples stay: the budget covers the pages so far and this
+        // one (float gray is widened to RGB, and briefly held twice).
+        let page_bytes = tiff_page_bytes(w, h, ct);
+        held = held.saturating_add(page_bytes);
+        crate::memory::check(held, || format!("decoding {} page(s) of {w} x {h} {ct:?}", page + 1))
+            .map_err(|source| RasterError::Memory { path: path.to_path_buf(), source })?;
+        check_strips(&mut dec, bytes.len() as u64).map_err(|reason| RasterError::Decode {
+            path: path.to_path_buf(),
+            reason: format!("page {page}: {reason}"),
+        })?;
         let unsupported =
             |kind: String| RasterError::Unsupported { path: path.to_path_buf(), page, kind };
         let data = dec.read_image().map_err(derr)?;
@@ -209,6 +245,69 @@ fn read_tiff(path: &Path, bytes: &[u8]) -> Result<Stack, RasterError> {
     Ok(Stack { pages, gray_float })
 }
 
+/// Bytes of one decoded TIFF page as it is held ([`Stack`]): samples of the colour type,
+/// with 32-bit float gray widened to RGB (plus the gray buffer while it is widened).
+fn tiff_page_bytes(w: u32, h: u32, ct: tiff::ColorType) -> u64 {
+    use tiff::ColorType as C;
+    let px = w as u64 * h as u64;
+    let (channels, bits) = match ct {
+        C::Gray(b) => (1, b),
+        C::GrayA(b) => (2, b),
+        C::RGB(b) => (3, b),
+        C::RGBA(b) => (4, b),
+        C::CMYK(b) => (4, b),
+        _ => (4, 32),
+    };
+    let bytes = px.saturating_mul(channels) * (bits as u64).div_ceil(8);
+    if matches!(ct, C::Gray(32)) {
+        bytes * 4
+    } else {
+        bytes
+    }
+}
+
+/// Checks that the current TIFF page's strips or tiles lie inside the file: a truncated
+/// file is refused instead of decoding to a partly flat page.
+fn check_strips<R: std::io::Read + std::io::Seek>(
+    dec: &mut tiff::decoder::Decoder<R>,
+    file_len: u64,
+) -> Result<(), String> {
+    use tiff::tags::Tag;
+    let pairs = [
+        (Tag::StripOffsets, Tag::StripByteCounts, "strip"),
+        (Tag::TileOffsets, Tag::TileByteCounts, "tile"),
+    ];
+    for (off_tag, len_tag, what) in pairs {
+        let Ok(Some(offsets)) = dec.find_tag_unsigned_vec::<u64>(off_tag) else { continue };
+        let Ok(Some(counts)) = dec.find_tag_unsigned_vec::<u64>(len_tag) else { continue };
+        for (i, (&o, &n)) in offsets.iter().zip(&counts).enumerate() {
+            if o.saturating_add(n) > file_len {
+                return Err(format!(
+                    "{what} {i} ends at byte {} but the file has {file_len} bytes (the file is truncated)",
+                    o.saturating_add(n)
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+fn reader_format_is_jpeg(bytes: &[u8]) -> bool {
+    bytes.starts_with(&[0xFF, 0xD8, 0xFF])
+}
+
+/// A JPEG is complete when an end-of-image marker (`FF D9`) follows its last start-of-scan
+/// marker (`FF DA`). Inside entropy-coded data every `FF` byte is followed by `00` or a
+/// restart marker, so neither marker can appear there by accident; an embedded thumbnail's
+/// end marker comes before the main image's scans and does not count.
+fn jpeg_is_complete(bytes: &[u8]) -> bool {
+    let last_sos = bytes.windows(2).rposition(|w| w == [0xFF, 0xDA]);
+    match last_sos {
+        Some(i) => bytes[i..].windows(2).any(|w| w == [0xFF, 0xD9]),
+        None => false,
+    }
+}
+
 /// Writes a stack atomically: TIFF (any number of pages, types kept), or PNG / JPEG (one
 /// page; JPEG holds 8-bit gray and RGB only).
 pub fn write_stack(path: &Path, stack: &Stack) -> Result<(), RasterError> {
@@ -233,11 +332,33 @@ pub fn write_stack(path: &Path, stack: &Stack) -> Result<(), RasterError> {
     Ok(())
 }
 
+/// Classic TIFF addresses at most 4 GiB; larger stacks are written as BigTIFF (which
+/// Fiji, tifffile and libtiff read), with a margin for the directories.
+const CLASSIC_TIFF_MAX: u64 = (4 << 30) - (16 << 20);
+
 fn encode_tiff(stack: &Stack) -> Result<Vec<u8>, tiff::TiffError> {
-    use tiff::encoder::{colortype as ct, TiffEncoder};
+    encode_tiff_above(stack, CLASSIC_TIFF_MAX)
+}
+
+/// [`encode_tiff`] with BigTIFF above `classic_max` bytes of samples.
+fn encode_tiff_above(stack: &Stack, classic_max: u64) -> Result<Vec<u8>, tiff::TiffError> {
+    use tiff::encoder::TiffEncoder;
+    let raw: u64 = stack.pages.iter().map(|p| p.as_bytes().len() as u64).sum();
     let mut out = Cursor::new(Vec::new());
+    if raw > classic_max {
+        encode_pages(&mut TiffEncoder::new_big(&mut out)?, stack)?;
+    } else {
+        encode_pages(&mut TiffEncoder::new(&mut out)?, stack)?;
+    }
+    Ok(out.into_inner())
+}
+
+fn encode_pages<W: std::io::Write + std::io::Seek, K: tiff::encoder::TiffKind>(
+    enc: &mut tiff::encoder::TiffEncoder<W, K>,
+    stack: &Stack,
+) -> Result<(), tiff::TiffError> {
+    use tiff::encoder::colortype as ct;
     {
-        let mut enc = TiffEncoder::new(&mut out)?;
         for page in &stack.pages {
             let (w, h) = (page.width(), page.height());
             match page {
@@ -276,13 +397,38 @@ fn encode_tiff(stack: &Stack) -> Result<Vec<u8>, tiff::TiffError> {
             }
         }
     }
-    Ok(out.into_inner())
+    Ok(())
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use image::{Luma, Rgb};
+
+    #[test]
+    fn stacks_beyond_4_gib_are_written_as_bigtiff_and_read_back() {
+        // Found by the adversarial pass: a 5 GiB stack failed at the end with "format size
+        // limits exceeded" after the whole warp. The threshold is lowered to test it.
+        let pages: Vec<DynamicImage> = (0..3)
+            .map(|k| {
+                DynamicImage::ImageLuma8(ImageBuffer::from_fn(9, 4, |x, y| {
+                    Luma([(x + y * 9 + k) as u8])
+                }))
+            })
+            .collect();
+        let stack = Stack { pages, gray_float: false };
+        let big = encode_tiff_above(&stack, 0).unwrap();
+        assert!(big.starts_with(b"II+\0"), "BigTIFF header");
+        assert!(encode_tiff(&stack).unwrap().starts_with(b"II*\0"), "classic below the limit");
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("big.tif");
+        std::fs::write(&p, &big).unwrap();
+        let back = read_stack(&p).unwrap();
+        assert_eq!(back.pages.len(), 3);
+        for (a, b) in back.pages.iter().zip(&stack.pages) {
+            assert_eq!(a.as_bytes(), b.as_bytes());
+        }
+    }
 
     #[test]
     fn tiff_stacks_round_trip_every_type() {

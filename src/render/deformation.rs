@@ -183,16 +183,21 @@ pub fn load_background(path: &Path) -> Result<Pixmap, RenderError> {
     if reader.format().is_none() {
         return Err(err("unrecognised image format (expected PNG, JPEG or TIFF)".into()));
     }
-    let img = reader
-        .decode()
-        .map_err(|e| match e {
-            image::ImageError::Limits(_) => err(format!(
-                "the image is larger than {MAX_SIZE} x {MAX_SIZE} pixels, the largest background \
-                 (it is not decoded); scale it down"
-            )),
-            e => err(e.to_string()),
-        })?
-        .to_rgba8();
+    let limit_err = |e: image::ImageError| match e {
+        image::ImageError::Limits(_) => err(format!(
+            "the image is larger than {MAX_SIZE} x {MAX_SIZE} pixels, the largest background \
+             (it is not decoded); scale it down"
+        )),
+        e => err(e.to_string()),
+    };
+    let decoder = reader.into_decoder().map_err(limit_err)?;
+    // Decoded, its 8-bit RGBA copy and the pixmap.
+    let (w, h) = image::ImageDecoder::dimensions(&decoder);
+    let need =
+        image::ImageDecoder::total_bytes(&decoder).saturating_add(2 * 4 * w as u64 * h as u64);
+    crate::memory::check(need, || format!("a {w} x {h} background"))
+        .map_err(|e| err(e.to_string()))?;
+    let img = image::DynamicImage::from_decoder(decoder).map_err(limit_err)?.to_rgba8();
     let (width, height) = img.dimensions();
     if !(1..=MAX_SIZE).contains(&width) || !(1..=MAX_SIZE).contains(&height) {
         return Err(RenderError::Size { width, height });

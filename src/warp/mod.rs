@@ -90,6 +90,9 @@ pub enum WarpError {
     /// A tile or its input window does not fit ([`tiles::warp_tile_into`]).
     #[error(transparent)]
     Tile(#[from] tiles::TileError),
+    /// The output pages would exceed the process's memory budget ([`crate::memory`]).
+    #[error(transparent)]
+    Memory(#[from] crate::memory::OverBudget),
 }
 
 /// What happened while warping an image: the statistics of its preimages
@@ -443,6 +446,15 @@ pub fn warp_pages(
             Src::F32(s) => Samples::F32(s.data),
         })
         .collect();
+    // The inputs are held while the outputs (as large) are written.
+    let in_bytes: u64 = pages.iter().map(|p| p.as_bytes().len() as u64).sum();
+    crate::memory::check(in_bytes.saturating_mul(2), || {
+        format!(
+            "warping {} page(s) of {w} x {h} {:?} (input and output)",
+            pages.len(),
+            first.color()
+        )
+    })?;
     let mut bufs: Vec<Buf> = samples
         .iter()
         .map(|s| match s {

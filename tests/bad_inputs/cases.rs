@@ -226,6 +226,14 @@ pub fn cases() -> Vec<Case> {
         },
         Case { id: "def_version", setup: |fx, id| check_doc(fx, id, |v| v["version"] = 7.into()) },
         Case {
+            id: "def_duplicate_key",
+            setup: |fx, id| {
+                let t = fx.def_text.replacen('{', "{\"degree\": 5, ", 1);
+                check_text(fx, id, &t)
+            },
+        },
+        Case { id: "def_grid", setup: |fx, id| check_doc(fx, id, |v| v["grid"] = 0.into()) },
+        Case {
             id: "def_nan",
             setup: |fx, id| check_doc(fx, id, |v| v["exact"]["points"][3][0] = "NaN".into()),
         },
@@ -489,6 +497,38 @@ pub fn cases() -> Vec<Case> {
             },
         },
         Case { id: "img_not_image", setup: |fx, id| warp_image(fx, id, "png", b"hello") },
+        Case {
+            id: "img_memory_budget",
+            setup: |fx, id| {
+                let big = image::ImageBuffer::from_pixel(512, 512, image::Rgba([1u16, 2, 3, 4]));
+                let p = fx.dir.join(format!("{id}.png"));
+                image::DynamicImage::ImageRgba16(big).save(&p).unwrap();
+                let out = fx.out("w.png");
+                (args(&["warp", s(&fx.def), "--image", s(&p), "-o", &out, "--max-memory", "1M"]), p)
+            },
+        },
+        Case {
+            id: "img_truncated_jpeg",
+            setup: |fx, id| {
+                // Noise, so that most of the file is scan data, cut inside the scan.
+                let img = image::RgbImage::from_fn(128, 128, |x, y| {
+                    image::Rgb([(x * 7919 + y * 104729) as u8, (x * y) as u8, (x ^ y) as u8])
+                });
+                let mut b = Vec::new();
+                image::codecs::jpeg::JpegEncoder::new(&mut b).encode_image(&img).unwrap();
+                warp_image(fx, id, "jpg", &b[..b.len() * 9 / 10])
+            },
+        },
+        Case {
+            id: "img_truncated_tiff",
+            setup: |fx, id| {
+                // Directory first, then the strip (as microscopy writers lay files out); the
+                // file ends before the strip does.
+                let mut t = tiff_header(40, 40, 1, 1);
+                t.extend(std::iter::repeat_n(7u8, 800));
+                warp_image(fx, id, "tif", &t)
+            },
+        },
         Case {
             id: "mesh_outside_image",
             setup: |fx, id| {

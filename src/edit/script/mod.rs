@@ -507,7 +507,7 @@ impl Script {
 
     /// Reads a script from JSON text.
     pub fn from_json_str(text: &str) -> Result<Script, ScriptError> {
-        let v: Value = serde_json::from_str(text)
+        let v: Value = crate::json::parse(text)
             .map_err(|e| ScriptError::Json { line: e.line(), message: e.to_string() })?;
         Script::from_value(&v)
     }

@@ -1,0 +1,126 @@
+//! Strict JSON reading: a key that appears twice in one object is an error.
+//!
+//! RFC 8259 (section 4) only says that names "SHOULD be unique" and leaves the meaning of a
+//! repeated name to the reader; `serde_json` keeps the last value silently. In a trimorph
+//! file a repeated key is almost always an editing mistake (a control point pasted twice, an
+//! option given two values), so every file trimorph reads as JSON goes through [`parse`],
+//! which refuses it naming the key, its line and column. Below every other module, so that
+//! any of them may read JSON.
+
+use serde::de::{self, Deserialize, Deserializer, MapAccess, SeqAccess, Visitor};
+use serde_json::Value;
+use std::fmt;
+
+/// Parses JSON text into a [`Value`], refusing duplicate keys ("duplicate key "x" at line
+/// L column C"). Otherwise the same as `serde_json::from_str::<Value>` (numbers keep their
+/// text: the crate reads JSON with `serde_json`'s arbitrary precision).
+///
+/// ```
+/// let v = trimorph::json::parse(r#"{"a": [1, {"b": 2}]}"#).unwrap();
+/// assert_eq!(v["a"][1]["b"], 2);
+/// let e = trimorph::json::parse("{\"a\": 1,\n \"a\": 2}").unwrap_err();
+/// assert!(e.to_string().starts_with("duplicate key \"a\" at line 2"), "{e}");
+/// ```
+pub fn parse(text: &str) -> Result<Value, serde_json::Error> {
+    check_keys(text)?;
+    serde_json::from_str(text)
+}
+
+/// Parses JSON text into `T` ([`serde::Deserialize`]), refusing duplicate keys first.
+pub fn from_str<'a, T: Deserialize<'a>>(text: &'a str) -> Result<T, serde_json::Error> {
+    check_keys(text)?;
+    serde_json::from_str(text)
+}
+
+/// One pass over the text that only looks at object keys: an error at the first key that
+/// repeats in its object (syntax errors are left to the real parse, which reports them).
+fn check_keys(text: &str) -> Result<(), serde_json::Error> {
+    let mut de = serde_json::Deserializer::from_str(text);
+    match Keys::deserialize(&mut de) {
+        Err(e) if e.to_string().starts_with(DUPLICATE) => Err(e),
+        _ => Ok(()),
+    }
+}
+
+const DUPLICATE: &str = "duplicate key ";
+
+/// Any JSON value, skipped, with the keys of every object checked.
+struct Keys;
+
+impl<'de> Deserialize<'de> for Keys {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        d.deserialize_any(KeysVisitor)
+    }
+}
+
+struct KeysVisitor;
+
+impl<'de> Visitor<'de> for KeysVisitor {
+    type Value = Keys;
+
+    fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        f.write_str("any JSON value")
+    }
+    fn visit_bool<E>(self, _: bool) -> Result<Keys, E> {
+        Ok(Keys)
+    }
+    fn visit_i64<E>(self, _: i64) -> Result<Keys, E> {
+        Ok(Keys)
+    }
+    fn visit_u64<E>(self, _: u64) -> Result<Keys, E> {
+        Ok(Keys)
+    }
+    fn visit_f64<E>(self, _: f64) -> Result<Keys, E> {
+        Ok(Keys)
+    }
+    fn visit_str<E>(self, _: &str) -> Result<Keys, E> {
+        Ok(Keys)
+    }
+    fn visit_unit<E>(self) -> Result<Keys, E> {
+        Ok(Keys)
+    }
+    fn visit_none<E>(self) -> Result<Keys, E> {
+        Ok(Keys)
+    }
+    fn visit_some<D: Deserializer<'de>>(self, d: D) -> Result<Keys, D::Error> {
+        Keys::deserialize(d)
+    }
+    fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Keys, A::Error> {
+        while seq.next_element::<Keys>()?.is_some() {}
+        Ok(Keys)
+    }
+    fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Keys, A::Error> {
+        // (With arbitrary precision a number arrives as a one-key map: no duplicates.)
+        let mut seen = std::collections::HashSet::new();
+        while let Some(k) = map.next_key::<String>()? {
+            if seen.contains(&k) {
+                return Err(de::Error::custom(format_args!("{DUPLICATE}{k:?}")));
+            }
+            seen.insert(k);
+            map.next_value::<Keys>()?;
+        }
+        Ok(Keys)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn duplicate_keys_are_refused_at_any_depth_with_their_position() {
+        let e = parse(r#"{"points": [[0, 0]], "x": {"k": 1, "k": 2}}"#).unwrap_err();
+        let msg = e.to_string();
+        assert!(msg.starts_with("duplicate key \"k\" at line 1 column"), "{msg}");
+        assert!(parse(r#"[{"a": 1}, {"a": 2}]"#).is_ok(), "the same key in two objects is fine");
+    }
+
+    #[test]
+    fn values_are_those_of_serde_json() {
+        let text = r#"{"a": [1, -2, 3.5, 1e300, "s", null, true, {"b": []}], "n": 1.000000000000000000001}"#;
+        assert_eq!(parse(text).unwrap(), serde_json::from_str::<Value>(text).unwrap());
+        for bad in ["", "{", "[1,]", "{} x"] {
+            assert!(parse(bad).is_err(), "{bad:?}");
+        }
+    }
+}
