@@ -191,7 +191,7 @@ fn a_deformation_file_too_large_for_the_budget_is_refused_naming_it() {
     let def = dir.path().join("big.json");
     ok(&trimorph(&["mesh", "--grid", "60x60", "--size", "600,600", "-o", s(&def)]));
     let len = fs::metadata(&def).unwrap().len();
-    assert!(len > (1 << 20) / 16, "the file is {len} bytes");
+    assert!(len > (1 << 20) / 64, "the file is {len} bytes");
     let o = trimorph(&["check", s(&def), "--max-memory", "1M"]);
     refused(&o, &def, &["reading a deformation file of", "over the budget of 1.0 MiB"]);
     ok(&trimorph(&["check", s(&def)]));
