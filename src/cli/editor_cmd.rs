@@ -61,7 +61,7 @@ pub fn initial_doc(a: &EditorArgs<'_>, root: &Path) -> Result<Doc> {
             // An identity over the image (8 x 8 cells), 2.5D when a model is given.
             let (w, h) = match &image_path {
                 Some(p) => {
-                    let img = image::open(p)
+                    let img = crate::io::raster::read_image(p)
                         .with_context(|| format!("cannot read image {}", p.display()))?;
                     (f64::from(img.width().max(2) - 1), f64::from(img.height().max(2) - 1))
                 }
@@ -92,7 +92,8 @@ pub fn initial_doc(a: &EditorArgs<'_>, root: &Path) -> Result<Doc> {
         doc.set_model(p, m)?;
     }
     if let Some(p) = image_path {
-        let img = image::open(&p).with_context(|| format!("cannot read image {}", p.display()))?;
+        let img = crate::io::raster::read_image(&p)
+            .with_context(|| format!("cannot read image {}", p.display()))?;
         doc.set_frame(p, img)?;
     }
     Ok(doc)

@@ -515,7 +515,8 @@ impl Doc {
         let frame = match key("image") {
             Some(i) => {
                 let p = confine(&self.root, &i, false)?;
-                Some((PathBuf::from(i), image::open(&p).map_err(|e| bad(e.to_string()))?))
+                let img = crate::io::raster::read_image(&p).map_err(|e| bad(e.to_string()))?;
+                Some((PathBuf::from(i), img))
             }
             None => None,
         };
