@@ -281,8 +281,11 @@ fn pnm_images_warp_like_the_same_pixels_as_png() {
     let id = d.join("id.json");
     ok(&trimorph(&["mesh", "--grid", "3x3", "--size", "39,29", "-o", s(&id)]));
     let script = d.join("e.json");
-    std::fs::write(&script, r#"[{"anchors": {"near": [[13, 9.67]]}, "op": "translate", "by": [2, 1]}]"#)
-        .unwrap();
+    std::fs::write(
+        &script,
+        r#"[{"anchors": {"near": [[13, 9.67]]}, "op": "translate", "by": [2, 1]}]"#,
+    )
+    .unwrap();
     let ed = d.join("ed.json");
     ok(&trimorph(&["edit", s(&id), "--script", s(&script), "-o", s(&ed)]));
     let (w, h) = (40u32, 30u32);
@@ -324,16 +327,37 @@ fn pnm_images_warp_like_the_same_pixels_as_png() {
         std::fs::copy(d.join("g.pgm"), frames.join(format!("f{k}.pgm"))).unwrap();
     }
     let lms = d.join("l.csv");
-    std::fs::write(&lms, "name,src_x,src_y,dst_x,dst_y\na,10,10,10,10\nb,30,10,30,10\nc,20,20,20,20\n")
-        .unwrap();
+    std::fs::write(
+        &lms,
+        "name,src_x,src_y,dst_x,dst_y\na,10,10,10,10\nb,30,10,30,10\nc,20,20,20,20\n",
+    )
+    .unwrap();
     let fit_out = d.join("fit");
     let o = trimorph(&[
-        "fit", "--model", s(&ed), "--frames", s(&frames), "--landmarks", s(&lms), "-o", s(&fit_out),
+        "fit",
+        "--model",
+        s(&ed),
+        "--frames",
+        s(&frames),
+        "--landmarks",
+        s(&lms),
+        "-o",
+        s(&fit_out),
     ]);
     ok(&o);
     assert!(String::from_utf8_lossy(&o.stdout).contains("2 frames fitted"));
     let m = d.join("m");
     let pgm = d.join("g.pgm");
-    ok(&trimorph(&["morph", s(&pgm), s(&pgm), "--landmarks", s(&lms), "--frames", "2", "-o", s(&m)]));
+    ok(&trimorph(&[
+        "morph",
+        s(&pgm),
+        s(&pgm),
+        "--landmarks",
+        s(&lms),
+        "--frames",
+        "2",
+        "-o",
+        s(&m),
+    ]));
     assert!(m.join("frame_001.png").exists());
 }

@@ -8,9 +8,9 @@
 //! 3. 2.5D on the generated worm model: a 16-prism layer, a z1 edit and an xy edit, the
 //!    model moved through psi, and the top and oblique views.
 
-use crate::io::model::UpAxis;
 use super::solve::{compact_pretty, solve_text, PARALLELOGRAM, PUMP, THESIS};
 use super::spline_cmds;
+use crate::io::model::UpAxis;
 use crate::io::write_atomic;
 use anyhow::{Context, Result};
 use serde_json::json;

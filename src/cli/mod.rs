@@ -591,7 +591,9 @@ pub fn run() -> i32 {
             spline_cmds::edit(&deformation, &script, &output, bounded)
         }
         Command::Check { deformation, samples } => spline_cmds::check(&deformation, samples),
-        Command::Render { deformation, output, background, size, model: Some(m), view, up, .. } => {
+        Command::Render {
+            deformation, output, background, size, model: Some(m), view, up, ..
+        } => {
             let bg = background.as_deref();
             model_cmd::render_model(&deformation, &m, &output, bg, &view, &size, up.up)
         }

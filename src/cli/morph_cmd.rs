@@ -4,10 +4,10 @@
 
 use super::warp_cmd::progress_bar;
 use crate::exact::matrix::rat_to_f64;
+use crate::io::folder::Staged;
 use crate::io::landmarks::read_landmarks;
 use crate::io::raster::read_stack;
 use crate::io::{deformation, read_text, write_atomic};
-use crate::io::folder::Staged;
 use crate::morph::output::{
     apng_bytes, contact_sheet, frame_name, gif_bytes, is_output_name, png_bytes,
 };
@@ -323,7 +323,8 @@ pub fn run(a: MorphArgs<'_>) -> Result<()> {
     stage.commit().with_context(|| format!("cannot write {}", a.output.display()))?;
     for (given, path, bytes) in &anims {
         if given.is_some_and(inside) {
-            write_atomic(path, bytes).with_context(|| format!("cannot write {}", path.display()))?;
+            write_atomic(path, bytes)
+                .with_context(|| format!("cannot write {}", path.display()))?;
         }
     }
     ph.mark("sheet");

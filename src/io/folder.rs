@@ -153,9 +153,8 @@ impl Staged {
                 (e.file_name().to_string_lossy().into_owned(), is_file)
             })
             .collect();
-        let ours = |(n, is_file): &(String, bool)| {
-            *is_file && (owned(n) || temp_writer(n).is_some())
-        };
+        let ours =
+            |(n, is_file): &(String, bool)| *is_file && (owned(n) || temp_writer(n).is_some());
         if names.iter().all(ours) {
             exchange(stage, target).map_err(werr(target))?;
             clear(stage, owned);

@@ -63,7 +63,15 @@ pub fn read_frames(path: &Path) -> Result<(Vec<Frame>, Vec<bool>), FramesError> 
                 matches!(
                     p.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref(),
                     Some(
-                        "png" | "tif" | "tiff" | "jpg" | "jpeg" | "pgm" | "ppm" | "pbm" | "pam"
+                        "png"
+                            | "tif"
+                            | "tiff"
+                            | "jpg"
+                            | "jpeg"
+                            | "pgm"
+                            | "ppm"
+                            | "pbm"
+                            | "pam"
                             | "pnm"
                     )
                 )

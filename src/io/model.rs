@@ -504,8 +504,11 @@ mod tests {
         let off = dir.path().join("q.off");
         // A unit square as one quad, with a comment, a colour after the face, counts on the
         // header line.
-        std::fs::write(&off, "OFF 4 1 0\n# corners\n0 0 0\n1 0 0\n1 1 0.5\n0 1 0\n4 0 1 2 3 255 0 0\n")
-            .unwrap();
+        std::fs::write(
+            &off,
+            "OFF 4 1 0\n# corners\n0 0 0\n1 0 0\n1 1 0.5\n0 1 0\n4 0 1 2 3 255 0 0\n",
+        )
+        .unwrap();
         let obj = dir.path().join("q.obj");
         std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nv 1 1 0.5\nv 0 1 0\nf 1 2 3 4\n").unwrap();
         let (a, b) = (load_model(&off).unwrap(), load_model(&obj).unwrap());
@@ -523,7 +526,11 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         for (name, text, want) in [
             ("a.off", "OFF\n3 1 0\n0 0 0\n1 x 0\n0 1 0\n3 0 1 2\n", "a.off, line 4: `x`"),
-            ("b.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n", "line 6: face 0: vertex index `7`"),
+            (
+                "b.off",
+                "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n",
+                "line 6: face 0: vertex index `7`",
+            ),
             ("c.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n", "ends before vertex 2"),
             ("d.off", "OFF\n9999999 0 0\n", "cannot fit"),
             ("e.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n2 0 1\n", "line 6: face 0: expected"),
@@ -545,8 +552,13 @@ mod tests {
         for up in [UpAxis::X, UpAxis::Y, UpAxis::Z] {
             assert_eq!(up.from_z_up(up.to_z_up(p)), p);
             // Orientation kept: e_x x e_y = e_z still holds after the turn.
-            let [ex, ey, ez] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]].map(|v| up.to_z_up(v));
-            let cross = [ex[1] * ey[2] - ex[2] * ey[1], ex[2] * ey[0] - ex[0] * ey[2], ex[0] * ey[1] - ex[1] * ey[0]];
+            let [ex, ey, ez] =
+                [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]].map(|v| up.to_z_up(v));
+            let cross = [
+                ex[1] * ey[2] - ex[2] * ey[1],
+                ex[2] * ey[0] - ex[0] * ey[2],
+                ex[0] * ey[1] - ex[1] * ey[0],
+            ];
             assert_eq!(cross, ez);
         }
         assert_eq!("Y".parse::<UpAxis>(), Ok(UpAxis::Y));

@@ -258,18 +258,29 @@ fn encode_pnm(path: &Path, page: &DynamicImage, gray_float: bool) -> Result<Vec<
         GraymapHeader { encoding: SampleEncoding::Binary, width: w, height: h, maxwhite }.into()
     };
     let rgb8: PnmHeader =
-        PixmapHeader { encoding: SampleEncoding::Binary, width: w, height: h, maxval: 255 }
-            .into();
+        PixmapHeader { encoding: SampleEncoding::Binary, width: w, height: h, maxval: 255 }.into();
     let header = match (ext.as_str(), page) {
         ("pgm" | "pnm", DynamicImage::ImageLuma8(_)) => Some(gray(255)),
         ("pgm" | "pnm", DynamicImage::ImageLuma16(_)) => Some(gray(65535)),
         ("ppm" | "pnm", DynamicImage::ImageRgb8(_)) => Some(rgb8),
-        ("pam", p) if !matches!(p, DynamicImage::ImageRgb32F(_) | DynamicImage::ImageRgba32F(_)) => {
+        ("pam", p)
+            if !matches!(p, DynamicImage::ImageRgb32F(_) | DynamicImage::ImageRgba32F(_)) =>
+        {
             None
         }
-        ("pgm", _) => return Err(format!("a PGM holds 8- or 16-bit gray, not {kind} (use .ppm, .pam, .png or .tif)")),
-        ("ppm", _) => return Err(format!("a PPM holds 8-bit RGB, not {kind} (use .pam, .png or .tif)")),
-        ("pnm", _) => return Err(format!("a PNM holds 8- or 16-bit gray or 8-bit RGB, not {kind} (use .pam, .png or .tif)")),
+        ("pgm", _) => {
+            return Err(format!(
+                "a PGM holds 8- or 16-bit gray, not {kind} (use .ppm, .pam, .png or .tif)"
+            ))
+        }
+        ("ppm", _) => {
+            return Err(format!("a PPM holds 8-bit RGB, not {kind} (use .pam, .png or .tif)"))
+        }
+        ("pnm", _) => {
+            return Err(format!(
+                "a PNM holds 8- or 16-bit gray or 8-bit RGB, not {kind} (use .pam, .png or .tif)"
+            ))
+        }
         ("pam", _) => return Err(format!("a PAM holds integer samples, not {kind} (use .tif)")),
         _ => return Err("a PBM holds black and white only; write .pgm for gray".into()),
     };
