@@ -171,3 +171,112 @@ fn render_a_model_from_the_top_and_obliquely() {
     assert_eq!(bad.status.code(), Some(1));
     assert!(!d.join("x.png").exists());
 }
+
+/// Same length, and every coordinate within 1e-9 (relative to 1 + |value|).
+fn assert_close(got: &[[f64; 3]], want: &[[f64; 3]]) {
+    assert_eq!(got.len(), want.len());
+    for (i, (a, b)) in got.iter().zip(want).enumerate() {
+        let ok = (0..3).all(|k| (a[k] - b[k]).abs() <= 1e-9 * (1.0 + b[k].abs()));
+        assert!(ok, "vertex {i}: {a:?} vs {b:?}");
+    }
+}
+
+/// The distinct x coordinates of a deformation's mesh vertices, sorted.
+fn mesh_xs(scene: &Path) -> Vec<f64> {
+    let text = std::fs::read_to_string(scene).unwrap();
+    let (s, _) = trimorph::io::deformation::from_str(&text).unwrap();
+    let mut xs: Vec<f64> = s.mesh().vertices().iter().map(|v| v[0]).collect();
+    xs.sort_by(f64::total_cmp);
+    xs.dedup();
+    xs
+}
+
+/// OFF models are read wherever OBJ models are; `--up x|y` takes a model whose up axis is
+/// not z and writes it back in its own axes; `model bind --snap N` gives a unit-size model an
+/// even grid. Before: `.off` was an unknown format, models were always z-up, and the
+/// automatic mesh was snapped to 1/16 whatever the model's size.
+#[test]
+fn off_models_up_axes_and_bind_snap() {
+    use trimorph::io::model::{load_model, save_model, UpAxis};
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    ok(&trimorph(&["model", "worm", "-o", s(d)]));
+    let (worm, prisms, scene) = (d.join("worm.obj"), d.join("worm_prisms.obj"), d.join("s.json"));
+    ok(&trimorph(&["model", "bind", "--model", s(&worm), "--mesh", s(&prisms), "-o", s(&scene)]));
+    let script = d.join("z.json");
+    std::fs::write(
+        &script,
+        r#"[{"anchors": {"near": [[500, 0]]}, "mode": "z1", "op": "translate", "by": [40]},
+            {"anchors": {"near": [[250, 100]]}, "op": "translate", "by": [0, -40]}]"#,
+    )
+    .unwrap();
+    let ed = d.join("ed.json");
+    ok(&trimorph(&["edit", s(&scene), "--script", s(&script), "-o", s(&ed)]));
+    let via_obj = d.join("a.obj");
+    ok(&trimorph(&["warp", s(&ed), "--model", s(&worm), "-o", s(&via_obj)]));
+    let want = read_obj_vertices(&via_obj);
+
+    // OFF: written by `warp -o X.off` (here the identity), read by warp and bind.
+    let off = d.join("worm.off");
+    ok(&trimorph(&["warp", s(&scene), "--model", s(&worm), "-o", s(&off)]));
+    assert!(std::fs::read_to_string(&off).unwrap().starts_with("OFF\n"));
+    let via_off = d.join("b.obj");
+    ok(&trimorph(&["warp", s(&ed), "--model", s(&off), "-o", s(&via_off)]));
+    assert_close(&read_obj_vertices(&via_off), &want);
+    let s_off = d.join("s_off.json");
+    let o = trimorph(&["model", "bind", "--model", s(&off), "--mesh", s(&prisms), "-o", s(&s_off)]);
+    ok(&o);
+    assert!(String::from_utf8_lossy(&o.stdout).contains("0 outside"));
+
+    // --up y: the same worm stored y-up.
+    let w = load_model(&worm).unwrap();
+    let turned: Vec<[f64; 3]> = w.vertices.iter().map(|&v| UpAxis::Y.from_z_up(v)).collect();
+    let worm_y = d.join("worm_y.obj");
+    save_model(&w, &turned, &worm_y).unwrap();
+    let out_y = d.join("c.obj");
+    let o = trimorph(&["warp", s(&ed), "--model", s(&worm_y), "--up", "y", "-o", s(&out_y)]);
+    ok(&o);
+    assert!(!String::from_utf8_lossy(&o.stderr).contains("outside"));
+    // Written back in the file's axes (y up).
+    let turned_want: Vec<[f64; 3]> = want.iter().map(|&v| UpAxis::Y.from_z_up(v)).collect();
+    assert_close(&read_obj_vertices(&out_y), &turned_want);
+    // Read z-up, the y-up worm lies across the prisms: vertices fall outside.
+    let o = trimorph(&["warp", s(&ed), "--model", s(&worm_y), "-o", s(&d.join("x.obj"))]);
+    ok(&o);
+    assert!(String::from_utf8_lossy(&o.stderr).contains("outside the prisms"));
+    let o = trimorph(&["warp", s(&ed), "--model", s(&worm_y), "--up", "w", "-o", s(&out_y)]);
+    assert_eq!(o.status.code(), Some(1));
+
+    // --snap: a unit-size model's automatic 4 x 2 mesh is even on a 1/1024 grid, uneven on the
+    // default 1/16 grid.
+    let (lo, hi) = w.bbox();
+    let size = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
+    let unit: Vec<[f64; 3]> =
+        w.vertices.iter().map(|v| [0, 1, 2].map(|k| (v[k] - lo[k]) / size)).collect();
+    let small = d.join("unit.obj");
+    save_model(&w, &unit, &small).unwrap();
+    let spread = |scene: &Path| {
+        let xs = mesh_xs(scene);
+        let steps: Vec<f64> = xs.windows(2).map(|p| p[1] - p[0]).collect();
+        assert_eq!(steps.len(), 4, "{xs:?}");
+        steps.iter().fold(0.0f64, |m, &a| m.max(a)) - steps.iter().fold(1.0f64, |m, &a| m.min(a))
+    };
+    let (coarse, fine) = (d.join("coarse.json"), d.join("fine.json"));
+    ok(&trimorph(&["model", "bind", "--model", s(&small), "--auto", "-o", s(&coarse)]));
+    ok(&trimorph(&[
+        "model",
+        "bind",
+        "--model",
+        s(&small),
+        "--auto",
+        "--snap",
+        "1024",
+        "-o",
+        s(&fine),
+    ]));
+    assert!(spread(&coarse) > 0.03, "{}", spread(&coarse));
+    assert!(spread(&fine) <= 1.0 / 1024.0 + 1e-12, "{}", spread(&fine));
+    let o =
+        trimorph(&["model", "bind", "--model", s(&small), "--auto", "--snap", "0", "-o", s(&fine)]);
+    assert_eq!(o.status.code(), Some(1));
+}

@@ -257,3 +257,107 @@ fn colored_meshes_through_the_cli() {
     let bad = trimorph(&["warp", s(&def), "--mesh", s(&ply), "-o", s(&dir.path().join("m.txt"))]);
     assert_eq!(bad.status.code(), Some(1));
 }
+
+/// A Netpbm file by hand: `magic`, size, maxval and big-endian samples.
+fn netpbm(magic: &str, w: u32, h: u32, maxval: u32, samples: &[u16]) -> Vec<u8> {
+    let mut b = format!("{magic}\n# by hand\n{w} {h}\n{maxval}\n").into_bytes();
+    for &v in samples {
+        if maxval > 255 {
+            b.extend(v.to_be_bytes());
+        } else {
+            b.push(v as u8);
+        }
+    }
+    b
+}
+
+/// PNM (PGM, PPM) images are read wherever images are, and written when the output is named
+/// `.pgm` / `.ppm`: a warp of a PNM equals the warp of the same pixels as PNG, and the output
+/// is a real P5 / P6 file. Before, `.pgm` and `.ppm` were refused as unknown formats.
+#[test]
+fn pnm_images_warp_like_the_same_pixels_as_png() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let id = d.join("id.json");
+    ok(&trimorph(&["mesh", "--grid", "3x3", "--size", "39,29", "-o", s(&id)]));
+    let script = d.join("e.json");
+    std::fs::write(
+        &script,
+        r#"[{"anchors": {"near": [[13, 9.67]]}, "op": "translate", "by": [2, 1]}]"#,
+    )
+    .unwrap();
+    let ed = d.join("ed.json");
+    ok(&trimorph(&["edit", s(&id), "--script", s(&script), "-o", s(&ed)]));
+    let (w, h) = (40u32, 30u32);
+    let gray: Vec<u16> = (0..w * h).map(|i| ((i * 7) % 251) as u16).collect();
+    let gray16: Vec<u16> = (0..w * h).map(|i| (i * 53) as u16).collect();
+    let rgb: Vec<u16> = (0..w * h * 3).map(|i| ((i * 11) % 256) as u16).collect();
+    let cases: [(&str, &str, u32, &[u16], &str); 3] = [
+        ("g.pgm", "P5", 255, &gray, "P5"),
+        ("g16.pgm", "P5", 65535, &gray16, "P5"),
+        ("c.ppm", "P6", 255, &rgb, "P6"),
+    ];
+    for (name, magic, maxval, samples, out_magic) in cases {
+        let pnm = d.join(name);
+        std::fs::write(&pnm, netpbm(magic, w, h, maxval, samples)).unwrap();
+        let img = image::open(&pnm).unwrap();
+        let png = d.join(format!("{name}.png"));
+        img.save(&png).unwrap();
+        let (out_pnm, out_png) = (d.join(format!("w.{name}")), d.join(format!("w.{name}.png")));
+        ok(&trimorph(&["warp", s(&ed), "--image", s(&pnm), "-o", s(&out_pnm)]));
+        ok(&trimorph(&["warp", s(&ed), "--image", s(&png), "-o", s(&out_png)]));
+        let bytes = std::fs::read(&out_pnm).unwrap();
+        assert!(bytes.starts_with(out_magic.as_bytes()), "{name}: not {out_magic}");
+        let (a, b) = (image::open(&out_pnm).unwrap(), image::open(&out_png).unwrap());
+        assert_eq!(a.color(), img.color(), "{name}: type kept");
+        assert_eq!(a.as_bytes(), b.as_bytes(), "{name}: PNM and PNG warps differ");
+        assert_ne!(a.as_bytes(), img.as_bytes(), "{name}: the warp moved nothing");
+        // Round trip: the identity warp of the written file gives its pixels back.
+        let again = d.join(format!("again.{name}"));
+        ok(&trimorph(&["warp", s(&id), "--image", s(&out_pnm), "-o", s(&again)]));
+        assert_eq!(std::fs::read(&again).unwrap(), bytes, "{name}: round trip");
+    }
+    // The other readers: a PPM background, PGM frames of a folder, PGM morph inputs.
+    let r = d.join("r.png");
+    ok(&trimorph(&["render", s(&ed), "--background", s(&d.join("c.ppm")), "-o", s(&r)]));
+    assert_eq!(image::open(&r).unwrap().width(), w);
+    let frames = d.join("frames");
+    std::fs::create_dir_all(&frames).unwrap();
+    for k in 0..2 {
+        std::fs::copy(d.join("g.pgm"), frames.join(format!("f{k}.pgm"))).unwrap();
+    }
+    let lms = d.join("l.csv");
+    std::fs::write(
+        &lms,
+        "name,src_x,src_y,dst_x,dst_y\na,10,10,10,10\nb,30,10,30,10\nc,20,20,20,20\n",
+    )
+    .unwrap();
+    let fit_out = d.join("fit");
+    let o = trimorph(&[
+        "fit",
+        "--model",
+        s(&ed),
+        "--frames",
+        s(&frames),
+        "--landmarks",
+        s(&lms),
+        "-o",
+        s(&fit_out),
+    ]);
+    ok(&o);
+    assert!(String::from_utf8_lossy(&o.stdout).contains("2 frames fitted"));
+    let m = d.join("m");
+    let pgm = d.join("g.pgm");
+    ok(&trimorph(&[
+        "morph",
+        s(&pgm),
+        s(&pgm),
+        "--landmarks",
+        s(&lms),
+        "--frames",
+        "2",
+        "-o",
+        s(&m),
+    ]));
+    assert!(m.join("frame_001.png").exists());
+}

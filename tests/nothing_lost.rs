@@ -226,3 +226,220 @@ fn a_batch_killed_at_random_moments_resumes_and_never_leaves_a_half_written_outp
         assert!(got[name] == *bytes, "{name} differs from the uninterrupted run");
     }
 }
+
+/// The names in `dir`, sorted.
+fn names(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> =
+        fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name().into_string().unwrap()).collect();
+    v.sort();
+    v
+}
+
+/// Bug (reliability pass): temp + rename replaced special outputs, so `-o FIFO` left a regular
+/// file where the pipe was (and as root `-o /dev/null` would replace `/dev/null`). A FIFO
+/// output is now written in place: a reader on the pipe gets the file and the pipe stays.
+#[cfg(unix)]
+#[test]
+fn a_fifo_output_is_written_through_not_replaced() {
+    use std::os::unix::fs::FileTypeExt;
+    let dir = tempfile::tempdir().unwrap();
+    let fifo = dir.path().join("pipe.json");
+    let made = Command::new("mkfifo").arg(&fifo).status().unwrap();
+    assert!(made.success());
+    let reader = {
+        let fifo = fifo.clone();
+        std::thread::spawn(move || fs::read_to_string(fifo).unwrap())
+    };
+    ok(&trimorph(&["mesh", "--grid", "2x2", "--size", "40,40", "-o", s(&fifo)]));
+    let text = reader.join().unwrap();
+    let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(v["format"], "trimorph.deformation");
+    assert!(fs::symlink_metadata(&fifo).unwrap().file_type().is_fifo(), "the FIFO was replaced");
+    assert_eq!(names(dir.path()), ["pipe.json"], "no temporary file");
+}
+
+/// Bug (reliability pass): a symlinked output was replaced by a regular file. Now the link
+/// stays a link and its target (in another folder) gets the new content, written by temp +
+/// rename beside the target.
+#[cfg(unix)]
+#[test]
+fn a_symlinked_output_stays_a_link_and_its_target_is_updated() {
+    let dir = tempfile::tempdir().unwrap();
+    let real = dir.path().join("real");
+    let links = dir.path().join("links");
+    fs::create_dir_all(&real).unwrap();
+    fs::create_dir_all(&links).unwrap();
+    let target = real.join("def.json");
+    fs::write(&target, "old").unwrap();
+    let link = links.join("def.json");
+    std::os::unix::fs::symlink("../real/def.json", &link).unwrap();
+    let png_target = real.join("r.png");
+    let png_link = links.join("r.png");
+    std::os::unix::fs::symlink(&png_target, &png_link).unwrap(); // dangling: created
+    ok(&trimorph(&["mesh", "--grid", "2x2", "--size", "40,40", "-o", s(&link)]));
+    ok(&trimorph(&["render", s(&link), "-o", s(&png_link)]));
+    for (l, t) in [(&link, &target), (&png_link, &png_target)] {
+        assert!(fs::symlink_metadata(l).unwrap().file_type().is_symlink(), "{l:?} replaced");
+        assert!(t.is_file(), "{t:?} not written");
+    }
+    let v: serde_json::Value = serde_json::from_str(&fs::read_to_string(&target).unwrap()).unwrap();
+    assert_eq!(v["format"], "trimorph.deformation");
+    image::open(&png_target).unwrap();
+    assert_eq!(names(&links), ["def.json", "r.png"]);
+    assert_eq!(names(&real), ["def.json", "r.png"]);
+}
+
+/// Bug (reliability pass): a 0600 output came back 0644 (the new file had the default mode).
+/// Replaced files keep their permission bits, through every writer (JSON, PNG, images).
+#[cfg(unix)]
+#[test]
+fn a_private_output_keeps_its_permissions() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let def = d.join("def.json");
+    let png = d.join("r.png");
+    let warped = d.join("w.pgm");
+    let img = d.join("in.png");
+    image::GrayImage::from_fn(40, 40, |x, y| image::Luma([(x * 6 + y) as u8])).save(&img).unwrap();
+    for p in [&def, &png, &warped] {
+        fs::write(p, "old").unwrap();
+        fs::set_permissions(p, fs::Permissions::from_mode(0o600)).unwrap();
+    }
+    ok(&trimorph(&["mesh", "--grid", "2x2", "--size", "40,40", "-o", s(&def)]));
+    ok(&trimorph(&["render", s(&def), "-o", s(&png)]));
+    ok(&trimorph(&["warp", s(&def), "--image", s(&img), "-o", s(&warped)]));
+    for p in [&def, &png, &warped] {
+        let mode = fs::metadata(p).unwrap().permissions().mode() & 0o777;
+        assert_eq!(mode, 0o600, "{p:?}");
+        assert_ne!(fs::read(p).unwrap(), b"old", "{p:?} not rewritten");
+    }
+    // A new file still gets the usual mode (the umask's).
+    let fresh = d.join("fresh.json");
+    ok(&trimorph(&["mesh", "--grid", "2x2", "--size", "40,40", "-o", s(&fresh)]));
+    assert_ne!(fs::metadata(&fresh).unwrap().permissions().mode() & 0o777, 0o600);
+}
+
+/// Two 64 x 64 textured images shifted by 3 pixels and landmarks between them.
+fn morph_inputs(d: &Path) -> [String; 3] {
+    let im = |dx: f64, name: &str| {
+        let p = d.join(name);
+        image::GrayImage::from_fn(64, 64, |x, y| {
+            let (u, v) = (x as f64 - dx, y as f64);
+            image::Luma([(128.0 + 60.0 * (u / 5.0).sin() * (v / 7.0).cos()) as u8])
+        })
+        .save(&p)
+        .unwrap();
+        p.display().to_string()
+    };
+    let (a, b) = (im(0.0, "a.png"), im(3.0, "b.png"));
+    let l = d.join("l.csv");
+    let mut csv = String::from("name,src_x,src_y,dst_x,dst_y\n");
+    for (i, [x, y]) in [[16, 16], [48, 16], [16, 48], [48, 48], [32, 32]].iter().enumerate() {
+        csv += &format!("p{i},{x},{y},{},{y}\n", x + 3);
+    }
+    fs::write(&l, csv).unwrap();
+    [a, b, l.display().to_string()]
+}
+
+fn morph(inputs: &[String; 3], out: &Path, frames: &str, extra: &[&str]) -> std::process::Output {
+    let [a, b, l] = inputs;
+    let mut args = vec!["morph", a, b, "--landmarks", l, "--frames", frames, "-o", s(out)];
+    args.extend(extra);
+    trimorph(&args)
+}
+
+/// Every file of `dir` with its bytes.
+fn snapshot(dir: &Path) -> BTreeMap<String, Vec<u8>> {
+    names(dir).into_iter().map(|n| (n.clone(), fs::read(dir.join(&n)).unwrap())).collect()
+}
+
+/// Bug (reliability pass): a rerun of `morph` with fewer frames left the earlier run's extra
+/// frames beside the new ones. The folder is now swapped as a whole.
+#[test]
+fn a_shorter_morph_leaves_no_stale_frames() {
+    let dir = tempfile::tempdir().unwrap();
+    let inputs = morph_inputs(dir.path());
+    let out = dir.path().join("out");
+    ok(&morph(&inputs, &out, "5", &[]));
+    assert!(out.join("frame_004.png").exists());
+    ok(&morph(&inputs, &out, "3", &[]));
+    let got = names(&out);
+    let frames: Vec<&String> = got.iter().filter(|n| n.starts_with("frame_")).collect();
+    assert_eq!(frames, ["frame_000.png", "frame_001.png", "frame_002.png"], "{got:?}");
+    assert_eq!(names(dir.path()), ["a.png", "b.png", "l.csv", "out"], "no stage left");
+    // With a file of the user's in the folder, the frames are replaced one by one: the user's
+    // file stays, the stale frames still go.
+    fs::write(out.join("notes.txt"), "mine").unwrap();
+    ok(&morph(&inputs, &out, "2", &[]));
+    assert!(!out.join("frame_002.png").exists());
+    assert_eq!(fs::read_to_string(out.join("notes.txt")).unwrap(), "mine");
+}
+
+/// Bug (reliability pass): a morph failing after its first files were written left old and
+/// new frames mixed. Here the animation cannot be written (its folder does not exist), after
+/// every frame is done: the earlier output is byte for byte as it was.
+#[test]
+fn a_morph_that_fails_midway_leaves_the_old_folder_unchanged() {
+    let dir = tempfile::tempdir().unwrap();
+    let inputs = morph_inputs(dir.path());
+    let out = dir.path().join("out");
+    ok(&morph(&inputs, &out, "4", &["--no-align"]));
+    let before = snapshot(&out);
+    let gif = dir.path().join("missing").join("m.gif");
+    let o = morph(&inputs, &out, "3", &["--gif", s(&gif)]);
+    assert_eq!(o.status.code(), Some(1), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("m.gif"));
+    assert!(snapshot(&out) == before, "the failed morph changed its earlier output");
+    assert_eq!(names(dir.path()), ["a.png", "b.png", "l.csv", "out"], "no stage left");
+}
+
+/// Bug (reliability pass): `demo -o D` deleted `D/fit/out` recursively, with whatever the
+/// user kept there. It now removes only the files an earlier demo wrote.
+#[test]
+fn demo_keeps_user_files_in_its_folder() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("fit").join("out");
+    fs::create_dir_all(out.join("sub")).unwrap();
+    fs::write(out.join("mine.txt"), "keep me").unwrap();
+    fs::write(out.join("sub").join("deep.txt"), "and me").unwrap();
+    for _ in 0..2 {
+        ok(&trimorph(&["demo", "-o", s(dir.path())]));
+        assert_eq!(fs::read_to_string(out.join("mine.txt")).unwrap(), "keep me");
+        assert_eq!(fs::read_to_string(out.join("sub").join("deep.txt")).unwrap(), "and me");
+        assert!(out.join("frame_09.report.json").exists());
+    }
+}
+
+/// `fit --frames` with `a.png` and `a.tif`: both frames would write `a.json`, `a.report.json`,
+/// ...; the batch is refused before anything is written.
+#[test]
+fn same_stem_frames_are_refused_before_writing() {
+    let batch = Batch::new(2);
+    let fr = batch.dir.path().join("frames");
+    image::open(fr.join("f01.png")).unwrap().save(fr.join("f01.tif")).unwrap();
+    let out = batch.dir.path().join("out");
+    let o = batch.command(&out).stderr(std::process::Stdio::piped()).output().unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("f01.png") && err.contains("f01.tif"), "{err}");
+    assert!(!out.exists() || names(&out).is_empty(), "{:?}", names(&out));
+}
+
+/// Resume checks every output, not only the report: a deleted `FRAME.json` is fitted again,
+/// and the batch ends with the results of an uninterrupted run.
+#[test]
+fn resume_refits_a_frame_whose_output_was_deleted() {
+    let batch = Batch::new(3);
+    let out = batch.dir.path().join("out");
+    assert!(batch.command(&out).status().unwrap().success());
+    let want = results(&out);
+    for deleted in ["f01.json", "f02.overlay.png"] {
+        fs::remove_file(out.join(deleted)).unwrap();
+        let o = batch.command(&out).stdout(std::process::Stdio::piped()).output().unwrap();
+        assert!(o.status.success());
+        let text = String::from_utf8_lossy(&o.stdout);
+        assert!(text.contains("1 frames fitted, 2 skipped"), "{deleted}: {text}");
+        assert!(results(&out) == want, "{deleted}: results differ after the refit");
+    }
+}

@@ -10,6 +10,7 @@
 
 use super::solve::{compact_pretty, solve_text, PARALLELOGRAM, PUMP, THESIS};
 use super::spline_cmds;
+use crate::io::model::UpAxis;
 use crate::io::write_atomic;
 use anyhow::{Context, Result};
 use serde_json::json;
@@ -112,6 +113,7 @@ pub fn run(dir: &Path) -> Result<()> {
         background: Some(0.0),
         tolerance: 0.01,
         verbose: false,
+        up: UpAxis::Z,
     })?;
     // The same edit on a colored triangle mesh of the image (the fast preview path).
     let cmesh = dir.join("cell_mesh.ply");
@@ -130,6 +132,7 @@ pub fn run(dir: &Path) -> Result<()> {
         background: None,
         tolerance: 0.01,
         verbose: false,
+        up: UpAxis::Z,
     })?;
     let mut o = std::io::stdout().lock();
     writeln!(
@@ -187,6 +190,10 @@ pub fn run(dir: &Path) -> Result<()> {
         range: None,
         degree: 5,
         output: &scene,
+        extra: super::model_cmd::BindExtra {
+            up: super::model_cmd::UpArgs { up: UpAxis::Z },
+            snap: None,
+        },
     })?;
     let zscript = models.join("edits.json");
     let edits = json!([
@@ -197,10 +204,10 @@ pub fn run(dir: &Path) -> Result<()> {
     let zedited = models.join("edited.json");
     spline_cmds::edit(&scene, &zscript, &zedited, Some(24))?;
     let moved = models.join("worm_moved.obj");
-    super::model_cmd::warp_model(&zedited, &worm, &moved)?;
+    super::model_cmd::warp_model(&zedited, &worm, &moved, UpAxis::Z)?;
     for view in ["top", "oblique"] {
         let png = models.join(format!("view_{view}.png"));
-        super::model_cmd::render_model(&zedited, &worm, &png, None, view, "800,600")?;
+        super::model_cmd::render_model(&zedited, &worm, &png, None, view, "800,600", UpAxis::Z)?;
     }
     println!(
         "\nthe same from the command line:\n  trimorph model worm -o {d}\n  trimorph model bind --model {w} --mesh {p} -o {sc}\n  trimorph edit {sc} --script {e} -o {ed}\n  trimorph warp {ed} --model {w} -o {m}\n  trimorph render {ed} --model {w} --view oblique -o {d}/view_oblique.png",

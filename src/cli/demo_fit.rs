@@ -34,6 +34,23 @@ fn write_landmarks(dir: &Path) -> Result<usize> {
     Ok(ids.len())
 }
 
+/// Removes what an earlier demo's batch wrote into `out` (per frame `frame_KK.json`, `.obj`,
+/// `.overlay.png`, `.registered.png`, `.report.json`); other files are the user's and stay.
+fn clear_outputs(out: &Path) -> Result<()> {
+    for k in 0..FRAMES.len() {
+        for ext in ["json", "obj", "overlay.png", "registered.png", "report.json"] {
+            let p = out.join(format!("frame_{k:02}.{ext}"));
+            match std::fs::remove_file(&p) {
+                Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+                    return Err(e).with_context(|| format!("cannot clear {}", p.display()))
+                }
+                _ => {}
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Runs demo part 4 into `dir`.
 pub fn run(dir: &Path) -> Result<()> {
     println!(
@@ -54,10 +71,9 @@ pub fn run(dir: &Path) -> Result<()> {
     v["model"] = serde_json::Value::from("worm.obj");
     write_atomic(&scene, crate::io::json_rows(&v).as_bytes())?;
     let out = dir.join("out");
-    // A fresh run each time (the batch is resumable and would skip finished frames).
-    if out.exists() {
-        std::fs::remove_dir_all(&out).with_context(|| format!("cannot clear {}", out.display()))?;
-    }
+    // A fresh run each time (the batch is resumable and would skip finished frames): the
+    // outputs an earlier demo wrote are removed, and nothing else in the folder.
+    clear_outputs(&out)?;
     println!(
         "{} frames, {tracks} tracked nuclei, model {} ({} triangles), mesh {} triangles",
         FRAMES.len(),

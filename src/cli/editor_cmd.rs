@@ -42,7 +42,7 @@ pub fn initial_doc(a: &EditorArgs<'_>, root: &Path) -> Result<Doc> {
                 .with_context(|| format!("cannot read deformation {}", d.display()))?;
             pinned = deformation::pinned_from_str(&text)
                 .with_context(|| format!("cannot read deformation {}", d.display()))?;
-            let v: serde_json::Value = crate::json::parse(&text)?;
+            let v: serde_json::Value = serde_json::from_str(&text)?;
             let key = |k: &str| v.get(k).and_then(|x| x.as_str()).map(|r| beside(d, r));
             model_path = model_path.or_else(|| key("model"));
             image_path = image_path.or_else(|| key("image"));
@@ -61,7 +61,8 @@ pub fn initial_doc(a: &EditorArgs<'_>, root: &Path) -> Result<Doc> {
             // An identity over the image (8 x 8 cells), 2.5D when a model is given.
             let (w, h) = match &image_path {
                 Some(p) => {
-                    let img = crate::io::raster::read_image(p)?;
+                    let img = crate::io::raster::read_image(p)
+                        .with_context(|| format!("cannot read image {}", p.display()))?;
                     (f64::from(img.width().max(2) - 1), f64::from(img.height().max(2) - 1))
                 }
                 None => (512.0, 512.0),
@@ -91,7 +92,8 @@ pub fn initial_doc(a: &EditorArgs<'_>, root: &Path) -> Result<Doc> {
         doc.set_model(p, m)?;
     }
     if let Some(p) = image_path {
-        let img = crate::io::raster::read_image(&p)?;
+        let img = crate::io::raster::read_image(&p)
+            .with_context(|| format!("cannot read image {}", p.display()))?;
         doc.set_frame(p, img)?;
     }
     Ok(doc)

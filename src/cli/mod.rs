@@ -139,7 +139,7 @@ enum Command {
         /// Output PNG.
         #[arg(short, long)]
         output: PathBuf,
-        /// Background image (PNG, JPEG or TIFF); mesh coordinates are its pixels.
+        /// Background image (PNG, JPEG, TIFF or PNM); mesh coordinates are its pixels.
         #[arg(long)]
         background: Option<PathBuf>,
         /// Layers: comma list of mesh, net, constraints, points, reference, all.
@@ -148,20 +148,22 @@ enum Command {
         /// Output size without a background, e.g. 800,600.
         #[arg(long, default_value = "800,600")]
         size: String,
-        /// A 3D model (OBJ, PLY, XYZ) to draw through a 2.5D deformation.
+        /// A 3D model (OBJ, OFF, PLY, XYZ) to draw through a 2.5D deformation.
         #[arg(long)]
         model: Option<PathBuf>,
         /// With --model: `top` (the xy projection, mesh and points) or `oblique` (both z
         /// surfaces, the walls and the model, depth-sorted).
         #[arg(long, default_value = "top")]
         view: String,
+        #[command(flatten)]
+        up: model_cmd::UpArgs,
     },
     /// Move an image or points through a deformation. Images: O(q) = I(phi^-1(q)), same
     /// size, type and bit depth. Points: forward p -> phi(p), or --inverse q -> phi^-1(q).
     Warp {
         /// The deformation.
         deformation: PathBuf,
-        /// Input image (PNG, TIFF, JPEG), or an OME-Zarr image (.zarr, Zarr v2 or v3: 2D
+        /// Input image (PNG, TIFF, JPEG, PNM), or an OME-Zarr image (.zarr, Zarr v2 or v3: 2D
         /// with optional t and c axes, level 0; every (t, c) plane is warped the same way).
         #[arg(long)]
         image: Option<PathBuf>,
@@ -171,10 +173,10 @@ enum Command {
         /// Input colored triangle mesh (OBJ with vertex colours, or PLY).
         #[arg(long)]
         mesh: Option<PathBuf>,
-        /// Input 3D model (OBJ, PLY or XYZ) to move through the 2.5D deformation psi.
+        /// Input 3D model (OBJ, OFF, PLY or XYZ) to move through the 2.5D deformation psi.
         #[arg(long)]
         model: Option<PathBuf>,
-        /// Output image (.png, .tif, .jpg; .zarr for an OME-Zarr input: same axes, dtype,
+        /// Output image (.png, .tif, .jpg, .pgm, .ppm, .pam; .zarr for an OME-Zarr input: same axes, dtype,
         /// chunks and metadata, level 0 only), CSV, or (for --mesh) .png / .obj / .ply.
         #[arg(short, long)]
         output: PathBuf,
@@ -198,6 +200,8 @@ enum Command {
         /// encode) and how many pixels took each path of the inverse map.
         #[arg(long)]
         verbose: bool,
+        #[command(flatten)]
+        up: model_cmd::UpArgs,
     },
     /// Morph image A into image B through landmark pairs (src in A, dst in B): frames
     /// `frame_000.png` ... in the output folder, an animated GIF and APNG,
@@ -278,7 +282,7 @@ enum Command {
         /// Deformation or scene to edit (format v1; a scene's "model" and "image" keys are
         /// loaded too). Default: an identity over --image, or the bundled scene.
         deformation: Option<PathBuf>,
-        /// 3D model (OBJ, PLY) bound to the prism layer.
+        /// 3D model (OBJ, OFF, PLY) bound to the prism layer.
         #[arg(long)]
         model: Option<PathBuf>,
         /// Background image: the microscope frame to match.
@@ -468,7 +472,7 @@ enum Command {
 enum ModelCommand {
     /// Writes an identity 2.5D deformation (format v1 with z_range, z0, z1) around a model.
     Bind {
-        /// The 3D model (OBJ, PLY or XYZ).
+        /// The 3D model (OBJ, OFF, PLY or XYZ).
         #[arg(long)]
         model: PathBuf,
         /// Reference mesh: a 2D OBJ whose vertices have z = b (prisms over [-b, b]).
@@ -492,6 +496,8 @@ enum ModelCommand {
         /// Output deformation file.
         #[arg(short, long)]
         output: PathBuf,
+        #[command(flatten)]
+        extra: model_cmd::BindExtra,
     },
     /// Writes the bundled C. elegans-like model (20,000 triangles), its landmarks and a
     /// reference prism mesh into a folder.
@@ -594,8 +600,11 @@ pub fn run() -> i32 {
             spline_cmds::edit(&deformation, &script, &output, bounded)
         }
         Command::Check { deformation, samples } => spline_cmds::check(&deformation, samples),
-        Command::Render { deformation, output, background, size, model: Some(m), view, .. } => {
-            model_cmd::render_model(&deformation, &m, &output, background.as_deref(), &view, &size)
+        Command::Render {
+            deformation, output, background, size, model: Some(m), view, up, ..
+        } => {
+            let bg = background.as_deref();
+            model_cmd::render_model(&deformation, &m, &output, bg, &view, &size, up.up)
         }
         Command::Render { deformation, output, background, show, size, model: None, .. } => {
             spline_cmds::render(&deformation, &output, background.as_deref(), &show, &size)
@@ -609,6 +618,7 @@ pub fn run() -> i32 {
             range,
             degree,
             output,
+            extra,
         }) => model_cmd::bind_cmd(model_cmd::BindArgs {
             model: &model,
             mesh: mesh.as_deref(),
@@ -618,6 +628,7 @@ pub fn run() -> i32 {
             range: range.as_deref(),
             degree,
             output: &output,
+            extra,
         }),
         Command::Model(ModelCommand::Worm { output }) => model_cmd::worm_cmd(&output),
         Command::Colormesh { image, output, step, flat } => {
@@ -636,6 +647,7 @@ pub fn run() -> i32 {
             background,
             tolerance,
             verbose,
+            up,
         } => warp_cmd::run(warp_cmd::WarpArgs {
             deformation: &deformation,
             image: image.as_deref(),
@@ -649,6 +661,7 @@ pub fn run() -> i32 {
             background,
             tolerance,
             verbose,
+            up: up.up,
         }),
         Command::Morph {
             a,

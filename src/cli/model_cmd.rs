@@ -1,10 +1,10 @@
 //! `trimorph model bind | worm` and `trimorph warp DEF --model M -o OUT` (2.5D).
 
 use crate::exact::{parse_rat, rat_to_f64, Rat};
-use crate::io::model::{load_model, save_landmarks, save_model};
+use crate::io::model::{load_model_up, save_landmarks, save_model, save_model_up, UpAxis};
 use crate::io::{deformation, read_text, write_atomic};
 use crate::mesh::{Mesh, MeshOptions};
-use crate::prism::{auto_mesh, bind, deform, identity_layers, organism};
+use crate::prism::{auto_mesh, auto_mesh_on, bind, deform, identity_layers, organism};
 use crate::spline::Spline;
 use anyhow::{anyhow, bail, Context, Result};
 use std::io::Write;
@@ -21,25 +21,60 @@ pub struct BindArgs<'a> {
     pub range: Option<&'a str>,
     pub degree: usize,
     pub output: &'a Path,
+    pub extra: BindExtra,
 }
 
-/// A rational close to `v` on a 1/16 grid, rounded outwards (`up`) or inwards.
-fn snap16(v: f64, up: bool) -> Rat {
-    let s = v * 16.0;
+/// `--up x|y|z` of the model commands.
+#[derive(clap::Args, Debug, Clone, Copy)]
+pub struct UpArgs {
+    /// The model's up axis, the prisms' height: `x` or `y` turn the model (a cyclic
+    /// permutation of its axes) so that axis becomes z, and back on output, so written
+    /// models keep the file's axes.
+    #[arg(long, default_value = "z", value_parser = parse_up)]
+    pub up: UpAxis,
+}
+
+fn parse_up(s: &str) -> Result<UpAxis, String> {
+    s.parse()
+}
+
+/// The options of `trimorph model bind` beside the original ones.
+#[derive(clap::Args, Debug, Clone, Copy)]
+pub struct BindExtra {
+    #[command(flatten)]
+    pub up: UpArgs,
+    /// Vertex coordinates of the reference mesh (and the prism range) on multiples of 1/SNAP
+    /// (default 16, as `mesh --snap`); a unit-size model wants a finer grid, e.g. 1024.
+    #[arg(long)]
+    pub snap: Option<i64>,
+}
+
+/// A rational close to `v` on a 1/`grid` grid, rounded outwards (`up`) or inwards.
+fn snap_to(v: f64, grid: i64, up: bool) -> Rat {
+    let s = v * grid as f64;
     let k = if up { s.ceil() } else { s.floor() };
-    Rat::new((k as i64).into(), 16.into())
+    Rat::new((k as i64).into(), grid.into())
+}
+
+/// [`snap_to`] the default grid, 1/16.
+fn snap16(v: f64, up: bool) -> Rat {
+    snap_to(v, 16, up)
 }
 
 /// `trimorph model bind`: an identity 2.5D deformation around a model.
 pub fn bind_cmd(a: BindArgs) -> Result<()> {
-    let model =
-        load_model(a.model).with_context(|| format!("cannot load model {}", a.model.display()))?;
+    let grid = a.extra.snap.unwrap_or(16);
+    if !(1..=1 << 20).contains(&grid) {
+        bail!("--snap must be between 1 and 1048576 (grid steps per unit)");
+    }
+    let model = load_model_up(a.model, a.extra.up.up)
+        .with_context(|| format!("cannot load model {}", a.model.display()))?;
     let (mesh, range) = match (a.mesh, a.auto) {
         (Some(t), false) => {
             // A 2D OBJ whose vertices have z = b; the prisms span [-b, b] (thesis 18.2),
             // unless --range says otherwise.
             let text = read_text(t)?;
-            let mesh = Mesh::from_obj(&text, MeshOptions::default())
+            let mesh = Mesh::from_obj(&text, MeshOptions { grid })
                 .with_context(|| format!("cannot read the reference mesh {}", t.display()))?;
             let b = text
                 .lines()
@@ -61,7 +96,8 @@ pub fn bind_cmd(a: BindArgs) -> Result<()> {
             if !(a.margin >= 0.0 && a.margin <= 10.0) {
                 bail!("--margin is a fraction of the model's size, between 0 and 10");
             }
-            let (m, ab) = auto_mesh(&model, c, r, a.margin)?;
+            let (m, ab) = auto_mesh_on(&model, c, r, a.margin, MeshOptions { grid })
+                .with_context(|| format!("{}", a.model.display()))?;
             (m, Some(ab))
         }
         _ => bail!("give exactly one of --mesh T.obj or --auto"),
@@ -74,7 +110,7 @@ pub fn bind_cmd(a: BindArgs) -> Result<()> {
                 parse_rat(y).map_err(|e| anyhow!("--range: {e}"))?,
             )
         }
-        (None, Some([x, y])) => (snap16(x, false), snap16(y, true)),
+        (None, Some([x, y])) => (snap_to(x, grid, false), snap_to(y, grid, true)),
         (None, None) => {
             bail!("the reference mesh has no z = b > 0 on its vertices: give --range A,B")
         }
@@ -128,10 +164,10 @@ fn warn_outside(outside: &[usize]) {
 }
 
 /// `trimorph warp DEF --model M -o OUT.(obj|ply|xyz)`: the model through psi.
-pub fn warp_model(def: &Path, model_path: &Path, output: &Path) -> Result<()> {
+pub fn warp_model(def: &Path, model_path: &Path, output: &Path, up: UpAxis) -> Result<()> {
     let (s, _) = deformation::from_str(&read_text(def)?)
         .with_context(|| format!("cannot read deformation {}", def.display()))?;
-    let model = load_model(model_path)
+    let model = load_model_up(model_path, up)
         .with_context(|| format!("cannot load model {}", model_path.display()))?;
     let t = Instant::now();
     let b = bind(&model, &s)?;
@@ -139,10 +175,7 @@ pub fn warp_model(def: &Path, model_path: &Path, output: &Path) -> Result<()> {
     let t = Instant::now();
     let moved = deform(&model, &b, &s);
     let t_def = t.elapsed();
-    save_model(&model, &moved, output)?;
-    if !model.landmarks.is_empty() {
-        save_landmarks(&model, &moved, output)?;
-    }
+    save_model_up(&model, &moved, output, up)?;
     writeln!(
         std::io::stdout(),
         "{} vertices through psi (bind {:.1} ms, deform {:.1} ms) -> {}",
@@ -198,12 +231,13 @@ pub fn render_model(
     background: Option<&Path>,
     view: &str,
     size: &str,
+    up: UpAxis,
 ) -> Result<()> {
     use crate::render::deformation as rd;
     use crate::render::model::{render_model as draw, ModelRenderOptions, View};
     let (s, _) = deformation::from_str(&read_text(def)?)
         .with_context(|| format!("cannot read deformation {}", def.display()))?;
-    let model = load_model(model_path)
+    let model = load_model_up(model_path, up)
         .with_context(|| format!("cannot load model {}", model_path.display()))?;
     let view: View = view.parse()?;
     let (w, h) = size

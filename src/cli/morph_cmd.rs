@@ -4,10 +4,13 @@
 
 use super::warp_cmd::progress_bar;
 use crate::exact::matrix::rat_to_f64;
+use crate::io::folder::Staged;
 use crate::io::landmarks::read_landmarks;
 use crate::io::raster::read_stack;
 use crate::io::{deformation, read_text, write_atomic};
-use crate::morph::output::{apng_bytes, contact_sheet, frame_name, gif_bytes, png_bytes};
+use crate::morph::output::{
+    apng_bytes, contact_sheet, frame_name, gif_bytes, is_output_name, png_bytes,
+};
 use crate::morph::{times_between, FrameStats, Morph, MorphOptions, Schedule};
 use crate::spline::Spline;
 use crate::warp::Interp;
@@ -186,10 +189,11 @@ pub fn run(a: MorphArgs<'_>) -> Result<()> {
         }
     }
     ph.mark("fits");
-    std::fs::create_dir_all(a.output)
+    // All or nothing: the files go into a sibling folder swapped into place at the end, so a
+    // failed or killed morph leaves the earlier output as it was, and a shorter run leaves no
+    // stale frames (only files of the morph's own naming are replaced or removed).
+    let stage = Staged::begin(a.output, is_output_name)
         .with_context(|| format!("cannot create {}", a.output.display()))?;
-    // Leftovers of an earlier run that was killed mid-write.
-    crate::io::remove_stale_temps(a.output, crate::io::STALE_AFTER);
 
     let exact_times = times_between(a.frames, t0, t1)?;
     let mut newton_solves = 0;
@@ -280,12 +284,12 @@ pub fn run(a: MorphArgs<'_>) -> Result<()> {
     }
 
     frames.par_iter().enumerate().try_for_each(|(k, f)| -> Result<()> {
-        let p = a.output.join(frame_name(k, a.frames));
+        let p = stage.path(&frame_name(k, a.frames));
         write_atomic(&p, &png_bytes(f)?).with_context(|| format!("cannot write {}", p.display()))
     })?;
     ph.mark("png");
     let write_def = |name: &str, s: &Spline| -> Result<()> {
-        let p = a.output.join(name);
+        let p = stage.path(name);
         write_atomic(&p, deformation::to_string(s, None).as_bytes())
             .with_context(|| format!("cannot write {}", p.display()))
     };
@@ -295,16 +299,41 @@ pub fn run(a: MorphArgs<'_>) -> Result<()> {
     let gif = a.gif.map(Path::to_path_buf).unwrap_or_else(|| a.output.join("morph.gif"));
     let apng = a.apng.map(Path::to_path_buf).unwrap_or_else(|| a.output.join("morph.apng"));
     let sheet: PathBuf = a.output.join("contact-sheet.png");
-    write_atomic(&gif, &gif_bytes(&frames, a.delay_ms)?)
-        .with_context(|| format!("cannot write {}", gif.display()))?;
+    // The animations go into the folder unless --gif / --apng name another place. A place
+    // outside the folder is written before the folder is swapped in (a failure there leaves
+    // the folder as it was); a place inside it, after.
+    let target = stage.target().to_path_buf();
+    let inside = |p: &Path| {
+        let dir = p.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+        std::fs::canonicalize(dir).is_ok_and(|d| d.starts_with(&target))
+    };
+    let staged = |given: Option<&Path>, name: &str, path: &Path, bytes: &[u8]| -> Result<()> {
+        let to = match given {
+            None => stage.path(name),
+            Some(p) if !inside(p) => p.to_path_buf(),
+            Some(_) => return Ok(()),
+        };
+        write_atomic(&to, bytes).with_context(|| format!("cannot write {}", path.display()))
+    };
+    let gif_data = gif_bytes(&frames, a.delay_ms)?;
+    staged(a.gif, "morph.gif", &gif, &gif_data)?;
     ph.mark("gif");
-    write_atomic(&apng, &apng_bytes(&frames, a.delay_ms)?)
-        .with_context(|| format!("cannot write {}", apng.display()))?;
+    let apng_data = apng_bytes(&frames, a.delay_ms)?;
+    staged(a.apng, "morph.apng", &apng, &apng_data)?;
     ph.mark("apng");
+    let anims = [(a.gif, &gif, gif_data), (a.apng, &apng, apng_data)];
     let cols = a.frames.min(8);
     let pm = contact_sheet(&frames, &times, cols, 160)?;
     let bytes = pm.encode_png().map_err(|e| anyhow!("encoding the contact sheet: {e}"))?;
-    write_atomic(&sheet, &bytes).with_context(|| format!("cannot write {}", sheet.display()))?;
+    write_atomic(&stage.path("contact-sheet.png"), &bytes)
+        .with_context(|| format!("cannot write {}", sheet.display()))?;
+    stage.commit().with_context(|| format!("cannot write {}", a.output.display()))?;
+    for (given, path, bytes) in &anims {
+        if given.is_some_and(inside) {
+            write_atomic(path, bytes)
+                .with_context(|| format!("cannot write {}", path.display()))?;
+        }
+    }
     ph.mark("sheet");
     if a.timings {
         eprintln!(

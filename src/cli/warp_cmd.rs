@@ -40,6 +40,8 @@ pub struct WarpArgs<'a> {
     pub tolerance: f64,
     /// Print phase times and the pixels of each inverse-map path.
     pub verbose: bool,
+    /// The up axis of a --model.
+    pub up: crate::io::model::UpAxis,
 }
 
 /// `trimorph warp DEF --mesh IN.(obj|ply) -o OUT.(png|obj|ply)`: moves the vertices of a
@@ -177,7 +179,7 @@ pub fn run(a: WarpArgs) -> Result<()> {
         if a.image.is_some() || a.points.is_some() || a.mesh.is_some() {
             bail!("give exactly one of --image, --points, --mesh or --model");
         }
-        return super::model_cmd::warp_model(a.deformation, m, a.output);
+        return super::model_cmd::warp_model(a.deformation, m, a.output, a.up);
     }
     let text = read_text(a.deformation)?;
     let (s, _) = crate::io::deformation::from_str(&text)

@@ -26,7 +26,7 @@ pub enum FramesError {
         source: std::io::Error,
     },
     /// The folder holds no image file.
-    #[error("no image files (png, tif, jpg) in {}", path.display())]
+    #[error("no image files (png, tif, jpg, pgm, ppm, pbm, pam, pnm) in {}", path.display())]
     Empty {
         /// The folder.
         path: PathBuf,
@@ -62,7 +62,18 @@ pub fn read_frames(path: &Path) -> Result<(Vec<Frame>, Vec<bool>), FramesError> 
             .filter(|p| {
                 matches!(
                     p.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref(),
-                    Some("png" | "tif" | "tiff" | "jpg" | "jpeg")
+                    Some(
+                        "png"
+                            | "tif"
+                            | "tiff"
+                            | "jpg"
+                            | "jpeg"
+                            | "pgm"
+                            | "ppm"
+                            | "pbm"
+                            | "pam"
+                            | "pnm"
+                    )
                 )
             })
             .collect();

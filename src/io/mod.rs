@@ -6,6 +6,7 @@
 
 pub mod colormesh;
 pub mod deformation;
+pub mod folder;
 pub mod frames;
 pub mod itk;
 pub mod landmarks;
@@ -42,16 +43,31 @@ pub enum IoError {
 /// (`.NAME.PID-N.tmp`), flushed and synced, then renamed over `path`. On error the temporary
 /// file is removed and `path` is untouched.
 ///
+/// What already exists at `path` is respected (see [`Destination`]):
+/// * a regular file: the new file gets its permission bits (a `0600` file stays `0600`);
+/// * a symbolic link: the link's final target is replaced (temporary file and rename beside
+///   the target), so the link stays a link and its target gets the new content;
+/// * a file that is not a regular file (a FIFO, a character or block device, a socket): the
+///   bytes are written into it in place, without a temporary file or a rename (a rename would
+///   replace, say, `/dev/stdout` or a named pipe with a regular file).
+///
 /// A process killed between creating and renaming its temporary file leaves it behind. The
 /// first write into a folder in each process removes such leftovers (see
 /// [`remove_stale_temps`]), so an interrupted batch that is run again tidies up after itself.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), IoError> {
     let werr = |source| IoError::Write { path: path.to_path_buf(), source };
-    let dir = match path.parent() {
+    let (target, mode) = match destination(path).map_err(werr)? {
+        Destination::Special => {
+            let mut f = fs::OpenOptions::new().write(true).open(path).map_err(werr)?;
+            return f.write_all(bytes).and_then(|()| f.flush()).map_err(werr);
+        }
+        Destination::File { target, mode } => (target, mode),
+    };
+    let dir = match target.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => PathBuf::from("."),
     };
-    let Some(name) = path.file_name().map(|n| n.to_string_lossy().into_owned()) else {
+    let Some(name) = target.file_name().map(|n| n.to_string_lossy().into_owned()) else {
         let e = std::io::Error::new(std::io::ErrorKind::InvalidInput, "not a file name");
         return Err(werr(e));
     };
@@ -63,14 +79,73 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), IoError> {
     let result = (|| {
         let mut f = fs::OpenOptions::new().write(true).create_new(true).open(&tmp)?;
         f.write_all(bytes)?;
+        if let Some(perm) = mode {
+            f.set_permissions(perm)?;
+        }
         f.sync_all()?;
-        fs::rename(&tmp, path)
+        fs::rename(&tmp, &target)
     })();
     if let Err(e) = result {
         let _ = fs::remove_file(&tmp);
         return Err(werr(e));
     }
     Ok(())
+}
+
+/// What [`write_atomic`] finds at an output path.
+#[derive(Debug, PartialEq)]
+pub enum Destination {
+    /// A FIFO, device or socket (or what a symbolic link resolves to is one): written in place.
+    Special,
+    /// A regular file, or nothing yet: `target` is the path to replace (the final target of a
+    /// symbolic link, the path itself otherwise), `mode` the permissions to keep.
+    File {
+        /// The file that is replaced.
+        target: PathBuf,
+        /// The permissions of the existing file, if there is one.
+        mode: Option<fs::Permissions>,
+    },
+}
+
+/// Looks at `path` before writing it (see [`write_atomic`]). A dangling symbolic link is
+/// followed to the file it names, which is created. The kind of file is asked of the system
+/// through the whole link chain (so `/dev/stdout`, a link to `/proc/self/fd/1`, counts as the
+/// pipe or terminal it is).
+pub fn destination(path: &Path) -> std::io::Result<Destination> {
+    let Ok(meta) = fs::symlink_metadata(path) else {
+        return Ok(Destination::File { target: path.to_path_buf(), mode: None });
+    };
+    let link = meta.file_type().is_symlink();
+    let file = |mode| -> std::io::Result<Destination> {
+        let target = if link { resolve_link(path)? } else { path.to_path_buf() };
+        Ok(Destination::File { target, mode })
+    };
+    match fs::metadata(path) {
+        Ok(m) if m.is_file() => file(Some(m.permissions())),
+        // A folder: the rename fails with the system's message.
+        Ok(m) if m.is_dir() => Ok(Destination::File { target: path.to_path_buf(), mode: None }),
+        Ok(_) => Ok(Destination::Special),
+        Err(_) => file(None),
+    }
+}
+
+/// The final target of the symbolic link `path` (relative links are read from the link's
+/// folder); at most 40 links are followed, as the kernel does.
+fn resolve_link(path: &Path) -> std::io::Result<PathBuf> {
+    let mut p = path.to_path_buf();
+    for _ in 0..40 {
+        match fs::symlink_metadata(&p) {
+            Ok(m) if m.file_type().is_symlink() => {
+                let next = fs::read_link(&p)?;
+                p = match p.parent() {
+                    Some(dir) if next.is_relative() => dir.join(next),
+                    _ => next,
+                };
+            }
+            _ => return Ok(p),
+        }
+    }
+    Err(std::io::Error::other("too many levels of symbolic links"))
 }
 
 /// How long a leftover temporary file must have been untouched before
@@ -268,6 +343,33 @@ mod tests {
         assert_eq!(temp_writer("out.json.123-0.tmp"), None);
         assert_eq!(temp_writer(".out.json.x-0.tmp"), None);
         assert_eq!(temp_writer(".out.json.12-x.tmp"), None);
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn destinations_are_told_apart() {
+        use std::os::unix::fs::symlink;
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let f = d.join("f.json");
+        fs::write(&f, "x").unwrap();
+        assert!(matches!(destination(&f).unwrap(), Destination::File { mode: Some(_), .. }));
+        let none = d.join("none.json");
+        assert_eq!(destination(&none).unwrap(), Destination::File { target: none, mode: None });
+        // A chain of two links, the second relative, ends at f.json.
+        fs::create_dir(d.join("sub")).unwrap();
+        symlink("../f.json", d.join("sub/l1")).unwrap();
+        symlink(d.join("sub/l1"), d.join("l2")).unwrap();
+        let Destination::File { target, .. } = destination(&d.join("l2")).unwrap() else {
+            panic!("a link to a file is a file")
+        };
+        assert_eq!(fs::canonicalize(target).unwrap(), fs::canonicalize(&f).unwrap());
+        symlink("l3", d.join("l3")).unwrap();
+        assert!(destination(&d.join("l3")).is_err(), "a link loop is an error");
+        // Character devices are special (read only: nothing is written here).
+        if Path::new("/dev/null").exists() {
+            assert_eq!(destination(Path::new("/dev/null")).unwrap(), Destination::Special);
+        }
     }
 
     #[test]

@@ -5,13 +5,24 @@
 //!   as fans). An OBJ without faces is a point cloud. Read directly rather than with `tobj`,
 //!   which renumbers vertices in order of first use: a model keeps its file's vertex order
 //!   (landmarks and correspondences across frames depend on it).
+//! * OFF (Object File Format, <https://segeval.cs.princeton.edu/public/off_format.html>): an
+//!   optional `OFF` header line (also `COFF`, `NOFF`, `CNOFF`: per-vertex colours and normals
+//!   after `x y z` are ignored), then `nv nf ne`, `nv` lines `x y z` and `nf` lines
+//!   `n i_1 .. i_n` with 0-based indices (extra values after a face, its colour, are
+//!   ignored); `#` starts a comment. Polygons become fans, as in OBJ. Errors name the line.
 //! * PLY: ascii or binary, `vertex` with `x y z`, optional `face` (a point cloud without it).
 //! * XYZ: one point per line, `x y z` separated by spaces or commas; `#` starts a comment.
 //! * Landmarks: `M.landmarks.json` beside `M.obj` (or `.ply`, `.xyz`), an object
 //!   `{"name": [x, y, z], ...}`; each name is bound to the model vertex nearest that
 //!   position (so the file survives re-indexing by other tools).
 //!
-//! Writing: OBJ with `v`, recomputed unit normals `vn` and `f a//a b//b c//c`; binary
+//! Up axis: the prisms' height axis is `z`. A model whose up axis is `x` or `y`
+//! ([`UpAxis`]) is turned on loading by the cyclic permutation that takes that axis to `z`
+//! (a rotation, so faces keep their orientation), and turned back on saving, so written
+//! models keep the file's axes.
+//!
+//! Writing: OBJ with `v`, recomputed unit normals `vn` and `f a//a b//b c//c`; OFF with
+//! `OFF`, counts, vertices and triangles; binary
 //! little-endian PLY with `x y z nx ny nz` and faces; XYZ for point clouds. Every file is
 //! written atomically.
 
@@ -39,7 +50,7 @@ pub enum ModelIoError {
     #[error(transparent)]
     Ply(#[from] crate::warp::colormesh::ColorMeshError),
     /// Unknown extension.
-    #[error("{0}: unknown model format (use .obj, .ply or .xyz)")]
+    #[error("{0}: unknown model format (use .obj, .off, .ply or .xyz)")]
     Extension(PathBuf),
 }
 
@@ -75,6 +86,7 @@ pub fn load_model(path: &Path) -> Result<Model, ModelIoError> {
 pub fn parse_model(bytes: &[u8], path: &Path) -> Result<Model, ModelIoError> {
     let model = match ext(path).as_deref() {
         Some("obj") => read_obj(bytes, path)?,
+        Some("off") => read_off(bytes, path)?,
         Some("ply") => {
             let raw = crate::io::colormesh::read_ply_raw(bytes, path, false)?;
             Model { vertices: raw.vertices, triangles: raw.triangles, landmarks: Vec::new() }
@@ -152,6 +164,157 @@ fn read_obj(bytes: &[u8], path: &Path) -> Result<Model, ModelIoError> {
     Ok(model)
 }
 
+fn read_off(bytes: &[u8], path: &Path) -> Result<Model, ModelIoError> {
+    let text = std::str::from_utf8(bytes).map_err(|_| fmt_err(path, None, "not UTF-8 text"))?;
+    // Content lines (1-based number, tokens) without comments and blank lines.
+    let mut lines = text.lines().enumerate().filter_map(|(n, l)| {
+        let t: Vec<&str> = l.split('#').next().unwrap_or("").split_whitespace().collect();
+        (!t.is_empty()).then_some((n + 1, t))
+    });
+    let num = |line: usize, t: &str| -> Result<f64, ModelIoError> {
+        t.parse::<f64>()
+            .ok()
+            .filter(|v| v.is_finite())
+            .ok_or_else(|| fmt_err(path, Some(line), format!("`{t}` is not a finite number")))
+    };
+    let count = |line: usize, t: &str| -> Result<usize, ModelIoError> {
+        t.parse::<usize>().map_err(|_| {
+            fmt_err(path, Some(line), format!("`{t}` is not a count (a whole number >= 0)"))
+        })
+    };
+    let (mut line, mut t) =
+        lines.next().ok_or_else(|| fmt_err(path, None, "empty file (expected `OFF`)"))?;
+    // The header keyword, alone or followed by the counts on the same line.
+    if t[0].ends_with("OFF") {
+        if t.len() == 1 {
+            (line, t) = lines
+                .next()
+                .ok_or_else(|| fmt_err(path, Some(line), "expected the counts `nv nf ne`"))?;
+        } else {
+            t.remove(0);
+        }
+    }
+    if t.len() < 2 {
+        return Err(fmt_err(path, Some(line), "expected the counts `nv nf ne`"));
+    }
+    let (nv, nf) = (count(line, t[0])?, count(line, t[1])?);
+    // Each vertex and face takes at least a few bytes: counts beyond the file are refused
+    // before anything is reserved.
+    if nv.saturating_add(nf) > bytes.len() {
+        return Err(fmt_err(
+            path,
+            Some(line),
+            format!("{nv} vertices and {nf} faces cannot fit in {} bytes", bytes.len()),
+        ));
+    }
+    let mut model = Model::default();
+    model.vertices.reserve(nv);
+    let eof = |what: &str, k: usize| {
+        fmt_err(path, None, format!("the file ends before {what} {k} (truncated?)"))
+    };
+    for k in 0..nv {
+        let (line, t) = lines.next().ok_or_else(|| eof("vertex", k))?;
+        if t.len() < 3 {
+            return Err(fmt_err(path, Some(line), format!("vertex {k}: expected `x y z`")));
+        }
+        model.vertices.push([num(line, t[0])?, num(line, t[1])?, num(line, t[2])?]);
+    }
+    for k in 0..nf {
+        let (line, t) = lines.next().ok_or_else(|| eof("face", k))?;
+        let n = count(line, t[0])?;
+        if n < 3 || t.len() < n + 1 {
+            return Err(fmt_err(
+                path,
+                Some(line),
+                format!("face {k}: expected `n i_1 .. i_n` with n >= 3 vertex indices"),
+            ));
+        }
+        let idx: Vec<u32> = t[1..=n]
+            .iter()
+            .map(|s| {
+                s.parse::<usize>().ok().filter(|&i| i < nv).map(|i| i as u32).ok_or_else(|| {
+                    fmt_err(
+                        path,
+                        Some(line),
+                        format!("face {k}: vertex index `{s}` out of range ({nv} vertices)"),
+                    )
+                })
+            })
+            .collect::<Result<_, _>>()?;
+        for j in 1..n - 1 {
+            model.triangles.push([idx[0], idx[j], idx[j + 1]]);
+        }
+    }
+    Ok(model)
+}
+
+/// The axis of a model that points up (the prisms' height axis `z` after loading).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum UpAxis {
+    /// `x` is up: `(x, y, z)` is read as `(y, z, x)`.
+    X,
+    /// `y` is up: `(x, y, z)` is read as `(z, x, y)`.
+    Y,
+    /// `z` is up (no change).
+    #[default]
+    Z,
+}
+
+impl std::str::FromStr for UpAxis {
+    type Err = String;
+    fn from_str(s: &str) -> Result<UpAxis, String> {
+        match s.to_ascii_lowercase().as_str() {
+            "x" => Ok(UpAxis::X),
+            "y" => Ok(UpAxis::Y),
+            "z" => Ok(UpAxis::Z),
+            _ => Err(format!("`{s}`: the up axis is x, y or z")),
+        }
+    }
+}
+
+impl UpAxis {
+    /// A point of the file in the z-up frame (a cyclic permutation of the coordinates).
+    pub fn to_z_up(self, [x, y, z]: [f64; 3]) -> [f64; 3] {
+        match self {
+            UpAxis::X => [y, z, x],
+            UpAxis::Y => [z, x, y],
+            UpAxis::Z => [x, y, z],
+        }
+    }
+
+    /// The inverse of [`UpAxis::to_z_up`]: a z-up point in the file's axes.
+    pub fn from_z_up(self, [a, b, c]: [f64; 3]) -> [f64; 3] {
+        match self {
+            UpAxis::X => [c, a, b],
+            UpAxis::Y => [b, c, a],
+            UpAxis::Z => [a, b, c],
+        }
+    }
+}
+
+/// [`load_model`], turned so that `up` becomes `z`.
+pub fn load_model_up(path: &Path, up: UpAxis) -> Result<Model, ModelIoError> {
+    let mut m = load_model(path)?;
+    m.vertices.iter_mut().for_each(|v| *v = up.to_z_up(*v));
+    Ok(m)
+}
+
+/// [`save_model`] (and the landmark sidecar when the model has landmarks) of z-up
+/// `vertices`, turned back so that `z` becomes `up` in the file.
+pub fn save_model_up(
+    model: &Model,
+    vertices: &[[f64; 3]],
+    path: &Path,
+    up: UpAxis,
+) -> Result<(), ModelIoError> {
+    let file: Vec<[f64; 3]> = vertices.iter().map(|&v| up.from_z_up(v)).collect();
+    save_model(model, &file, path)?;
+    if !model.landmarks.is_empty() {
+        save_landmarks(model, &file, path)?;
+    }
+    Ok(())
+}
+
 fn read_xyz(bytes: &[u8], path: &Path) -> Result<Model, ModelIoError> {
     let text = std::str::from_utf8(bytes).map_err(|_| fmt_err(path, None, "not UTF-8 text"))?;
     let mut vertices = Vec::new();
@@ -219,7 +382,7 @@ pub fn save_landmarks(
 }
 
 /// Saves `model`'s topology with the given vertex positions (e.g. deformed), with
-/// recomputed normals; the format follows the extension (`.obj`, `.ply`, `.xyz`).
+/// recomputed normals; the format follows the extension (`.obj`, `.off`, `.ply`, `.xyz`).
 pub fn save_model(model: &Model, vertices: &[[f64; 3]], path: &Path) -> Result<(), ModelIoError> {
     use std::fmt::Write as _;
     let normals = vertex_normals(vertices, &model.triangles);
@@ -263,6 +426,18 @@ pub fn save_model(model: &Model, vertices: &[[f64; 3]], path: &Path) -> Result<(
                 }
             }
             out
+        }
+        Some("off") => {
+            let mut s = String::with_capacity(vertices.len() * 60 + model.triangles.len() * 20);
+            s.push_str("OFF\n# written by trimorph\n");
+            let _ = writeln!(s, "{} {} 0", vertices.len(), model.triangles.len());
+            for v in vertices {
+                let _ = writeln!(s, "{} {} {}", v[0], v[1], v[2]);
+            }
+            for [a, b, c] in &model.triangles {
+                let _ = writeln!(s, "3 {a} {b} {c}");
+            }
+            s.into_bytes()
         }
         Some("xyz") => {
             let mut s = String::new();
@@ -321,6 +496,73 @@ mod tests {
         save_model(&Model { vertices: w.vertices.clone(), ..Default::default() }, &w.vertices, &p)
             .unwrap();
         assert_eq!(load_model(&p).unwrap().vertices, w.vertices);
+    }
+
+    #[test]
+    fn off_models_read_like_obj_and_round_trip() {
+        let dir = tempfile::tempdir().unwrap();
+        let off = dir.path().join("q.off");
+        // A unit square as one quad, with a comment, a colour after the face, counts on the
+        // header line.
+        std::fs::write(
+            &off,
+            "OFF 4 1 0\n# corners\n0 0 0\n1 0 0\n1 1 0.5\n0 1 0\n4 0 1 2 3 255 0 0\n",
+        )
+        .unwrap();
+        let obj = dir.path().join("q.obj");
+        std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nv 1 1 0.5\nv 0 1 0\nf 1 2 3 4\n").unwrap();
+        let (a, b) = (load_model(&off).unwrap(), load_model(&obj).unwrap());
+        assert_eq!(a.vertices, b.vertices);
+        assert_eq!(a.triangles, b.triangles);
+        let w = worm(&WormOptions { rings: 6, around: 5, ..Default::default() });
+        let p = dir.path().join("w.off");
+        save_model(&w, &w.vertices, &p).unwrap();
+        let back = load_model(&p).unwrap();
+        assert_eq!((back.vertices, back.triangles), (w.vertices, w.triangles));
+    }
+
+    #[test]
+    fn malformed_off_files_name_file_and_line() {
+        let dir = tempfile::tempdir().unwrap();
+        for (name, text, want) in [
+            ("a.off", "OFF\n3 1 0\n0 0 0\n1 x 0\n0 1 0\n3 0 1 2\n", "a.off, line 4: `x`"),
+            (
+                "b.off",
+                "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n",
+                "line 6: face 0: vertex index `7`",
+            ),
+            ("c.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n", "ends before vertex 2"),
+            ("d.off", "OFF\n9999999 0 0\n", "cannot fit"),
+            ("e.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n2 0 1\n", "line 6: face 0: expected"),
+            ("f.off", "", "empty file"),
+        ] {
+            let p = dir.path().join(name);
+            std::fs::write(&p, text).unwrap();
+            let e = load_model(&p).unwrap_err().to_string();
+            assert!(e.contains(want) && e.contains(name), "{name}: {e}");
+        }
+    }
+
+    #[test]
+    fn up_axes_are_rotations_and_round_trip() {
+        let p = [1.0, 2.0, 3.0];
+        assert_eq!(UpAxis::X.to_z_up(p)[2], 1.0);
+        assert_eq!(UpAxis::Y.to_z_up(p)[2], 2.0);
+        assert_eq!(UpAxis::Z.to_z_up(p), p);
+        for up in [UpAxis::X, UpAxis::Y, UpAxis::Z] {
+            assert_eq!(up.from_z_up(up.to_z_up(p)), p);
+            // Orientation kept: e_x x e_y = e_z still holds after the turn.
+            let [ex, ey, ez] =
+                [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]].map(|v| up.to_z_up(v));
+            let cross = [
+                ex[1] * ey[2] - ex[2] * ey[1],
+                ex[2] * ey[0] - ex[0] * ey[2],
+                ex[0] * ey[1] - ex[1] * ey[0],
+            ];
+            assert_eq!(cross, ez);
+        }
+        assert_eq!("Y".parse::<UpAxis>(), Ok(UpAxis::Y));
+        assert!("w".parse::<UpAxis>().is_err());
     }
 
     #[test]

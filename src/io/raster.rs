@@ -1,6 +1,7 @@
 //! Reading and writing images, including multi-page TIFF stacks.
 //!
-//! A [`Stack`] is one or more pages of one size and type. PNG and JPEG files hold one page;
+//! A [`Stack`] is one or more pages of one size and type. PNG, JPEG and Netpbm files (PGM,
+//! PPM, PBM, PAM: <https://netpbm.sourceforge.net/doc/pnm.html>) hold one page;
 //! TIFF files hold any number, read and written page by page with the `tiff` crate. Types
 //! kept exactly: 8- and 16-bit gray, gray+alpha, RGB and RGBA, and 32-bit float gray, RGB
 //! and RGBA. Float gray pages are held as RGB float with three equal channels (the `image`
@@ -23,7 +24,7 @@ pub enum RasterError {
     Io(#[from] IoError),
     /// The file could not be decoded.
     #[error(
-        "{path}: cannot decode image: {reason} (is the file complete, and a PNG, TIFF or JPEG?)"
+        "{path}: cannot decode image: {reason} (is the file complete, and a PNG, TIFF, JPEG or PNM?)"
     )]
     Decode {
         /// The file.
@@ -108,7 +109,7 @@ pub fn read_stack(path: &Path) -> Result<Stack, RasterError> {
         .with_guessed_format()
         .map_err(|e| derr(e.to_string()))?;
     if reader.format().is_none() {
-        return Err(derr("unknown image format (use PNG, TIFF or JPEG)".into()));
+        return Err(derr("unknown image format (use PNG, TIFF, JPEG or PNM)".into()));
     }
     let (w, h) = reader.into_dimensions().map_err(|e| derr(e.to_string()))?;
     check_size(path, 0, w, h)?;
@@ -308,8 +309,8 @@ fn jpeg_is_complete(bytes: &[u8]) -> bool {
     }
 }
 
-/// Writes a stack atomically: TIFF (any number of pages, types kept), or PNG / JPEG (one
-/// page; JPEG holds 8-bit gray and RGB only).
+/// Writes a stack atomically: TIFF (any number of pages, types kept), or PNG / JPEG / PNM (one
+/// page; JPEG holds 8-bit gray and RGB only; PNM as the extension says, see `encode_pnm`).
 pub fn write_stack(path: &Path, stack: &Stack) -> Result<(), RasterError> {
     let eerr = |reason: String| RasterError::Encode { path: path.to_path_buf(), reason };
     let bytes = if is_tiff(path) {
@@ -321,12 +322,17 @@ pub fn write_stack(path: &Path, stack: &Stack) -> Result<(), RasterError> {
                 stack.pages.len()
             )));
         }
-        let fmt = ImageFormat::from_path(path)
-            .map_err(|_| eerr("unknown image extension (use .png, .tif or .jpg)".into()))?;
+        let fmt = ImageFormat::from_path(path).map_err(|_| {
+            eerr("unknown image extension (use .png, .tif, .jpg, .pgm, .ppm or .pam)".into())
+        })?;
         let page = &stack.pages[0];
-        let mut out = Cursor::new(Vec::new());
-        page.write_to(&mut out, fmt).map_err(|e| eerr(e.to_string()))?;
-        out.into_inner()
+        if fmt == ImageFormat::Pnm {
+            encode_pnm(path, page, stack.gray_float).map_err(eerr)?
+        } else {
+            let mut out = Cursor::new(Vec::new());
+            page.write_to(&mut out, fmt).map_err(|e| eerr(e.to_string()))?;
+            out.into_inner()
+        }
     };
     write_atomic(path, &bytes)?;
     Ok(())
@@ -335,6 +341,55 @@ pub fn write_stack(path: &Path, stack: &Stack) -> Result<(), RasterError> {
 /// Classic TIFF addresses at most 4 GiB; larger stacks are written as BigTIFF (which
 /// Fiji, tifffile and libtiff read), with a margin for the directories.
 const CLASSIC_TIFF_MAX: u64 = (4 << 30) - (16 << 20);
+
+/// One page as the Netpbm type the extension names (binary samples, 16-bit big-endian):
+/// `.pgm` 8- or 16-bit gray (P5), `.ppm` 8-bit RGB (P6), `.pam` any integer type (P7), `.pnm`
+/// whichever of PGM and PPM holds the page. Other types are refused with the format to use.
+fn encode_pnm(path: &Path, page: &DynamicImage, gray_float: bool) -> Result<Vec<u8>, String> {
+    use image::codecs::pnm::{GraymapHeader, PixmapHeader, PnmEncoder, PnmHeader, SampleEncoding};
+    use image::ImageEncoder;
+    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+    let (w, h) = (page.width(), page.height());
+    let kind = if gray_float { "float gray".to_string() } else { format!("{:?}", page.color()) };
+    let gray = |maxwhite| -> PnmHeader {
+        GraymapHeader { encoding: SampleEncoding::Binary, width: w, height: h, maxwhite }.into()
+    };
+    let rgb8: PnmHeader =
+        PixmapHeader { encoding: SampleEncoding::Binary, width: w, height: h, maxval: 255 }.into();
+    let header = match (ext.as_str(), page) {
+        ("pgm" | "pnm", DynamicImage::ImageLuma8(_)) => Some(gray(255)),
+        ("pgm" | "pnm", DynamicImage::ImageLuma16(_)) => Some(gray(65535)),
+        ("ppm" | "pnm", DynamicImage::ImageRgb8(_)) => Some(rgb8),
+        ("pam", p)
+            if !matches!(p, DynamicImage::ImageRgb32F(_) | DynamicImage::ImageRgba32F(_)) =>
+        {
+            None
+        }
+        ("pgm", _) => {
+            return Err(format!(
+                "a PGM holds 8- or 16-bit gray, not {kind} (use .ppm, .pam, .png or .tif)"
+            ))
+        }
+        ("ppm", _) => {
+            return Err(format!("a PPM holds 8-bit RGB, not {kind} (use .pam, .png or .tif)"))
+        }
+        ("pnm", _) => {
+            return Err(format!(
+                "a PNM holds 8- or 16-bit gray or 8-bit RGB, not {kind} (use .pam, .png or .tif)"
+            ))
+        }
+        ("pam", _) => return Err(format!("a PAM holds integer samples, not {kind} (use .tif)")),
+        _ => return Err("a PBM holds black and white only; write .pgm for gray".into()),
+    };
+    let mut out = Vec::new();
+    let enc = PnmEncoder::new(&mut out);
+    let enc = match header {
+        Some(hd) => enc.with_header(hd),
+        None => enc.with_subtype(image::codecs::pnm::PnmSubtype::ArbitraryMap),
+    };
+    enc.write_image(page.as_bytes(), w, h, page.color().into()).map_err(|e| e.to_string())?;
+    Ok(out)
+}
 
 fn encode_tiff(stack: &Stack) -> Result<Vec<u8>, tiff::TiffError> {
     encode_tiff_above(stack, CLASSIC_TIFF_MAX)

@@ -30,6 +30,22 @@ pub fn frame_name(k: usize, n: usize) -> String {
     format!("frame_{k:0digits$}.png")
 }
 
+/// Whether `name` is a file `trimorph morph` writes into its output folder: a frame
+/// (`frame_` digits `.png`), `phi_ab.json`, `phi_ba.json`, `morph.gif`, `morph.apng` or
+/// `contact-sheet.png`. Only these are replaced or removed when a morph rewrites a folder
+/// ([`crate::io::folder`]).
+pub fn is_output_name(name: &str) -> bool {
+    let frame = name
+        .strip_prefix("frame_")
+        .and_then(|r| r.strip_suffix(".png"))
+        .is_some_and(|d| !d.is_empty() && d.bytes().all(|b| b.is_ascii_digit()));
+    frame
+        || matches!(
+            name,
+            "phi_ab.json" | "phi_ba.json" | "morph.gif" | "morph.apng" | "contact-sheet.png"
+        )
+}
+
 /// A frame as PNG bytes (its own type and bit depth).
 pub fn png_bytes(img: &DynamicImage) -> Result<Vec<u8>, EncodeError> {
     let mut buf = Cursor::new(Vec::new());

@@ -258,6 +258,9 @@ fn animations_decode_with_every_frame() {
     assert_eq!(n, 4);
     assert_eq!(output::frame_name(7, 30), "frame_007.png");
     assert_eq!(output::frame_name(7, 1500), "frame_0007.png");
+    assert!(output::is_output_name("frame_007.png") && output::is_output_name("morph.gif"));
+    assert!(!output::is_output_name("frame_.png") && !output::is_output_name("frame_x.png"));
+    assert!(!output::is_output_name("notes.txt") && !output::is_output_name("frame_1.png.bak"));
     let sheet = output::contact_sheet(&frames, &frame_times(4), 2, 20).unwrap();
     assert!(sheet.width() > 40 && sheet.height() > 20);
 }

@@ -167,16 +167,29 @@ pub fn auto_mesh(
     rows: usize,
     margin: f64,
 ) -> Result<(Mesh, [f64; 2]), PrismError> {
+    auto_mesh_on(model, cols, rows, margin, MeshOptions::default())
+}
+
+/// [`auto_mesh`] with the mesh's vertices snapped to the grid of `opts` (1/`opts.grid`)
+/// instead of the default 1/16: a model a few units across wants a finer grid, or its cells
+/// come out uneven.
+pub fn auto_mesh_on(
+    model: &Model,
+    cols: usize,
+    rows: usize,
+    margin: f64,
+    opts: MeshOptions,
+) -> Result<(Mesh, [f64; 2]), PrismError> {
     model.validate()?;
     let (lo, hi) = model.bbox();
     let size = (hi[0] - lo[0]).max(hi[1] - lo[1]).max(hi[2] - lo[2]).max(1e-9);
     let m = margin.max(0.0) * size;
     let (x0, y0) = (lo[0] - m, lo[1] - m);
     let (w, h) = (hi[0] - lo[0] + 2.0 * m, hi[1] - lo[1] + 2.0 * m);
-    let mesh = Mesh::grid(cols.max(1), rows.max(1), w, h, MeshOptions::default())?;
+    let mesh = Mesh::grid(cols.max(1), rows.max(1), w, h, opts)?;
     // Translate the grid to the box (grid vertices start at the origin).
     let verts: Vec<[f64; 2]> = mesh.vertices().iter().map(|v| [v[0] + x0, v[1] + y0]).collect();
-    let mesh = Mesh::from_triangles(&verts, mesh.triangles(), MeshOptions::default())?;
+    let mesh = Mesh::from_triangles(&verts, mesh.triangles(), opts)?;
     let zm = m.max(1e-6 * size);
     Ok((mesh, [lo[2] - zm, hi[2] + zm]))
 }

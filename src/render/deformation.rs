@@ -19,10 +19,8 @@
 //! meshes stay readable. A small legend in the corner covering the least of the drawing lists
 //! the layers shown.
 
-use std::fs::{self, OpenOptions};
-use std::io::{self, Write};
+use std::io;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU64, Ordering};
 
 use rayon::prelude::*;
 use tiny_skia::{
@@ -167,7 +165,7 @@ pub enum RenderError {
     Model(String),
 }
 
-/// Reads a PNG, JPEG or TIFF image (8- or 16-bit gray, gray + alpha, RGB or RGBA; 16-bit
+/// Reads a PNG, JPEG, TIFF or PNM image (8- or 16-bit gray, gray + alpha, RGB or RGBA; 16-bit
 /// samples are scaled to 8 bits) into an RGBA pixmap, for use as a background. The format is
 /// detected from the content, not the file name.
 pub fn load_background(path: &Path) -> Result<Pixmap, RenderError> {
@@ -181,7 +179,7 @@ pub fn load_background(path: &Path) -> Result<Pixmap, RenderError> {
     limits.max_image_height = Some(MAX_SIZE);
     reader.limits(limits);
     if reader.format().is_none() {
-        return Err(err("unrecognised image format (expected PNG, JPEG or TIFF)".into()));
+        return Err(err("unrecognised image format (expected PNG, JPEG, TIFF or PNM)".into()));
     }
     let limit_err = |e: image::ImageError| match e {
         image::ImageError::Limits(_) => err(format!(
@@ -317,29 +315,21 @@ pub(super) fn blank(width: u32, height: u32) -> Result<Pixmap, RenderError> {
     Ok(pm)
 }
 
-/// Writes `pixmap` as a PNG file at `path`: encoded, written and synced to a uniquely named
-/// temporary file in the same directory, then renamed over `path`, so `path` never holds a
-/// half-written file. On failure the temporary file is removed.
+/// Writes `pixmap` as a PNG file at `path` with [`crate::io::write_atomic`]: encoded, written
+/// and synced to a uniquely named temporary file in the same directory, then renamed over
+/// `path`, so `path` never holds a half-written file (FIFOs and devices are written in
+/// place, symbolic links and permissions are kept). On failure the temporary file is removed.
 pub fn save_png(pixmap: &Pixmap, path: &Path) -> Result<(), RenderError> {
-    static COUNTER: AtomicU64 = AtomicU64::new(0);
     let bytes = pixmap.encode_png().map_err(|e| RenderError::Encode(e.to_string()))?;
-    let io_err = |source| RenderError::Io { path: path.to_path_buf(), source };
-    let Some(name) = path.file_name() else {
-        return Err(io_err(io::Error::new(io::ErrorKind::InvalidInput, "no file name")));
-    };
-    let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    let n = COUNTER.fetch_add(1, Ordering::Relaxed);
-    let tmp = dir.join(format!(".{}.{}-{n}.tmp", name.to_string_lossy(), std::process::id()));
-    let result = OpenOptions::new().write(true).create_new(true).open(&tmp).and_then(|mut f| {
-        let written = f.write_all(&bytes).and_then(|()| f.sync_all());
-        drop(f);
-        let renamed = written.and_then(|()| fs::rename(&tmp, path));
-        if renamed.is_err() {
-            let _ = fs::remove_file(&tmp);
+    if path.file_name().is_none() {
+        let source = io::Error::new(io::ErrorKind::InvalidInput, "no file name");
+        return Err(RenderError::Io { path: path.to_path_buf(), source });
+    }
+    crate::io::write_atomic(path, &bytes).map_err(|e| match e {
+        crate::io::IoError::Write { path, source } | crate::io::IoError::Read { path, source } => {
+            RenderError::Io { path, source }
         }
-        renamed
-    });
-    result.map_err(io_err)
+    })
 }
 
 /// phi along mesh edge `e` at `n + 1` equally spaced parameters, evaluated exactly on the

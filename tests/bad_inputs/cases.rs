@@ -316,6 +316,14 @@ pub fn cases() -> Vec<Case> {
         },
         Case { id: "model_empty", setup: |fx, id| model(fx, id, "obj", b"# nothing\n") },
         Case {
+            id: "model_off_index",
+            setup: |fx, id| model(fx, id, "off", b"OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n"),
+        },
+        Case {
+            id: "model_off_truncated",
+            setup: |fx, id| model(fx, id, "off", b"OFF\n# a triangle\n3 1 0\n0 0 0\n1 0 0\n"),
+        },
+        Case {
             id: "model_ply_truncated",
             setup: |fx, id| {
                 model(
@@ -440,6 +448,23 @@ pub fn cases() -> Vec<Case> {
             setup: |fx, id| {
                 let b = fs::read(&fx.image).unwrap();
                 warp_image(fx, id, "png", &b[..b.len() / 2])
+            },
+        },
+        Case {
+            id: "img_truncated_pnm",
+            setup: |fx, id| {
+                let mut b = b"P5\n40 40\n255\n".to_vec();
+                b.extend(std::iter::repeat_n(9u8, 40 * 20));
+                warp_image(fx, id, "pgm", &b)
+            },
+        },
+        Case {
+            id: "img_pgm_color",
+            setup: |fx, id| {
+                let p = fx.dir.join(format!("{id}.png"));
+                image::RgbImage::from_pixel(40, 40, image::Rgb([1, 2, 3])).save(&p).unwrap();
+                let out = fx.dir.join(format!("{id}.pgm"));
+                (args(&["warp", s(&fx.def), "--image", s(&p), "-o", s(&out)]), out)
             },
         },
         Case { id: "img_zero", setup: |fx, id| warp_image(fx, id, "png", &png_header(0, 0)) },
