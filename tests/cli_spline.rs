@@ -29,7 +29,11 @@ fn grid_mesh_counts_and_identity_check() {
     assert_eq!(doc["patches"][0].as_array().unwrap().len(), 21);
     let rep = check(&out);
     assert_eq!(rep["c1_conditions"], 40);
-    let res = rep["c1_residuals"].as_array().unwrap();
+    assert!(rep.get("c1_residuals").is_none(), "the list only with --residuals");
+    let o = trimorph(&["check", out.to_str().unwrap(), "--residuals"]);
+    ok(&o);
+    let full: Value = serde_json::from_slice(&o.stdout).unwrap();
+    let res = full["c1_residuals"].as_array().unwrap();
     assert_eq!(res.len(), 40);
     assert!(res.iter().all(|r| r == &json!(["0", "0"])));
     assert_eq!(rep["c1_holds"], true);
@@ -237,7 +241,43 @@ fn unsolvable_or_bad_scripts_write_nothing() {
     assert_eq!(r.status.code(), Some(1));
     let rep: Value = serde_json::from_slice(&r.stdout).unwrap();
     assert_eq!(rep["c1_holds"], false);
-    assert!(rep["c1_nonzero_residuals"].as_u64().unwrap() > 0);
+    let n = rep["c1_nonzero_residuals"].as_u64().unwrap();
+    assert!(n > 0);
+    let err = String::from_utf8_lossy(&r.stderr);
+    let total = rep["c1_conditions"].as_u64().unwrap();
+    assert!(err.contains(&format!("C1 FAILS ({n} of {total} conditions nonzero")), "{err}");
+}
+
+/// `check` prints thousands of `"0"` lines no more: the JSON keeps every key but
+/// `c1_residuals` (only with `--residuals`), and stderr has one summary line with the C1
+/// verdict and count, the fold-free verdict, the sampled minimum and the certified bound.
+#[test]
+fn check_prints_a_one_line_summary_and_residuals_on_request() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("id.json");
+    ok(&trimorph(&["mesh", "--grid", "8x6", "--size", "160,120", "-o", out.to_str().unwrap()]));
+    let short = trimorph(&["check", out.to_str().unwrap()]);
+    ok(&short);
+    let stdout = String::from_utf8_lossy(&short.stdout);
+    assert!(stdout.lines().count() < 40, "{stdout}");
+    let rep: Value = serde_json::from_str(&stdout).unwrap();
+    let err = String::from_utf8_lossy(&short.stderr);
+    let lines: Vec<&str> = err.lines().collect();
+    assert_eq!(lines.len(), 1, "{err}");
+    let n = rep["c1_conditions"].as_u64().unwrap();
+    assert!(n > 300);
+    let line = lines[0];
+    assert!(line.starts_with(&format!("{}: C1 holds ({n} of {n}", out.display())), "{line}");
+    assert!(line.contains("certified fold-free") && !line.contains("NOT"), "{line}");
+    let lb = rep["det_j_lower_bound"].as_f64().unwrap();
+    assert!(line.contains(&format!("sampled min {:.6}", rep["min_jacobian_det"].as_f64().unwrap())));
+    assert!(line.contains(&format!("certified lower bound {lb:.6}")), "{line}");
+    let full = trimorph(&["check", out.to_str().unwrap(), "--residuals"]);
+    ok(&full);
+    let mut full: Value = serde_json::from_slice(&full.stdout).unwrap();
+    let list = full.as_object_mut().unwrap().remove("c1_residuals").unwrap();
+    assert_eq!(list.as_array().unwrap().len() as u64, n);
+    assert_eq!(full, rep, "every other key is the same with and without --residuals");
 }
 
 #[test]
@@ -372,4 +412,77 @@ fn check_refuses_a_sample_count_that_would_never_finish() {
     assert_eq!(o.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&o.stderr).contains("at most 1000 samples"));
     ok(&trimorph(&["check", def.to_str().unwrap(), "--samples", "1000"]));
+}
+
+/// A deformation file of the shift `phi(p) = p + b` on a 3 x 2 grid over `[0, w] x [0, h]`.
+fn shifted_file(dir: &Path, w: f64, h: f64, b: [i64; 2]) -> std::path::PathBuf {
+    use trimorph::exact::{rat_int, Rat};
+    let mesh = trimorph::mesh::Mesh::grid(3, 2, w, h, Default::default()).unwrap();
+    let id = trimorph::spline::Spline::identity(mesh.clone(), 5).unwrap();
+    let pts: Vec<Vec<Rat>> =
+        id.points().iter().map(|p| vec![&p[0] + rat_int(b[0]), &p[1] + rat_int(b[1])]).collect();
+    let s = trimorph::spline::Spline::from_points(mesh, 5, pts, None).unwrap();
+    let path = dir.join("shift.json");
+    std::fs::write(&path, trimorph::io::deformation::to_string(&s, None)).unwrap();
+    path
+}
+
+/// `render --landmarks`: the source as an orange cross, phi(source) as a green dot, the target
+/// as a magenta ring and the residual line between them, at their pixels over a background;
+/// the same landmarks as JSON draw the same picture; with `--model` it is refused.
+#[test]
+fn render_draws_landmarks_where_they_are() {
+    use trimorph::render::deformation::{LM_MAPPED, LM_RESIDUAL, LM_SOURCE, LM_TARGET};
+    let dir = tempfile::tempdir().unwrap();
+    let def = shifted_file(dir.path(), 300.0, 200.0, [20, 10]);
+    let bg = dir.path().join("black.png");
+    image::RgbaImage::from_pixel(400, 300, image::Rgba([0, 0, 0, 255])).save(&bg).unwrap();
+    let lms = dir.path().join("l.csv");
+    std::fs::write(&lms, "name,src_x,src_y,dst_x,dst_y\na,150,100,210,160\nb,100,150,90,200\n")
+        .unwrap();
+    let draw = |extra: &[&str], name: &str| {
+        let out = dir.path().join(name);
+        let mut args = vec!["render", s(&def), "-o", s(&out), "--background", s(&bg)];
+        args.extend_from_slice(&["--show", "mesh"]);
+        args.extend_from_slice(extra);
+        ok(&trimorph(&args));
+        image::open(&out).unwrap().to_rgb8()
+    };
+    let with = draw(&["--landmarks", s(&lms)], "with.png");
+    let without = draw(&[], "without.png");
+    let near = |img: &image::RgbImage, (x, y): (u32, u32), c: [u8; 4], r: u32| {
+        let close = |p: &image::Rgb<u8>| (0..3).all(|k| p.0[k].abs_diff(c[k]) <= 40);
+        (y - r..=y + r).any(|yy| (x - r..=x + r).any(|xx| close(img.get_pixel(xx, yy))))
+    };
+    // phi(s) = s + (20, 10); targets as given; the midpoint of each residual line.
+    let checks = [
+        ("phi(a)", (170, 110), LM_MAPPED, 0),
+        ("phi(b)", (120, 160), LM_MAPPED, 0),
+        ("source a", (150, 100), LM_SOURCE, 1),
+        ("source b", (100, 150), LM_SOURCE, 1),
+        ("target a", (215, 160), LM_TARGET, 1),
+        ("target b", (90, 205), LM_TARGET, 1),
+        ("residual a", (190, 135), LM_RESIDUAL, 1),
+        ("residual b", (105, 180), LM_RESIDUAL, 1),
+    ];
+    for (what, at, c, r) in checks {
+        assert!(near(&with, at, c, r), "{what}: {:?} at {at:?}", with.get_pixel(at.0, at.1));
+        assert!(!near(&without, at, c, r), "{what}: without --landmarks");
+    }
+    // The same landmarks in JSON draw the same picture.
+    let json = dir.path().join("l.json");
+    let text = r#"{"landmarks": [{"name": "a", "src": [150, 100], "dst": [210, 160]},
+                   {"name": "b", "src": [100, 150], "dst": [90, 200]}]}"#;
+    std::fs::write(&json, text).unwrap();
+    assert!(draw(&["--landmarks", s(&json)], "json.png") == with, "JSON = CSV");
+    // Without a background the view fits the landmarks in too.
+    let out = dir.path().join("fit.png");
+    ok(&trimorph(&["render", s(&def), "-o", s(&out), "--landmarks", s(&lms)]));
+    let img = image::open(&out).unwrap().to_rgb8();
+    assert!(img.pixels().any(|p| p.0 == [LM_MAPPED[0], LM_MAPPED[1], LM_MAPPED[2]]));
+    let bad = dir.path().join("bad.csv");
+    std::fs::write(&bad, "name,src_x,src_y,dst_x,dst_y\na,1,2,x,4\n").unwrap();
+    let o = trimorph(&["render", s(&def), "-o", s(&out), "--landmarks", s(&bad)]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&o.stderr).contains(s(&bad)));
 }

@@ -361,3 +361,79 @@ fn pnm_images_warp_like_the_same_pixels_as_png() {
     ]));
     assert!(m.join("frame_001.png").exists());
 }
+
+/// The Jacobian map has a colour bar below it: the map's pixels stay where they were (the top
+/// `w x h`, transparent beside it), and the strip shows the fold red, the ramp from det J 1/4
+/// (blue) through 1 (white) to 4 (orange), and dark tick labels.
+#[test]
+fn jacobian_map_has_a_colour_bar_below() {
+    use trimorph::warp::field::det_color;
+    let dir = tempfile::tempdir().unwrap();
+    let id = dir.path().join("id.json");
+    ok(&trimorph(&["mesh", "--grid", "2x2", "--size", "20,10", "-o", s(&id)]));
+    let (npy, jac) = (dir.path().join("f.npy"), dir.path().join("j.png"));
+    let o = trimorph(&["field", s(&id), "-o", s(&npy), "--jacobian", s(&jac)]);
+    ok(&o);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(text.contains("map 21x11 with its colour bar below (360x51 in all)"), "{text}");
+    let j = image::open(&jac).unwrap().to_rgba8();
+    assert_eq!(j.dimensions(), (360, 51));
+    for y in 0..11 {
+        for x in 0..21 {
+            assert_eq!(j.get_pixel(x, y).0, [255, 255, 255, 255], "map pixel ({x}, {y})");
+        }
+        assert_eq!(j.get_pixel(30, y).0[3], 0, "beside the map");
+    }
+    let strip: Vec<[u8; 4]> = (11..51)
+        .flat_map(|y| (0..360).map(move |x| (x, y)))
+        .map(|(x, y)| j.get_pixel(x, y).0)
+        .collect();
+    for d in [0.0, 0.25, 0.5, 2.0, 4.0] {
+        assert!(strip.contains(&det_color(d)), "the bar shows det J {d}");
+    }
+    let dark = strip.iter().filter(|p| p[0] < 80 && p[1] < 80 && p[2] < 80).count();
+    assert!(dark > 60, "tick labels: {dark} dark pixels");
+}
+
+/// `warp --points --inverse` on a real fit: `phi(phi^-1(q))` is within 1e-9 px of `q` (Newton
+/// polished to machine precision; it was 5.8e-6 px at the acceptance tolerance alone).
+#[test]
+fn inverse_points_of_a_real_fit_reach_machine_precision() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let lms = root.join("data/microscopy/timelapse/tracks_0_9.csv");
+    let fit = dir.path().join("fit.json");
+    ok(&trimorph(&["fit", "--size", "511,511", "--landmarks", s(&lms), "-o", s(&fit)]));
+    let mut csv = String::from("x,y\n");
+    for k in 0..400 {
+        let (i, j) = (k % 20, k / 20);
+        csv.push_str(&format!("{},{}\n", 13.7 + 24.3 * i as f64, 9.1 + 24.9 * j as f64));
+    }
+    let q = dir.path().join("q.csv");
+    std::fs::write(&q, &csv).unwrap();
+    let (p, back) = (dir.path().join("p.csv"), dir.path().join("back.csv"));
+    ok(&trimorph(&["warp", s(&fit), "--points", s(&q), "--inverse", "-o", s(&p)]));
+    ok(&trimorph(&["warp", s(&fit), "--points", s(&p), "-o", s(&back)]));
+    let rows = |path: &std::path::Path| -> Vec<Option<[f64; 2]>> {
+        let text = std::fs::read_to_string(path).unwrap();
+        text.lines()
+            .skip(1)
+            .map(|l| {
+                let (a, b) = l.split_once(',').unwrap();
+                Some([a.parse().ok()?, b.parse().ok()?])
+            })
+            .collect()
+    };
+    let (qs, ps, backs) = (rows(&q), rows(&p), rows(&back));
+    let (mut worst, mut n) = (0.0f64, 0);
+    for ((q, p), b) in qs.iter().zip(&ps).zip(&backs) {
+        if p.is_none() {
+            continue;
+        }
+        let (q, b) = (q.unwrap(), b.expect("phi of a preimage is defined"));
+        worst = worst.max((b[0] - q[0]).hypot(b[1] - q[1]));
+        n += 1;
+    }
+    assert!(n > 300, "only {n} of 400 points have a preimage");
+    assert!(worst <= 1e-9, "max |phi(phi^-1(q)) - q| = {worst:e} px");
+}

@@ -218,14 +218,17 @@ impl Deformation {
     }
 
     /// The report of `trimorph check` as a dict: exact C1, the certified det J bounds, folds
-    /// (`samples` per triangle side for the sampled minimum).
-    #[pyo3(signature = (samples = 12))]
-    fn check(&self, py: Python<'_>, samples: usize) -> PyResult<Py<PyAny>> {
+    /// (`samples` per triangle side for the sampled minimum); the per-condition
+    /// `c1_residuals` list only with `residuals=True`, as `trimorph check --residuals`.
+    #[pyo3(signature = (samples = 12, residuals = false))]
+    fn check(&self, py: Python<'_>, samples: usize, residuals: bool) -> PyResult<Py<PyAny>> {
         // As `trimorph check`: the scan costs samples^2 evaluations per triangle.
         if !(1..=1000).contains(&samples) {
             return Err(value_error(format!("samples {samples}: use 1 to 1000 per triangle side")));
         }
-        let v = py.detach(|| trimorph::spline::check::check_report(&self.spline, samples));
+        let v = py.detach(|| {
+            trimorph::spline::check::check_report_with(&self.spline, samples, residuals)
+        });
         crate::fitting::to_dict(py, &v)
     }
 

@@ -93,6 +93,9 @@ def test_kept_keys_survive_a_round_trip(tmp_path):
 def test_check_equals_cli_check(fitted, cli):
     d, path = fitted
     ref = json.loads(cli("check", path).stdout)
-    assert d.check() == ref
+    assert d.check() == ref and "c1_residuals" not in ref
+    full = json.loads(cli("check", path, "--residuals").stdout)
+    assert d.check(residuals=True) == full
+    assert len(full["c1_residuals"]) == full["c1_conditions"]
     with pytest.raises(ValueError, match="samples"):
         d.check(samples=0)

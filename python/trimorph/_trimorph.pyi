@@ -79,8 +79,9 @@ class Deformation:
         self, ops: Sequence[Dict[str, Any]], bounded_bits: Optional[int] = 24
     ) -> List[Dict[str, Any]]:
         """Applies edit-script operations (dicts, as in `trimorph edit` scripts), all or none."""
-    def check(self, samples: int = 12) -> Dict[str, Any]:
-        """The report of `trimorph check`: exact C1, det J bounds, folds."""
+    def check(self, samples: int = 12, residuals: bool = False) -> Dict[str, Any]:
+        """The report of `trimorph check`: exact C1, det J bounds, folds; the per-condition
+        `c1_residuals` list only with residuals=True (`trimorph check --residuals`)."""
     def to_itk(
         self,
         path: _Path,

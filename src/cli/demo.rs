@@ -94,11 +94,18 @@ pub fn run(dir: &Path) -> Result<()> {
     let edited = dir.join("edited.json");
     spline_cmds::edit(&id, &script, &edited, Some(24))?;
     let (s, _) = crate::io::deformation::from_str(&std::fs::read_to_string(&edited)?)?;
-    let rep = spline_cmds::check_report(&s, 12);
+    let rep = spline_cmds::check_report_with(&s, 12, false);
     let before = dir.join("before.png");
     let after = dir.join("after.png");
-    spline_cmds::render(&id, &before, Some(&img), "mesh,points", "800,600")?;
-    spline_cmds::render(&edited, &after, Some(&img), "mesh,points", "800,600")?;
+    spline_cmds::render(&id, &before, Some(&img), "mesh,points", "800,600", &Default::default())?;
+    spline_cmds::render(
+        &edited,
+        &after,
+        Some(&img),
+        "mesh,points",
+        "800,600",
+        &Default::default(),
+    )?;
     let warped = dir.join("warped.png");
     super::warp_cmd::run(super::warp_cmd::WarpArgs {
         deformation: &edited,

@@ -131,6 +131,8 @@ enum Command {
         /// Samples per triangle side for the Jacobian scan.
         #[arg(long, default_value_t = 12)]
         samples: usize,
+        #[command(flatten)]
+        report: spline_cmds::CheckOptions,
     },
     /// Draw a deformation (deformed mesh, control net, C1 conditions, points) as a PNG.
     Render {
@@ -157,6 +159,8 @@ enum Command {
         view: String,
         #[command(flatten)]
         up: model_cmd::UpArgs,
+        #[command(flatten)]
+        marks: spline_cmds::RenderMarks,
     },
     /// Move an image or points through a deformation. Images: O(q) = I(phi^-1(q)), same
     /// size, type and bit depth. Points: forward p -> phi(p), or --inverse q -> phi^-1(q).
@@ -599,15 +603,27 @@ pub fn run() -> i32 {
             let bounded = if unbounded { None } else { Some(bounded_bits) };
             spline_cmds::edit(&deformation, &script, &output, bounded)
         }
-        Command::Check { deformation, samples } => spline_cmds::check(&deformation, samples),
+        Command::Check { deformation, samples, report } => {
+            spline_cmds::check(&deformation, samples, report)
+        }
         Command::Render {
-            deformation, output, background, size, model: Some(m), view, up, ..
-        } => {
+            deformation,
+            output,
+            background,
+            size,
+            model: Some(m),
+            view,
+            up,
+            marks,
+            ..
+        } => marks.refuse_with_model().and_then(|()| {
             let bg = background.as_deref();
             model_cmd::render_model(&deformation, &m, &output, bg, &view, &size, up.up)
-        }
-        Command::Render { deformation, output, background, show, size, model: None, .. } => {
-            spline_cmds::render(&deformation, &output, background.as_deref(), &show, &size)
+        }),
+        Command::Render {
+            deformation, output, background, show, size, model: None, marks, ..
+        } => {
+            spline_cmds::render(&deformation, &output, background.as_deref(), &show, &size, &marks)
         }
         Command::Model(ModelCommand::Bind {
             model,

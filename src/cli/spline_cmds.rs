@@ -281,10 +281,20 @@ pub fn edit(def: &Path, script: &Path, output: &Path, bounded: Option<u32>) -> R
     Ok(())
 }
 
-pub use crate::spline::check::{check_report, det_j_line, non_finite_point};
+pub use crate::spline::check::{check_report_with, det_j_line, non_finite_point, summary_line};
 
-/// `trimorph check DEF`: exit 0 when C1 holds exactly, 1 otherwise.
-pub fn check(def: &Path, samples: usize) -> Result<()> {
+/// Report options of `trimorph check`.
+#[derive(clap::Args, Clone, Copy, Debug, Default)]
+pub struct CheckOptions {
+    /// Also list every C1 condition's exact residual pair (`c1_residuals`, one `[x, y]` per
+    /// condition) in the JSON report.
+    #[arg(long)]
+    pub residuals: bool,
+}
+
+/// `trimorph check DEF [--samples N] [--residuals]`: the JSON report on stdout, a one-line
+/// summary on stderr; exit 0 when C1 holds exactly, 1 otherwise.
+pub fn check(def: &Path, samples: usize, opts: CheckOptions) -> Result<()> {
     // The scan costs samples^2 evaluations per triangle: beyond this it never finishes.
     const MAX_SAMPLES: usize = 1000;
     if samples > MAX_SAMPLES {
@@ -300,8 +310,9 @@ pub fn check(def: &Path, samples: usize) -> Result<()> {
             ["x", "y"][a]
         );
     }
-    let rep = check_report(&s, samples);
+    let rep = check_report_with(&s, samples, opts.residuals);
     writeln!(std::io::stdout(), "{}", serde_json::to_string_pretty(&rep)?)?;
+    eprintln!("{}: {}", def.display(), summary_line(&rep));
     if rep["c1_holds"] != json!(true) {
         return Err(Exit {
             code: EXIT_INPUT,
@@ -313,17 +324,43 @@ pub fn check(def: &Path, samples: usize) -> Result<()> {
     Ok(())
 }
 
-/// `trimorph render DEF -o OUT.png [--background IMG] [--show LAYERS] [--size W,H]`.
+/// Landmark options of `trimorph render`.
+#[derive(clap::Args, Clone, Debug, Default)]
+pub struct RenderMarks {
+    /// Landmarks to draw (CSV, BigWarp CSV or JSON, as `fit` reads them): each source as an
+    /// orange cross, phi(source) as a green dot, the target as a magenta ring, and a line
+    /// from phi(source) to the target (the residual).
+    #[arg(long)]
+    pub landmarks: Option<std::path::PathBuf>,
+}
+
+impl RenderMarks {
+    /// `--landmarks` draws on the deformation's picture, not on a model's.
+    pub fn refuse_with_model(&self) -> Result<()> {
+        if let Some(l) = &self.landmarks {
+            bail!("{}: --landmarks draws on a deformation's picture; omit --model", l.display());
+        }
+        Ok(())
+    }
+}
+
+/// `trimorph render DEF -o OUT.png [--background IMG] [--show LAYERS] [--size W,H]
+/// [--landmarks L]`.
 pub fn render(
     def: &Path,
     output: &Path,
     background: Option<&Path>,
     show: &str,
     size: &str,
+    marks: &RenderMarks,
 ) -> Result<()> {
     use crate::render::deformation as rd;
     let (s, last) = load(def)?;
     let mut opts = rd::RenderOptions::parse_show(show)?;
+    if let Some(l) = &marks.landmarks {
+        opts.landmarks = crate::io::landmarks::read_landmarks(l)
+            .with_context(|| format!("cannot read landmarks {}", l.display()))?;
+    }
     let (w, h) = pair(size, "--size", ',')?;
     if w < 16.0 || h < 16.0 || w > 16384.0 || h > 16384.0 || w.fract() != 0.0 || h.fract() != 0.0 {
         bail!("--size: width and height must be whole numbers from 16 to 16384");

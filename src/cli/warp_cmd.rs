@@ -413,7 +413,8 @@ pub fn field(
     jacobian_map(&s, w, h, jacobian, &mut out)
 }
 
-/// `--jacobian JAC.png` of `trimorph field`: the colour map of `det J` and its report lines.
+/// `--jacobian JAC.png` of `trimorph field`: the colour map of `det J` (field pixel `(x, y)`
+/// at picture pixel `(x, y)`) with its colour bar below, and its report lines.
 fn jacobian_map(
     s: &crate::spline::Spline,
     w: u32,
@@ -424,15 +425,14 @@ fn jacobian_map(
     use crate::warp::field as wf;
     if let Some(jp) = jacobian {
         let (dets, rep) = wf::jacobian_det(s, w, h);
-        let img = image::RgbaImage::from_fn(w, h, |x, y| {
-            image::Rgba(wf::det_color(dets[(y * w + x) as usize]))
-        });
-        let mut c = std::io::Cursor::new(Vec::new());
-        img.write_to(&mut c, image::ImageFormat::Png).context("cannot encode the Jacobian map")?;
-        write_atomic(jp, &c.into_inner())?;
+        let (pm, bar) = crate::render::colorbar::jacobian_picture(&dets, w, h)?;
+        let png = pm.encode_png().context("cannot encode the Jacobian map")?;
+        write_atomic(jp, &png)?;
         writeln!(
             out,
-            "Jacobian determinant map -> {} (min det J {:.4}; {} of {} samples fold{})",
+            "Jacobian determinant map {w}x{h} with its colour bar below ({}x{} in all) -> {} (min det J {:.4}; {} of {} samples fold{})",
+            bar.width,
+            bar.height,
             jp.display(),
             rep.min_det,
             rep.folds,

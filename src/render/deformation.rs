@@ -18,6 +18,11 @@
 //! point location is needed. Lines are about 1 pixel wide (border edges 2 pixels) so large
 //! meshes stay readable. A small legend in the corner covering the least of the drawing lists
 //! the layers shown.
+//!
+//! Landmarks ([`RenderOptions::landmarks`], `trimorph render --landmarks`) are drawn last:
+//! each source `s_i` as an orange cross, its image `phi(s_i)` as a green dot and the target
+//! `t_i` as a magenta ring, with a teal line from `phi(s_i)` to `t_i` (its length is the
+//! residual of the fit). A source outside the mesh has no image: only its cross and ring.
 
 use std::io;
 use std::path::{Path, PathBuf};
@@ -30,6 +35,7 @@ use tiny_skia::{
 
 use super::font;
 use crate::edit::LastEdit;
+use crate::fit::landmarks::Landmark;
 use crate::spline::Spline;
 
 /// Smallest accepted output width or height in pixels.
@@ -51,6 +57,14 @@ const DERIVED: Rgba = [30, 90, 230, 255];
 const TEXT: Rgba = [25, 25, 25, 255];
 const LEGEND_BG: Rgba = [255, 255, 255, 210];
 const LEGEND_BORDER: Rgba = [170, 170, 170, 255];
+/// Landmark source `s_i` (a cross).
+pub const LM_SOURCE: Rgba = [255, 130, 0, 255];
+/// Landmark image `phi(s_i)` (a dot).
+pub const LM_MAPPED: Rgba = [20, 170, 60, 255];
+/// Landmark target `t_i` (a ring).
+pub const LM_TARGET: Rgba = [230, 0, 200, 255];
+/// The residual line from `phi(s_i)` to `t_i`.
+pub const LM_RESIDUAL: Rgba = [0, 150, 190, 255];
 
 /// What to draw and how large (see the module docs for the coordinate convention).
 #[derive(Clone, Debug)]
@@ -71,6 +85,9 @@ pub struct RenderOptions {
     pub show_reference: bool,
     /// Line segments per mesh edge (each edge is evaluated at this many plus one points).
     pub samples_per_edge: usize,
+    /// Landmarks to draw (source, `phi(source)`, target and the residual line; see the
+    /// module docs); none by default.
+    pub landmarks: Vec<Landmark>,
 }
 
 impl Default for RenderOptions {
@@ -85,6 +102,7 @@ impl Default for RenderOptions {
             show_points: true,
             show_reference: false,
             samples_per_edge: 16,
+            landmarks: Vec::new(),
         }
     }
 }
@@ -224,6 +242,8 @@ pub fn render(
         .map(|e| (edge_curve(spline, e, n), mesh.is_border_edge(e)))
         .collect();
     let points: Vec<[f64; 2]> = (0..spline.num_points()).map(|i| spline.point_f64(i)).collect();
+    let srcs: Vec<[f64; 2]> = opts.landmarks.iter().map(|l| l.src).collect();
+    let mapped = crate::warp::forward(spline, &srcs);
 
     let (mut pm, view) = match background {
         Some(bg) => (bg.clone(), View::PIXELS),
@@ -231,8 +251,10 @@ pub fn render(
             let (width, height) = (opts.width, opts.height);
             let pm = blank(width, height)?;
             let reference = mesh.vertices().iter().filter(|_| opts.show_reference);
+            let lms = opts.landmarks.iter().flat_map(|l| [l.src, l.dst]);
             let all = curves.iter().flat_map(|c| &c.0).chain(&points).chain(reference);
-            (pm, View::fit(all.copied(), width, height))
+            let all = all.copied().chain(lms).chain(mapped.iter().flatten().copied());
+            (pm, View::fit(all, width, height))
         }
     };
     let mut legend: Vec<(String, Swatch)> = Vec::new();
@@ -297,10 +319,53 @@ pub fn render(
             legend.push((format!("derived ({nd})"), Swatch::Dot(DERIVED, 2.5)));
         }
     }
+    if !opts.landmarks.is_empty() {
+        draw_landmarks(&mut pm, &view, &opts.landmarks, &mapped, &mut legend);
+    }
     let samples: Vec<(f32, f32)> =
         (curves.iter().flat_map(|c| &c.0).chain(&points)).filter_map(|&p| view.map(p)).collect();
     draw_legend(&mut pm, &legend, &samples);
     Ok(pm)
+}
+
+/// Draws the landmarks (see the module docs): `mapped[i]` is `phi(s_i)`, `None` outside the
+/// mesh. Adds their legend entries.
+fn draw_landmarks(
+    pm: &mut Pixmap,
+    view: &View,
+    lms: &[Landmark],
+    mapped: &[Option<[f64; 2]>],
+    legend: &mut Vec<(String, Swatch)>,
+) {
+    let mut lines = PathBuilder::new();
+    for (l, m) in lms.iter().zip(mapped) {
+        if let Some(m) = m {
+            polyline(&mut lines, view, &[*m, l.dst]);
+        }
+    }
+    stroke(pm, lines, LM_RESIDUAL, 1.5);
+    let (mut cross, mut rings) = (PathBuilder::new(), PathBuilder::new());
+    for l in lms {
+        if let Some((x, y)) = view.map(l.src) {
+            let r = 4.0;
+            cross.move_to(x - r, y - r);
+            cross.line_to(x + r, y + r);
+            cross.move_to(x - r, y + r);
+            cross.line_to(x + r, y - r);
+        }
+        if let Some((x, y)) = view.map(l.dst) {
+            rings.push_circle(x, y, 5.0);
+        }
+    }
+    stroke(pm, cross, LM_SOURCE, 1.8);
+    stroke(pm, rings, LM_TARGET, 1.8);
+    let at: Vec<(f32, f32)> = mapped.iter().flatten().filter_map(|&p| view.map(p)).collect();
+    dots(pm, &at, 2.8, LM_MAPPED);
+    let n = lms.len();
+    legend.push((format!("landmark sources ({n})"), Swatch::Cross(LM_SOURCE, 4.0)));
+    legend.push(("φ(source)".into(), Swatch::Dot(LM_MAPPED, 2.8)));
+    legend.push(("targets".into(), Swatch::Ring(LM_TARGET, 4.0)));
+    legend.push(("residual φ(s) → t".into(), Swatch::Line(LM_RESIDUAL, 1.5)));
 }
 
 /// A white `width x height` canvas; [`RenderError::Size`] unless both are in
@@ -473,6 +538,7 @@ pub(super) enum Swatch {
     Fill(Rgba),
     Dot(Rgba, f32),
     Ring(Rgba, f32),
+    Cross(Rgba, f32),
 }
 
 /// Draws the legend in the image corner covering the fewest `samples` (canvas points).
@@ -538,6 +604,14 @@ pub(super) fn draw_legend(pm: &mut Pixmap, entries: &[(String, Swatch)], samples
             }
             Swatch::Ring(c, r) => {
                 pb.push_circle(cx, cy, r * f);
+                stroke(pm, pb, c, 1.5);
+            }
+            Swatch::Cross(c, r) => {
+                let r = r * f;
+                pb.move_to(cx - r, cy - r);
+                pb.line_to(cx + r, cy + r);
+                pb.move_to(cx - r, cy + r);
+                pb.line_to(cx + r, cy - r);
                 stroke(pm, pb, c, 1.5);
             }
         }

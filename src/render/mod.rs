@@ -1,4 +1,5 @@
 //! Rendering.
+pub mod colorbar;
 pub mod colormesh;
 pub mod deformation;
 pub mod font;

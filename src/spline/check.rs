@@ -41,8 +41,16 @@ pub fn det_j_line(c: &DetJ) -> String {
     )
 }
 
-/// The `trimorph check` report of a spline.
+/// The `trimorph check` report of a spline, with the per-condition `c1_residuals` list (one
+/// `[x, y]` pair of exact residuals per C1 condition; long on large meshes).
 pub fn check_report(s: &Spline, samples_per_side: usize) -> Value {
+    check_report_with(s, samples_per_side, true)
+}
+
+/// The `trimorph check` report of a spline; the `c1_residuals` list only when `residuals`
+/// (every other key is always there: `c1_nonzero_residuals` and `c1_max_abs_residual`
+/// summarise the list).
+pub fn check_report_with(s: &Spline, samples_per_side: usize, residuals: bool) -> Value {
     let res = s.c1_residuals();
     let nonzero = res.iter().filter(|r| !r[0].is_zero() || !r[1].is_zero()).count();
     let max_res = res
@@ -72,7 +80,7 @@ pub fn check_report(s: &Spline, samples_per_side: usize) -> Value {
     }
     let cert = certify(s, &CertifyOptions::default());
     let worst = cert.worst.map(|(t, p)| json!({"triangle": t, "point": p}));
-    json!({
+    let mut rep = json!({
         "degree": s.degree(),
         "vertices": m.num_vertices(),
         "triangles": m.num_triangles(),
@@ -82,7 +90,6 @@ pub fn check_report(s: &Spline, samples_per_side: usize) -> Value {
         "c1_nonzero_residuals": nonzero,
         "c1_max_abs_residual": rat_to_string(&max_res),
         "c1_holds": nonzero == 0,
-        "c1_residuals": res.iter().map(|r| [rat_to_string(&r[0]), rat_to_string(&r[1])]).collect::<Vec<_>>(),
         "jacobian_samples": samples,
         "min_jacobian_det": cert.sampled_min,
         "min_jacobian_det_at": worst,
@@ -93,5 +100,88 @@ pub fn check_report(s: &Spline, samples_per_side: usize) -> Value {
         "folding_triangles": cert.folding,
         "undecided_triangles": cert.undecided,
         "z_layers": s.z_layers().is_some(),
-    })
+    });
+    if residuals {
+        let list: Vec<[String; 2]> =
+            res.iter().map(|r| [rat_to_string(&r[0]), rat_to_string(&r[1])]).collect();
+        rep["c1_residuals"] = json!(list);
+    }
+    rep
+}
+
+/// The one-line human summary of a [`check_report`]: whether C1 holds (with the count of
+/// conditions that fail, and the largest residual), whether phi is certified fold-free, the
+/// sampled minimum of det J and the certified lower bound.
+pub fn summary_line(rep: &Value) -> String {
+    let n = |k: &str| rep[k].as_u64().unwrap_or(0);
+    let f = |k: &str| rep[k].as_f64().map_or("?".to_string(), |v| format!("{v:.6}"));
+    let c1 = if rep["c1_holds"] == json!(true) {
+        format!("C1 holds ({} of {} conditions exactly 0)", n("c1_conditions"), n("c1_conditions"))
+    } else {
+        format!(
+            "C1 FAILS ({} of {} conditions nonzero, max |residual| {})",
+            n("c1_nonzero_residuals"),
+            n("c1_conditions"),
+            rep["c1_max_abs_residual"].as_str().unwrap_or("?")
+        )
+    };
+    let count = |k: &str| rep[k].as_array().map_or(0, Vec::len);
+    let folds = if rep["fold_free"] == json!(true) {
+        "certified fold-free".to_string()
+    } else {
+        format!(
+            "NOT certified fold-free ({} folding, {} undecided triangles)",
+            count("folding_triangles"),
+            count("undecided_triangles")
+        )
+    };
+    format!(
+        "{c1}; {folds}; det J: sampled min {}, certified lower bound {} ({} triangles)",
+        f("min_jacobian_det"),
+        f("det_j_lower_bound"),
+        n("triangles")
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::exact::rat_int;
+    use crate::mesh::{Mesh, MeshOptions};
+
+    fn grid() -> Spline {
+        let mesh = Mesh::grid(2, 2, 40.0, 40.0, MeshOptions::default()).unwrap();
+        Spline::identity(mesh, 5).unwrap()
+    }
+
+    #[test]
+    fn residual_list_only_on_request_and_other_keys_equal() {
+        let s = grid();
+        let (short, full) = (check_report_with(&s, 4, false), check_report(&s, 4));
+        assert!(short.get("c1_residuals").is_none(), "{short}");
+        let list = full["c1_residuals"].as_array().unwrap();
+        assert_eq!(list.len() as u64, full["c1_conditions"].as_u64().unwrap());
+        let mut rest = full.clone();
+        rest.as_object_mut().unwrap().remove("c1_residuals");
+        assert_eq!(rest, short);
+    }
+
+    #[test]
+    fn summary_of_a_c1_identity_and_of_a_broken_spline() {
+        let s = grid();
+        let line = summary_line(&check_report_with(&s, 4, false));
+        assert!(line.starts_with("C1 holds (40 of 40 conditions"), "{line}");
+        assert!(line.contains("; certified fold-free;"), "{line}");
+        assert!(line.contains("sampled min 1.000000, certified lower bound"), "{line}");
+        // Move one control point: the conditions through it fail.
+        let mut pts = s.points().to_vec();
+        let p = s.quads()[0].p;
+        pts[p][0] = &pts[p][0] + rat_int(3);
+        let bad = Spline::from_points_unchecked(s.mesh().clone(), 5, pts, None).unwrap();
+        let rep = check_report_with(&bad, 4, false);
+        let line = summary_line(&rep);
+        let n = rep["c1_nonzero_residuals"].as_u64().unwrap();
+        assert!(n > 0);
+        assert!(line.starts_with(&format!("C1 FAILS ({n} of 40 conditions nonzero")), "{line}");
+    }
 }

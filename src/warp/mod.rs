@@ -106,13 +106,15 @@ pub fn forward(s: &Spline, pts: &[[f64; 2]]) -> Vec<Option<[f64; 2]>> {
     out
 }
 
-/// `phi^-1(q)` for each point (`None` when no preimage within the tolerance exists).
+/// `phi^-1(q)` for each point (`None` when no preimage within the tolerance exists),
+/// polished to machine precision ([`InverseMap::polish`]: `|phi(p) - q|` at the rounding
+/// level of evaluating `phi`).
 pub fn inverse(s: &Spline, pts: &[[f64; 2]], opts: InverseOptions) -> Vec<Option<Preimage>> {
     let map = InverseMap::new(s, opts);
     let mut prev: Option<Preimage> = None;
     pts.iter()
         .map(|q| {
-            let r = map.invert(*q, prev.as_ref());
+            let r = map.invert(*q, prev.as_ref()).map(|r| map.polish(*q, r));
             if r.is_some() {
                 prev = r;
             }

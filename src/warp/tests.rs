@@ -268,3 +268,30 @@ fn inverse_of_forward_is_within_a_micro_pixel() {
         assert!((b.p[0] - p[0]).hypot(b.p[1] - p[1]) <= 1e-6, "{p:?} vs {:?}", b.p);
     }
 }
+
+/// Newton stopped at the acceptance test leaves `|phi(p) - q|` around 1e-6 px; polished
+/// (`InverseMap::polish`, used by `inverse`) it is at the rounding level of evaluating phi.
+#[test]
+fn polished_inverse_reaches_machine_precision() {
+    use crate::warp::inverse::InverseMap;
+    let s = dragged(Mesh::grid(4, 3, 119.0, 89.0, MeshOptions::default()).unwrap(), 9, -6);
+    let qs: Vec<[f64; 2]> =
+        (0..300).map(|k| [2.3 + (k % 20) as f64 * 5.7, 1.9 + (k / 20) as f64 * 5.6]).collect();
+    let map = InverseMap::new(&s, InverseOptions::default());
+    let resid = |q: [f64; 2], p: [f64; 2]| {
+        let f = forward(&s, &[p])[0].expect("p in the mesh");
+        (f[0] - q[0]).hypot(f[1] - q[1])
+    };
+    let (mut raw, mut polished, mut n) = (0.0f64, 0.0f64, 0);
+    for (q, b) in qs.iter().zip(inverse(&s, &qs, InverseOptions::default())) {
+        let Some(b) = b else { continue };
+        let r = map.invert(*q, None).expect("a preimage without polishing too");
+        raw = raw.max(resid(*q, r.p));
+        polished = polished.max(resid(*q, b.p));
+        assert!(b.error_bound <= r.error_bound.max(1e-12), "{b:?} vs {r:?}");
+        n += 1;
+    }
+    assert!(n > 250, "{n}");
+    assert!(polished <= 1e-9, "polished {polished:e}");
+    assert!(polished < raw, "polished {polished:e}, raw {raw:e}");
+}

@@ -441,6 +441,24 @@ pub fn cases() -> Vec<Case> {
                 fit(fx, id, "json", text, &[])
             },
         },
+        Case {
+            id: "render_landmarks_bad",
+            setup: |fx, id| {
+                let p = fx.file(&format!("{id}.csv"), format!("{LM_HEAD}a,10,10,x,12\n"));
+                let out = fx.out("r.png");
+                (args(&["render", s(&fx.def), "-o", &out, "--landmarks", s(&p)]), p)
+            },
+        },
+        Case {
+            id: "render_landmarks_model",
+            setup: |fx, id| {
+                let p = fx.file(&format!("{id}.csv"), format!("{LM_HEAD}a,10,10,12,12\n"));
+                let model = fx.file("render_model.obj", "v 1 1 1\nv 5 1 1\nv 1 5 1\nf 1 2 3\n");
+                let mut a = args(&["render", s(&fx.def), "-o", &fx.out("r.png")]);
+                a.extend(args(&["--model", s(&model), "--landmarks", s(&p)]));
+                (a, p)
+            },
+        },
         // Images.
         Case { id: "img_empty", setup: |fx, id| warp_image(fx, id, "png", b"") },
         Case {
