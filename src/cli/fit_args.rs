@@ -1,0 +1,103 @@
+//! The options of `trimorph fit` (clap): one fit (`fit DEF --landmarks L -o OUT.json`, or
+//! `--size W,H` instead of DEF), or a sequence (`--model SCENE.json --frames DIR`). Parsed
+//! here, dispatched by `cli::run` to [`super::fit_cmd`] and [`super::fit_batch`].
+
+use std::path::PathBuf;
+
+/// The command line of `trimorph fit`.
+#[derive(clap::Args, Debug)]
+pub struct FitCli {
+    /// The deformation to fit (the warm start); not with --model.
+    pub deformation: Option<PathBuf>,
+    /// Landmarks: CSV `name,src_x,src_y,dst_x,dst_y[,weight]`, Fiji BigWarp CSV or JSON
+    /// (with --frames: targets in the first frame, or a directory of per-frame files).
+    #[arg(long)]
+    pub landmarks: PathBuf,
+    /// Output deformation (single fit) or output folder (with --frames).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Report (JSON): residuals, RMS, max, held-out TRE, min det J, iterations, time
+    /// (with --frames: a summary of the sequence; every frame has its own report).
+    #[arg(long)]
+    pub report: Option<PathBuf>,
+    /// Data loss: squares, huber or cauchy.
+    #[arg(long, default_value = "squares")]
+    pub loss: String,
+    /// Scale of the huber / cauchy loss (pixels).
+    #[arg(long, default_value_t = 2.0)]
+    pub loss_scale: f64,
+    /// Weight of the bending (thin-plate) energy: `auto` (chosen by generalized
+    /// cross-validation on the landmarks) or a scale-free number (lambda = bend * sum of
+    /// landmark weights * mesh area; 1e-4 is close to interpolation, 1 is very stiff).
+    #[arg(long, default_value = "auto")]
+    pub bend: String,
+    /// Landmarks become hard constraints phi(s) = t (exact, through ECLES).
+    #[arg(long)]
+    pub hard: bool,
+    /// Keep K landmarks (chosen at random, see --seed) out of the fit and report their
+    /// error (TRE).
+    #[arg(long, default_value_t = 0)]
+    pub holdout: usize,
+    /// Seed of the --holdout choice.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Only control points within R control-net steps of the landmarks move.
+    #[arg(long)]
+    pub radius: Option<usize>,
+    /// Control points held exactly at their values in DEF: a comma list of indices, or
+    /// `edited` for the points corrected by hand in `trimorph editor` (DEF's "pinned"
+    /// key). With --hard, the landmarks are exact too.
+    #[arg(long, value_name = "LIST")]
+    pub pin: Option<String>,
+    /// Floor that the fold barrier keeps det J above.
+    #[arg(long, default_value_t = 0.1)]
+    pub min_det: f64,
+    /// Turn the fold barrier off.
+    #[arg(long)]
+    pub no_barrier: bool,
+    /// Iteration cap of L-BFGS.
+    #[arg(long, default_value_t = 200)]
+    pub max_iters: u64,
+    /// Scene (deformation, usually from `model bind`) for a frame sequence.
+    #[arg(long)]
+    pub model: Option<PathBuf>,
+    /// The scene's model file (default: the scene's "model" key).
+    #[arg(long)]
+    pub model_file: Option<PathBuf>,
+    /// Frames: a folder of images or a multi-page TIFF.
+    #[arg(long)]
+    pub frames: Option<PathBuf>,
+    /// Follow the landmarks from frame to frame (pyramidal Lucas-Kanade).
+    #[arg(long)]
+    pub track: bool,
+    /// With --track, which frame each frame is tracked from: chain (the previous frame;
+    /// default), first (the first frame: no drift over long sequences) or keyframes
+    /// (every --key-every N frames a key frame tracked from the first, the others from
+    /// their key frame).
+    #[arg(long, value_name = "chain|first|keyframes")]
+    pub anchor: Option<String>,
+    /// Key frame spacing of --anchor keyframes.
+    #[arg(long, value_name = "N")]
+    pub key_every: Option<usize>,
+    /// With --frames: registered frames get this value (in the frame's sample units)
+    /// where the deformation leaves the frame or the mesh.
+    #[arg(long, default_value_t = 0.0)]
+    pub background: f64,
+    /// Only the i-th of n contiguous frame ranges (e.g. 0/4), for cluster array jobs.
+    #[arg(long)]
+    pub shard: Option<String>,
+    /// With no DEF: the frame W,H in pixels; the fit builds a mesh adapted to the
+    /// landmarks over it (see `trimorph mesh --landmarks`) and covers the whole frame.
+    #[arg(long)]
+    pub size: Option<String>,
+    /// With --size: pixels added around the frame (default: enough for full coverage,
+    /// at least a tenth of the larger side).
+    #[arg(long)]
+    pub margin: Option<f64>,
+    /// With --size: the adapted mesh's longest edge in pixels.
+    #[arg(long)]
+    pub max_edge: Option<f64>,
+    /// With --size: the adapted mesh's smallest angle in degrees.
+    #[arg(long, default_value_t = 20.0)]
+    pub min_angle: f64,
+}
