@@ -28,7 +28,7 @@ fn bench(c: &mut Criterion) {
     let r = match_images(&a, &b, &opts).unwrap();
     eprintln!(
         "orb_match_511: keypoints {:?}, matches {}, inliers {}, affine {}",
-        r.stats.keypoints, r.stats.matches, r.stats.inliers, r.stats.affine
+        r.stats.keypoints, r.stats.matches, r.stats.inliers, r.stats.model
     );
     c.bench_function("orb_match_511", |bn| {
         bn.iter(|| match_images(black_box(&a), black_box(&b), &opts).unwrap())

@@ -98,3 +98,105 @@ fn bad_input_exits_1_and_keeps_the_old_output() {
         assert_eq!(std::fs::read_to_string(&out).unwrap(), "old");
     }
 }
+
+/// Nucleus tracks of the bundled time-lapse: `(frame 0 position, frame k position)` of every
+/// track present in both frames.
+fn tracks(f0: u32, f1: u32) -> Vec<([f64; 2], [f64; 2])> {
+    let p = concat!(env!("CARGO_MANIFEST_DIR"), "/data/microscopy/timelapse/tracks.csv");
+    let mut by: std::collections::BTreeMap<u32, std::collections::BTreeMap<u32, [f64; 2]>> =
+        Default::default();
+    for line in std::fs::read_to_string(p).unwrap().lines().skip(1) {
+        let v: Vec<f64> = line.split(',').map(|x| x.parse().unwrap()).collect();
+        by.entry(v[0] as u32).or_default().insert(v[1] as u32, [v[3], v[2]]);
+    }
+    by.values().filter_map(|t| Some((*t.get(&f0)?, *t.get(&f1)?))).collect()
+}
+
+/// For landmarks between frames f0 and f1: (nuclei with at least one match that agrees with
+/// the nucleus's track, matches near a track that disagree with it by more than 8 px).
+fn score(lms: &[trimorph::fit::landmarks::Landmark], f0: u32, f1: u32) -> (usize, usize) {
+    let t = tracks(f0, f1);
+    let (mut nuclei, mut wrong) = (std::collections::BTreeSet::new(), 0);
+    for l in lms {
+        let d = |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).hypot(a[1] - b[1]);
+        let (k, near) =
+            (0..t.len()).map(|k| (k, d(t[k].0, l.src))).min_by(|a, b| a.1.total_cmp(&b.1)).unwrap();
+        if near > 25.0 {
+            continue;
+        }
+        let track = [t[k].1[0] - t[k].0[0], t[k].1[1] - t[k].0[1]];
+        let moved = [l.dst[0] - l.src[0], l.dst[1] - l.src[1]];
+        if d(track, moved) <= 8.0 {
+            nuclei.insert(k);
+        } else {
+            wrong += 1;
+        }
+    }
+    (nuclei.len(), wrong)
+}
+
+/// Issue 23: on nuclei that move independently, one global affine model keeps the matches
+/// of a few nuclei only; `--model local` keeps matches on most of them, and each agrees with
+/// the hand-made track of its nucleus.
+#[test]
+fn match_local_keeps_independently_moving_nuclei() {
+    let dir = tempfile::tempdir().unwrap();
+    let frame = |k: u32| {
+        format!("{}/data/microscopy/timelapse/frame_{k:02}.png", env!("CARGO_MANIFEST_DIR"))
+    };
+    for (f1, more) in [(3u32, 3usize), (9, 2)] {
+        let mut found = vec![];
+        for model in ["affine", "local"] {
+            let out = dir.path().join(format!("{model}_{f1}.csv"));
+            let o = trimorph(&["match", &frame(0), &frame(f1), "-o", s(&out), "--model", model]);
+            ok(&o);
+            let stdout = String::from_utf8_lossy(&o.stdout);
+            let lms = parse(&std::fs::read_to_string(&out).unwrap(), LandmarkFormat::Csv).unwrap();
+            let (nuclei, wrong) = score(&lms, 0, f1);
+            assert!(wrong <= lms.len() / 20, "{model} 0->{f1}: {wrong} of {} wrong", lms.len());
+            if model == "local" {
+                assert!(stdout.contains("local model,") && stdout.contains("group"), "{stdout}");
+                assert!(!stdout.contains("affine"), "{stdout}");
+            }
+            found.push((lms.len(), nuclei));
+        }
+        let ((na, ka), (nl, kl)) = (found[0], found[1]);
+        assert!(nl > na && kl >= ka + more, "0->{f1}: affine {na} on {ka}, local {nl} on {kl}");
+    }
+}
+
+#[test]
+fn match_models_and_their_options() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = dir.path().join("a.png");
+    cell().save(&a).unwrap();
+    let b = dir.path().join("b.png");
+    shifted(&cell(), 7, -4).save(&b).unwrap();
+    let out = dir.path().join("h.csv");
+    let o = trimorph(&["match", s(&a), s(&b), "-o", s(&out), "--model", "homography"]);
+    ok(&o);
+    assert!(String::from_utf8_lossy(&o.stdout).contains("homography ["));
+    let lms = parse(&std::fs::read_to_string(&out).unwrap(), LandmarkFormat::Csv).unwrap();
+    assert!(
+        lms.len() >= 20
+            && lms
+                .iter()
+                .all(|l| { (l.dst[0] - l.src[0] - 7.0).hypot(l.dst[1] - l.src[1] + 4.0) <= 1.5 })
+    );
+    std::fs::write(&out, "old").unwrap();
+    for (extra, msg) in [
+        (vec!["--model", "local", "--min-support", "3"], "min_support 3"),
+        (vec!["--model", "local", "--neighbours", "2"], "neighbours 2"),
+    ] {
+        let mut args = vec!["match", s(&a), s(&b), "-o", s(&out)];
+        args.extend(extra);
+        let o = trimorph(&args);
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{stderr}");
+        assert!(stderr.contains(msg) && stderr.contains("a.png"), "{stderr}");
+        assert_eq!(std::fs::read_to_string(&out).unwrap(), "old");
+    }
+    let o = trimorph(&["match", s(&a), s(&b), "-o", s(&out), "--model", "spline"]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("affine, homography, local"));
+}

@@ -1,24 +1,70 @@
-//! `trimorph match`: automatic landmarks between two images (ORB, ratio + cross check,
-//! RANSAC on an affine model), written as CSV, BigWarp or JSON.
+//! `trimorph match`: automatic landmarks between two images (ORB, ratio + cross check, then
+//! an affine, homography or local model), written as CSV, BigWarp or JSON.
 
 use super::{Exit, EXIT_INPUT};
-use crate::fit::features::{gray8, match_images, FeatureError, MatchOptions, MIN_SIDE};
+use crate::fit::features::{
+    gray8, match_images, FeatureError, LocalOptions, MatchOptions, ModelKind, MIN_SIDE,
+};
 use crate::fit::landmarks::LandmarkFormat;
 use crate::io::landmarks::write_landmarks;
 use crate::io::raster::read_stack;
 use anyhow::Result;
 use image::GrayImage;
-use std::path::Path;
+use std::path::{Path, PathBuf};
+
+/// The model that separates true matches from false ones.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub(super) enum ModelArg {
+    /// One affine map of the whole image (RANSAC).
+    Affine,
+    /// One plane projective map (RANSAC): another view of a flat scene.
+    Homography,
+    /// Each match agrees with its neighbours: objects that move independently.
+    Local,
+}
+
+impl From<ModelArg> for ModelKind {
+    fn from(m: ModelArg) -> ModelKind {
+        match m {
+            ModelArg::Affine => ModelKind::Affine,
+            ModelArg::Homography => ModelKind::Homography,
+            ModelArg::Local => ModelKind::Local,
+        }
+    }
+}
 
 /// Arguments of `trimorph match`.
-pub(super) struct MatchArgs<'a> {
-    pub a: &'a Path,
-    pub b: &'a Path,
-    pub output: &'a Path,
-    pub ratio: f32,
-    pub threshold: f64,
-    pub features: usize,
-    pub format: &'a str,
+#[derive(Clone, Debug, clap::Args)]
+pub(crate) struct MatchCli {
+    /// Image A (any type; converted to 8-bit gray, deep images scaled by their max).
+    a: PathBuf,
+    /// Image B.
+    b: PathBuf,
+    /// Output landmarks.
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Lowe's ratio for descriptor matches.
+    #[arg(long, default_value_t = 0.8)]
+    ratio: f32,
+    /// Inlier threshold (pixels): the residual of a match under its model.
+    #[arg(long, default_value_t = 3.0)]
+    threshold: f64,
+    /// Most ORB keypoints per image.
+    #[arg(long, default_value_t = 1000)]
+    features: usize,
+    /// Output format: csv, bigwarp or json.
+    #[arg(long, default_value = "csv")]
+    format: String,
+    /// The model: affine (one map of the image), homography, or local (each match agrees
+    /// with its neighbours, for objects that move independently).
+    #[arg(long, value_enum, default_value_t = ModelArg::Affine)]
+    model: ModelArg,
+    /// Local model: neighbours of each match that may support it.
+    #[arg(long, default_value_t = LocalOptions::default().neighbours)]
+    neighbours: usize,
+    /// Local model: matches (counting the match itself) that must follow its local map.
+    #[arg(long, default_value_t = LocalOptions::default().min_support)]
+    min_support: usize,
 }
 
 fn input_error(message: String) -> anyhow::Error {
@@ -32,9 +78,13 @@ fn load(path: &Path) -> Result<GrayImage> {
 }
 
 /// The message for a failed match: the file at fault when one image is, and what to do.
-fn explain(args: &MatchArgs, e: &FeatureError) -> String {
-    let file = |which: char| if which == 'A' { args.a } else { args.b }.display().to_string();
+fn explain(args: &MatchCli, e: &FeatureError) -> String {
+    let file = |which: char| if which == 'A' { &args.a } else { &args.b }.display().to_string();
     let by_hand = "give landmarks by hand instead (a CSV: name,src_x,src_y,dst_x,dst_y)";
+    let other = match args.model {
+        ModelArg::Local => "",
+        _ => "; if parts of the scene move independently, try --model local",
+    };
     match e {
         FeatureError::TooSmall { which, .. } => {
             format!("{}: {e}; use an image of at least {MIN_SIDE}x{MIN_SIDE}", file(*which))
@@ -45,7 +95,7 @@ fn explain(args: &MatchArgs, e: &FeatureError) -> String {
         ),
         FeatureError::TooFewMatches { .. } | FeatureError::NoConsensus { .. } => format!(
             "{} vs {}: {e}; the images may not show the same scene: try a larger --ratio \
-             or --threshold, or {by_hand}",
+             or --threshold{other}, or {by_hand}",
             args.a.display(),
             args.b.display()
         ),
@@ -57,19 +107,28 @@ fn explain(args: &MatchArgs, e: &FeatureError) -> String {
 }
 
 /// Runs `trimorph match`: landmarks with `src` in A's pixel coordinates and `dst` in B's.
-pub(super) fn run(args: MatchArgs) -> Result<()> {
+pub(super) fn run(args: MatchCli) -> Result<()> {
     let format: LandmarkFormat = args.format.parse().map_err(|e| input_error(format!("{e}")))?;
-    let a = load(args.a)?;
-    let b = load(args.b)?;
-    let mut opts =
-        MatchOptions { ratio: args.ratio, features: args.features, ..Default::default() };
+    let a = load(&args.a)?;
+    let b = load(&args.b)?;
+    let mut opts = MatchOptions {
+        ratio: args.ratio,
+        features: args.features,
+        model: args.model.into(),
+        local: LocalOptions {
+            neighbours: args.neighbours,
+            min_support: args.min_support,
+            ..Default::default()
+        },
+        ..Default::default()
+    };
     opts.ransac.threshold = args.threshold;
     let r = match_images(&a, &b, &opts).map_err(|e| input_error(explain(&args, &e)))?;
-    write_landmarks(args.output, &r.landmarks, format)?;
+    write_landmarks(&args.output, &r.landmarks, format)?;
     let st = &r.stats;
     println!(
-        "keypoints {} / {}, matches {}, inliers {} (rms {:.3} px), affine {}",
-        st.keypoints[0], st.keypoints[1], st.matches, st.inliers, st.rms, st.affine
+        "keypoints {} / {}, matches {}, inliers {} (rms {:.3} px), {}",
+        st.keypoints[0], st.keypoints[1], st.matches, st.inliers, st.rms, st.model
     );
     Ok(())
 }

@@ -346,29 +346,9 @@ enum Command {
         #[arg(long)]
         size: Option<String>,
     },
-    /// Automatic landmarks between two images (ORB, ratio and cross check, RANSAC affine):
-    /// `src` in A's pixel coordinates, `dst` in B's.
-    Match {
-        /// Image A (any type; converted to 8-bit gray, deep images scaled by their max).
-        a: PathBuf,
-        /// Image B.
-        b: PathBuf,
-        /// Output landmarks.
-        #[arg(short, long)]
-        output: PathBuf,
-        /// Lowe's ratio for descriptor matches.
-        #[arg(long, default_value_t = 0.8)]
-        ratio: f32,
-        /// RANSAC inlier threshold (pixels).
-        #[arg(long, default_value_t = 3.0)]
-        threshold: f64,
-        /// Most ORB keypoints per image.
-        #[arg(long, default_value_t = 1000)]
-        features: usize,
-        /// Output format: csv, bigwarp or json.
-        #[arg(long, default_value = "csv")]
-        format: String,
-    },
+    /// Automatic landmarks between two images (ORB, ratio and cross check, then an affine,
+    /// homography or local model): `src` in A's pixel coordinates, `dst` in B's.
+    Match(match_cmd::MatchCli),
     /// Fit a deformation to landmarks (`fit DEF --landmarks L -o OUT.json`), or a scene to
     /// every frame of a sequence (`fit --model SCENE.json --frames DIR --landmarks L -o DIR`).
     Fit(fit_args::FitCli),
@@ -645,17 +625,7 @@ pub fn run() -> i32 {
             jacobian.as_deref(),
             size.as_deref(),
         ),
-        Command::Match { a, b, output, ratio, threshold, features, format } => {
-            match_cmd::run(match_cmd::MatchArgs {
-                a: &a,
-                b: &b,
-                output: &output,
-                ratio,
-                threshold,
-                features,
-                format: &format,
-            })
-        }
+        Command::Match(m) => match_cmd::run(m),
         Command::Fit(fit_args::FitCli {
             deformation,
             landmarks,
