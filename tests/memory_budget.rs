@@ -222,3 +222,84 @@ fn truncated_jpeg_and_tiff_files_are_refused_not_half_decoded() {
         refused(&o, &cut, &["truncated"]);
     }
 }
+
+/// Issue 23: `morph` held every frame in memory and refused a morph whose frames together
+/// exceeded the budget. Frames are now streamed: with a budget below what all frames need
+/// (but above one batch) it succeeds; with one below a single frame and the encoders it is
+/// refused with exit 1 and a message, and nothing is written.
+#[test]
+fn a_morph_larger_than_the_budget_streams_and_one_frame_over_it_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let (w, h, n) = (480u32, 200u32, 40u64);
+    let im = |dx: f64, name: &str| {
+        let p = dir.path().join(name);
+        image::GrayImage::from_fn(w, h, |x, y| {
+            let (u, v) = (x as f64 - dx, y as f64);
+            image::Luma([(128.0 + 60.0 * (u / 9.0).sin() * (v / 7.0).cos()) as u8])
+        })
+        .save(&p)
+        .unwrap();
+        p
+    };
+    let (a, b) = (im(0.0, "a.png"), im(4.0, "b.png"));
+    let l = dir.path().join("l.csv");
+    let mut csv = String::from("name,src_x,src_y,dst_x,dst_y\n");
+    for (i, [x, y]) in [[60, 40], [420, 40], [60, 160], [420, 160], [240, 100]].iter().enumerate() {
+        csv += &format!("p{i},{x},{y},{},{y}\n", x + 4);
+    }
+    fs::write(&l, csv).unwrap();
+    let budget: u64 = 12 << 20;
+    // Every frame and its RGBA copy, as the old check counted them: over the budget.
+    assert!(n * u64::from(w * h) * (1 + 4) > budget);
+    let out = dir.path().join("out");
+    let frames = n.to_string();
+    let run = |mem: &str| {
+        trimorph(&[
+            "morph",
+            s(&a),
+            s(&b),
+            "--landmarks",
+            s(&l),
+            "--frames",
+            &frames,
+            "-o",
+            s(&out),
+            "--quiet",
+            "--max-memory",
+            mem,
+        ])
+    };
+    ok(&run("12M"));
+    assert!(out.join(format!("frame_{:03}.png", n - 1)).exists());
+    let gif = fs::read(out.join("morph.gif")).unwrap();
+    use image::AnimationDecoder;
+    let count = image::codecs::gif::GifDecoder::new(std::io::Cursor::new(gif))
+        .unwrap()
+        .into_frames()
+        .count();
+    assert_eq!(count as u64, n);
+    let dec = png::Decoder::new(std::io::Cursor::new(fs::read(out.join("morph.apng")).unwrap()));
+    assert_eq!(dec.read_info().unwrap().info().animation_control().unwrap().num_frames as u64, n);
+    // One frame of 480 x 200 with the encoders' buffers is over 1 MiB.
+    let out2 = dir.path().join("out2");
+    let o = trimorph(&[
+        "morph",
+        s(&a),
+        s(&b),
+        "--landmarks",
+        s(&l),
+        "--frames",
+        &frames,
+        "-o",
+        s(&out2),
+        "--max-memory",
+        "1M",
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    for needle in ["1 frame(s) of 480 x 200 at a time", "over the budget of 1.0 MiB"] {
+        assert!(err.contains(needle), "expected `{needle}` in: {err}");
+    }
+    assert!(!out2.exists(), "nothing is written");
+}

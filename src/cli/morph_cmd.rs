@@ -7,9 +7,9 @@ use crate::exact::matrix::rat_to_f64;
 use crate::io::folder::Staged;
 use crate::io::landmarks::read_landmarks;
 use crate::io::raster::read_stack;
-use crate::io::{deformation, read_text, write_atomic};
+use crate::io::{deformation, read_text, temp_name, write_atomic, AtomicFile};
 use crate::morph::output::{
-    apng_bytes, contact_sheet, frame_name, gif_bytes, is_output_name, png_bytes,
+    frame_name, is_output_name, png_bytes, streaming_memory, AnimationWriter,
 };
 use crate::morph::{times_between, FrameStats, Morph, MorphOptions, Schedule};
 use crate::spline::Spline;
@@ -50,8 +50,15 @@ fn first_page(path: &Path, which: &str) -> Result<DynamicImage> {
     stack.pages.into_iter().next().ok_or_else(|| anyhow!("image {which} has no pages"))
 }
 
-/// Most frames of a morph (they are all held in memory for the animations).
-const MAX_FRAMES: usize = 1000;
+/// Most frames of a morph. Frames are streamed (one batch in memory at a time), so memory
+/// does not set this limit; it bounds the contact sheet (a thumbnail of every frame is kept
+/// for it: 1,250 rows at the limit) and the run time. The thumbnails and the sheet are
+/// counted in the memory budget.
+const MAX_FRAMES: usize = 10_000;
+/// Frames computed at once: this many per thread of the pool.
+const BATCH_PER_THREAD: usize = 1;
+/// Width of the contact sheet's thumbnails, px.
+const THUMB: u32 = 160;
 /// Largest `|t|` of `--range` (a caricature far beyond the landmarks).
 const MAX_TIME: f64 = 100.0;
 /// Largest `--cells`: finer meshes exceed the fit's size limit
@@ -72,9 +79,15 @@ impl Phases {
         Phases { on, last: now, start: now, rows: Vec::new() }
     }
 
+    /// Adds the time since the last mark to the phase `name` (a phase marked again, as
+    /// the frames and their encoding batch after batch, adds up).
     fn mark(&mut self, name: &'static str) {
         let now = Instant::now();
-        self.rows.push((name, (now - self.last).as_secs_f64() * 1e3));
+        let ms = (now - self.last).as_secs_f64() * 1e3;
+        match self.rows.iter_mut().find(|(n, _)| *n == name) {
+            Some(row) => row.1 += ms,
+            None => self.rows.push((name, ms)),
+        }
         self.last = now;
     }
 
@@ -95,7 +108,11 @@ pub fn run(a: MorphArgs<'_>) -> Result<()> {
         bail!("--frames must be at least 2 (the first frame is A, the last B), got {}", a.frames);
     }
     if a.frames > MAX_FRAMES {
-        bail!("--frames: at most {MAX_FRAMES} (all frames are held in memory), got {}", a.frames);
+        bail!(
+            "--frames: at most {MAX_FRAMES} (a thumbnail of every frame is kept for the \
+             contact sheet), got {}",
+            a.frames
+        );
     }
     let shape: Schedule = a.shape.parse().map_err(|e: String| anyhow!("--shape: {e}"))?;
     let color: Schedule = a.color.parse().map_err(|e: String| anyhow!("--color: {e}"))?;
@@ -198,35 +215,63 @@ pub fn run(a: MorphArgs<'_>) -> Result<()> {
     let exact_times = times_between(a.frames, t0, t1)?;
     let mut newton_solves = 0;
     let times: Vec<f64> = exact_times.iter().map(rat_to_f64).collect();
-    // Every frame is held for the animations and the sheet, with an 8-bit RGBA copy each.
+    // Frames are streamed: computed a batch at a time in parallel, written (PNG, GIF, APNG)
+    // and dropped; only a thumbnail of each stays for the contact sheet. The budget is one
+    // batch (each frame, its PNG bytes and its RGBA copy) with the encoders and thumbnails;
+    // a tight budget makes the batch smaller, down to one frame.
     let (fw, fh) = (morph.image_a().width(), morph.image_a().height());
     let px = fw as u64 * fh as u64;
-    let per_frame = px * (morph.image_a().color().bytes_per_pixel() as u64 + 4);
-    crate::memory::check(crate::memory::bytes_of(a.frames as u64, per_frame), || {
-        format!("{} frames of {fw} x {fh} (held for the animations)", a.frames)
+    let bpp = match a.preview {
+        Some(_) => 4,
+        None => morph.image_a().color().bytes_per_pixel() as u64,
+    };
+    let cols = a.frames.min(8);
+    let need = |batch: usize| {
+        let frames = crate::memory::bytes_of(batch as u64, px.saturating_mul(2 * bpp));
+        frames.saturating_add(streaming_memory((fw, fh), a.frames, batch, THUMB, cols))
+    };
+    let mut batch = (rayon::current_num_threads() * BATCH_PER_THREAD).clamp(1, a.frames);
+    while batch > 1 && need(batch) > crate::memory::limit() {
+        batch -= 1;
+    }
+    crate::memory::check(need(batch), || {
+        format!(
+            "{batch} frame(s) of {fw} x {fh} at a time, with the GIF and APNG encoders, {} \
+             thumbnails and the contact sheet",
+            a.frames
+        )
     })?;
-    let bar = progress_bar(a.frames as u64, !a.quiet, "morph");
-    let frames: Vec<DynamicImage> = match a.preview {
-        None => {
-            let out: Vec<(DynamicImage, FrameStats)> = exact_times
-                .par_iter()
-                .map(|t| {
-                    let f = morph.frame_with_stats(t);
-                    bar.inc(1);
-                    f
-                })
-                .collect::<Result<_, _>>()?;
-            let (uncovered, newton) =
-                out.iter().fold((0, 0), |(u, n), (_, st)| (u + st.uncovered, n + st.newton_solves));
-            if uncovered > 0 && !a.quiet {
-                eprintln!(
-                    "note: {uncovered} pixels over all frames have a preimage in neither image \
-                     (they show --background)"
-                );
-            }
-            newton_solves = newton;
-            out.into_iter().map(|(f, _)| f).collect()
-        }
+    let gif = a.gif.map(Path::to_path_buf).unwrap_or_else(|| a.output.join("morph.gif"));
+    let apng = a.apng.map(Path::to_path_buf).unwrap_or_else(|| a.output.join("morph.apng"));
+    let sheet: PathBuf = a.output.join("contact-sheet.png");
+    // The animations go into the folder unless --gif / --apng name another place. A place
+    // outside the folder is written beside it and put in place before the folder is swapped
+    // in (a failure there leaves the folder as it was); a place inside it is written into
+    // the stage under a temporary name and copied to its place after the swap.
+    let target = stage.target().to_path_buf();
+    let inside = |p: &Path| {
+        let dir = p.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+        std::fs::canonicalize(dir).is_ok_and(|d| d.starts_with(&target))
+    };
+    let open =
+        |given: Option<&Path>, name: &str, path: &Path| -> Result<(AtomicFile, Option<String>)> {
+            let (to, later) = match given {
+                None => (stage.path(name), None),
+                Some(p) if !inside(p) => (p.to_path_buf(), None),
+                Some(_) => {
+                    let tmp = temp_name(name);
+                    (stage.path(&tmp), Some(tmp))
+                }
+            };
+            let f = AtomicFile::create(&to)
+                .with_context(|| format!("cannot write {}", path.display()))?;
+            Ok((f, later))
+        };
+    let (mut gif_file, gif_later) = open(a.gif, "morph.gif", &gif)?;
+    let (mut apng_file, apng_later) = open(a.apng, "morph.apng", &apng)?;
+    let mut sink =
+        AnimationWriter::new(&mut gif_file, &mut apng_file, (fw, fh), a.frames, a.delay_ms, THUMB)?;
+    let preview = match a.preview {
         Some(step) => {
             let pv = morph.preview(step)?;
             // The preview is 8-bit: scale the background from the working type's range.
@@ -238,20 +283,63 @@ pub fn run(a: MorphArgs<'_>) -> Result<()> {
                 _ => 1.0,
             };
             let bg = (a.background / full * 255.0).round().clamp(0.0, 255.0) as u8;
-            exact_times
+            Some((pv, bg))
+        }
+        None => None,
+    };
+    let bar = progress_bar(a.frames as u64, !a.quiet, "morph");
+    let mut uncovered = 0;
+    for (chunk, ts) in exact_times.chunks(batch).enumerate() {
+        let frames: Vec<DynamicImage> = match &preview {
+            None => {
+                let out: Vec<(DynamicImage, FrameStats)> = ts
+                    .par_iter()
+                    .map(|t| {
+                        let f = morph.frame_with_stats(t);
+                        bar.inc(1);
+                        f
+                    })
+                    .collect::<Result<_, _>>()?;
+                for (_, st) in &out {
+                    uncovered += st.uncovered;
+                    newton_solves += st.newton_solves;
+                }
+                out.into_iter().map(|(f, _)| f).collect()
+            }
+            Some((pv, bg)) => ts
                 .par_iter()
                 .map(|t| {
-                    let pm = morph.preview_frame_exact(&pv, t, [bg, bg, bg, 255])?;
+                    let pm = morph.preview_frame_exact(pv, t, [*bg, *bg, *bg, 255])?;
                     bar.inc(1);
                     let img = image::RgbaImage::from_raw(pm.width(), pm.height(), pm.take())
                         .expect("sizes match");
                     Ok(DynamicImage::ImageRgba8(img))
                 })
-                .collect::<Result<_>>()?
-        }
-    };
+                .collect::<Result<_>>()?,
+        };
+        ph.mark("frames");
+        let first = chunk * batch;
+        let (pngs, anims) = rayon::join(
+            || {
+                frames.par_iter().enumerate().try_for_each(|(k, f)| -> Result<()> {
+                    let p = stage.path(&frame_name(first + k, a.frames));
+                    write_atomic(&p, &png_bytes(f)?)
+                        .with_context(|| format!("cannot write {}", p.display()))
+                })
+            },
+            || sink.push_batch(&frames),
+        );
+        pngs?;
+        anims?;
+        ph.mark("encode");
+    }
     bar.finish_and_clear();
-    ph.mark("frames");
+    if uncovered > 0 && !a.quiet {
+        eprintln!(
+            "note: {uncovered} pixels over all frames have a preimage in neither image \
+             (they show --background)"
+        );
+    }
     // Every frame's two maps: certified fold-free, and covering A's frame.
     // One family certificate covers every frame with shape weight in [0, 1]; the others
     // (caricatures, or families not proven that way) are certified one by one.
@@ -282,12 +370,6 @@ pub fn run(a: MorphArgs<'_>) -> Result<()> {
         }
         ph.mark("checks");
     }
-
-    frames.par_iter().enumerate().try_for_each(|(k, f)| -> Result<()> {
-        let p = stage.path(&frame_name(k, a.frames));
-        write_atomic(&p, &png_bytes(f)?).with_context(|| format!("cannot write {}", p.display()))
-    })?;
-    ph.mark("png");
     let write_def = |name: &str, s: &Spline| -> Result<()> {
         let p = stage.path(name);
         write_atomic(&p, deformation::to_string(s, None).as_bytes())
@@ -296,42 +378,25 @@ pub fn run(a: MorphArgs<'_>) -> Result<()> {
     write_def("phi_ab.json", &morph.phi_ab_raw()?)?;
     write_def("phi_ba.json", morph.phi_ba())?;
     ph.mark("deformations");
-    let gif = a.gif.map(Path::to_path_buf).unwrap_or_else(|| a.output.join("morph.gif"));
-    let apng = a.apng.map(Path::to_path_buf).unwrap_or_else(|| a.output.join("morph.apng"));
-    let sheet: PathBuf = a.output.join("contact-sheet.png");
-    // The animations go into the folder unless --gif / --apng name another place. A place
-    // outside the folder is written before the folder is swapped in (a failure there leaves
-    // the folder as it was); a place inside it, after.
-    let target = stage.target().to_path_buf();
-    let inside = |p: &Path| {
-        let dir = p.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
-        std::fs::canonicalize(dir).is_ok_and(|d| d.starts_with(&target))
-    };
-    let staged = |given: Option<&Path>, name: &str, path: &Path, bytes: &[u8]| -> Result<()> {
-        let to = match given {
-            None => stage.path(name),
-            Some(p) if !inside(p) => p.to_path_buf(),
-            Some(_) => return Ok(()),
-        };
-        write_atomic(&to, bytes).with_context(|| format!("cannot write {}", path.display()))
-    };
-    let gif_data = gif_bytes(&frames, a.delay_ms)?;
-    staged(a.gif, "morph.gif", &gif, &gif_data)?;
-    ph.mark("gif");
-    let apng_data = apng_bytes(&frames, a.delay_ms)?;
-    staged(a.apng, "morph.apng", &apng, &apng_data)?;
-    ph.mark("apng");
-    let anims = [(a.gif, &gif, gif_data), (a.apng, &apng, apng_data)];
-    let cols = a.frames.min(8);
-    let pm = contact_sheet(&frames, &times, cols, 160)?;
+    let pm = sink.finish(&times, cols)?;
+    gif_file.commit().with_context(|| format!("cannot write {}", gif.display()))?;
+    apng_file.commit().with_context(|| format!("cannot write {}", apng.display()))?;
     let bytes = pm.encode_png().map_err(|e| anyhow!("encoding the contact sheet: {e}"))?;
+    drop(pm);
     write_atomic(&stage.path("contact-sheet.png"), &bytes)
         .with_context(|| format!("cannot write {}", sheet.display()))?;
     stage.commit().with_context(|| format!("cannot write {}", a.output.display()))?;
-    for (given, path, bytes) in &anims {
-        if given.is_some_and(inside) {
-            write_atomic(path, bytes)
-                .with_context(|| format!("cannot write {}", path.display()))?;
+    // Animations inside the output folder: now in it under their temporary names.
+    for (later, path) in [(gif_later, &gif), (apng_later, &apng)] {
+        if let Some(tmp) = later {
+            let from = target.join(tmp);
+            let copied = (|| -> Result<()> {
+                let mut to = AtomicFile::create(path)?;
+                std::io::copy(&mut std::fs::File::open(&from)?, &mut to)?;
+                Ok(to.commit()?)
+            })();
+            let _ = std::fs::remove_file(&from);
+            copied.with_context(|| format!("cannot write {}", path.display()))?;
         }
     }
     ph.mark("sheet");

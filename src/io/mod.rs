@@ -55,41 +55,137 @@ pub enum IoError {
 /// first write into a folder in each process removes such leftovers (see
 /// [`remove_stale_temps`]), so an interrupted batch that is run again tidies up after itself.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), IoError> {
-    let werr = |source| IoError::Write { path: path.to_path_buf(), source };
-    let (target, mode) = match destination(path).map_err(werr)? {
-        Destination::Special => {
-            let mut f = fs::OpenOptions::new().write(true).open(path).map_err(werr)?;
-            return f.write_all(bytes).and_then(|()| f.flush()).map_err(werr);
+    let mut f = AtomicFile::create(path)?;
+    f.write_all(bytes).map_err(|source| IoError::Write { path: path.to_path_buf(), source })?;
+    f.commit()
+}
+
+/// A file written piece by piece (through [`Write`], buffered) and put in place as
+/// [`write_atomic`] puts its bytes: into a temporary file `.NAME.PID-N.tmp` beside the
+/// destination, flushed, synced and renamed over it by [`AtomicFile::commit`]. Until then the
+/// destination is untouched; an `AtomicFile` dropped without a commit (a failed command)
+/// removes its temporary file. The destination is looked at when the file is created (see
+/// [`Destination`]): a FIFO or device is written in place, without a temporary file.
+///
+/// A write error is remembered: `commit` then fails with it, even when the writer that saw
+/// it ignored it (an encoder writing its trailer while it is dropped), so a file is never put
+/// in place with a hole in it.
+#[derive(Debug)]
+pub struct AtomicFile {
+    /// The path as given (for messages).
+    path: PathBuf,
+    out: std::io::BufWriter<fs::File>,
+    /// The temporary file and the file it replaces (`None`: written in place).
+    rename: Option<(PathBuf, PathBuf)>,
+    mode: Option<fs::Permissions>,
+    failed: Option<std::io::Error>,
+    done: bool,
+}
+
+/// Buffer of an [`AtomicFile`]: large enough that an encoder's small writes become few
+/// system calls.
+const ATOMIC_BUFFER: usize = 256 << 10;
+
+impl AtomicFile {
+    /// Opens the temporary file for `path` (or `path` itself when it is a FIFO or device).
+    pub fn create(path: &Path) -> Result<AtomicFile, IoError> {
+        let werr = |source| IoError::Write { path: path.to_path_buf(), source };
+        let (file, rename, mode) = match destination(path).map_err(werr)? {
+            Destination::Special => {
+                (fs::OpenOptions::new().write(true).open(path).map_err(werr)?, None, None)
+            }
+            Destination::File { target, mode } => {
+                let dir = match target.parent() {
+                    Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+                    _ => PathBuf::from("."),
+                };
+                let Some(name) = target.file_name().map(|n| n.to_string_lossy().into_owned())
+                else {
+                    let e =
+                        std::io::Error::new(std::io::ErrorKind::InvalidInput, "not a file name");
+                    return Err(werr(e));
+                };
+                tidy_once(&dir);
+                let tmp = dir.join(temp_name(&name));
+                let f =
+                    fs::OpenOptions::new().write(true).create_new(true).open(&tmp).map_err(werr)?;
+                (f, Some((tmp, target)), mode)
+            }
+        };
+        Ok(AtomicFile {
+            path: path.to_path_buf(),
+            out: std::io::BufWriter::with_capacity(ATOMIC_BUFFER, file),
+            rename,
+            mode,
+            failed: None,
+            done: false,
+        })
+    }
+
+    /// Flushes and syncs the file and renames it over the destination. On error the
+    /// temporary file is removed and the destination is untouched.
+    pub fn commit(mut self) -> Result<(), IoError> {
+        let path = self.path.clone();
+        let werr = |source| IoError::Write { path: path.clone(), source };
+        if let Some(e) = self.failed.take() {
+            return Err(werr(e));
         }
-        Destination::File { target, mode } => (target, mode),
-    };
-    let dir = match target.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    let Some(name) = target.file_name().map(|n| n.to_string_lossy().into_owned()) else {
-        let e = std::io::Error::new(std::io::ErrorKind::InvalidInput, "not a file name");
-        return Err(werr(e));
-    };
-    tidy_once(&dir);
-    // Unique per process and call, so concurrent writers never share a temporary file.
+        self.out.flush().map_err(werr)?;
+        let Some((tmp, target)) = &self.rename else {
+            self.done = true;
+            return Ok(());
+        };
+        let f = self.out.get_ref();
+        if let Some(perm) = &self.mode {
+            f.set_permissions(perm.clone()).map_err(werr)?;
+        }
+        f.sync_all().map_err(werr)?;
+        fs::rename(tmp, target).map_err(werr)?;
+        self.done = true;
+        Ok(())
+    }
+}
+
+impl Write for AtomicFile {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let r = self.out.write(buf);
+        self.remember(r)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        let r = self.out.flush();
+        self.remember(r)
+    }
+}
+
+impl AtomicFile {
+    /// Keeps the first error of a write (an interrupted call is retried, not an error).
+    fn remember<T>(&mut self, r: std::io::Result<T>) -> std::io::Result<T> {
+        if let Err(e) = &r {
+            if e.kind() != std::io::ErrorKind::Interrupted {
+                self.failed.get_or_insert_with(|| std::io::Error::new(e.kind(), e.to_string()));
+            }
+        }
+        r
+    }
+}
+
+impl Drop for AtomicFile {
+    /// An uncommitted file is removed (the destination is untouched).
+    fn drop(&mut self) {
+        if let (false, Some((tmp, _))) = (self.done, &self.rename) {
+            let _ = fs::remove_file(tmp);
+        }
+    }
+}
+
+/// A fresh temporary name for the file `name`, `.NAME.PID-N.tmp` (unique per process and
+/// call, so concurrent writers never share a temporary file). Files of this form are the
+/// ones [`remove_stale_temps`] and [`folder::Staged`] treat as leftovers of a writer.
+pub fn temp_name(name: &str) -> String {
     static COUNTER: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
     let n = COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    let tmp = dir.join(format!(".{name}.{}-{n}.tmp", std::process::id()));
-    let result = (|| {
-        let mut f = fs::OpenOptions::new().write(true).create_new(true).open(&tmp)?;
-        f.write_all(bytes)?;
-        if let Some(perm) = mode {
-            f.set_permissions(perm)?;
-        }
-        f.sync_all()?;
-        fs::rename(&tmp, &target)
-    })();
-    if let Err(e) = result {
-        let _ = fs::remove_file(&tmp);
-        return Err(werr(e));
-    }
-    Ok(())
+    format!(".{name}.{}-{n}.tmp", std::process::id())
 }
 
 /// What [`write_atomic`] finds at an output path.
@@ -370,6 +466,42 @@ mod tests {
         if Path::new("/dev/null").exists() {
             assert_eq!(destination(Path::new("/dev/null")).unwrap(), Destination::Special);
         }
+    }
+
+    #[test]
+    fn an_atomic_file_appears_only_when_committed() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("anim.gif");
+        fs::write(&p, "old").unwrap();
+        {
+            let mut f = AtomicFile::create(&p).unwrap();
+            f.write_all(b"half").unwrap();
+        }
+        assert_eq!(fs::read_to_string(&p).unwrap(), "old", "dropped: untouched");
+        assert_eq!(fs::read_dir(dir.path()).unwrap().count(), 1, "no temporary file left");
+        let mut f = AtomicFile::create(&p).unwrap();
+        for k in 0..1000 {
+            write!(f, "{k},").unwrap();
+        }
+        assert_eq!(fs::read_to_string(&p).unwrap(), "old", "not before the commit");
+        f.commit().unwrap();
+        let text = fs::read_to_string(&p).unwrap();
+        assert!(text.starts_with("0,1,2,") && text.ends_with("998,999,"));
+        assert_eq!(fs::read_dir(dir.path()).unwrap().count(), 1);
+    }
+
+    /// An encoder that ignores an error of its last write (the GIF trailer, written when the
+    /// encoder is dropped) must not leave a truncated file: the commit fails with the error.
+    #[test]
+    fn an_ignored_write_error_fails_the_commit() {
+        let full = Path::new("/dev/full");
+        if !cfg!(target_os = "linux") || !full.exists() {
+            return;
+        }
+        let mut f = AtomicFile::create(full).unwrap();
+        let _ = f.write_all(&vec![7u8; 2 * ATOMIC_BUFFER]);
+        let e = f.commit().unwrap_err().to_string();
+        assert!(e.contains("/dev/full"), "{e}");
     }
 
     #[test]

@@ -1,13 +1,25 @@
 //! Encoding a morph's frames: PNG per frame, animated GIF and APNG, and a contact sheet.
 //!
-//! Everything is encoded to memory; the caller writes it atomically
-//! ([`crate::io::write_atomic`]). The animations are 8-bit RGBA (gray and 16-bit frames are
-//! converted); the GIF palette is quantized per frame by the `image` crate.
+//! Two ways, with byte-identical results (`tests::streaming_matches_the_whole_vec_encoders`):
+//!
+//! * streaming, [`AnimationWriter`]: the frames are pushed one batch at a time, in order;
+//!   each is encoded into the GIF and the APNG as it comes (written to any [`Write`], for
+//!   `trimorph morph` an atomic file), and only a thumbnail is kept for the contact sheet.
+//!   Memory is one batch of frames plus the encoders and the thumbnails
+//!   ([`streaming_memory`]), whatever the number of frames;
+//! * whole, [`gif_bytes`], [`apng_bytes`], [`contact_sheet`]: every frame at once, to memory
+//!   (the reference, and what the benchmarks time).
+//!
+//! The animations are 8-bit RGBA (gray and 16-bit frames are converted); the GIF palette is
+//! quantized per frame by the `image` crate (NeuQuant, speed 10). The APNG is told the frame
+//! count before the first frame (its `acTL` chunk comes first), so a streaming writer is made
+//! for a known number of frames.
 
 use crate::render::font::draw_text;
 use image::codecs::gif::{GifEncoder, Repeat};
 use image::{DynamicImage, Frame, ImageFormat, RgbaImage};
-use std::io::Cursor;
+use std::borrow::Cow;
+use std::io::{Cursor, Write};
 use tiny_skia::{Color, Pixmap};
 
 /// Errors of encoding.
@@ -123,19 +135,49 @@ pub fn contact_sheet(
 ) -> Result<Pixmap, EncodeError> {
     let rgba = rgba_frames(frames)?;
     let (w, h) = rgba[0].dimensions();
+    let (tw, th) = thumb_size(w, h, thumb);
+    let thumbs: Vec<RgbaImage> = rgba.iter().map(|f| thumbnail(f, tw, th)).collect();
+    sheet_of(&thumbs, times, cols, tw, th)
+}
+
+/// The size of a thumbnail of a `w x h` frame, at most `thumb` px wide.
+fn thumb_size(w: u32, h: u32, thumb: u32) -> (u32, u32) {
     let tw = thumb.clamp(1, w.max(1));
-    let th = ((u64::from(h) * u64::from(tw)) / u64::from(w)).max(1) as u32;
-    let cols = cols.clamp(1, rgba.len());
-    let rows = rgba.len().div_ceil(cols);
-    let (pad, label) = (6u32, 14u32);
-    let sw = cols as u32 * (tw + pad) + pad;
-    let sh = rows as u32 * (th + pad + label) + pad;
+    let th = ((u64::from(h) * u64::from(tw)) / u64::from(w.max(1))).max(1) as u32;
+    (tw, th)
+}
+
+fn thumbnail(f: &RgbaImage, tw: u32, th: u32) -> RgbaImage {
+    image::imageops::resize(f, tw, th, image::imageops::FilterType::Triangle)
+}
+
+/// The layout of the contact sheet of `n` thumbnails of `tw x th`: columns, rows, size.
+fn sheet_layout(n: usize, cols: usize, tw: u32, th: u32) -> (usize, u32, u32) {
+    let cols = cols.clamp(1, n.max(1));
+    let rows = n.div_ceil(cols);
+    let sw = cols as u32 * (tw + SHEET_PAD) + SHEET_PAD;
+    let sh = rows as u32 * (th + SHEET_PAD + SHEET_LABEL) + SHEET_PAD;
+    (cols, sw, sh)
+}
+
+const SHEET_PAD: u32 = 6;
+const SHEET_LABEL: u32 = 14;
+
+/// The contact sheet of the thumbnails `thumbs` (each `tw x th`), labelled with `times`.
+fn sheet_of(
+    thumbs: &[RgbaImage],
+    times: &[f64],
+    cols: usize,
+    tw: u32,
+    th: u32,
+) -> Result<Pixmap, EncodeError> {
+    let (pad, label) = (SHEET_PAD, SHEET_LABEL);
+    let (cols, sw, sh) = sheet_layout(thumbs.len(), cols, tw, th);
     let mut sheet = RgbaImage::from_pixel(sw, sh, image::Rgba([255, 255, 255, 255]));
-    for (k, f) in rgba.iter().enumerate() {
-        let small = image::imageops::resize(f, tw, th, image::imageops::FilterType::Triangle);
+    for (k, small) in thumbs.iter().enumerate() {
         let (c, r) = ((k % cols) as u32, (k / cols) as u32);
         let (x, y) = (pad + c * (tw + pad), pad + r * (th + pad + label) + label);
-        image::imageops::overlay(&mut sheet, &small, i64::from(x), i64::from(y));
+        image::imageops::overlay(&mut sheet, small, i64::from(x), i64::from(y));
     }
     // Opaque pixels are the same premultiplied.
     let mut pm = Pixmap::from_vec(
@@ -143,10 +185,252 @@ pub fn contact_sheet(
         tiny_skia::IntSize::from_wh(sw, sh).ok_or_else(|| EncodeError::Frames("size".into()))?,
     )
     .ok_or_else(|| EncodeError::Frames("contact sheet too large".into()))?;
-    for (k, t) in times.iter().enumerate().take(rgba.len()) {
+    for (k, t) in times.iter().enumerate().take(thumbs.len()) {
         let (c, r) = ((k % cols) as u32, (k / cols) as u32);
         let (x, y) = (pad + c * (tw + pad), pad + r * (th + pad + label) + 2);
         draw_text(&mut pm, x as i32, y as i32, &format!("t={t:.2}"), 1, Color::BLACK);
     }
     Ok(pm)
+}
+
+/// Bytes an [`AnimationWriter`] holds at most besides the frames given to it, for `frames` frames of
+/// `width x height` pushed `batch` at a time, a sheet of `cols` columns: the 8-bit RGBA
+/// copies of a batch, the encoders' buffers (a frame's copy, palette indices and
+/// compressed data for the GIF, filter rows and compressed data for the APNG: counted as
+/// 14 bytes a pixel), every thumbnail, and at the end the sheet (drawn, then copied once
+/// more to be encoded). Frames that are 8-bit RGBA already are not copied (counted anyway).
+pub fn streaming_memory(
+    (width, height): (u32, u32),
+    frames: usize,
+    batch: usize,
+    thumb: u32,
+    cols: usize,
+) -> u64 {
+    let px = u64::from(width) * u64::from(height);
+    let (tw, th) = thumb_size(width, height, thumb);
+    let thumbs = (frames as u64).saturating_mul(u64::from(tw) * u64::from(th) * 4);
+    let (_, sw, sh) = sheet_layout(frames, cols, tw, th);
+    let sheet = u64::from(sw) * u64::from(sh) * 4;
+    let streaming = (batch as u64).saturating_mul(px * 4).saturating_add(px * 14);
+    streaming.max(sheet.saturating_mul(2)).saturating_add(thumbs)
+}
+
+/// A morph's animations written as its frames come (see the module documentation): an
+/// endlessly looping GIF and APNG, `delay_ms` per frame, exactly as [`gif_bytes`] and
+/// [`apng_bytes`] encode them, and the thumbnails of the [`contact_sheet`].
+///
+/// Frames are pushed in order with [`push`](Self::push) or [`push_batch`](Self::push_batch);
+/// after the announced number of frames, [`finish`](Self::finish) ends both animations and
+/// returns the contact sheet. The GIF's trailer is written when its encoder is dropped, which
+/// ignores write errors: give a writer that remembers them (as
+/// [`crate::io::AtomicFile`] does) or one that cannot fail.
+pub struct AnimationWriter<G: Write, A: Write> {
+    gif: GifEncoder<G>,
+    apng: png::Writer<A>,
+    delay: image::Delay,
+    size: (u32, u32),
+    frames: usize,
+    thumb: (u32, u32),
+    thumbs: Vec<RgbaImage>,
+}
+
+impl<G: Write + Send, A: Write + Send> AnimationWriter<G, A> {
+    /// A writer for `frames` frames of `width x height`, GIF into `gif`, APNG into `apng`,
+    /// thumbnails at most `thumb` px wide. Writes the APNG's header at once (the GIF's comes
+    /// with the first frame).
+    pub fn new(
+        gif: G,
+        apng: A,
+        (width, height): (u32, u32),
+        frames: usize,
+        delay_ms: u32,
+        thumb: u32,
+    ) -> Result<Self, EncodeError> {
+        if frames == 0 || width == 0 || height == 0 {
+            return Err(EncodeError::Frames("no frames".into()));
+        }
+        if width > u32::from(u16::MAX) || height > u32::from(u16::MAX) {
+            return Err(EncodeError::Frames(format!(
+                "a GIF is at most {} x {} pixels, the frames are {width} x {height}",
+                u16::MAX,
+                u16::MAX
+            )));
+        }
+        let count = u32::try_from(frames)
+            .map_err(|_| EncodeError::Frames(format!("{frames} frames: too many for an APNG")))?;
+        let mut g = GifEncoder::new_with_speed(gif, 10);
+        g.set_repeat(Repeat::Infinite)?;
+        let mut enc = png::Encoder::new(apng, width, height);
+        enc.set_color(png::ColorType::Rgba);
+        enc.set_depth(png::BitDepth::Eight);
+        // As apng_bytes: fdeflate's fast mode.
+        enc.set_compression(png::Compression::Fast);
+        enc.set_animated(count, 0)?;
+        enc.set_frame_delay(delay_ms.min(u16::MAX as u32) as u16, 1000)?;
+        let apng = enc.write_header()?;
+        Ok(AnimationWriter {
+            gif: g,
+            apng,
+            delay: image::Delay::from_numer_denom_ms(delay_ms, 1),
+            size: (width, height),
+            frames,
+            thumb: thumb_size(width, height, thumb),
+            thumbs: Vec::with_capacity(frames),
+        })
+    }
+
+    /// Encodes one frame (see [`push_batch`](Self::push_batch)).
+    pub fn push(&mut self, frame: &DynamicImage) -> Result<(), EncodeError> {
+        self.push_batch(std::slice::from_ref(frame))
+    }
+
+    /// Encodes the next frames, in order: their RGBA conversions and thumbnails in parallel,
+    /// the GIF frames and the APNG frames side by side.
+    pub fn push_batch(&mut self, frames: &[DynamicImage]) -> Result<(), EncodeError> {
+        use rayon::prelude::*;
+        if self.thumbs.len() + frames.len() > self.frames {
+            return Err(EncodeError::Frames(format!(
+                "more than the {} frames announced",
+                self.frames
+            )));
+        }
+        if let Some(f) = frames.iter().find(|f| (f.width(), f.height()) != self.size) {
+            return Err(EncodeError::Frames(format!(
+                "frames differ in size: {:?} and {:?}",
+                self.size,
+                (f.width(), f.height())
+            )));
+        }
+        let rgba: Vec<Cow<'_, RgbaImage>> = frames
+            .par_iter()
+            .map(|f| match f {
+                DynamicImage::ImageRgba8(x) => Cow::Borrowed(x),
+                _ => Cow::Owned(f.to_rgba8()),
+            })
+            .collect();
+        let (tw, th) = self.thumb;
+        let delay = self.delay;
+        let (gif, apng) = (&mut self.gif, &mut self.apng);
+        let (g, (a, thumbs)) = rayon::join(
+            || -> Result<(), EncodeError> {
+                for f in &rgba {
+                    gif.encode_frame(Frame::from_parts(f.as_ref().clone(), 0, 0, delay))?;
+                }
+                Ok(())
+            },
+            || {
+                rayon::join(
+                    || -> Result<(), EncodeError> {
+                        for f in &rgba {
+                            apng.write_image_data(f.as_raw())?;
+                        }
+                        Ok(())
+                    },
+                    || rgba.par_iter().map(|f| thumbnail(f, tw, th)).collect::<Vec<_>>(),
+                )
+            },
+        );
+        g?;
+        a?;
+        self.thumbs.extend(thumbs);
+        Ok(())
+    }
+
+    /// Ends both animations (the GIF's trailer, the APNG's last chunk) and returns the
+    /// contact sheet of the frames, `cols` per row, labelled with `times`. Fails when fewer
+    /// frames than announced were pushed.
+    pub fn finish(self, times: &[f64], cols: usize) -> Result<Pixmap, EncodeError> {
+        if self.thumbs.len() != self.frames {
+            return Err(EncodeError::Frames(format!(
+                "{} of the {} frames announced were given",
+                self.thumbs.len(),
+                self.frames
+            )));
+        }
+        let AnimationWriter { gif, apng, thumb: (tw, th), thumbs, .. } = self;
+        drop(gif);
+        apng.finish()?;
+        sheet_of(&thumbs, times, cols, tw, th)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn frames(n: usize, w: u32, h: u32) -> Vec<DynamicImage> {
+        (0..n)
+            .map(|k| {
+                let img = image::ImageBuffer::from_fn(w, h, |x, y| {
+                    let v = (x * 7 + y * 3 + k as u32 * 40) % 256;
+                    image::Rgb([v as u16 * 200, (x * 900) as u16, (y * 1100 + k as u32) as u16])
+                });
+                DynamicImage::ImageRgb16(img)
+            })
+            .collect()
+    }
+
+    /// The streaming writer, fed in batches of 1, 2 and 3, writes the very bytes of the
+    /// whole-Vec encoders: GIF, APNG and the contact sheet (16-bit RGB frames, converted).
+    #[test]
+    fn streaming_matches_the_whole_vec_encoders() {
+        let fr = frames(5, 37, 23);
+        let times: Vec<f64> = (0..5).map(|k| k as f64 / 4.0).collect();
+        let (gif, apng) = (gif_bytes(&fr, 70).unwrap(), apng_bytes(&fr, 70).unwrap());
+        let sheet = contact_sheet(&fr, &times, 3, 20).unwrap();
+        for batch in [1, 2, 3] {
+            let (mut g, mut a) = (Vec::new(), Vec::new());
+            let mut w = AnimationWriter::new(&mut g, &mut a, (37, 23), 5, 70, 20).unwrap();
+            for b in fr.chunks(batch) {
+                w.push_batch(b).unwrap();
+            }
+            let s = w.finish(&times, 3).unwrap();
+            assert!(g == gif, "GIF differs, batches of {batch}");
+            assert!(a == apng, "APNG differs, batches of {batch}");
+            assert!(s.data() == sheet.data(), "contact sheet differs, batches of {batch}");
+            assert_eq!((s.width(), s.height()), (sheet.width(), sheet.height()));
+        }
+        // 8-bit RGBA frames are encoded without a copy: the same bytes.
+        let rgba: Vec<DynamicImage> =
+            fr.iter().map(|f| DynamicImage::ImageRgba8(f.to_rgba8())).collect();
+        let (mut g, mut a) = (Vec::new(), Vec::new());
+        let mut w = AnimationWriter::new(&mut g, &mut a, (37, 23), 5, 70, 20).unwrap();
+        for f in &rgba {
+            w.push(f).unwrap();
+        }
+        w.finish(&times, 3).unwrap();
+        assert!(g == gif_bytes(&rgba, 70).unwrap() && a == apng_bytes(&rgba, 70).unwrap());
+    }
+
+    #[test]
+    fn the_announced_frame_count_and_size_are_enforced() {
+        let fr = frames(3, 10, 8);
+        let (mut g, mut a) = (Vec::new(), Vec::new());
+        let mut w = AnimationWriter::new(&mut g, &mut a, (10, 8), 2, 100, 20).unwrap();
+        let e = w.push_batch(&fr).unwrap_err().to_string();
+        assert!(e.contains("more than the 2 frames"), "{e}");
+        let e = w.push(&frames(1, 11, 8)[0]).unwrap_err().to_string();
+        assert!(e.contains("differ in size"), "{e}");
+        w.push(&fr[0]).unwrap();
+        let e = w.finish(&[0.0, 1.0], 2).err().unwrap().to_string();
+        assert!(e.contains("1 of the 2 frames"), "{e}");
+        let (mut g, mut a) = (Vec::new(), Vec::new());
+        let e = AnimationWriter::new(&mut g, &mut a, (70_000, 8), 2, 100, 20).err().unwrap();
+        assert!(e.to_string().contains("GIF is at most 65535"), "{e}");
+    }
+
+    #[test]
+    fn memory_counts_a_batch_not_every_frame() {
+        // Large frames, few of them: the streaming phase is the larger one.
+        let one = streaming_memory((1000, 1000), 10, 1, 160, 8);
+        let four = streaming_memory((1000, 1000), 10, 4, 160, 8);
+        assert_eq!(four - one, 3 * 4_000_000, "each frame of a batch: its RGBA copy");
+        let more = streaming_memory((1000, 1000), 20, 1, 160, 8);
+        assert_eq!(more - one, 10 * 160 * 160 * 4, "each further frame: a thumbnail");
+        // Many small frames: the contact sheet at the end is the larger phase.
+        let (_, sw, sh) = sheet_layout(1000, 8, 100, 100);
+        let sheet = u64::from(sw) * u64::from(sh) * 4;
+        let thumbs = 1000 * 100 * 100 * 4;
+        assert_eq!(streaming_memory((100, 100), 1000, 2, 160, 8), 2 * sheet + thumbs);
+    }
 }
