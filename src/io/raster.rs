@@ -100,12 +100,19 @@ fn is_tiff(path: &Path) -> bool {
 pub fn read_stack(path: &Path) -> Result<Stack, RasterError> {
     let bytes =
         std::fs::read(path).map_err(|source| IoError::Read { path: path.to_path_buf(), source })?;
+    decode_stack(&bytes, path)
+}
+
+/// Decodes an image held in memory, as [`read_stack`] decodes a file (the format is found
+/// from the content, not from `path`, which only names the input in errors): the same
+/// size limits, memory budget and completeness checks.
+pub fn decode_stack(bytes: &[u8], path: &Path) -> Result<Stack, RasterError> {
     let derr = |reason: String| RasterError::Decode { path: path.to_path_buf(), reason };
     // Classic TIFF (42) and BigTIFF (43), either byte order.
     if [b"II*\0", b"MM\0*", b"II+\0", b"MM\0+"].iter().any(|m| bytes.starts_with(*m)) {
-        return read_tiff(path, &bytes);
+        return read_tiff(path, bytes);
     }
-    let mut reader = image::ImageReader::new(Cursor::new(&bytes))
+    let mut reader = image::ImageReader::new(Cursor::new(bytes))
         .with_guessed_format()
         .map_err(|e| derr(e.to_string()))?;
     if reader.format().is_none() {
@@ -113,7 +120,7 @@ pub fn read_stack(path: &Path) -> Result<Stack, RasterError> {
     }
     let (w, h) = reader.into_dimensions().map_err(|e| derr(e.to_string()))?;
     check_size(path, 0, w, h)?;
-    reader = image::ImageReader::new(Cursor::new(&bytes))
+    reader = image::ImageReader::new(Cursor::new(bytes))
         .with_guessed_format()
         .map_err(|e| derr(e.to_string()))?;
     // The decoder's own limits as well, enforced before it allocates.
@@ -127,7 +134,7 @@ pub fn read_stack(path: &Path) -> Result<Stack, RasterError> {
     let color = image::ImageDecoder::color_type(&decoder);
     crate::memory::check(need, || format!("decoding {w} x {h} {color:?}"))
         .map_err(|source| RasterError::Memory { path: path.to_path_buf(), source })?;
-    if reader_format_is_jpeg(&bytes) && !jpeg_is_complete(&bytes) {
+    if reader_format_is_jpeg(bytes) && !jpeg_is_complete(bytes) {
         return Err(derr(
             "the JPEG stream ends before its end-of-image marker (the file is truncated)".into(),
         ));
@@ -518,6 +525,27 @@ mod tests {
                 assert_eq!(a.as_bytes(), b.as_bytes());
             }
         }
+    }
+
+    #[test]
+    fn decoding_from_memory_matches_reading_the_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let img = DynamicImage::ImageRgb16(ImageBuffer::from_fn(5, 3, |x, y| {
+            Rgb([x as u16 * 1000, y as u16 * 77, 65535])
+        }));
+        for name in ["m.png", "m.tif", "m.ppm"] {
+            let p = dir.path().join(name);
+            write_stack(&p, &Stack { pages: vec![img.clone()], gray_float: false }).unwrap();
+            let bytes = std::fs::read(&p).unwrap();
+            // The format comes from the content: the name only labels errors.
+            let mem = decode_stack(&bytes, Path::new("memory")).unwrap();
+            let file = read_stack(&p).unwrap();
+            assert_eq!(mem.pages.len(), 1);
+            assert_eq!(mem.pages[0].color(), file.pages[0].color(), "{name}");
+            assert_eq!(mem.pages[0].as_bytes(), file.pages[0].as_bytes(), "{name}");
+        }
+        let e = decode_stack(b"P5\n3 2\n255\n\x01", Path::new("short.pgm")).unwrap_err();
+        assert!(e.to_string().contains("short.pgm"), "{e}");
     }
 
     #[test]
