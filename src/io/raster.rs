@@ -533,7 +533,7 @@ mod tests {
         let img = DynamicImage::ImageRgb16(ImageBuffer::from_fn(5, 3, |x, y| {
             Rgb([x as u16 * 1000, y as u16 * 77, 65535])
         }));
-        for name in ["m.png", "m.tif", "m.ppm"] {
+        for name in ["m.png", "m.tif", "m.pam"] {
             let p = dir.path().join(name);
             write_stack(&p, &Stack { pages: vec![img.clone()], gray_float: false }).unwrap();
             let bytes = std::fs::read(&p).unwrap();
