@@ -257,12 +257,13 @@ pub const EDITOR_ROUTES: &[(&str, &str)] = &[
 /// At most this many requests per input.
 pub const EDITOR_MAX_REQUESTS: usize = 48;
 
-/// The per-process folder of `editor_api` documents (emptied for each input).
-fn editor_root() -> &'static PathBuf {
-    static R: OnceLock<PathBuf> = OnceLock::new();
-    R.get_or_init(|| {
-        std::env::temp_dir().join(format!("trimorph-fuzz-editor-{}", std::process::id()))
-    })
+/// The folder of an `editor_api` input's document: one per process and thread (the
+/// regression test replays inputs on several threads at once), made afresh for each input
+/// and removed after it.
+fn editor_root() -> PathBuf {
+    let thread = format!("{:?}", std::thread::current().id());
+    let thread: String = thread.chars().filter(char::is_ascii_digit).collect();
+    std::env::temp_dir().join(format!("trimorph-fuzz-editor-{}-{thread}", std::process::id()))
 }
 
 /// The files each `editor_api` input starts with: a landmark CSV, a deformation over the
@@ -328,7 +329,7 @@ pub fn editor_api(data: &[u8]) {
 pub fn editor_api_statuses(data: &[u8]) -> Vec<u16> {
     use trimorph::server::doc::Doc;
     let mut statuses = Vec::new();
-    let root = editor_root();
+    let root = &editor_root();
     let _ = std::fs::remove_dir_all(root);
     std::fs::create_dir_all(root).expect("the fuzz folder");
     for (name, text) in editor_files() {
@@ -362,5 +363,6 @@ pub fn editor_api_statuses(data: &[u8]) -> Vec<u16> {
         }
     }
     doc.spline().check_c1().expect("the spline stays C1 exactly");
+    let _ = std::fs::remove_dir_all(root);
     statuses
 }
