@@ -7,7 +7,7 @@ set -u
 cd "$(dirname "$0")"
 secs=$1
 shift
-targets=${*:-"deformation_json solve_json model_obj model_ply landmarks_csv landmarks_bigwarp edit_script ldu_rebuild"}
+targets=${*:-"deformation_json solve_json model_obj model_ply landmarks_csv landmarks_bigwarp edit_script ldu_rebuild image_decode_warp editor_api"}
 for t in $targets; do
     mkdir -p "corpus/$t" "artifacts/$t"
     cp -n seeds/"$t"/* "corpus/$t/" 2>/dev/null
@@ -16,6 +16,8 @@ for t in $targets; do
         landmarks*) dict=csv.dict ;;
         model_obj) dict=obj.dict ;;
         model_ply) dict=ply.dict ;;
+        editor_api) dict=editor.dict ;;
+        image_decode_warp) dict=image.dict ;;
         *) dict= ;;
     esac
     before=$(ls "artifacts/$t" | wc -l)

@@ -5,7 +5,8 @@
 
 #![allow(dead_code)]
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
 use trimorph::exact::{Int, Ldu, LduOptions, Pivoting, Simplification, SparseIntMatrix};
 
 /// The names of all targets, in the order of `fuzz/Cargo.toml`.
@@ -18,6 +19,8 @@ pub const TARGETS: &[&str] = &[
     "landmarks_bigwarp",
     "edit_script",
     "ldu_rebuild",
+    "image_decode_warp",
+    "editor_api",
 ];
 
 /// Runs the target called `name` on `data`.
@@ -31,6 +34,8 @@ pub fn run(name: &str, data: &[u8]) {
         "landmarks_bigwarp" => landmarks_bigwarp(data),
         "edit_script" => edit_script(data),
         "ldu_rebuild" => ldu_rebuild(data),
+        "image_decode_warp" => image_decode_warp(data),
+        "editor_api" => editor_api(data),
         other => panic!("unknown fuzz target {other}"),
     }
 }
@@ -165,4 +170,199 @@ pub fn ldu_rebuild(data: &[u8]) {
     f.sanity_check().expect("the factors' invariants hold");
     assert!(f.reconstructs(&a), "A is not rebuilt from its factors: {a:?} with {opts:?}");
     assert!(f.rank() <= a.rows().min(a.cols()));
+}
+
+/// The memory budget of `image_decode_warp`: an image that needs more is refused, not
+/// allocated (the fuzzer's own limit, `-rss_limit_mb`, is far above it).
+pub const IMAGE_BUDGET: u64 = 256 << 20;
+
+/// The largest output of `image_decode_warp` (the first page is cropped to it).
+pub const WARP_SIZE: u32 = 48;
+
+/// A mild deformation over 64 x 64 pixels: a quintic spline on a 2 x 2 grid whose centre
+/// vertex (32, 32) is translated by (1, 1/2) exactly, with its radius-2 neighbourhood.
+pub fn mild_deformation() -> &'static trimorph::spline::Spline {
+    static S: OnceLock<trimorph::spline::Spline> = OnceLock::new();
+    S.get_or_init(|| {
+        use trimorph::edit::Editor;
+        use trimorph::mesh::{Mesh, MeshOptions};
+        let mesh = Mesh::grid(2, 2, 64.0, 64.0, MeshOptions::default()).expect("grid mesh");
+        let c = (0..mesh.num_vertices())
+            .find(|&v| mesh.vertex(v) == [32.0, 32.0])
+            .expect("a centre vertex");
+        let mut ed =
+            Editor::new(trimorph::spline::Spline::identity(mesh, 5).expect("identity spline"));
+        let script = format!(r#"[{{"op":"translate","anchors":[{c}],"by":[1,"1/2"]}}]"#);
+        trimorph::edit::script::Script::from_json_str(&script)
+            .expect("script")
+            .run(&mut ed)
+            .expect("a mild translation is accepted");
+        ed.into_spline()
+    })
+}
+
+/// An image in memory (PNG, JPEG, GIF, TIFF, PNM, as `trimorph warp` reads it:
+/// [`trimorph::io::raster::decode_stack`]) under a 256 MiB budget; when it decodes, its
+/// first page (cropped to at most 48 x 48) is warped through [`mild_deformation`]. The
+/// output must have the page's size and pixel type, and a refused image must be refused for
+/// a reason (not a panic, not an allocation beyond the budget).
+pub fn image_decode_warp(data: &[u8]) {
+    use trimorph::warp::{warp_pages, Interp, WarpOptions};
+    trimorph::memory::set_limit(Some(IMAGE_BUDGET));
+    let Ok(stack) = trimorph::io::raster::decode_stack(data, Path::new("fuzz.img")) else {
+        return;
+    };
+    assert!(!stack.pages.is_empty(), "a decoded stack has a page");
+    let page = &stack.pages[0];
+    let (w, h) = (page.width().min(WARP_SIZE), page.height().min(WARP_SIZE));
+    let page = page.crop_imm(0, 0, w, h);
+    let interp = [Interp::Nearest, Interp::Bilinear, Interp::Bicubic][data.len() % 3];
+    let opts = WarpOptions { interp, background: 0.5, ..Default::default() };
+    let (out, _) = warp_pages(mild_deformation(), std::slice::from_ref(&page), &opts, &|_| {})
+        .expect("a decoded page warps");
+    assert_eq!(out.len(), 1, "one page in, one page out");
+    assert_eq!((out[0].width(), out[0].height()), (w, h), "the output has the page's size");
+    assert_eq!(out[0].color(), page.color(), "the output has the page's pixel type");
+}
+
+/// The editor API's routes, as `editor_api` picks them: line byte `b'a' + i` (mod the
+/// length) is `EDITOR_ROUTES[i]`.
+pub const EDITOR_ROUTES: &[(&str, &str)] = &[
+    ("GET", "/api/state"),
+    ("GET", "/api/geometry"),
+    ("GET", "/api/image.png"),
+    ("GET", "/api/jacobian.png"),
+    ("GET", "/api/warp"),
+    ("POST", "/api/pick"),
+    ("POST", "/api/select"),
+    ("POST", "/api/update"),
+    ("POST", "/api/clear"),
+    ("POST", "/api/undo"),
+    ("POST", "/api/redo"),
+    ("POST", "/api/save"),
+    ("POST", "/api/stat"),
+    ("POST", "/api/load"),
+    ("POST", "/api/export"),
+    ("POST", "/api/refit"),
+    ("GET", "/api/landmarks"),
+    ("POST", "/api/landmarks/add"),
+    ("POST", "/api/landmarks/move"),
+    ("POST", "/api/landmarks/delete"),
+    ("POST", "/api/landmarks/import"),
+    ("POST", "/api/landmarks/export"),
+    ("GET", "/"),
+    ("POST", "/api/nothing"),
+];
+
+/// At most this many requests per input.
+pub const EDITOR_MAX_REQUESTS: usize = 48;
+
+/// The folder of an `editor_api` input's document: one per process and thread (the
+/// regression test replays inputs on several threads at once), made afresh for each input
+/// and removed after it.
+fn editor_root() -> PathBuf {
+    let thread = format!("{:?}", std::thread::current().id());
+    let thread: String = thread.chars().filter(char::is_ascii_digit).collect();
+    std::env::temp_dir().join(format!("trimorph-fuzz-editor-{}-{thread}", std::process::id()))
+}
+
+/// The files each `editor_api` input starts with: a landmark CSV, a deformation over the
+/// doc's mesh (the mild one scaled: same layout) and one over another mesh.
+fn editor_files() -> &'static [(&'static str, String)] {
+    static F: OnceLock<Vec<(&'static str, String)>> = OnceLock::new();
+    F.get_or_init(|| {
+        use trimorph::mesh::{Mesh, MeshOptions};
+        use trimorph::spline::Spline;
+        let other = Spline::identity(
+            Mesh::grid(1, 1, 16.0, 16.0, MeshOptions::default()).expect("mesh"),
+            3,
+        )
+        .expect("spline");
+        vec![
+            (
+                "pairs.csv",
+                "name,src_x,src_y,dst_x,dst_y\nA,8,8,9,8.5\nB,24,20,24,21\nC,16,28,15,28\n".into(),
+            ),
+            ("same.json", trimorph::io::deformation::to_string(&editor_spline(), None)),
+            ("other.json", trimorph::io::deformation::to_string(&other, None)),
+        ]
+    })
+}
+
+/// The doc's spline: quintic on a 2 x 2 grid of 32 x 32 pixels.
+fn editor_spline() -> trimorph::spline::Spline {
+    use trimorph::mesh::{Mesh, MeshOptions};
+    let mesh = Mesh::grid(2, 2, 32.0, 32.0, MeshOptions::default()).expect("grid mesh");
+    trimorph::spline::Spline::identity(mesh, 5).expect("identity spline")
+}
+
+/// What a refused request must leave as it was: the state (without its timing), the
+/// control points exactly, and the landmark pairs.
+fn editor_snapshot(doc: &trimorph::server::doc::Doc) -> EditorSnapshot {
+    let mut st = doc.state();
+    if let Some(o) = st.as_object_mut() {
+        o.remove("last_update_ms");
+    }
+    (st.to_string(), doc.spline().points().to_vec(), doc.pairs_json().to_string())
+}
+
+/// The state and pairs as JSON text, and the control points.
+type EditorSnapshot = (String, Vec<Vec<trimorph::exact::Rat>>, String);
+
+/// The doc's frame: a 24 x 24 gray gradient (a PGM, decoded as `trimorph editor` would).
+fn editor_frame() -> trimorph::io::raster::Stack {
+    let mut pgm = b"P5\n24 24\n255\n".to_vec();
+    pgm.extend((0..24u32 * 24).map(|i| ((i % 24) * 10 + i / 24) as u8));
+    trimorph::io::raster::decode_stack(&pgm, Path::new("frame.pgm")).expect("a gray frame")
+}
+
+/// Requests to the editor API ([`trimorph::server::handle`]) over a doc with a 24 x 24
+/// frame, rooted in a per-process folder. Each line of the input is one request: its first
+/// byte picks the route ([`EDITOR_ROUTES`]), the rest is the body as raw bytes (for a GET,
+/// the query). A refused request (not 2xx) must leave the doc as it was; at the end the
+/// spline must still be C1 exactly.
+pub fn editor_api(data: &[u8]) {
+    editor_api_statuses(data);
+}
+
+/// [`editor_api`], returning the status of each request.
+pub fn editor_api_statuses(data: &[u8]) -> Vec<u16> {
+    use trimorph::server::doc::Doc;
+    let mut statuses = Vec::new();
+    let root = &editor_root();
+    let _ = std::fs::remove_dir_all(root);
+    std::fs::create_dir_all(root).expect("the fuzz folder");
+    for (name, text) in editor_files() {
+        std::fs::write(root.join(name), text).expect("a start file");
+    }
+    let mut doc = Doc::new(editor_spline(), root);
+    let frame = editor_frame().pages.swap_remove(0);
+    doc.set_frame(PathBuf::from("frame.png"), frame).expect("a gray frame");
+    for line in data.split(|&b| b == b'\n').take(EDITOR_MAX_REQUESTS) {
+        let Some((&pick, body)) = line.split_first() else { continue };
+        let (method, path) = EDITOR_ROUTES[pick.wrapping_sub(b'a') as usize % EDITOR_ROUTES.len()];
+        let url = match (method, std::str::from_utf8(body)) {
+            ("GET", Ok(q)) if !q.is_empty() => format!("{path}?{q}"),
+            _ => path.to_string(),
+        };
+        let body = if method == "GET" { &[][..] } else { body };
+        let before = editor_snapshot(&doc);
+        let reply = trimorph::server::handle(&mut doc, method, &url, body);
+        statuses.push(reply.status);
+        if !(200..300).contains(&reply.status) {
+            let after = editor_snapshot(&doc);
+            assert!(
+                before == after,
+                "{method} {url} answered {} ({}) but changed the doc:\nbefore {}\nafter  {}\npoints equal: {}",
+                reply.status,
+                String::from_utf8_lossy(&reply.body),
+                before.0,
+                after.0,
+                before.1 == after.1
+            );
+        }
+    }
+    doc.spline().check_c1().expect("the spline stays C1 exactly");
+    let _ = std::fs::remove_dir_all(root);
+    statuses
 }

@@ -100,12 +100,19 @@ fn is_tiff(path: &Path) -> bool {
 pub fn read_stack(path: &Path) -> Result<Stack, RasterError> {
     let bytes =
         std::fs::read(path).map_err(|source| IoError::Read { path: path.to_path_buf(), source })?;
+    decode_stack(&bytes, path)
+}
+
+/// Decodes an image held in memory, as [`read_stack`] decodes a file (the format is found
+/// from the content, not from `path`, which only names the input in errors): the same
+/// size limits, memory budget and completeness checks.
+pub fn decode_stack(bytes: &[u8], path: &Path) -> Result<Stack, RasterError> {
     let derr = |reason: String| RasterError::Decode { path: path.to_path_buf(), reason };
     // Classic TIFF (42) and BigTIFF (43), either byte order.
     if [b"II*\0", b"MM\0*", b"II+\0", b"MM\0+"].iter().any(|m| bytes.starts_with(*m)) {
-        return read_tiff(path, &bytes);
+        return read_tiff(path, bytes, crate::memory::limit());
     }
-    let mut reader = image::ImageReader::new(Cursor::new(&bytes))
+    let mut reader = image::ImageReader::new(Cursor::new(bytes))
         .with_guessed_format()
         .map_err(|e| derr(e.to_string()))?;
     if reader.format().is_none() {
@@ -113,21 +120,21 @@ pub fn read_stack(path: &Path) -> Result<Stack, RasterError> {
     }
     let (w, h) = reader.into_dimensions().map_err(|e| derr(e.to_string()))?;
     check_size(path, 0, w, h)?;
-    reader = image::ImageReader::new(Cursor::new(&bytes))
+    reader = image::ImageReader::new(Cursor::new(bytes))
         .with_guessed_format()
         .map_err(|e| derr(e.to_string()))?;
     // The decoder's own limits as well, enforced before it allocates.
     let mut limits = image::Limits::default();
     limits.max_image_width = Some(w);
     limits.max_image_height = Some(h);
-    limits.max_alloc = Some(MAX_PIXELS * 16);
+    limits.max_alloc = Some(decoder_limit(crate::memory::limit()));
     reader.limits(limits);
     let decoder = reader.into_decoder().map_err(|e| derr(e.to_string()))?;
     let need = image::ImageDecoder::total_bytes(&decoder);
     let color = image::ImageDecoder::color_type(&decoder);
     crate::memory::check(need, || format!("decoding {w} x {h} {color:?}"))
         .map_err(|source| RasterError::Memory { path: path.to_path_buf(), source })?;
-    if reader_format_is_jpeg(&bytes) && !jpeg_is_complete(&bytes) {
+    if reader_format_is_jpeg(bytes) && !jpeg_is_complete(bytes) {
         return Err(derr(
             "the JPEG stream ends before its end-of-image marker (the file is truncated)".into(),
         ));
@@ -171,16 +178,33 @@ fn check_type(path: &Path, page: usize, img: &DynamicImage) -> Result<(), Raster
     }
 }
 
-fn read_tiff(path: &Path, bytes: &[u8]) -> Result<Stack, RasterError> {
+/// The decoders' own allocation limit under the memory budget `budget`: no page the budget
+/// accepts is larger, and a file cannot make a decoder allocate more for anything else
+/// (found by fuzzing: a TIFF tag declaring 2^28 values made the `tiff` crate reserve
+/// 11 GiB for them, from a 623-byte file, when its limit was `MAX_PIXELS * 16`).
+fn decoder_limit(budget: u64) -> u64 {
+    budget.min(MAX_PIXELS * 16)
+}
+
+/// Every page of a TIFF, under the memory budget `budget`.
+fn read_tiff(path: &Path, bytes: &[u8], budget: u64) -> Result<Stack, RasterError> {
     use tiff::decoder::{Decoder, DecodingResult, Limits};
     use tiff::ColorType as C;
     let derr = |e: tiff::TiffError| RasterError::Decode {
         path: path.to_path_buf(),
         reason: e.to_string(),
     };
-    let mut limits = Limits::default();
-    limits.decoding_buffer_size = (MAX_PIXELS * 16) as usize;
-    let mut dec = Decoder::new(Cursor::new(bytes)).map_err(derr)?.with_limits(limits);
+    // Two limits: while tags are read, what a file of this length can hold (a tag's values
+    // lie in the file: at most one per byte, each held in a 32-byte `Value`); while a page
+    // is decoded, the budget (the page itself was checked against it first).
+    let with_limit = |bytes: u64| {
+        let mut limits = Limits::default();
+        limits.decoding_buffer_size = usize::try_from(bytes).unwrap_or(usize::MAX);
+        limits
+    };
+    let tag_limits = with_limit(decoder_limit(budget).min((bytes.len() as u64 * 64).max(1 << 20)));
+    let page_limits = with_limit(decoder_limit(budget));
+    let mut dec = Decoder::new(Cursor::new(bytes)).map_err(derr)?.with_limits(tag_limits.clone());
     let mut pages = Vec::new();
     let mut gray_float = false;
     let mut held = 0u64;
@@ -193,7 +217,8 @@ fn read_tiff(path: &Path, bytes: &[u8]) -> Result<Stack, RasterError> {
         // one (float gray is widened to RGB, and briefly held twice).
         let page_bytes = tiff_page_bytes(w, h, ct);
         held = held.saturating_add(page_bytes);
-        crate::memory::check(held, || format!("decoding {} page(s) of {w} x {h} {ct:?}", page + 1))
+        let what = || format!("decoding {} page(s) of {w} x {h} {ct:?}", page + 1);
+        crate::memory::check_against(budget, held, what)
             .map_err(|source| RasterError::Memory { path: path.to_path_buf(), source })?;
         check_strips(&mut dec, bytes.len() as u64).map_err(|reason| RasterError::Decode {
             path: path.to_path_buf(),
@@ -201,7 +226,9 @@ fn read_tiff(path: &Path, bytes: &[u8]) -> Result<Stack, RasterError> {
         })?;
         let unsupported =
             |kind: String| RasterError::Unsupported { path: path.to_path_buf(), page, kind };
+        dec = dec.with_limits(page_limits.clone());
         let data = dec.read_image().map_err(derr)?;
+        dec = dec.with_limits(tag_limits.clone());
         let bad = || RasterError::Decode {
             path: path.to_path_buf(),
             reason: format!("page {page}: sample count does not match {w} x {h} {ct:?}"),
@@ -518,6 +545,79 @@ mod tests {
                 assert_eq!(a.as_bytes(), b.as_bytes());
             }
         }
+    }
+
+    #[test]
+    fn decoding_from_memory_matches_reading_the_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let img = DynamicImage::ImageRgb16(ImageBuffer::from_fn(5, 3, |x, y| {
+            Rgb([x as u16 * 1000, y as u16 * 77, 65535])
+        }));
+        for name in ["m.png", "m.tif", "m.pam"] {
+            let p = dir.path().join(name);
+            write_stack(&p, &Stack { pages: vec![img.clone()], gray_float: false }).unwrap();
+            let bytes = std::fs::read(&p).unwrap();
+            // The format comes from the content: the name only labels errors.
+            let mem = decode_stack(&bytes, Path::new("memory")).unwrap();
+            let file = read_stack(&p).unwrap();
+            assert_eq!(mem.pages.len(), 1);
+            assert_eq!(mem.pages[0].color(), file.pages[0].color(), "{name}");
+            assert_eq!(mem.pages[0].as_bytes(), file.pages[0].as_bytes(), "{name}");
+        }
+        let e = decode_stack(b"P5\n3 2\n255\n\x01", Path::new("short.pgm")).unwrap_err();
+        assert!(e.to_string().contains("short.pgm"), "{e}");
+    }
+
+    /// A classic little-endian TIFF of two 1 x 1 gray pages whose second page declares
+    /// `strips` strip offsets (stored at byte 8, so the file is as short as one page).
+    fn tiff_with_strip_count(strips: u32) -> Vec<u8> {
+        let entry = |tag: u16, ty: u16, count: u32, value: u32| {
+            [&tag.to_le_bytes()[..], &ty.to_le_bytes(), &count.to_le_bytes(), &value.to_le_bytes()]
+                .concat()
+        };
+        let ifd_len = 2 + 9 * 12 + 4;
+        let (ifd0, ifd1) = (8u32, 8 + ifd_len as u32);
+        let data = ifd1 + ifd_len as u32;
+        let ifd = |strip_count: u32, next: u32| {
+            let mut v = 9u16.to_le_bytes().to_vec();
+            for (tag, ty, count, value) in [
+                (256, 3, 1, 1),
+                (257, 3, 1, 1),
+                (258, 3, 1, 8),
+                (259, 3, 1, 1),
+                (262, 3, 1, 1),
+                (273, 4, strip_count, if strip_count == 1 { data } else { 8 }),
+                (277, 3, 1, 1),
+                (278, 3, 1, 1),
+                (279, 4, 1, 1),
+            ] {
+                v.extend(entry(tag, ty, count, value));
+            }
+            v.extend(next.to_le_bytes());
+            v
+        };
+        let mut t = b"II*\0".to_vec();
+        t.extend(ifd0.to_le_bytes());
+        t.extend(ifd(1, ifd1));
+        t.extend(ifd(strips, 0));
+        t.push(77);
+        t
+    }
+
+    #[test]
+    fn a_tiff_tag_declaring_more_values_than_the_file_holds_is_refused_before_allocation() {
+        // Found by fuzzing (`image_decode_warp`): 2^28 strip offsets in a 623-byte file made
+        // the tiff crate reserve 11 GiB for them (its limit was MAX_PIXELS * 16 bytes).
+        let p = Path::new("strips.tif");
+        let ok = read_tiff(p, &tiff_with_strip_count(1), 64 << 20).unwrap();
+        assert_eq!(ok.pages.len(), 2);
+        assert_eq!(ok.pages[1].as_bytes(), [77]);
+        let bomb = tiff_with_strip_count(1 << 28);
+        let e = read_tiff(p, &bomb, 64 << 20).unwrap_err().to_string();
+        assert!(e.contains("strips.tif") && e.contains("limits"), "{e}");
+        // Under any budget: the tag limit comes from the file's length.
+        let e = read_tiff(p, &bomb, MAX_PIXELS * 16).unwrap_err().to_string();
+        assert!(e.contains("limits"), "{e}");
     }
 
     #[test]
