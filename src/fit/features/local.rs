@@ -71,7 +71,7 @@ pub struct LocalFit {
 fn plausible(a: &Affine2, max_stretch: f64) -> bool {
     let l = a.a;
     let det = l[0][0] * l[1][1] - l[0][1] * l[1][0];
-    if !(det > 0.0) {
+    if det.is_nan() || det <= 0.0 {
         return false;
     }
     // Singular values of a 2 x 2 matrix: s1 s2 = det, s1^2 + s2^2 = |L|_F^2.

@@ -146,7 +146,7 @@ impl Homography {
     pub fn apply(&self, p: [f64; 2]) -> [f64; 2] {
         let h = &self.h;
         let w = h[2][0] * p[0] + h[2][1] * p[1] + h[2][2];
-        if !(w > 0.0) {
+        if w.is_nan() || w <= 0.0 {
             return [f64::NAN, f64::NAN];
         }
         [
@@ -195,7 +195,7 @@ impl Homography {
         let mut order: Vec<usize> = (0..9).collect();
         order.sort_by(|&a, &b| s[a].total_cmp(&s[b]));
         let (s0, s1, s8) = (s[order[0]], s[order[1]], s[order[8]]);
-        if !(s8 > 0.0) || s1 <= HOMOGRAPHY_DEGENERATE * s8 || !s0.is_finite() {
+        if s8.is_nan() || s8 <= 0.0 || s1 <= HOMOGRAPHY_DEGENERATE * s8 || !s0.is_finite() {
             return None;
         }
         let u = eig.U();
