@@ -663,3 +663,35 @@ fn fit_with_size_adapts_the_mesh_and_reports_certificate_smoothing_and_coverage(
     assert_eq!(o.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&o.stderr).contains("--bend"));
 }
+
+/// Issue 23: a deformation translated by 1e160 (exactly C1, but its f64 positions keep no
+/// digit of the mesh) made the fit blame the landmark file for a singular system; it is
+/// refused naming the deformation and the point.
+#[test]
+fn a_deformation_beyond_the_pixel_range_is_refused_naming_the_file_and_the_point() {
+    use num_rational::BigRational;
+    let dir = tempfile::tempdir().unwrap();
+    let def = reference(dir.path());
+    let lms = dir.path().join("l.csv");
+    write_landmarks(&lms, 12);
+    let mut v: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(&def).unwrap()).unwrap();
+    let big: BigRational = "1".parse::<BigRational>().unwrap()
+        * BigRational::from_integer(num_bigint::BigInt::from(10u32).pow(160));
+    for p in v["exact"]["points"].as_array_mut().unwrap() {
+        let x: BigRational = p[0].as_str().unwrap().parse().unwrap();
+        p[0] = serde_json::Value::String((x + &big).to_string());
+    }
+    for p in v["points"].as_array_mut().unwrap() {
+        p[0] = serde_json::json!(p[0].as_f64().unwrap() + 1e160);
+    }
+    let far = dir.path().join("far.json");
+    fs::write(&far, serde_json::to_string(&v).unwrap()).unwrap();
+    let out = dir.path().join("fit.json");
+    let o = trimorph(&["fit", s(&far), "--landmarks", s(&lms), "-o", s(&out)]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("far.json") && stderr.contains("control point 0"), "{stderr}");
+    assert!(stderr.contains("beyond") && !stderr.contains("l.csv"), "{stderr}");
+    assert!(!out.exists());
+}

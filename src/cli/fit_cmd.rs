@@ -158,6 +158,15 @@ pub fn run_single(
     let text = read_text(def)?;
     let (s, _) = deformation::from_str(&text)
         .with_context(|| format!("cannot read deformation {}", def.display()))?;
+    // Far points (a file translated by 1e160, say) lose every digit of their position in
+    // f64, so the fit's system is singular; that is the file's doing, not the landmarks'.
+    if let Some(what) = crate::server::doc::absurd_point(&s) {
+        bail!(
+            "{}: {what}, beyond {} pixels: the fit works in pixel coordinates; correct that point",
+            def.display(),
+            crate::server::doc::MAX_COORD
+        );
+    }
     if let Some(list) = pin {
         opts.pinned = if list.trim() == "edited" {
             let p = deformation::pinned_from_str(&text)
