@@ -194,8 +194,9 @@ def to_ome_zarr(arr, url, like, compute=True):
         return _write_ome_zarr(arr, url, like, compute)
     final = os.path.abspath(str(url))
     tmp = f"{final}.tmp-{uuid.uuid4().hex[:8]}"
+    guard = _WriteGuard()
     try:
-        _write_ome_zarr(arr, tmp, like, True)
+        _write_ome_zarr(arr, tmp, like, True, guard)
         if os.path.exists(final):
             old = f"{final}.old-{uuid.uuid4().hex[:8]}"
             os.replace(final, old)
@@ -204,11 +205,73 @@ def to_ome_zarr(arr, url, like, compute=True):
         else:
             os.replace(tmp, final)
     finally:
+        # A failed chunk makes da.store raise while other threads may still be writing
+        # chunks into tmp: stop new writes and wait for running ones before removing it.
+        guard.close()
         shutil.rmtree(tmp, ignore_errors=True)
     return None
 
 
-def _write_ome_zarr(arr, url, like, compute):
+class _WriteGuard:
+    """Counts chunk writes in flight in this process; after ``close`` new writes are
+    dropped and ``close`` returns once running ones are done. Pickled (to another process's
+    worker) it is a plain pass-through: those writes cannot outlive the failed store call's
+    cleanup there, which waits for its own tasks."""
+
+    def __init__(self):
+        import threading
+
+        self._cond = threading.Condition()
+        self._active = 0
+        self._closed = False
+
+    def __getstate__(self):
+        return {}
+
+    def __setstate__(self, _state):
+        self._cond = None
+
+    def enter(self):
+        if self._cond is None:
+            return True
+        with self._cond:
+            if self._closed:
+                return False
+            self._active += 1
+            return True
+
+    def leave(self):
+        if self._cond is None:
+            return
+        with self._cond:
+            self._active -= 1
+            self._cond.notify_all()
+
+    def close(self):
+        with self._cond:
+            self._closed = True
+            while self._active:
+                self._cond.wait()
+
+
+class _GuardedTarget:
+    """A zarr array whose ``__setitem__`` (the only method ``da.store`` uses) goes through a
+    ``_WriteGuard``."""
+
+    def __init__(self, target, guard):
+        self.target, self.guard = target, guard
+        self.shape, self.dtype = target.shape, target.dtype
+
+    def __setitem__(self, key, value):
+        if not self.guard.enter():
+            return
+        try:
+            self.target[key] = value
+        finally:
+            self.guard.leave()
+
+
+def _write_ome_zarr(arr, url, like, compute, guard=None):
     import copy
 
     import dask.array as da
@@ -227,6 +290,8 @@ def _write_ome_zarr(arr, url, like, compute):
     chunks = tuple(c[0] for c in arr.chunks)
     arr = arr.rechunk(chunks)
     target = group.create_array("0", shape=arr.shape, dtype=arr.dtype, chunks=chunks)
+    if guard is not None:
+        target = _GuardedTarget(target, guard)
     return da.store(arr, target, lock=False, compute=compute)
 
 
