@@ -253,7 +253,7 @@ fn a_morph_larger_than_the_budget_streams_and_one_frame_over_it_is_refused() {
     assert!(n * u64::from(w * h) * (1 + 4) > budget);
     let out = dir.path().join("out");
     let frames = n.to_string();
-    let run = |mem: &str| {
+    let run = |mem: &str, out: &std::path::Path| {
         trimorph(&[
             "morph",
             s(&a),
@@ -263,13 +263,13 @@ fn a_morph_larger_than_the_budget_streams_and_one_frame_over_it_is_refused() {
             "--frames",
             &frames,
             "-o",
-            s(&out),
+            s(out),
             "--quiet",
             "--max-memory",
             mem,
         ])
     };
-    ok(&run("12M"));
+    ok(&run("12M", &out));
     assert!(out.join(format!("frame_{:03}.png", n - 1)).exists());
     let gif = fs::read(out.join("morph.gif")).unwrap();
     use image::AnimationDecoder;
@@ -282,19 +282,7 @@ fn a_morph_larger_than_the_budget_streams_and_one_frame_over_it_is_refused() {
     assert_eq!(dec.read_info().unwrap().info().animation_control().unwrap().num_frames as u64, n);
     // One frame of 480 x 200 with the encoders' buffers is over 1 MiB.
     let out2 = dir.path().join("out2");
-    let o = trimorph(&[
-        "morph",
-        s(&a),
-        s(&b),
-        "--landmarks",
-        s(&l),
-        "--frames",
-        &frames,
-        "-o",
-        s(&out2),
-        "--max-memory",
-        "1M",
-    ]);
+    let o = run("1M", &out2);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!err.contains("panicked"), "{err}");
     assert_eq!(o.status.code(), Some(1), "{err}");

@@ -192,7 +192,7 @@ impl Homography {
         let mm = faer::Mat::<f64>::from_fn(9, 9, |i, k| m[i][k]);
         let eig = mm.self_adjoint_eigen(faer::Side::Lower).ok()?;
         let s = eig.S().column_vector();
-        let mut order: Vec<usize> = (0..9).collect();
+        let mut order: [usize; 9] = std::array::from_fn(|k| k);
         order.sort_by(|&a, &b| s[a].total_cmp(&s[b]));
         let (s0, s1, s8) = (s[order[0]], s[order[1]], s[order[8]]);
         if s8.is_nan() || s8 <= 0.0 || s1 <= HOMOGRAPHY_DEGENERATE * s8 || !s0.is_finite() {
@@ -257,10 +257,9 @@ fn has_collinear_triple(p: &[[f64; 2]]) -> bool {
         ((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])).abs()
     };
     let tol = 1e-6 * spread;
-    (0..4).any(|skip| {
-        let t: Vec<[f64; 2]> = (0..4).filter(|&k| k != skip).map(|k| p[k]).collect();
-        area(t[0], t[1], t[2]) <= tol
-    })
+    [[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]]
+        .iter()
+        .any(|&[i, j, k]| area(p[i], p[j], p[k]) <= tol)
 }
 
 impl std::fmt::Display for Homography {

@@ -8,23 +8,7 @@ fn cell() -> GrayImage {
 
 /// `out(q) = img(inv(q))` with bilinear interpolation (0 outside).
 fn resample(img: &GrayImage, inv: &Affine2) -> GrayImage {
-    let (w, h) = img.dimensions();
-    let at = |x: i64, y: i64| {
-        if x < 0 || y < 0 || x >= w as i64 || y >= h as i64 {
-            0.0
-        } else {
-            img.get_pixel(x as u32, y as u32)[0] as f64
-        }
-    };
-    GrayImage::from_fn(w, h, |x, y| {
-        let p = inv.apply([x as f64, y as f64]);
-        let (x0, y0) = (p[0].floor(), p[1].floor());
-        let (fx, fy) = (p[0] - x0, p[1] - y0);
-        let (x0, y0) = (x0 as i64, y0 as i64);
-        let v = (1.0 - fy) * ((1.0 - fx) * at(x0, y0) + fx * at(x0 + 1, y0))
-            + fy * ((1.0 - fx) * at(x0, y0 + 1) + fx * at(x0 + 1, y0 + 1));
-        image::Luma([v.round().clamp(0.0, 255.0) as u8])
-    })
+    pull_back(img, inv, img.width(), img.height())
 }
 
 fn assert_landmarks_follow(r: &MatchResult, truth: &Affine2, tol: f64) {
@@ -290,22 +274,7 @@ fn cell_matches_its_perspective_view_with_the_homography_model() {
         };
         Homography { h: std::array::from_fn(|r| std::array::from_fn(|k| c(k, r))) }
     };
-    let at = |x: i64, y: i64| {
-        if x < 0 || y < 0 || x >= w as i64 || y >= h as i64 {
-            0.0
-        } else {
-            a.get_pixel(x as u32, y as u32)[0] as f64
-        }
-    };
-    let b = GrayImage::from_fn(w, h, |x, y| {
-        let p = inv.apply([x as f64, y as f64]);
-        let (x0, y0) = (p[0].floor(), p[1].floor());
-        let (fx, fy) = (p[0] - x0, p[1] - y0);
-        let (i, j) = (x0 as i64, y0 as i64);
-        let v = (1.0 - fy) * ((1.0 - fx) * at(i, j) + fx * at(i + 1, j))
-            + fy * ((1.0 - fx) * at(i, j + 1) + fx * at(i + 1, j + 1));
-        image::Luma([v.round().clamp(0.0, 255.0) as u8])
-    });
+    let b = pull_back(&a, &inv, w, h);
     let opts = MatchOptions { model: ModelKind::Homography, ..Default::default() };
     let r = match_images(&a, &b, &opts).unwrap();
     assert!(matches!(r.stats.model, FittedModel::Homography(_)) && r.landmarks.len() >= 20);
