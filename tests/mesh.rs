@@ -1,6 +1,7 @@
 //! Integration tests of `trimorph::mesh` through its public API.
 
 use proptest::prelude::*;
+use trimorph::io::obj::{read_mesh, write_mesh};
 use trimorph::mesh::{Mesh, MeshError, MeshOptions};
 
 fn opts() -> MeshOptions {
@@ -188,8 +189,8 @@ fn errors_name_the_problem() {
     assert!(matches!(e, MeshError::BorderIntersection { .. }));
     failed(Mesh::from_triangles(&tri, &[], o), &["no triangles"]);
     failed(Mesh::grid(0, 3, 1.0, 1.0, o), &["no triangles"]);
-    failed(Mesh::from_obj("v 0 0\nv 1 0\nv 0\n", o), &["line 3", "x and y"]);
-    failed(Mesh::from_obj("# nothing\n", o), &["no triangles"]);
+    failed(read_mesh("v 0 0\nv 1 0\nv 0\n", o), &["line 3", "x and y"]);
+    failed(read_mesh("# nothing\n", o), &["no triangles"]);
 }
 
 #[test]
@@ -222,11 +223,11 @@ fn outline_errors() {
 #[test]
 fn obj_round_trip() {
     for m in [strip(), l_shape(false), built(Mesh::grid(4, 3, 100.0, 75.3, opts()))] {
-        let text = m.to_obj();
+        let text = write_mesh(&m);
         assert!(text.starts_with("# trimorph mesh"));
         assert_eq!(text.lines().filter(|l| l.starts_with("v ")).count(), m.num_vertices());
         assert_eq!(text.lines().filter(|l| l.starts_with("f ")).count(), m.num_triangles());
-        let back = built(Mesh::from_obj(&text, opts()));
+        let back = built(read_mesh(&text, opts()));
         assert_eq!(back.triangles(), m.triangles());
         assert_eq!(back.vertices(), m.vertices());
         assert_eq!(back.edges(), m.edges());
@@ -239,18 +240,18 @@ fn obj_dialect() {
     let text = "# a quad and a triangle\nmtllib x.mtl\no quad\nv 0 0 5\nv 1 0 5\nvt 0 0\n\
                 vn 0 0 1\nv 1 1 5\nv 0 1 5 # trailing comment\ng part\ns off\nusemtl m\n\
                 f 1/1/1 2/1/1 3//1 4\nv 2 0\nf 2 -1 -3\n";
-    let m = built(Mesh::from_obj(text, opts()));
+    let m = built(read_mesh(text, opts()));
     assert_eq!(m.num_vertices(), 5);
     assert_eq!(m.triangles(), &[[0, 1, 2], [0, 2, 3], [1, 4, 2]]);
     assert_eq!(m.vertex(4), [2.0, 0.0]);
     let o = opts();
-    failed(Mesh::from_obj("v 0 0\nv 1 0\nv 0 1\nf 1 2\n", o), &["line 4", "at least 3"]);
-    failed(Mesh::from_obj("v 0 0\nv 1 0\nv 0 1\nf 0 1 2\n", o), &["line 4", "1-based"]);
-    failed(Mesh::from_obj("v 0 0\nv 1 0\nv 0 1\nf -4 -2 -1\n", o), &["line 4", "relative"]);
-    failed(Mesh::from_obj("v 0 0\nv 1 x\n", o), &["line 2", "bad coordinate"]);
-    failed(Mesh::from_obj("v 0 0\nv 1 0\nv 0 1\nf 1 2 a\n", o), &["line 4", "bad vertex"]);
-    failed(Mesh::from_obj("v 0 0\nv 1 0\nv 0 1\nf 1 2 4\n", o), &["triangle 0", "vertex 3"]);
-    failed(Mesh::from_obj("v 0 0\nv 1 0\nv 0 1\nf 1 3 2\n", o), &["clockwise"]);
+    failed(read_mesh("v 0 0\nv 1 0\nv 0 1\nf 1 2\n", o), &["line 4", "at least 3"]);
+    failed(read_mesh("v 0 0\nv 1 0\nv 0 1\nf 0 1 2\n", o), &["line 4", "1-based"]);
+    failed(read_mesh("v 0 0\nv 1 0\nv 0 1\nf -4 -2 -1\n", o), &["line 4", "relative"]);
+    failed(read_mesh("v 0 0\nv 1 x\n", o), &["line 2", "bad coordinate"]);
+    failed(read_mesh("v 0 0\nv 1 0\nv 0 1\nf 1 2 a\n", o), &["line 4", "bad vertex"]);
+    failed(read_mesh("v 0 0\nv 1 0\nv 0 1\nf 1 2 4\n", o), &["triangle 0", "vertex 3"]);
+    failed(read_mesh("v 0 0\nv 1 0\nv 0 1\nf 1 3 2\n", o), &["clockwise"]);
 }
 
 /// Exact in-circle test: > 0 when `d` is strictly inside the circle through ccw `a, b, c`.

@@ -3,7 +3,7 @@
 use crate::exact::{parse_rat, rat_to_f64, Rat};
 use crate::io::model::{load_model_up, save_landmarks, save_model, save_model_up, UpAxis};
 use crate::io::{deformation, read_text, write_atomic};
-use crate::mesh::{Mesh, MeshOptions};
+use crate::mesh::MeshOptions;
 use crate::prism::{auto_mesh, auto_mesh_on, bind, deform, identity_layers, organism};
 use crate::spline::Spline;
 use anyhow::{anyhow, bail, Context, Result};
@@ -74,7 +74,7 @@ pub fn bind_cmd(a: BindArgs) -> Result<()> {
             // A 2D OBJ whose vertices have z = b; the prisms span [-b, b] (thesis 18.2),
             // unless --range says otherwise.
             let text = read_text(t)?;
-            let mesh = Mesh::from_obj(&text, MeshOptions { grid })
+            let mesh = crate::io::obj::read_mesh(&text, MeshOptions { grid })
                 .with_context(|| format!("cannot read the reference mesh {}", t.display()))?;
             let b = text
                 .lines()

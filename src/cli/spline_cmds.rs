@@ -137,7 +137,7 @@ pub fn mesh(a: MeshArgs) -> Result<()> {
             }
             Mesh::grid(c as usize, r as usize, w, h, opts)?
         }
-        (None, None, Some(o), None) => Mesh::from_obj(&read_text(o)?, opts)
+        (None, None, Some(o), None) => crate::io::obj::read_mesh(&read_text(o)?, opts)
             .with_context(|| format!("cannot read the reference mesh {}", o.display()))?,
         _ => bail!("give exactly one of --points, --grid, --obj or --landmarks"),
     };

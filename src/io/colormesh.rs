@@ -9,12 +9,12 @@
 //!   (1-based). OBJ has no alpha: it is dropped on writing and read as 255. A flat mesh is
 //!   written with three vertices per triangle, all of the triangle's color, so reading it back
 //!   gives a [`Colors::PerVertex`] mesh that looks the same.
-//! * Read with `tobj` (faces triangulated as fans, negative indices allowed, several objects
-//!   concatenated). Every `v` line must carry a color (`v x y z r g b`), checked line by line
-//!   first. Colors are `0..1` floats; if any component in the file exceeds 1, all are read as
-//!   `0..255` instead. Vertices come out **in the order the faces first use them** (tobj's
-//!   single index), unused vertices are dropped and a vertex shared by two objects is repeated;
-//!   the triangles keep their order and corners.
+//! * Read by [`crate::io::obj`] (faces triangulated as fans, negative indices allowed, several
+//!   objects concatenated). Every `v` line must carry a color (`v x y z r g b`). Colors are
+//!   `0..1` floats; if any component in the file exceeds 1, all are read as `0..255` instead.
+//!   Vertices come out **in the order each object's faces first use them** (as `tobj`'s single
+//!   index did before), unused vertices are dropped and a vertex shared by two objects is
+//!   repeated; the triangles keep their order and corners.
 //!
 //! # PLY
 //!
@@ -35,6 +35,9 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
+use std::collections::HashMap;
+
+use super::obj::{Obj, ObjError};
 use crate::warp::colormesh::{ColorMesh, ColorMeshError, Colors, Location};
 
 /// Encoding of a written PLY file.
@@ -130,25 +133,10 @@ pub fn write_obj(mesh: &ColorMesh) -> String {
 
 /// Reads OBJ text (`path` only names the file in errors; see the module docs).
 pub fn read_obj(bytes: &[u8], path: &Path) -> Result<ColorMesh, ColorMeshError> {
-    let text = std::str::from_utf8(bytes).map_err(|e| {
-        let line = bytes[..e.valid_up_to()].iter().filter(|&&b| b == b'\n').count() + 1;
-        fail(path, Location::Line(line), "not UTF-8 text")
-    })?;
-    // Line-by-line check of the vertices (tobj reports no line numbers and needs colors on
-    // every vertex or none).
-    let (mut nverts, mut over_1) = (0, false);
-    for (n, line) in text.lines().enumerate() {
-        let mut words = line.split_whitespace();
-        if words.next() != Some("v") {
-            continue;
-        }
-        let at = Location::Line(n + 1);
-        let vals: Vec<f64> = words
-            .map(|w| {
-                w.parse::<f64>()
-                    .map_err(|_| fail(path, at.clone(), format!("`{w}` is not a number")))
-            })
-            .collect::<Result<_, _>>()?;
+    let obj = Obj::parse(bytes).map_err(|e| obj_error(path, e))?;
+    let (mut points, mut rgb, mut over_1) = (Vec::new(), Vec::new(), false);
+    for v in obj.vertices() {
+        let (at, vals) = (Location::Line(v.line), v.values);
         if vals.len() != 6 {
             let msg = match vals.len() {
                 3 | 4 => "vertex without a color; colored OBJ needs `v x y z r g b` (or use PLY)",
@@ -162,33 +150,39 @@ pub fn read_obj(bytes: &[u8], path: &Path) -> Result<ColorMesh, ColorMeshError> 
         if let Some(c) = vals[3..].iter().find(|c| !(0.0..=255.0).contains(*c)) {
             return Err(fail(path, at, format!("color component {c} is outside 0..1 (or 0..255)")));
         }
-        nverts += 1;
         over_1 |= vals[3..].iter().any(|&c| c > 1.0);
+        points.push([vals[0], vals[1]]);
+        rgb.push([vals[3], vals[4], vals[5]]);
     }
+    obj.check_faces().map_err(|e| obj_error(path, e))?;
     let scale = if over_1 { 1.0 } else { 255.0 };
-    // Field by field: other fields exist when tobj's optional features are on.
-    let mut opts = tobj::LoadOptions::default();
-    (opts.triangulate, opts.single_index) = (true, true);
-    (opts.ignore_points, opts.ignore_lines) = (true, true);
-    let (models, _) = tobj::load_obj_buf(&mut std::io::Cursor::new(bytes), &opts, |_| {
-        Err(tobj::LoadError::OpenFileFailed)
-    })
-    .map_err(|e| fail(path, bad_face_line(text, nverts), format!("{e}")))?;
+    let u = |v: f64| (v * scale).round().clamp(0.0, 255.0) as u8;
+    // Vertices are numbered in the order each object's faces first use them (a vertex used
+    // by two objects is repeated, an unused one dropped); triangles keep their order.
     let (mut vertices, mut colors, mut triangles) = (Vec::new(), Vec::new(), Vec::new());
-    for m in &models {
-        let (pos, col) = (&m.mesh.positions, &m.mesh.vertex_color);
-        let base = u32::try_from(vertices.len())
-            .map_err(|_| fail(path, Location::File, "more than 2^32 vertices"))?;
-        if col.len() != pos.len() {
-            return Err(fail(path, Location::File, format!("object `{}` has no colors", m.name)));
+    let mut renumber: HashMap<usize, u32> = HashMap::new();
+    let mut object = None;
+    for face in obj.faces() {
+        if object != Some(face.object) {
+            (object, renumber) = (Some(face.object), HashMap::new());
         }
-        for (p, c) in pos.chunks_exact(3).zip(col.chunks_exact(3)) {
-            vertices.push([p[0], p[1]]);
-            let u = |v: f64| (v * scale).round().clamp(0.0, 255.0) as u8;
-            colors.push([u(c[0]), u(c[1]), u(c[2]), 255]);
-        }
-        for t in m.mesh.indices.chunks_exact(3) {
-            triangles.push([t[0] + base, t[1] + base, t[2] + base]);
+        for t in face.fan() {
+            let mut tri = [0u32; 3];
+            for (slot, &i) in tri.iter_mut().zip(&t) {
+                *slot = match renumber.get(&i) {
+                    Some(&k) => k,
+                    None => {
+                        let k = u32::try_from(vertices.len())
+                            .map_err(|_| fail(path, Location::File, "more than 2^32 vertices"))?;
+                        vertices.push(points[i]);
+                        let [r, g, b] = rgb[i].map(u);
+                        colors.push([r, g, b, 255]);
+                        renumber.insert(i, k);
+                        k
+                    }
+                };
+            }
+            triangles.push(tri);
         }
     }
     if triangles.is_empty() {
@@ -197,28 +191,18 @@ pub fn read_obj(bytes: &[u8], path: &Path) -> Result<ColorMesh, ColorMeshError> 
     Ok(ColorMesh { vertices, triangles, colors: Colors::PerVertex(colors) })
 }
 
-/// The first `f` line with an unreadable or out-of-range vertex index (for tobj's errors,
-/// which carry no line number), or the whole file.
-fn bad_face_line(text: &str, nverts: usize) -> Location {
-    let mut seen = 0i64;
-    for (n, line) in text.lines().enumerate() {
-        let mut words = line.split_whitespace();
-        match words.next() {
-            Some("v") => seen += 1,
-            Some("f") => {
-                let bad = |w: &str| match w.split('/').next().unwrap_or("").parse::<i64>() {
-                    Ok(i) if i > 0 => i > nverts as i64,
-                    Ok(i) if i < 0 => seen + i < 0,
-                    _ => true,
-                };
-                if words.any(bad) {
-                    return Location::Line(n + 1);
-                }
-            }
-            _ => {}
+/// A colored mesh's wording of an OBJ statement error.
+fn obj_error(path: &Path, e: ObjError) -> ColorMeshError {
+    let at = Location::Line(e.line());
+    match &e {
+        ObjError::BadNumber { token, .. } => fail(path, at, format!("`{token}` is not a number")),
+        ObjError::ZeroIndex { .. }
+        | ObjError::RelativeOutOfRange { .. }
+        | ObjError::OutOfRange { .. } => {
+            fail(path, at, format!("face vertex index out of bounds: {e}"))
         }
+        _ => fail(path, at, e.to_string()),
     }
-    Location::File
 }
 
 /// PLY bytes of a mesh (see the module docs).

@@ -12,6 +12,7 @@ pub mod itk;
 pub mod landmarks;
 pub mod model;
 pub mod ngff;
+pub mod obj;
 pub mod raster;
 
 use std::fs;

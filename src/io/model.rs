@@ -1,10 +1,9 @@
 //! 3D models for 2.5D deformation: OBJ, PLY and XYZ point clouds, with
 //! named landmarks in a JSON sidecar.
 //!
-//! * OBJ: `v x y z` and `f` lines (`a`, `a/t`, `a/t/n`, `a//n`; negative indices; polygons
-//!   as fans). An OBJ without faces is a point cloud. Read directly rather than with `tobj`,
-//!   which renumbers vertices in order of first use: a model keeps its file's vertex order
-//!   (landmarks and correspondences across frames depend on it).
+//! * OBJ: `v x y z` and `f` lines, read by [`crate::io::obj`] (`a`, `a/t`, `a/t/n`, `a//n`;
+//!   negative indices; polygons as fans). An OBJ without faces is a point cloud. A model
+//!   keeps its file's vertex order (landmarks and correspondences across frames depend on it).
 //! * OFF (Object File Format, <https://segeval.cs.princeton.edu/public/off_format.html>): an
 //!   optional `OFF` header line (also `COFF`, `NOFF`, `CNOFF`: per-vertex colours and normals
 //!   after `x y z` are ignored), then `nv nf ne`, `nv` lines `x y z` and `nf` lines
@@ -26,6 +25,7 @@
 //! little-endian PLY with `x y z nx ny nz` and faces; XYZ for point clouds. Every file is
 //! written atomically.
 
+use super::obj::{Obj, ObjError};
 use super::{write_atomic, IoError};
 use crate::prism::{vertex_normals, Model};
 use std::path::{Path, PathBuf};
@@ -101,67 +101,34 @@ pub fn parse_model(bytes: &[u8], path: &Path) -> Result<Model, ModelIoError> {
 }
 
 fn read_obj(bytes: &[u8], path: &Path) -> Result<Model, ModelIoError> {
-    let text = std::str::from_utf8(bytes).map_err(|_| fmt_err(path, None, "not UTF-8 text"))?;
+    let obj = Obj::parse(bytes).map_err(|e| obj_error(path, e))?;
+    obj.check_faces().map_err(|e| obj_error(path, e))?;
     let mut model = Model::default();
-    let mut faces: Vec<(usize, Vec<i64>)> = Vec::new();
-    for (n, line) in text.lines().enumerate() {
-        let line = line.split('#').next().unwrap_or("");
-        let mut w = line.split_whitespace();
-        match w.next() {
-            Some("v") => {
-                let vals: Vec<f64> = w
-                    .map(|t| {
-                        t.parse::<f64>().map_err(|_| {
-                            fmt_err(path, Some(n + 1), format!("`{t}` is not a number"))
-                        })
-                    })
-                    .collect::<Result<_, _>>()?;
-                if vals.len() < 3 || vals[..3].iter().any(|v| !v.is_finite()) {
-                    return Err(fmt_err(
-                        path,
-                        Some(n + 1),
-                        "expected `v x y z` with finite numbers",
-                    ));
-                }
-                model.vertices.push([vals[0], vals[1], vals[2]]);
-            }
-            Some("f") => {
-                // `a`, `a/t`, `a/t/n` or `a//n`: the position index is the first field.
-                let idx: Vec<i64> = w
-                    .map(|t| t.split('/').next().unwrap_or("").parse::<i64>())
-                    .collect::<Result<_, _>>()
-                    .map_err(|_| {
-                        fmt_err(path, Some(n + 1), "expected `f a b c ...` with vertex indices")
-                    })?;
-                if idx.len() < 3 {
-                    return Err(fmt_err(path, Some(n + 1), "a face needs at least 3 vertices"));
-                }
-                faces.push((n + 1, idx));
-            }
-            _ => {}
+    for v in obj.vertices() {
+        if v.values.len() < 3 || v.values[..3].iter().any(|c| !c.is_finite()) {
+            return Err(fmt_err(path, Some(v.line), "expected `v x y z` with finite numbers"));
         }
+        model.vertices.push([v.values[0], v.values[1], v.values[2]]);
     }
-    // Indices are 1-based, or negative (relative to the end); polygons become fans.
-    let nv = model.vertices.len() as i64;
-    for (line, idx) in faces {
-        let abs: Vec<u32> = idx
-            .iter()
-            .map(|&i| {
-                let k = if i > 0 { i - 1 } else { nv + i };
-                (i != 0 && (0..nv).contains(&k)).then_some(k as u32).ok_or_else(|| {
-                    fmt_err(
-                        path,
-                        Some(line),
-                        format!("vertex index {i} out of range ({nv} vertices)"),
-                    )
-                })
-            })
-            .collect::<Result<_, _>>()?;
-        for j in 1..abs.len() - 1 {
-            model.triangles.push([abs[0], abs[j], abs[j + 1]]);
-        }
+    // Indices are below the vertex count (checked), which fits u32 for any file we read.
+    let index =
+        |i: usize| u32::try_from(i).map_err(|_| fmt_err(path, None, "more than 2^32 vertices"));
+    for t in obj.triangles() {
+        model.triangles.push([index(t[0])?, index(t[1])?, index(t[2])?]);
     }
     Ok(model)
+}
+
+/// A model's wording of an OBJ statement error (the catalogue's rows `model_obj_*`).
+fn obj_error(path: &Path, e: ObjError) -> ModelIoError {
+    let message = match &e {
+        ObjError::BadNumber { token, .. } => format!("`{token}` is not a number"),
+        ObjError::RelativeOutOfRange { index, defined, .. } => {
+            format!("vertex index {index} out of range ({defined} vertices)")
+        }
+        e => e.to_string(),
+    };
+    fmt_err(path, Some(e.line()), message)
 }
 
 fn read_off(bytes: &[u8], path: &Path) -> Result<Model, ModelIoError> {

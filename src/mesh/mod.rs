@@ -28,7 +28,7 @@
 //! Every triangle `[a, b, c]` is counter-clockwise in the mathematical sense (x to the right,
 //! y up): its signed area `(b - a) x (c - a)` is positive. With image coordinates (y pointing
 //! down) such triangles look clockwise on screen. Builders never flip triangles silently:
-//! [`Mesh::from_triangles`] and [`Mesh::from_obj`] reject clockwise input
+//! [`Mesh::from_triangles`] (and so `io::obj::read_mesh`) reject clockwise input
 //! ([`MeshError::Clockwise`]).
 //!
 //! # Local numbering
@@ -55,7 +55,6 @@ mod adapt;
 mod build;
 mod check;
 mod locate;
-mod obj;
 #[cfg(test)]
 mod tests;
 mod validate;
@@ -100,7 +99,7 @@ pub struct SnapReport {
 }
 
 /// Why a mesh could not be built. Vertex and triangle numbers are 0-based positions in the
-/// input (for [`Mesh::from_obj`]: 0-based order of the `v` lines and of the triangles after
+/// input (for OBJ files read by `io::obj::read_mesh`: 0-based order of the `v` lines and of the triangles after
 /// fan triangulation).
 #[derive(Debug, thiserror::Error)]
 pub enum MeshError {
