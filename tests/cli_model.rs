@@ -280,3 +280,81 @@ fn off_models_up_axes_and_bind_snap() {
         trimorph(&["model", "bind", "--model", s(&small), "--auto", "--snap", "0", "-o", s(&fine)]);
     assert_eq!(o.status.code(), Some(1));
 }
+
+/// Bug (issue 23): `model bind --up y` did not record the axis in the scene, so
+/// `fit --model SCENE --frames` read the scene's model z-up (it lay across the prisms) and
+/// wrote the fitted models z-up. The scene now records `"model_up"`, and the sequence fit
+/// loads the model turned and writes each frame's model in the file's axes.
+#[test]
+fn a_scene_bound_with_up_y_keeps_the_axis_through_a_sequence_fit() {
+    use trimorph::io::model::{load_model, save_model, UpAxis};
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    ok(&trimorph(&["model", "worm", "-o", s(d)]));
+    let (worm, prisms) = (d.join("worm.obj"), d.join("worm_prisms.obj"));
+    let w = load_model(&worm).unwrap();
+    let turned: Vec<[f64; 3]> = w.vertices.iter().map(|&v| UpAxis::Y.from_z_up(v)).collect();
+    let worm_y = d.join("worm_y.obj");
+    save_model(&w, &turned, &worm_y).unwrap();
+    let scene = d.join("scene_y.json");
+    let o = trimorph(&[
+        "model",
+        "bind",
+        "--model",
+        s(&worm_y),
+        "--mesh",
+        s(&prisms),
+        "--up",
+        "y",
+        "-o",
+        s(&scene),
+    ]);
+    ok(&o);
+    assert!(String::from_utf8_lossy(&o.stdout).contains("0 outside"));
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&scene).unwrap()).unwrap();
+    assert_eq!(v["model_up"], "y");
+    // A z-up bind records nothing (its scene stays as it was).
+    let scene_z = d.join("scene_z.json");
+    ok(&trimorph(&["model", "bind", "--model", s(&worm), "--mesh", s(&prisms), "-o", s(&scene_z)]));
+    let vz: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&scene_z).unwrap()).unwrap();
+    assert!(vz.get("model_up").is_none());
+
+    // One frame, identity landmarks inside the worm's footprint: the fit is the identity.
+    let (lo, hi) = w.bbox();
+    let frames = d.join("frames");
+    std::fs::create_dir_all(&frames).unwrap();
+    let (fw, fh) = ((hi[0] + 20.0) as u32, (hi[1] + 20.0) as u32);
+    image::GrayImage::from_fn(fw, fh, |x, y| image::Luma([((x + 2 * y) % 251) as u8]))
+        .save(frames.join("f0.png"))
+        .unwrap();
+    let mut csv = String::from("name,src_x,src_y,dst_x,dst_y\n");
+    for (i, (a, b)) in
+        [(0.3, 0.3), (0.7, 0.3), (0.3, 0.7), (0.7, 0.7), (0.5, 0.5)].iter().enumerate()
+    {
+        let (x, y) = (lo[0] + a * (hi[0] - lo[0]), lo[1] + b * (hi[1] - lo[1]));
+        csv += &format!("p{i},{x},{y},{x},{y}\n");
+    }
+    let lms = d.join("l.csv");
+    std::fs::write(&lms, csv).unwrap();
+    let out = d.join("out");
+    ok(&trimorph(&[
+        "fit",
+        "--model",
+        s(&scene),
+        "--frames",
+        s(&frames),
+        "--landmarks",
+        s(&lms),
+        "-o",
+        s(&out),
+    ]));
+    // The fitted model is written in the file's axes: the y-up worm itself, within the fit's
+    // 1e-5 px (it is the identity up to the solver's rounding, about 1e-8 px here).
+    let got = read_obj_vertices(&out.join("f0.obj"));
+    assert_eq!(got.len(), turned.len());
+    for (i, (a, b)) in got.iter().zip(&turned).enumerate() {
+        assert!((0..3).all(|k| (a[k] - b[k]).abs() <= 1e-5), "vertex {i}: {a:?} vs {b:?}");
+    }
+}

@@ -35,6 +35,7 @@ pub fn initial_doc(a: &EditorArgs<'_>, root: &Path) -> Result<Doc> {
     let mut image_path = a.image.map(Path::to_path_buf);
     let mut pinned = Vec::new();
     let mut pairs = None;
+    let mut up = crate::io::model::UpAxis::Z;
     let spline = match a.deformation {
         Some(d) => {
             let text = read_text(d)?;
@@ -44,7 +45,11 @@ pub fn initial_doc(a: &EditorArgs<'_>, root: &Path) -> Result<Doc> {
                 .with_context(|| format!("cannot read deformation {}", d.display()))?;
             let v: serde_json::Value = serde_json::from_str(&text)?;
             let key = |k: &str| v.get(k).and_then(|x| x.as_str()).map(|r| beside(d, r));
-            model_path = model_path.or_else(|| key("model"));
+            if model_path.is_none() {
+                model_path = key("model");
+                up = crate::io::model::UpAxis::of_scene(&v)
+                    .map_err(|e| anyhow::anyhow!("{}: {e}", d.display()))?;
+            }
             image_path = image_path.or_else(|| key("image"));
             pairs = crate::server::doc::pairs::pairs_from_scene(&v, &d.display().to_string())?;
             s
@@ -87,9 +92,9 @@ pub fn initial_doc(a: &EditorArgs<'_>, root: &Path) -> Result<Doc> {
         doc.set_pairs(p)?;
     }
     if let Some(p) = model_path {
-        let m = crate::io::model::load_model(&p)
+        let m = crate::io::model::load_model_up(&p, up)
             .with_context(|| format!("cannot load model {}", p.display()))?;
-        doc.set_model(p, m)?;
+        doc.set_model_up(p, m, up)?;
     }
     if let Some(p) = image_path {
         let img = crate::io::raster::read_image(&p)

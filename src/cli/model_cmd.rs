@@ -125,6 +125,7 @@ pub fn bind_cmd(a: BindArgs) -> Result<()> {
     // relative to the scene's folder when both share one, so `fit --model SCENE` finds it.
     let mut v = deformation::to_json(&s, None);
     v["model"] = serde_json::Value::from(scene_relative(a.output, a.model));
+    a.extra.up.up.record_in(&mut v);
     write_atomic(a.output, crate::io::json_rows(&v).as_bytes())?;
     let z = s.z_layers().expect("set_z_layers(Some(..)) was called above");
     writeln!(

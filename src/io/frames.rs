@@ -5,7 +5,7 @@
 //! model and the landmarks of every frame ([`read_targets`]).
 
 use super::landmarks::{read_landmarks, LandmarkIoError};
-use super::model::{load_model, ModelIoError};
+use super::model::{load_model_up, ModelIoError, UpAxis};
 use super::raster::{read_stack, RasterError};
 use super::{read_text, IoError};
 use crate::fit::landmarks::Landmark;
@@ -138,6 +138,14 @@ pub enum InputsError {
     /// The scene is not JSON.
     #[error(transparent)]
     SceneJson(#[from] serde_json::Error),
+    /// The scene's recorded up axis is not `x`, `y` or `z`.
+    #[error("{}: {message}", path.display())]
+    SceneUp {
+        /// The scene.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
     /// The model cannot be read.
     #[error("cannot load model {}: {source}", path.display())]
     Model {
@@ -149,29 +157,30 @@ pub enum InputsError {
 }
 
 /// The model of a scene: `explicit`, else the scene file's `"model"` key (a path relative
-/// to the scene's folder); `None` when there is neither.
+/// to the scene's folder); `None` when there is neither. The model is loaded turned by the
+/// up axis the scene records ([`UpAxis::of_scene`]), which is returned with it.
 pub fn scene_model(
     scene: &Path,
     explicit: Option<&Path>,
-) -> Result<Option<(PathBuf, Model)>, InputsError> {
+) -> Result<Option<(PathBuf, Model, UpAxis)>, InputsError> {
+    let v: serde_json::Value = crate::json::parse(&read_text(scene)?)?;
+    let up = UpAxis::of_scene(&v)
+        .map_err(|message| InputsError::SceneUp { path: scene.to_path_buf(), message })?;
     let path = match explicit {
         Some(p) => Some(p.to_path_buf()),
-        None => {
-            let v: serde_json::Value = crate::json::parse(&read_text(scene)?)?;
-            v.get("model").and_then(|m| m.as_str()).map(|m| {
-                let p = PathBuf::from(m);
-                if p.is_absolute() {
-                    p
-                } else {
-                    scene.parent().unwrap_or(Path::new(".")).join(p)
-                }
-            })
-        }
+        None => v.get("model").and_then(|m| m.as_str()).map(|m| {
+            let p = PathBuf::from(m);
+            if p.is_absolute() {
+                p
+            } else {
+                scene.parent().unwrap_or(Path::new(".")).join(p)
+            }
+        }),
     };
     match path {
         None => Ok(None),
-        Some(p) => match load_model(&p) {
-            Ok(m) => Ok(Some((p, m))),
+        Some(p) => match load_model_up(&p, up) {
+            Ok(m) => Ok(Some((p, m, up))),
             Err(source) => Err(InputsError::Model { path: p, source }),
         },
     }

@@ -239,7 +239,41 @@ impl std::str::FromStr for UpAxis {
     }
 }
 
+/// The scene key that records the up axis of the scene's model when it is not `z`
+/// (`"model_up": "x"` or `"y"`, written by `trimorph model bind --up`; an extra key, which the
+/// deformation format allows). Readers of a scene's `"model"` load it with this axis.
+pub const SCENE_UP_KEY: &str = "model_up";
+
 impl UpAxis {
+    /// `"x"`, `"y"` or `"z"`.
+    pub fn name(self) -> &'static str {
+        match self {
+            UpAxis::X => "x",
+            UpAxis::Y => "y",
+            UpAxis::Z => "z",
+        }
+    }
+
+    /// The up axis a scene records ([`SCENE_UP_KEY`]; `z` when the key is absent).
+    pub fn of_scene(scene: &serde_json::Value) -> Result<UpAxis, String> {
+        match scene.get(SCENE_UP_KEY) {
+            None => Ok(UpAxis::Z),
+            Some(serde_json::Value::String(s)) => {
+                s.parse().map_err(|e| format!("key \"{SCENE_UP_KEY}\": {e}"))
+            }
+            Some(other) => Err(format!(
+                "key \"{SCENE_UP_KEY}\": expected \"x\", \"y\" or \"z\", found {other}"
+            )),
+        }
+    }
+
+    /// Records the axis in a scene (nothing for `z`, so z-up scenes stay as they were).
+    pub fn record_in(self, scene: &mut serde_json::Value) {
+        if self != UpAxis::Z {
+            scene[SCENE_UP_KEY] = serde_json::Value::from(self.name());
+        }
+    }
+
     /// A point of the file in the z-up frame (a cyclic permutation of the coordinates).
     pub fn to_z_up(self, [x, y, z]: [f64; 3]) -> [f64; 3] {
         match self {

@@ -23,7 +23,7 @@ use crate::fit::solve::FitOptions;
 use crate::fit::track::TrackOptions;
 use crate::io::deformation::DeformationError;
 use crate::io::frames::{read_frames, read_targets, scene_model, FramesError, InputsError};
-use crate::io::model::{save_model, ModelIoError};
+use crate::io::model::{save_model, ModelIoError, UpAxis};
 use crate::io::raster::{write_stack, RasterError, Stack};
 use crate::io::{deformation, read_text, write_atomic, IoError};
 use crate::prism::{bind, deform, Binding, Model, PrismError};
@@ -66,7 +66,7 @@ pub struct FrameFiles<'a> {
     /// The folder.
     pub out: &'a Path,
     /// The model carried along (its file, the model and its binding to the scene).
-    pub model: Option<&'a (PathBuf, Model, Binding)>,
+    pub model: Option<&'a (PathBuf, Model, Binding, UpAxis)>,
     /// Per frame, whether it is float gray (held as RGB float, written back as gray).
     pub gray_float: &'a [bool],
     /// The registered frames' value where `phi` leaves the frame (sample units).
@@ -110,9 +110,11 @@ impl FrameFiles<'_> {
         let stack = Stack { pages: vec![reg], gray_float: self.gray_float[r.index] };
         write_stack(&self.registered(r.index, frame), &stack)?;
         let mut outline = Vec::new();
-        if let Some((_, m, b)) = self.model {
+        if let Some((_, m, b, up)) = self.model {
             let moved = deform(m, b, s);
-            save_model(m, &moved, &self.path(stem, "obj"))?;
+            // In the model file's axes.
+            let file: Vec<[f64; 3]> = moved.iter().map(|&v| up.from_z_up(v)).collect();
+            save_model(m, &file, &self.path(stem, "obj"))?;
             outline = silhouette(&moved, &m.triangles);
         }
         let marks: Vec<Mark> =
@@ -244,7 +246,7 @@ pub struct SequenceInputs {
     /// The scene (every frame's fit starts from it, or from the previous frame's result).
     pub scene: Spline,
     /// The scene's model: its file, the model and its binding to the scene.
-    pub model: Option<(PathBuf, Model, Binding)>,
+    pub model: Option<(PathBuf, Model, Binding, UpAxis)>,
     /// The frames, in order.
     pub frames: Vec<Frame>,
     /// Per frame, whether it is float gray.
@@ -289,13 +291,13 @@ impl SequenceInputs {
             .map_err(|source| SequenceInputsError::Scene { path: scene.to_path_buf(), source })?;
         let mut key_extra = BTreeMap::new();
         let model = match scene_model(scene, model)? {
-            Some((p, m)) => {
+            Some((p, m, up)) => {
                 let b = bind(&m, &spline)
                     .map_err(|source| SequenceInputsError::Bind { path: p.clone(), source })?;
                 let bytes = std::fs::read(&p)
                     .map_err(|source| SequenceInputsError::ModelFile { path: p.clone(), source })?;
                 key_extra.insert("model_hash".to_string(), content_hash(&bytes));
-                Some((p, m, b))
+                Some((p, m, b, up))
             }
             None => None,
         };
@@ -303,7 +305,8 @@ impl SequenceInputs {
         let (frames, gray_float) = read_frames(frames)?;
         check_names(&frames)?;
         let track = track.map(|a| (a, TrackOptions::default()));
-        let targets = read_targets(landmarks, &frames, model.as_ref().map(|(_, m, _)| m), track)?;
+        let targets =
+            read_targets(landmarks, &frames, model.as_ref().map(|(_, m, _, _)| m), track)?;
         Ok(SequenceInputs {
             scene: spline,
             model,

@@ -19,7 +19,7 @@ use crate::edit::{EditError, Editor, LastEdit, Mode};
 use crate::fit::landmarks::Landmark;
 use crate::fit::solve::{fit, FitOptions};
 use crate::io::landmarks::read_landmarks;
-use crate::io::model::{load_model, save_model};
+use crate::io::model::{load_model_up, save_model, UpAxis};
 use crate::io::{deformation, read_text, write_atomic};
 use crate::prism::{bind, deform, Binding, Model};
 use crate::render::overlay::SilhouetteEdges;
@@ -53,13 +53,21 @@ pub struct BoundModel {
     pub binding: Binding,
     /// The model's edges, grouped once for the silhouette of every answer.
     pub edges: SilhouetteEdges,
+    /// The file's up axis: `model` holds the vertices turned z-up, files are written back in
+    /// the file's axes, and a saved scene records it ([`crate::io::model::SCENE_UP_KEY`]).
+    pub up: UpAxis,
 }
 
 impl BoundModel {
-    /// Binds `model` (from `path`) with `binding`.
+    /// Binds `model` (from `path`, z-up) with `binding`.
     pub fn new(path: PathBuf, model: Model, binding: Binding) -> BoundModel {
         let edges = SilhouetteEdges::new(&model.triangles);
-        BoundModel { path, model, binding, edges }
+        BoundModel { path, model, binding, edges, up: UpAxis::Z }
+    }
+
+    /// z-up vertices in the model file's axes.
+    pub fn to_file_axes(&self, vertices: &[[f64; 3]]) -> Vec<[f64; 3]> {
+        vertices.iter().map(|&v| self.up.from_z_up(v)).collect()
     }
 }
 
@@ -167,11 +175,24 @@ impl Doc {
         }
     }
 
-    /// Binds a model (the deformation must have z layers).
+    /// Binds a z-up model (the deformation must have z layers).
     pub fn set_model(&mut self, path: PathBuf, model: Model) -> Result<(), ServerError> {
+        self.set_model_up(path, model, UpAxis::Z)
+    }
+
+    /// Binds a model whose file's up axis is `up` (`model` already turned z-up, as
+    /// [`crate::io::model::load_model_up`] gives it).
+    pub fn set_model_up(
+        &mut self,
+        path: PathBuf,
+        model: Model,
+        up: UpAxis,
+    ) -> Result<(), ServerError> {
         let binding = bind(&model, self.editor.spline())
             .map_err(|e| ServerError::Unprocessable(format!("model {}: {e}", path.display())))?;
-        self.model = Some(BoundModel::new(path, model, binding));
+        let mut bound = BoundModel::new(path, model, binding);
+        bound.up = up;
+        self.model = Some(bound);
         Ok(())
     }
 
@@ -419,6 +440,7 @@ impl Doc {
                 name
             });
             v["model"] = json!(key);
+            m.up.record_in(&mut v);
         }
         if let Some(f) = &self.frame {
             let key = inside(&f.path).unwrap_or_else(|| {
@@ -445,10 +467,10 @@ impl Doc {
                 (Some(b), _) => write_atomic(&p, b).map_err(io)?,
                 (None, Some(m)) => {
                     let e = |e: crate::io::model::ModelIoError| ServerError::Io(e.to_string());
-                    save_model(&m.model, &m.model.vertices, &p).map_err(e)?;
+                    let file = m.to_file_axes(&m.model.vertices);
+                    save_model(&m.model, &file, &p).map_err(e)?;
                     if !m.model.landmarks.is_empty() {
-                        crate::io::model::save_landmarks(&m.model, &m.model.vertices, &p)
-                            .map_err(e)?;
+                        crate::io::model::save_landmarks(&m.model, &file, &p).map_err(e)?;
                     }
                 }
                 (None, None) => {}
@@ -508,7 +530,9 @@ impl Doc {
         let model = match key("model") {
             Some(m) => {
                 let p = confine(&self.root, &m, false)?;
-                Some((PathBuf::from(m), load_model(&p).map_err(|e| bad(e.to_string()))?))
+                let up = UpAxis::of_scene(&v).map_err(|e| bad(format!("{rel}: {e}")))?;
+                let loaded = load_model_up(&p, up).map_err(|e| bad(e.to_string()))?;
+                Some((PathBuf::from(m), loaded, up))
             }
             None => None,
         };
@@ -522,12 +546,14 @@ impl Doc {
         };
         let same = crate::edit::same_layout(self.spline(), &s);
         let model =
-            model.or_else(|| self.model.as_ref().map(|m| (m.path.clone(), m.model.clone())));
+            model.or_else(|| self.model.as_ref().map(|m| (m.path.clone(), m.model.clone(), m.up)));
         if same {
             let bound = match model {
-                Some((p, m)) => {
+                Some((p, m, up)) => {
                     let binding = bind(&m, &s).map_err(|e| bad(format!("model: {e}")))?;
-                    Some(BoundModel::new(p, m, binding))
+                    let mut bound = BoundModel::new(p, m, binding);
+                    bound.up = up;
+                    Some(bound)
                 }
                 None => None,
             };
@@ -538,8 +564,8 @@ impl Doc {
             self.cert.refresh_all(self.editor.spline());
         } else {
             let mut next = Doc::new(s, &self.root);
-            if let Some((p, m)) = model {
-                next.set_model(p, m)?;
+            if let Some((p, m, up)) = model {
+                next.set_model_up(p, m, up)?;
             }
             next.frame = self.frame.take();
             next.landmarks = std::mem::take(&mut self.landmarks);
@@ -572,7 +598,7 @@ impl Doc {
         let m =
             self.model.as_ref().ok_or(ServerError::Unprocessable("no model is loaded".into()))?;
         let path = confine(&self.root, rel, true)?;
-        let v = deform(&m.model, &m.binding, self.spline());
+        let v = m.to_file_axes(&deform(&m.model, &m.binding, self.spline()));
         save_model(&m.model, &v, &path).map_err(|e| ServerError::Io(e.to_string()))?;
         Ok(path)
     }

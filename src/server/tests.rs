@@ -584,3 +584,52 @@ fn the_live_warp_map_is_phi_inverse_at_the_nodes() {
     assert_eq!(call(&mut d, "GET", "/api/warp?step=x", Value::Null).0, 400);
     assert_eq!(call(&mut doc(dir.path()), "GET", "/api/warp", Value::Null).0, 404);
 }
+
+/// Bug (issue 23): a scene made with `model bind --up y` did not record the axis, so the
+/// editor read its model z-up. The axis is now kept with the model: files are written in the
+/// model's own axes and a saved scene records it, so loading the scene turns the model back.
+#[test]
+fn a_y_up_model_keeps_its_axis_through_export_scene_save_and_load() {
+    use crate::io::model::{load_model, UpAxis, SCENE_UP_KEY};
+    let dir = tempfile::tempdir().unwrap();
+    let mut d = doc25(dir.path());
+    let z_up = d.deformed_model().unwrap();
+    let m = load_model_back(&d, dir.path(), "plain.obj");
+    assert_close_3(&m, &z_up, "a z-up model is written as it is");
+    // The same model, declared y-up in its file.
+    let model = crate::prism::organism::worm(&crate::prism::organism::WormOptions {
+        length: 60.0,
+        radius: 5.0,
+        bend: 5.0,
+        rings: 20,
+        around: 8,
+    });
+    let mut model = model;
+    model.vertices = z_up.clone();
+    d.set_model_up("worm_y.obj".into(), model, UpAxis::Y).unwrap();
+    let file = load_model_back(&d, dir.path(), "y.obj");
+    let want: Vec<[f64; 3]> = z_up.iter().map(|&v| UpAxis::Y.from_z_up(v)).collect();
+    assert_close_3(&file, &want, "exported in the file's axes");
+    d.save("s.json", true).unwrap();
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("s.json")).unwrap()).unwrap();
+    assert_eq!(v[SCENE_UP_KEY], "y");
+    let copy = load_model(&dir.path().join(v["model"].as_str().unwrap())).unwrap();
+    assert_close_3(&copy.vertices, &want, "the scene's model copy is in the file's axes");
+    let mut e = doc25(dir.path());
+    e.load("s.json").unwrap();
+    assert_close_3(&e.deformed_model().unwrap(), &z_up, "loaded turned back to z-up");
+}
+
+/// Vertex lists equal within 1e-9 px (the identity's evaluation rounds in the last digits).
+fn assert_close_3(a: &[[f64; 3]], b: &[[f64; 3]], what: &str) {
+    assert_eq!(a.len(), b.len(), "{what}");
+    for (p, q) in a.iter().zip(b) {
+        assert!((0..3).all(|k| (p[k] - q[k]).abs() <= 1e-9), "{what}: {p:?} vs {q:?}");
+    }
+}
+
+fn load_model_back(d: &Doc, root: &std::path::Path, name: &str) -> Vec<[f64; 3]> {
+    d.export_model(name).unwrap();
+    crate::io::model::load_model(&root.join(name)).unwrap().vertices
+}
