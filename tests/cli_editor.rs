@@ -3,7 +3,7 @@
 //! bad inputs exit 1 with a message naming the file.
 
 mod common;
-use common::trimorph;
+use common::{edit_script, trimorph};
 use std::io::{BufRead, BufReader, Read, Write};
 use std::net::TcpStream;
 use std::process::{Command, Stdio};
@@ -79,14 +79,7 @@ fn edit_refuses_absurd_values_like_the_editor() {
     )
     .unwrap();
     let out = dir.path().join("out.json");
-    let o = trimorph(&[
-        "edit",
-        id.to_str().unwrap(),
-        "--script",
-        script.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-    ]);
+    let o = edit_script(&id, &script, &out);
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{err}");
     assert!(err.contains("edits.json") && err.contains("beyond"), "{err}");

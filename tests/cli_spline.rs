@@ -120,14 +120,7 @@ fn edit_script_translate_rotate_scale() {
     )
     .unwrap();
     let out = dir.path().join("out.json");
-    let o = trimorph(&[
-        "edit",
-        id.to_str().unwrap(),
-        "--script",
-        script.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-    ]);
+    let o = edit_script(&id, &script, &out);
     ok(&o);
     let doc = read(&out);
     assert!(doc["last_edit"]["anchors"].as_array().unwrap().len() == 1);
@@ -149,14 +142,7 @@ fn translated_anchor_lands_exactly() {
     )
     .unwrap();
     let out = dir.path().join("out.json");
-    ok(&trimorph(&[
-        "edit",
-        id.to_str().unwrap(),
-        "--script",
-        script.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-    ]));
+    ok(&edit_script(&id, &script, &out));
     let doc = read(&out);
     // The control point at (200, 100) (a mesh vertex) moved by exactly (12.5, -3.5).
     let v = doc["vertices"]
@@ -204,14 +190,7 @@ fn unsolvable_or_bad_scripts_write_nothing() {
     for (script, code, needle) in cases {
         let f = dir.path().join("s.json");
         std::fs::write(&f, script.to_string()).unwrap();
-        let r = trimorph(&[
-            "edit",
-            id.to_str().unwrap(),
-            "--script",
-            f.to_str().unwrap(),
-            "-o",
-            out.to_str().unwrap(),
-        ]);
+        let r = edit_script(&id, &f, &out);
         assert_eq!(r.status.code(), Some(code), "{script}");
         assert!(
             String::from_utf8_lossy(&r.stderr).contains(needle),
@@ -228,14 +207,7 @@ fn unsolvable_or_bad_scripts_write_nothing() {
     let f = dir.path().join("s.json");
     std::fs::write(&f, json!([{"anchors": [0], "op": "translate", "by": [1, 1]}]).to_string())
         .unwrap();
-    let r = trimorph(&[
-        "edit",
-        bad.to_str().unwrap(),
-        "--script",
-        f.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-    ]);
+    let r = edit_script(&bad, &f, &out);
     assert_eq!(r.status.code(), Some(1));
     let r = trimorph(&["check", bad.to_str().unwrap()]);
     assert_eq!(r.status.code(), Some(1));
@@ -355,14 +327,7 @@ fn constraints_in_scripts_persist_and_can_make_edits_unsolvable() {
     )
     .unwrap();
     let out = dir.path().join("out.json");
-    ok(&trimorph(&[
-        "edit",
-        id.to_str().unwrap(),
-        "--script",
-        script.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-    ]));
+    ok(&edit_script(&id, &script, &out));
     let d = read(&out);
     assert_eq!(d["constraints"].as_array().unwrap().len(), 2);
     for &p in &row {
@@ -373,14 +338,7 @@ fn constraints_in_scripts_persist_and_can_make_edits_unsolvable() {
     std::fs::write(&script, json!([{"anchors": [a], "op": "translate", "by": [1, 0]}]).to_string())
         .unwrap();
     let out2 = dir.path().join("out2.json");
-    let r = trimorph(&[
-        "edit",
-        out.to_str().unwrap(),
-        "--script",
-        script.to_str().unwrap(),
-        "-o",
-        out2.to_str().unwrap(),
-    ]);
+    let r = edit_script(&out, &script, &out2);
     assert_eq!(r.status.code(), Some(2), "{}", String::from_utf8_lossy(&r.stderr));
     assert!(String::from_utf8_lossy(&r.stderr).contains("not weakly solvable"));
     assert!(!out2.exists());
@@ -390,14 +348,7 @@ fn constraints_in_scripts_persist_and_can_make_edits_unsolvable() {
         json!([{"op": "constrain", "vertical": [[row[0], row[1]]]}]).to_string(),
     )
     .unwrap();
-    let r = trimorph(&[
-        "edit",
-        id.to_str().unwrap(),
-        "--script",
-        script.to_str().unwrap(),
-        "-o",
-        out2.to_str().unwrap(),
-    ]);
+    let r = edit_script(&id, &script, &out2);
     assert_eq!(r.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&r.stderr).contains("vertical line"));
 }

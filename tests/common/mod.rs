@@ -33,6 +33,11 @@ pub const GOLDEN_MAX_DIFF: u8 = 2;
 /// Golden-image tolerance: at most this many pixels may differ at all.
 pub const GOLDEN_MAX_OFF: usize = 64;
 
+/// `trimorph edit INPUT --script SCRIPT -o OUT`.
+pub fn edit_script(input: &Path, script: &Path, out: &Path) -> Output {
+    trimorph(&["edit", s(input), "--script", s(script), "-o", s(out)])
+}
+
 /// The folder of golden images.
 pub fn golden_dir() -> std::path::PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/golden")
