@@ -25,7 +25,7 @@
 //!
 //! The caller still verifies the result exactly (see [`super::modular::verify`]).
 
-use super::int::Int;
+use super::int::{Int, IntView};
 use super::matrix::{ScaledVec, SparseIntMatrix};
 use super::modp::{primes, LuModP, Zp};
 use super::modular::{rows_mod, SolveStats};
@@ -68,14 +68,14 @@ impl Lifter<'_> {
             for &(j, v) in row {
                 ax += v as i128 * x[j] as i128;
             }
-            *ri = match ri {
-                Int::Small(s) => {
-                    let t = *s as i128 - ax;
+            *ri = match ri.view() {
+                IntView::Small(s) => {
+                    let t = s as i128 - ax;
                     debug_assert!(t % pi == 0);
                     Int::from_i128(t / pi)
                 }
-                Int::Big(b) => {
-                    let t = &*b - BigInt::from(ax);
+                IntView::Big(b) => {
+                    let t = b - BigInt::from(ax);
                     debug_assert!((&t % BigInt::from(p)).is_zero());
                     Int::from_big(t / BigInt::from(p))
                 }
@@ -93,8 +93,8 @@ pub fn solve(a: &SparseIntMatrix, b: &[ScaledVec]) -> Option<(Vec<ScaledVec>, So
     for i in 0..k {
         let mut r = Vec::with_capacity(a.row(i).len());
         for (j, v) in a.row(i) {
-            match v {
-                Int::Small(s) if s.unsigned_abs() < MAX_ENTRY as u64 => r.push((*j, *s)),
+            match v.as_i64() {
+                Some(s) if s.unsigned_abs() < MAX_ENTRY as u64 => r.push((*j, s)),
                 _ => return None,
             }
         }

@@ -20,29 +20,70 @@ use std::ops::{
 };
 use std::str::FromStr;
 
-/// An exact integer: `Small` while it fits in an `i64`, `Big` otherwise.
+/// An exact integer: stored on the machine word while it fits in an `i64`, as a `BigInt`
+/// otherwise.
+///
+/// The representation is private: every constructor ([`From<i64>`], [`From<BigInt>`],
+/// [`Int::from_big`], [`Int::from_i128`], the arithmetic operators) keeps the invariant that
+/// a value which fits in `i64` is stored on the word, so equality, hashing and
+/// [`Int::is_zero_int`] are structural and cheap. Read the value with [`Int::as_i64`],
+/// [`Int::view`] or [`Int::to_big`].
 #[derive(Clone)]
-pub enum Int {
+pub struct Int(Repr);
+
+/// The private representation of [`Int`]; `Big` never holds a value that fits in `i64`.
+#[derive(Clone)]
+enum Repr {
     /// A value that fits in `i64`.
     Small(i64),
     /// A value outside the `i64` range (never a value that would fit).
     Big(BigInt),
 }
 
+/// A borrowed view of an [`Int`], for matching on the word fast path without allocating.
+///
+/// `Big` is only produced for values outside the `i64` range, so a caller that handles
+/// `Small` fully never sees a `Big` that would fit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum IntView<'a> {
+    /// The value, which fits in `i64`.
+    Small(i64),
+    /// The value, which does not fit in `i64`.
+    Big(&'a BigInt),
+}
+
 impl Int {
+    /// The value as an `i64`, when it fits (`None` exactly when it does not).
+    #[inline]
+    pub fn as_i64(&self) -> Option<i64> {
+        match self.0 {
+            Repr::Small(v) => Some(v),
+            Repr::Big(_) => None,
+        }
+    }
+
+    /// A borrowed view of the value: `Small` when it fits in `i64`, `Big` otherwise.
+    #[inline]
+    pub fn view(&self) -> IntView<'_> {
+        match &self.0 {
+            Repr::Small(v) => IntView::Small(*v),
+            Repr::Big(b) => IntView::Big(b),
+        }
+    }
+
     /// Wraps a `BigInt`, demoting it to `Small` when it fits.
     pub fn from_big(b: BigInt) -> Int {
         match b.to_i64() {
-            Some(v) => Int::Small(v),
-            None => Int::Big(b),
+            Some(v) => Int(Repr::Small(v)),
+            None => Int(Repr::Big(b)),
         }
     }
 
     /// The value as a `BigInt`.
     pub fn to_big(&self) -> BigInt {
         match self {
-            Int::Small(v) => BigInt::from(*v),
-            Int::Big(b) => b.clone(),
+            Int(Repr::Small(v)) => BigInt::from(*v),
+            Int(Repr::Big(b)) => b.clone(),
         }
     }
 
@@ -50,24 +91,24 @@ impl Int {
     #[inline]
     pub fn from_i128(v: i128) -> Int {
         if v >= i64::MIN as i128 && v <= i64::MAX as i128 {
-            Int::Small(v as i64)
+            Int(Repr::Small(v as i64))
         } else {
-            Int::Big(BigInt::from(v))
+            Int(Repr::Big(BigInt::from(v)))
         }
     }
 
     /// True when the value is zero.
     #[inline]
     pub fn is_zero_int(&self) -> bool {
-        matches!(self, Int::Small(0))
+        matches!(self, Int(Repr::Small(0)))
     }
 
     /// -1, 0 or 1.
     #[inline]
     pub fn signum_i32(&self) -> i32 {
         match self {
-            Int::Small(v) => v.signum() as i32,
-            Int::Big(b) => match b.sign() {
+            Int(Repr::Small(v)) => v.signum() as i32,
+            Int(Repr::Big(b)) => match b.sign() {
                 Sign::Minus => -1,
                 Sign::NoSign => 0,
                 Sign::Plus => 1,
@@ -78,18 +119,18 @@ impl Int {
     /// Compares absolute values.
     pub fn cmp_abs(&self, other: &Int) -> Ordering {
         match (self, other) {
-            (Int::Small(a), Int::Small(b)) => a.unsigned_abs().cmp(&b.unsigned_abs()),
-            (Int::Small(_), Int::Big(_)) => Ordering::Less,
-            (Int::Big(_), Int::Small(_)) => Ordering::Greater,
-            (Int::Big(a), Int::Big(b)) => a.magnitude().cmp(b.magnitude()),
+            (Int(Repr::Small(a)), Int(Repr::Small(b))) => a.unsigned_abs().cmp(&b.unsigned_abs()),
+            (Int(Repr::Small(_)), Int(Repr::Big(_))) => Ordering::Less,
+            (Int(Repr::Big(_)), Int(Repr::Small(_))) => Ordering::Greater,
+            (Int(Repr::Big(a)), Int(Repr::Big(b))) => a.magnitude().cmp(b.magnitude()),
         }
     }
 
     /// Number of bits of the magnitude (0 for zero). The "bit size" of ch. 7 of the thesis.
     pub fn bits(&self) -> u64 {
         match self {
-            Int::Small(v) => 64 - v.unsigned_abs().leading_zeros() as u64,
-            Int::Big(b) => b.bits(),
+            Int(Repr::Small(v)) => 64 - v.unsigned_abs().leading_zeros() as u64,
+            Int(Repr::Big(b)) => b.bits(),
         }
     }
 
@@ -99,23 +140,26 @@ impl Int {
     /// Panics when `d` is zero. In debug builds also when the division is not exact.
     pub fn div_exact(&self, d: &Int) -> Int {
         match (self, d) {
-            (Int::Small(a), Int::Small(b)) => {
+            (Int(Repr::Small(a)), Int(Repr::Small(b))) => {
                 debug_assert!(*b != 0 && a % b == 0, "inexact division {a} / {b}");
                 match a.checked_div(*b) {
-                    Some(q) => Int::Small(q),
+                    Some(q) => Int(Repr::Small(q)),
                     None => Int::from_i128(*a as i128 / *b as i128),
                 }
             }
-            (Int::Big(a), Int::Small(b)) => {
+            (Int(Repr::Big(a)), Int(Repr::Small(b))) => {
                 debug_assert!((a % *b).is_zero(), "inexact division");
                 Int::from_big(a / *b)
             }
-            (Int::Small(a), Int::Big(_)) => {
-                // |d| > |a| unless a = 0, so an exact quotient is 0.
+            (Int(Repr::Small(a)), Int(Repr::Big(b))) => {
+                // |d| > |a| (so an exact quotient is 0) except for i64::MIN / 2^63 = -1.
+                if *a == i64::MIN {
+                    return Int::from_big(BigInt::from(*a) / b);
+                }
                 debug_assert!(*a == 0, "inexact division");
-                Int::Small(0)
+                Int(Repr::Small(0))
             }
-            (Int::Big(a), Int::Big(b)) => {
+            (Int(Repr::Big(a)), Int(Repr::Big(b))) => {
                 debug_assert!((a % b).is_zero(), "inexact division");
                 Int::from_big(a / b)
             }
@@ -125,10 +169,10 @@ impl Int {
     /// Greatest common divisor, always non-negative; gcd(0, 0) = 0.
     pub fn gcd_int(&self, other: &Int) -> Int {
         match (self, other) {
-            (Int::Small(a), Int::Small(b)) => {
+            (Int(Repr::Small(a)), Int(Repr::Small(b))) => {
                 int_from_u64(gcd_u64(a.unsigned_abs(), b.unsigned_abs()))
             }
-            (Int::Small(a), Int::Big(b)) | (Int::Big(b), Int::Small(a)) => {
+            (Int(Repr::Small(a)), Int(Repr::Big(b))) | (Int(Repr::Big(b)), Int(Repr::Small(a))) => {
                 if *a == 0 {
                     return Int::from_big(b.abs());
                 }
@@ -136,7 +180,7 @@ impl Int {
                 let r = (b % BigInt::from(*a)).to_i64().expect("remainder fits");
                 int_from_u64(gcd_u64(a.unsigned_abs(), r.unsigned_abs()))
             }
-            (Int::Big(a), Int::Big(b)) => Int::from_big(BigInt::from(lehmer_gcd(
+            (Int(Repr::Big(a)), Int(Repr::Big(b))) => Int::from_big(BigInt::from(lehmer_gcd(
                 a.magnitude().clone(),
                 b.magnitude().clone(),
             ))),
@@ -146,7 +190,13 @@ impl Int {
     /// `self * a - other * b`, the fraction-free elimination kernel, with one overflow check.
     #[inline]
     pub fn cross(a: &Int, x: &Int, b: &Int, y: &Int) -> Int {
-        if let (Int::Small(a), Int::Small(x), Int::Small(b), Int::Small(y)) = (a, x, b, y) {
+        if let (
+            Int(Repr::Small(a)),
+            Int(Repr::Small(x)),
+            Int(Repr::Small(b)),
+            Int(Repr::Small(y)),
+        ) = (a, x, b, y)
+        {
             let v = (*a as i128) * (*x as i128) - (*b as i128) * (*y as i128);
             return Int::from_i128(v);
         }
@@ -156,8 +206,8 @@ impl Int {
     /// Approximate value as `f64` (correctly rounded for `Small`, nearest for `Big`).
     pub fn to_f64_lossy(&self) -> f64 {
         match self {
-            Int::Small(v) => *v as f64,
-            Int::Big(b) => b.to_f64().unwrap_or(f64::NAN),
+            Int(Repr::Small(v)) => *v as f64,
+            Int(Repr::Big(b)) => b.to_f64().unwrap_or(f64::NAN),
         }
     }
 }
@@ -252,23 +302,37 @@ pub fn gcd_u64(mut a: u64, mut b: u64) -> u64 {
 
 impl Default for Int {
     fn default() -> Int {
-        Int::Small(0)
+        Int(Repr::Small(0))
     }
 }
 
 impl From<i64> for Int {
     fn from(v: i64) -> Int {
-        Int::Small(v)
+        Int(Repr::Small(v))
     }
 }
 impl From<i32> for Int {
     fn from(v: i32) -> Int {
-        Int::Small(v as i64)
+        Int(Repr::Small(v as i64))
     }
 }
 impl From<BigInt> for Int {
     fn from(b: BigInt) -> Int {
         Int::from_big(b)
+    }
+}
+impl From<Int> for BigInt {
+    fn from(v: Int) -> BigInt {
+        match v.0 {
+            Repr::Small(s) => BigInt::from(s),
+            Repr::Big(b) => b,
+        }
+    }
+}
+impl num_bigint::ToBigInt for Int {
+    /// Always `Some`: every `Int` is an integer.
+    fn to_bigint(&self) -> Option<BigInt> {
+        Some(self.to_big())
     }
 }
 impl From<&Int> for BigInt {
@@ -280,8 +344,8 @@ impl From<&Int> for BigInt {
 impl PartialEq for Int {
     fn eq(&self, other: &Int) -> bool {
         match (self, other) {
-            (Int::Small(a), Int::Small(b)) => a == b,
-            (Int::Big(a), Int::Big(b)) => a == b,
+            (Int(Repr::Small(a)), Int(Repr::Small(b))) => a == b,
+            (Int(Repr::Big(a)), Int(Repr::Big(b))) => a == b,
             _ => false, // normalized: a Big never equals a Small
         }
     }
@@ -291,8 +355,8 @@ impl Eq for Int {}
 impl std::hash::Hash for Int {
     fn hash<H: std::hash::Hasher>(&self, state: &mut H) {
         match self {
-            Int::Small(v) => v.hash(state),
-            Int::Big(b) => b.hash(state),
+            Int(Repr::Small(v)) => v.hash(state),
+            Int(Repr::Big(b)) => b.hash(state),
         }
     }
 }
@@ -305,7 +369,7 @@ impl PartialOrd for Int {
 impl Ord for Int {
     fn cmp(&self, other: &Int) -> Ordering {
         match (self, other) {
-            (Int::Small(a), Int::Small(b)) => a.cmp(b),
+            (Int(Repr::Small(a)), Int(Repr::Small(b))) => a.cmp(b),
             _ => self.to_big().cmp(&other.to_big()),
         }
     }
@@ -314,8 +378,8 @@ impl Ord for Int {
 impl fmt::Display for Int {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            Int::Small(v) => fmt::Display::fmt(v, f),
-            Int::Big(b) => fmt::Display::fmt(b, f),
+            Int(Repr::Small(v)) => fmt::Display::fmt(v, f),
+            Int(Repr::Big(b)) => fmt::Display::fmt(b, f),
         }
     }
 }
@@ -339,13 +403,13 @@ macro_rules! binop {
             #[inline]
             fn $m(self, rhs: &Int) -> Int {
                 match (self, rhs) {
-                    (Int::Small(a), Int::Small(b)) => match a.$checked(*b) {
-                        Some(v) => Int::Small(v),
+                    (Int(Repr::Small(a)), Int(Repr::Small(b))) => match a.$checked(*b) {
+                        Some(v) => Int(Repr::Small(v)),
                         None => Int::from_i128((*a as i128) $bigop (*b as i128)),
                     },
-                    (Int::Big(a), Int::Small(b)) => Int::from_big(a $bigop *b),
-                    (Int::Small(a), Int::Big(b)) => Int::from_big($small_big(*a, b)),
-                    (Int::Big(a), Int::Big(b)) => Int::from_big(a $bigop b),
+                    (Int(Repr::Big(a)), Int(Repr::Small(b))) => Int::from_big(a $bigop *b),
+                    (Int(Repr::Small(a)), Int(Repr::Big(b))) => Int::from_big($small_big(*a, b)),
+                    (Int(Repr::Big(a)), Int(Repr::Big(b))) => Int::from_big(a $bigop b),
                 }
             }
         }
@@ -373,9 +437,9 @@ binop!(Mul, mul, checked_mul, *, |a: i64, b: &BigInt| b * a);
 impl Div<&Int> for &Int {
     type Output = Int;
     fn div(self, rhs: &Int) -> Int {
-        if let (Int::Small(a), Int::Small(b)) = (self, rhs) {
+        if let (Int(Repr::Small(a)), Int(Repr::Small(b))) = (self, rhs) {
             if let Some(v) = a.checked_div(*b) {
-                return Int::Small(v);
+                return Int(Repr::Small(v));
             }
         }
         Int::from_big(self.to_big() / rhs.to_big())
@@ -390,9 +454,9 @@ impl Div<Int> for Int {
 impl Rem<&Int> for &Int {
     type Output = Int;
     fn rem(self, rhs: &Int) -> Int {
-        if let (Int::Small(a), Int::Small(b)) = (self, rhs) {
+        if let (Int(Repr::Small(a)), Int(Repr::Small(b))) = (self, rhs) {
             if let Some(v) = a.checked_rem(*b) {
-                return Int::Small(v);
+                return Int(Repr::Small(v));
             }
         }
         Int::from_big(self.to_big() % rhs.to_big())
@@ -409,11 +473,11 @@ impl Neg for Int {
     type Output = Int;
     fn neg(self) -> Int {
         match self {
-            Int::Small(v) => match v.checked_neg() {
-                Some(n) => Int::Small(n),
-                None => Int::Big(-BigInt::from(v)),
+            Int(Repr::Small(v)) => match v.checked_neg() {
+                Some(n) => Int(Repr::Small(n)),
+                None => Int(Repr::Big(-BigInt::from(v))),
             },
-            Int::Big(b) => Int::from_big(-b),
+            Int(Repr::Big(b)) => Int::from_big(-b),
         }
     }
 }
@@ -457,7 +521,7 @@ assign_owned!(RemAssign, rem_assign, %);
 
 impl Zero for Int {
     fn zero() -> Int {
-        Int::Small(0)
+        Int(Repr::Small(0))
     }
     fn is_zero(&self) -> bool {
         self.is_zero_int()
@@ -465,7 +529,7 @@ impl Zero for Int {
 }
 impl One for Int {
     fn one() -> Int {
-        Int::Small(1)
+        Int(Repr::Small(1))
     }
 }
 
@@ -492,7 +556,7 @@ impl Signed for Int {
         }
     }
     fn signum(&self) -> Int {
-        Int::Small(self.signum_i32() as i64)
+        Int(Repr::Small(self.signum_i32() as i64))
     }
     fn is_positive(&self) -> bool {
         self.signum_i32() > 0
@@ -505,16 +569,16 @@ impl Signed for Int {
 impl Integer for Int {
     fn div_floor(&self, other: &Int) -> Int {
         match (self, other) {
-            (Int::Small(a), Int::Small(b)) if !(*a == i64::MIN && *b == -1) => {
-                Int::Small(Integer::div_floor(a, b))
+            (Int(Repr::Small(a)), Int(Repr::Small(b))) if !(*a == i64::MIN && *b == -1) => {
+                Int(Repr::Small(Integer::div_floor(a, b)))
             }
             _ => Int::from_big(Integer::div_floor(&self.to_big(), &other.to_big())),
         }
     }
     fn mod_floor(&self, other: &Int) -> Int {
         match (self, other) {
-            (Int::Small(a), Int::Small(b)) if !(*a == i64::MIN && *b == -1) => {
-                Int::Small(Integer::mod_floor(a, b))
+            (Int(Repr::Small(a)), Int(Repr::Small(b))) if !(*a == i64::MIN && *b == -1) => {
+                Int(Repr::Small(Integer::mod_floor(a, b)))
             }
             _ => Int::from_big(Integer::mod_floor(&self.to_big(), &other.to_big())),
         }
@@ -537,8 +601,8 @@ impl Integer for Int {
     }
     fn is_even(&self) -> bool {
         match self {
-            Int::Small(v) => v % 2 == 0,
-            Int::Big(b) => b.is_even(),
+            Int(Repr::Small(v)) => v % 2 == 0,
+            Int(Repr::Big(b)) => b.is_even(),
         }
     }
     fn is_odd(&self) -> bool {
@@ -552,14 +616,14 @@ impl Integer for Int {
 impl ToPrimitive for Int {
     fn to_i64(&self) -> Option<i64> {
         match self {
-            Int::Small(v) => Some(*v),
-            Int::Big(_) => None,
+            Int(Repr::Small(v)) => Some(*v),
+            Int(Repr::Big(_)) => None,
         }
     }
     fn to_u64(&self) -> Option<u64> {
         match self {
-            Int::Small(v) => u64::try_from(*v).ok(),
-            Int::Big(b) => b.to_u64(),
+            Int(Repr::Small(v)) => u64::try_from(*v).ok(),
+            Int(Repr::Big(b)) => b.to_u64(),
         }
     }
     fn to_f64(&self) -> Option<f64> {
@@ -568,7 +632,7 @@ impl ToPrimitive for Int {
 }
 impl FromPrimitive for Int {
     fn from_i64(n: i64) -> Option<Int> {
-        Some(Int::Small(n))
+        Some(Int(Repr::Small(n)))
     }
     fn from_u64(n: u64) -> Option<Int> {
         Some(Int::from_i128(n as i128))
@@ -586,29 +650,88 @@ mod tests {
 
     #[test]
     fn overflow_promotes_and_demotes() {
-        let a = Int::Small(i64::MAX);
-        let s = &a + &Int::Small(1);
-        assert!(matches!(s, Int::Big(_)));
-        let back = &s - &Int::Small(1);
-        assert!(matches!(back, Int::Small(i64::MAX)));
-        let m = &Int::Small(i64::MIN) * &Int::Small(-1);
+        let a = Int::from(i64::MAX);
+        let s = &a + &Int::from(1);
+        assert_eq!(s.as_i64(), None);
+        let back = &s - &Int::from(1);
+        assert_eq!(back.as_i64(), Some(i64::MAX));
+        let m = &Int::from(i64::MIN) * &Int::from(-1);
         assert_eq!(big(&m), BigInt::from(i64::MAX) + 1);
-        assert_eq!(-Int::Small(i64::MIN), m);
+        assert_eq!(-Int::from(i64::MIN), m);
     }
 
     #[test]
     fn gcd_of_min_is_big() {
-        let g = Int::Small(i64::MIN).gcd_int(&Int::Small(0));
+        let g = Int::from(i64::MIN).gcd_int(&Int::from(0));
         assert_eq!(big(&g), BigInt::from(1u64 << 63));
-        assert_eq!(Int::Small(12).gcd_int(&Int::Small(-18)), Int::Small(6));
-        assert_eq!(Int::Small(0).gcd_int(&Int::Small(0)), Int::Small(0));
+        assert_eq!(Int::from(12).gcd_int(&Int::from(-18)), Int::from(6));
+        assert_eq!(Int::from(0).gcd_int(&Int::from(0)), Int::from(0));
     }
 
     #[test]
     fn bits_matches_bigint() {
         for v in [0i64, 1, -1, 2, 3, 255, -256, i64::MAX, i64::MIN] {
-            assert_eq!(Int::Small(v).bits(), BigInt::from(v).bits(), "{v}");
+            assert_eq!(Int::from(v).bits(), BigInt::from(v).bits(), "{v}");
         }
+    }
+
+    fn hash_of(v: &Int) -> u64 {
+        use std::hash::{Hash, Hasher};
+        let mut h = std::collections::hash_map::DefaultHasher::new();
+        v.hash(&mut h);
+        h.finish()
+    }
+
+    /// Every way of building the same value gives equal `Int`s with equal hashes, the same
+    /// `is_zero` and the same word view: the representation is canonical by construction.
+    fn assert_canonical(v: i128) {
+        let big = BigInt::from(v);
+        let mut ways = vec![
+            Int::from(big.clone()),
+            Int::from_big(big.clone()),
+            Int::from_i128(v),
+            v.to_string().parse::<Int>().expect("decimal"),
+            // Through a Big intermediate that demotes again.
+            &(&Int::from_i128(v) + &Int::from(BigInt::from(u64::MAX) * 4))
+                - &Int::from(BigInt::from(u64::MAX) * 4),
+            (&Int::from_i128(v) * &Int::from(BigInt::from(i64::MAX) + 1))
+                .div_exact(&Int::from(BigInt::from(i64::MAX) + 1)),
+        ];
+        if let Ok(s) = i64::try_from(v) {
+            ways.push(Int::from(s));
+            ways.push(<Int as FromPrimitive>::from_i64(s).expect("i64"));
+        }
+        let first = &ways[0];
+        for w in &ways {
+            assert_eq!(w, first, "{v}");
+            assert_eq!(hash_of(w), hash_of(first), "{v}");
+            assert_eq!(w.is_zero_int(), v == 0, "{v}");
+            assert_eq!(Zero::is_zero(w), v == 0, "{v}");
+            assert_eq!(w.as_i64(), i64::try_from(v).ok(), "{v}");
+            assert_eq!(w.to_big(), big, "{v}");
+            assert_eq!(w.cmp(first), Ordering::Equal, "{v}");
+            match w.view() {
+                IntView::Small(s) => assert_eq!(s as i128, v),
+                IntView::Big(b) => {
+                    assert_eq!(b, &big);
+                    assert!(i64::try_from(v).is_err(), "{v} fits in i64 but was kept big");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn equality_hash_and_zero_agree_however_the_value_is_built() {
+        let max = i64::MAX as i128;
+        let min = i64::MIN as i128;
+        for v in [0, 1, -1, max, min, max + 1, min - 1, -max, max * 3, min * 5] {
+            assert_canonical(v);
+        }
+        // A BigInt zero built by arithmetic is the word zero.
+        let z = Int::from(BigInt::from(i64::MAX) - BigInt::from(i64::MAX));
+        assert!(z.is_zero_int());
+        assert_eq!(z, Int::zero());
+        assert_eq!(hash_of(&z), hash_of(&Int::zero()));
     }
 
     proptest! {
@@ -621,8 +744,14 @@ mod tests {
         }
 
         #[test]
+        fn built_from_i64_or_bigint_is_the_same_int(a in any::<i64>(), b in any::<i128>()) {
+            assert_canonical(a as i128);
+            assert_canonical(b);
+        }
+
+        #[test]
         fn ops_agree_with_bigint(a in any::<i64>(), b in any::<i64>(), c in any::<i64>(), d in any::<i64>()) {
-            let (x, y) = (Int::Small(a), Int::Small(b));
+            let (x, y) = (Int::from(a), Int::from(b));
             let (ba, bb) = (BigInt::from(a), BigInt::from(b));
             prop_assert_eq!(big(&(&x + &y)), &ba + &bb);
             prop_assert_eq!(big(&(&x - &y)), &ba - &bb);
@@ -644,7 +773,7 @@ mod tests {
                 prop_assert_eq!(big(&Integer::div_floor(&x, &y)), Integer::div_floor(&ba, &bb));
                 prop_assert_eq!(big(&Integer::mod_floor(&x, &y)), Integer::mod_floor(&ba, &bb));
             }
-            let cr = Int::cross(&x, &y, &Int::Small(c), &Int::Small(d));
+            let cr = Int::cross(&x, &y, &Int::from(c), &Int::from(d));
             prop_assert_eq!(big(&cr), &ba * &bb - BigInt::from(c) * BigInt::from(d));
             prop_assert_eq!(x.cmp(&y), a.cmp(&b));
         }

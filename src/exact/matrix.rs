@@ -32,11 +32,11 @@ pub fn rat_int(v: i64) -> Rat {
 
 /// Nearest `f64` of an exact rational (exact when both parts fit in 53 bits).
 pub fn rat_to_f64(r: &Rat) -> f64 {
-    match (r.numer(), r.denom()) {
-        (Int::Small(n), Int::Small(d))
+    match (r.numer().as_i64(), r.denom().as_i64()) {
+        (Some(n), Some(d))
             if n.unsigned_abs() < (1u64 << 53) && d.unsigned_abs() < (1u64 << 53) =>
         {
-            *n as f64 / *d as f64
+            n as f64 / d as f64
         }
         _ => rat_to_big(r).to_f64().unwrap_or(f64::NAN),
     }

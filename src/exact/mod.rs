@@ -21,7 +21,7 @@ pub mod modular;
 #[cfg(test)]
 pub(crate) mod reference;
 
-pub use int::Int;
+pub use int::{Int, IntView};
 pub use ldu::{Ldu, LduOptions, Pivoting, Simplification};
 pub use lsq::WeightedLsq;
 pub use matrix::{

@@ -176,9 +176,9 @@ impl Zp {
     }
     /// Montgomery form of an exact integer.
     pub fn from_int(&self, v: &crate::exact::Int) -> u64 {
-        match v {
-            crate::exact::Int::Small(s) => self.from_i64(*s),
-            crate::exact::Int::Big(b) => {
+        match v.view() {
+            crate::exact::IntView::Small(s) => self.from_i64(s),
+            crate::exact::IntView::Big(b) => {
                 let r = b.magnitude() % self.p;
                 let r = num_traits::ToPrimitive::to_u64(&r).expect("remainder below p");
                 let r = if b.sign() == num_bigint::Sign::Minus && r != 0 { self.p - r } else { r };

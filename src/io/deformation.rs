@@ -280,8 +280,8 @@ fn read(text: &str, require_c1: bool) -> Result<(Spline, Option<LastEdit>), Defo
             key("grid", format!("expected a whole number from 1 to 2^20, found {v}"))
         })?,
     };
-    let grid = match grid {
-        Int::Small(g) if num_integer::Integer::lcm(&g, &file_grid) <= 1 << 20 => {
+    let grid = match grid.as_i64() {
+        Some(g) if num_integer::Integer::lcm(&g, &file_grid) <= 1 << 20 => {
             num_integer::Integer::lcm(&g, &file_grid)
         }
         _ => {

@@ -9,15 +9,15 @@
 //! determining-set plan ([`IntPlan`]) uses exact integers of any size. Either way the
 //! results are the same exact values as fraction arithmetic, only with far fewer gcds.
 
-use crate::exact::{Int, Rat};
+use crate::exact::{Int, IntView, Rat};
 use num_integer::Integer;
 use num_traits::ToPrimitive;
 
 /// `i128` value of an exact integer, if it fits.
 pub(crate) fn int_i128(x: &Int) -> Option<i128> {
-    match x {
-        Int::Small(v) => Some(*v as i128),
-        Int::Big(b) => b.to_i128(),
+    match x.view() {
+        IntView::Small(v) => Some(v as i128),
+        IntView::Big(b) => b.to_i128(),
     }
 }
 
