@@ -29,6 +29,7 @@
 pub mod colormesh;
 pub mod field;
 pub mod inverse;
+pub mod map2;
 pub mod pullback;
 pub mod remap;
 pub mod sample;
@@ -39,6 +40,7 @@ pub mod tiles;
 use crate::spline::Spline;
 use image::{DynamicImage, ImageBuffer};
 use inverse::{InverseMap, InverseOptions, Preimage};
+pub use map2::{pull_back_map, warp_map, AffineMap, Map2};
 use rayon::prelude::*;
 use remap::{BandScratch, RemapOptions, RemapPlan, RemapStats};
 use sample::{Source, Texel};
@@ -76,6 +78,9 @@ pub enum WarpError {
     /// The image has no pixels.
     #[error("the image is empty (0 pixels)")]
     Empty,
+    /// [`warp_map`] was given a map without an inverse ([`Map2::has_inverse`]).
+    #[error("the map has no inverse: O(q) = I(m^-1(q)) needs one (use pull_back_map for R(p) = F(m(p)))")]
+    NoInverse,
     /// Pages of a stack differ in size.
     #[error("all pages must have one size: expected {expected:?}, found {found:?}")]
     PageSize {

@@ -116,7 +116,7 @@ fn inverse_undoes_forward_after_edits() {
 }
 
 /// An edited spline on `mesh`: one interior vertex dragged by `(dx, dy)`.
-fn dragged(mesh: Mesh, dx: i64, dy: i64) -> Spline {
+pub(super) fn dragged(mesh: Mesh, dx: i64, dy: i64) -> Spline {
     let mut ed = Editor::new(Spline::identity(mesh.clone(), 5).unwrap());
     let (lo, hi) = mesh.bbox();
     let c = [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0];

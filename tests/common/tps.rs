@@ -76,3 +76,29 @@ impl Tps {
         })
     }
 }
+
+/// The TPS as a map of the plane, so the library's generic resampling takes it
+/// (`trimorph::warp::pull_back_map`); defined everywhere, without an inverse.
+impl trimorph::warp::Map2 for Tps {
+    fn value(&self, p: [f64; 2]) -> Option<[f64; 2]> {
+        Some(self.eval(p))
+    }
+
+    /// `d/dp [r^2 log r] = (2 log r + 1) (p - s)` (0 at `r = 0`).
+    fn jacobian(&self, p: [f64; 2]) -> Option<[[f64; 2]; 2]> {
+        let n = self.src.len();
+        Some([0, 1].map(|c| {
+            let w = &self.coef[c];
+            let mut g = [w[n + 1], w[n + 2]];
+            for (i, s) in self.src.iter().enumerate() {
+                let d = [p[0] - s[0], p[1] - s[1]];
+                let r = d[0].hypot(d[1]);
+                if r > 0.0 {
+                    let k = w[i] * (2.0 * r.ln() + 1.0);
+                    g = [g[0] + k * d[0], g[1] + k * d[1]];
+                }
+            }
+            g
+        }))
+    }
+}
