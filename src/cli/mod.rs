@@ -4,6 +4,7 @@
 //! (`trimorph solve`). Outputs are written atomically (temporary file, then rename).
 
 mod bench;
+mod common;
 mod demo;
 mod demo_fit;
 mod editor_cmd;
@@ -20,12 +21,9 @@ pub mod spline_cmds;
 mod warp_cmd;
 
 use clap::{Parser, Subcommand};
+use common::{exit_code, parse_memory, usage_exit};
+pub use common::{Exit, EXIT_INPUT, EXIT_UNSOLVABLE};
 use std::path::PathBuf;
-
-/// Exit code for bad input and I/O errors.
-pub const EXIT_INPUT: i32 = 1;
-/// Exit code for an edit that is not solvable.
-pub const EXIT_UNSOLVABLE: i32 = 2;
 
 /// Smooth (C1), exactly constrained, editable deformations.
 #[derive(Parser, Debug)]
@@ -37,10 +35,6 @@ pub struct Cli {
     max_memory: Option<u64>,
     #[command(subcommand)]
     command: Command,
-}
-
-fn parse_memory(s: &str) -> Result<u64, String> {
-    crate::memory::parse_size(s).map_err(|e| e.to_string())
 }
 
 #[derive(Subcommand, Debug)]
@@ -421,32 +415,6 @@ enum BenchCommand {
     },
 }
 
-/// An error that maps to a specific exit code.
-#[derive(Debug, thiserror::Error)]
-#[error("{message}")]
-pub struct Exit {
-    /// Process exit code.
-    pub code: i32,
-    /// Human-readable text (already printed when `printed`).
-    pub message: String,
-    /// Whether the message was already written to stderr.
-    pub printed: bool,
-}
-
-/// The error and its causes joined by ": ", skipping a cause whose text the message already
-/// holds (many errors print their source themselves).
-fn error_text(e: &anyhow::Error) -> String {
-    let mut msg = e.to_string();
-    for c in e.chain().skip(1) {
-        let t = c.to_string();
-        if !msg.contains(&t) {
-            msg += ": ";
-            msg += &t;
-        }
-    }
-    msg
-}
-
 /// Parses the arguments, runs the command and returns the exit code.
 pub fn run() -> i32 {
     let cli = match Cli::try_parse() {
@@ -712,43 +680,4 @@ pub fn run() -> i32 {
         }
     };
     exit_code(result)
-}
-
-/// Prints a command-line parse failure (or `--help` / `--version`) and returns its exit code:
-/// 0 for `--help` and `--version`, [`EXIT_INPUT`] for a malformed or missing command line. clap's own default
-/// (2) would be mistaken for [`EXIT_UNSOLVABLE`] by scripts.
-fn usage_exit(e: &clap::Error) -> i32 {
-    // Printing can fail only on a closed stream; the exit code is what matters then.
-    let _ = e.print();
-    // clap prints help and version to stdout and errors (including bare `trimorph`) to stderr.
-    if e.use_stderr() {
-        EXIT_INPUT
-    } else {
-        0
-    }
-}
-
-/// Maps a command's result to the process exit code, printing the error.
-fn exit_code(result: anyhow::Result<()>) -> i32 {
-    match result {
-        Ok(()) => 0,
-        Err(e) => match e.downcast_ref::<Exit>() {
-            Some(x) => {
-                if !x.printed {
-                    eprintln!("error: {}", x.message);
-                }
-                x.code
-            }
-            None => {
-                // A closed pipe (`trimorph ... | head`) is not an error of ours.
-                if let Some(io) = e.downcast_ref::<std::io::Error>() {
-                    if io.kind() == std::io::ErrorKind::BrokenPipe {
-                        return 0;
-                    }
-                }
-                eprintln!("error: {}", error_text(&e));
-                EXIT_INPUT
-            }
-        },
-    }
 }
