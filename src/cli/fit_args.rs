@@ -2,6 +2,7 @@
 //! `--size W,H` instead of DEF), or a sequence (`--model SCENE.json --frames DIR`). Parsed
 //! here, dispatched by `cli::run` to [`super::fit_cmd`] and [`super::fit_batch`].
 
+use super::{fit_batch, fit_cmd};
 use std::path::PathBuf;
 
 /// The command line of `trimorph fit`.
@@ -100,4 +101,87 @@ pub struct FitCli {
     /// With --size: the adapted mesh's smallest angle in degrees.
     #[arg(long, default_value_t = 20.0)]
     pub min_angle: f64,
+}
+
+impl FitCli {
+    /// Runs `trimorph fit`: one fit ([`fit_cmd::run_single`]) or a sequence
+    /// ([`fit_batch::run`]), by which of DEF, --size and --model/--frames are given.
+    pub fn run(self) -> anyhow::Result<()> {
+        let FitCli {
+            deformation,
+            landmarks,
+            output,
+            report,
+            loss,
+            loss_scale,
+            bend,
+            hard,
+            holdout,
+            seed,
+            radius,
+            pin,
+            min_det,
+            no_barrier,
+            max_iters,
+            model,
+            model_file,
+            frames,
+            track,
+            anchor,
+            key_every,
+            background,
+            shard,
+            size,
+            margin,
+            max_edge,
+            min_angle,
+        } = self;
+        let solver = fit_cmd::SolverArgs {
+            loss: &loss,
+            loss_scale,
+            bend: &bend,
+            hard,
+            radius,
+            min_det,
+            no_barrier,
+            max_iters,
+        };
+        let frame =
+            size.as_deref().map(|sz| fit_cmd::FrameArgs { size: sz, margin, max_edge, min_angle });
+        match (deformation, model, frames) {
+            (d, None, None) if d.is_some() != frame.is_some() => fit_cmd::run_single(
+                match (&d, &frame) {
+                    (Some(d), _) => fit_cmd::Start::Deformation(d),
+                    (None, Some(f)) => fit_cmd::Start::Frame(f),
+                    (None, None) => unreachable!("the guard requires one of them"),
+                },
+                &landmarks,
+                &output,
+                report.as_deref(),
+                holdout,
+                seed,
+                pin.as_deref(),
+                &solver,
+            ),
+            (d, Some(scene), Some(fr)) if d.is_none() => fit_batch::run(fit_batch::BatchArgs {
+                scene: &scene,
+                model: model_file.as_deref(),
+                frames: &fr,
+                landmarks: &landmarks,
+                track,
+                anchor: anchor.as_deref(),
+                key_every,
+                holdout,
+                seed,
+                background,
+                output: &output,
+                report: report.as_deref(),
+                shard: shard.as_deref(),
+                solver,
+            }),
+            _ => Err(anyhow::anyhow!(
+                "give DEF.json (one fit), or --size W,H instead of DEF (one fit over a mesh adapted to the landmarks), or --model SCENE.json with --frames (a sequence)"
+            )),
+        }
+    }
 }

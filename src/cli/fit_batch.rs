@@ -30,7 +30,7 @@ use super::fit_cmd::{fit_error, summary, SolverArgs};
 use crate::fit::sequence::{Action, Anchor, Event, Frame, SequenceError};
 use crate::io::write_atomic;
 use crate::render::sequence::{choose_anchor, SequenceInputs};
-use anyhow::{anyhow, Context, Result};
+use anyhow::{Context, Result};
 use std::io::Write;
 use std::path::Path;
 use std::time::Instant;
@@ -57,14 +57,6 @@ pub struct BatchArgs<'a> {
     pub solver: SolverArgs<'a>,
 }
 
-/// `i/n` -> `(i, n)` with `0 <= i < n`.
-pub fn parse_shard(spec: &str) -> Result<(usize, usize)> {
-    spec.split_once('/')
-        .and_then(|(i, n)| Some((i.trim().parse::<usize>().ok()?, n.trim().parse::<usize>().ok()?)))
-        .filter(|&(i, n)| n >= 1 && i < n)
-        .ok_or_else(|| anyhow!("--shard: expected i/n with 0 <= i < n, e.g. 0/4"))
-}
-
 /// A library error as the CLI reports it (fit errors keep their exit code).
 fn sequence_error(e: SequenceError, a: &BatchArgs, frames: &[Frame]) -> anyhow::Error {
     match e {
@@ -86,7 +78,7 @@ fn sequence_error(e: SequenceError, a: &BatchArgs, frames: &[Frame]) -> anyhow::
 pub fn run(a: BatchArgs) -> Result<()> {
     let t0 = Instant::now();
     let fit_opts = a.solver.options()?;
-    let shard = a.shard.map(parse_shard).transpose()?;
+    let shard = a.shard.map(super::common::parse_shard).transpose()?;
     let track = choose_anchor(a.track, a.anchor, a.key_every)?;
     let inputs =
         SequenceInputs::load(a.scene, a.model, a.frames, a.landmarks, track, a.background)?;
@@ -101,7 +93,7 @@ pub fn run(a: BatchArgs) -> Result<()> {
     // Leftovers of an earlier run that was killed mid-write.
     crate::io::remove_stale_temps(a.output, crate::io::STALE_AFTER);
     let store = inputs.files(a.output);
-    let bar = super::warp_cmd::progress_bar((hi - lo) as u64, hi - lo > 1, "fit");
+    let bar = super::common::progress_bar((hi - lo) as u64, hi - lo > 1, "fit");
     let on_event = |e: Event<'_>| {
         if let Event::Frame(_) = e {
             bar.inc(1)
@@ -163,26 +155,4 @@ pub fn run(a: BatchArgs) -> Result<()> {
         write_atomic(p, text.as_bytes())?;
     }
     Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::parse_shard;
-    use crate::fit::sequence::shard_range;
-
-    #[test]
-    fn shards_cover_every_frame_once() {
-        for n in 1..7 {
-            let mut next = 0;
-            for i in 0..n {
-                let (i, n) = parse_shard(&format!("{i}/{n}")).unwrap();
-                let (lo, hi) = shard_range(i, n, 10);
-                assert_eq!(lo, next);
-                next = hi;
-            }
-            assert_eq!(next, 10);
-        }
-        assert!(parse_shard("3/3").is_err());
-        assert!(parse_shard("x").is_err());
-    }
 }

@@ -79,7 +79,7 @@ fn in_landmarks(e: anyhow::Error, landmarks: &Path) -> anyhow::Error {
     let file = landmarks.display();
     match e.downcast::<Exit>() {
         Ok(x) => Exit { message: format!("{file}: {}", x.message), ..x }.into(),
-        Err(e) => anyhow::anyhow!("{file}: {}", super::error_text(&e)),
+        Err(e) => anyhow::anyhow!("{file}: {}", super::common::error_text(&e)),
     }
 }
 
@@ -280,7 +280,7 @@ fn run_frame(
     seed: u64,
     opts: FitOptions,
 ) -> Result<()> {
-    let size = super::spline_cmds::parse_size(f.size)?;
+    let size = super::common::parse_frame_size(f.size)?;
     let (fitted, held) = read_split(landmarks, holdout_k, seed, opts.hard)?;
     let fopts = FrameFitOptions {
         mesh: AdaptOptions {

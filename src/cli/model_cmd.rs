@@ -241,11 +241,7 @@ pub fn render_model(
     let model = load_model_up(model_path, up)
         .with_context(|| format!("cannot load model {}", model_path.display()))?;
     let view: View = view.parse()?;
-    let (w, h) = size
-        .split_once(',')
-        .and_then(|(w, h)| Some((w.trim().parse::<u32>().ok()?, h.trim().parse::<u32>().ok()?)))
-        .filter(|&(w, h)| (16..=16384).contains(&w) && (16..=16384).contains(&h))
-        .ok_or_else(|| anyhow!("--size: expected W,H, whole numbers from 16 to 16384"))?;
+    let (w, h) = super::common::parse_canvas_size(size)?;
     let b = bind(&model, &s)?;
     let moved = deform(&model, &b, &s);
     let bg = background.map(rd::load_background).transpose()?;

@@ -2,7 +2,7 @@
 //! and the fitted deformations `phi_ab.json` (A's pixels -> B's pixels) and `phi_ba.json`
 //! (B's pixels -> A's pixels), readable by `--phi-ab` / `--phi-ba`.
 
-use super::warp_cmd::progress_bar;
+use super::common::progress_bar;
 use crate::exact::matrix::rat_to_f64;
 use crate::io::folder::Staged;
 use crate::io::landmarks::read_landmarks;

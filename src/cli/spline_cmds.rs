@@ -1,5 +1,6 @@
 //! `trimorph mesh`, `trimorph edit` and `trimorph check`.
 
+use super::common::{pair, parse_canvas_size, parse_frame_size};
 use super::{Exit, EXIT_INPUT, EXIT_UNSOLVABLE};
 use crate::edit::script::{self, OpReport, Script, ScriptError};
 use crate::edit::Editor;
@@ -38,29 +39,6 @@ pub fn read_points_csv(text: &str, source: &str) -> Result<Vec<[f64; 2]>> {
     Ok(out)
 }
 
-fn pair(text: &str, what: &str, sep: char) -> Result<(f64, f64)> {
-    let (a, b) = text
-        .split_once(sep)
-        .ok_or_else(|| anyhow!("{what}: expected two numbers as A{sep}B, found `{text}`"))?;
-    let (a, b): (f64, f64) = (
-        a.trim().parse().map_err(|_| anyhow!("{what}: `{a}` is not a number"))?,
-        b.trim().parse().map_err(|_| anyhow!("{what}: `{b}` is not a number"))?,
-    );
-    if !a.is_finite() || !b.is_finite() {
-        bail!("{what}: values must be finite");
-    }
-    Ok((a, b))
-}
-
-/// A frame size `W,H` in whole pixels (1 to 1,000,000 each).
-pub fn parse_size(text: &str) -> Result<[f64; 2]> {
-    let (w, h) = pair(text, "--size", ',')?;
-    if w < 1.0 || h < 1.0 || w > 1e6 || h > 1e6 || w.fract() != 0.0 || h.fract() != 0.0 {
-        bail!("--size: width and height must be whole numbers of pixels from 1 to 1000000");
-    }
-    Ok([w, h])
-}
-
 /// Options of `trimorph mesh`.
 pub struct MeshArgs<'a> {
     pub points: Option<&'a Path>,
@@ -90,7 +68,7 @@ pub fn mesh(a: MeshArgs) -> Result<()> {
     let mesh = match (a.points, a.grid, a.obj, a.landmarks) {
         (None, None, None, Some(l)) => {
             let size = a.size.ok_or_else(|| anyhow!("--landmarks needs --size W,H (the frame)"))?;
-            let size = parse_size(size)?;
+            let size = parse_frame_size(size)?;
             let lms = crate::io::landmarks::read_landmarks(l)
                 .with_context(|| format!("cannot read landmarks {}", l.display()))?;
             let sources: Vec<[f64; 2]> = lms.iter().map(|x| x.src).collect();
@@ -361,11 +339,7 @@ pub fn render(
         opts.landmarks = crate::io::landmarks::read_landmarks(l)
             .with_context(|| format!("cannot read landmarks {}", l.display()))?;
     }
-    let (w, h) = pair(size, "--size", ',')?;
-    if w < 16.0 || h < 16.0 || w > 16384.0 || h > 16384.0 || w.fract() != 0.0 || h.fract() != 0.0 {
-        bail!("--size: width and height must be whole numbers from 16 to 16384");
-    }
-    (opts.width, opts.height) = (w as u32, h as u32);
+    (opts.width, opts.height) = parse_canvas_size(size)?;
     let bg = background.map(rd::load_background).transpose()?;
     let pm = rd::render(&s, last.as_ref(), bg.as_ref(), &opts)?;
     rd::save_png(&pm, output)?;

@@ -1,5 +1,6 @@
 //! `trimorph warp DEF (--image IN | --points IN.csv) -o OUT`.
 
+use super::common::{parse_raster_size, progress_bar, raster_fits};
 use crate::io::raster::Stack;
 use crate::io::{read_text, write_atomic};
 use crate::warp::inverse::InverseOptions;
@@ -8,22 +9,6 @@ use crate::warp::{forward, inverse, warp_pages, Interp, WarpOptions};
 use anyhow::{anyhow, bail, Context, Result};
 use std::io::Write;
 use std::path::Path;
-
-/// A progress bar on stderr for `len` units of work, drawn only when `show` and stderr is a
-/// terminal (indicatif hides it otherwise).
-pub fn progress_bar(len: u64, show: bool, what: &str) -> indicatif::ProgressBar {
-    if !show {
-        return indicatif::ProgressBar::hidden();
-    }
-    let bar = indicatif::ProgressBar::new(len);
-    if let Ok(style) =
-        indicatif::ProgressStyle::with_template("{msg} [{bar:40}] {percent}% ({eta} left)")
-    {
-        bar.set_style(style.progress_chars("=> "));
-    }
-    bar.set_message(what.to_string());
-    bar
-}
 
 /// Options of `trimorph warp`.
 pub struct WarpArgs<'a> {
@@ -66,7 +51,13 @@ fn warp_mesh(
     match ext.as_deref() {
         Some("png") => {
             let (w, h) = match size {
-                Some(sz) => parse_size(sz)?,
+                Some(sz) => {
+                    let (w, h) = parse_raster_size(sz)?;
+                    if !raster_fits(w, h) {
+                        bail!("--size {w},{h}: each side must be positive and the area at most 10^8 pixels");
+                    }
+                    (w, h)
+                }
                 None => {
                     // The undeformed mesh's extent (vertices at pixel centres 0 .. w-1).
                     let mx = mesh
@@ -107,25 +98,6 @@ fn warp_mesh(
         }
     }
     Ok(())
-}
-
-fn parse_size(sz: &str) -> Result<(u32, u32)> {
-    let parts: Vec<&str> = sz.split(',').map(str::trim).collect();
-    match parts.as_slice() {
-        [w, h] => {
-            let (w, h): (u32, u32) = (
-                w.parse().with_context(|| format!("--size: bad width `{w}`"))?,
-                h.parse().with_context(|| format!("--size: bad height `{h}`"))?,
-            );
-            if w == 0 || h == 0 || w as u64 * h as u64 > 1 << 28 {
-                bail!(
-                    "--size {w},{h}: each side must be positive and the area at most 2^28 pixels"
-                );
-            }
-            Ok((w, h))
-        }
-        _ => bail!("--size takes W,H, e.g. --size 512,384"),
-    }
 }
 
 /// `trimorph colormesh IMAGE -o MESH.(ply|obj) [--step N] [--flat]`.
@@ -354,20 +326,13 @@ pub fn field(
     let (s, _) = crate::io::deformation::from_str(&text)
         .with_context(|| format!("cannot read deformation {}", def.display()))?;
     let (w, h) = match size {
-        Some(sz) => {
-            let (a, b) = sz.split_once(',').ok_or_else(|| anyhow!("--size: expected W,H"))?;
-            let (w, h): (u32, u32) = (
-                a.trim().parse().map_err(|_| anyhow!("--size: `{a}` is not a whole number"))?,
-                b.trim().parse().map_err(|_| anyhow!("--size: `{b}` is not a whole number"))?,
-            );
-            (w, h)
-        }
+        Some(sz) => parse_raster_size(sz)?,
         None => {
             let (_, hi) = s.mesh().bbox();
             (hi[0].max(0.0).floor() as u32 + 1, hi[1].max(0.0).floor() as u32 + 1)
         }
     };
-    if w == 0 || h == 0 || (w as u64) * (h as u64) > 100_000_000 {
+    if !raster_fits(w, h) {
         bail!(
             "{}: field size {w}x{h} is empty or too large (at most 10^8 pixels); give --size W,H",
             def.display()

@@ -1,0 +1,433 @@
+//! The options of the subcommands (clap), one struct each; `cli::run` hands each to its
+//! command module. The subcommand's help text is the doc comment of its `Command` variant.
+
+use super::{editor_cmd, model_cmd, morph_cmd, spline_cmds, warp_cmd};
+use std::path::PathBuf;
+
+/// The command line of `trimorph mesh`.
+#[derive(clap::Args, Debug)]
+pub struct MeshCli {
+    /// Points (CSV `x,y`) to triangulate (Delaunay).
+    #[arg(long)]
+    pub points: Option<PathBuf>,
+    /// With --points: an outline polygon (CSV `x,y`, in order) for a constrained Delaunay.
+    #[arg(long)]
+    pub outline: Option<PathBuf>,
+    /// A regular grid of COLSxROWS cells (e.g. 6x4), with --size.
+    #[arg(long)]
+    pub grid: Option<String>,
+    /// Width and height covered by --grid, e.g. 640,480 (pixels).
+    #[arg(long)]
+    pub size: Option<String>,
+    /// A 2D reference mesh in OBJ (`v` and `f` lines).
+    #[arg(long)]
+    pub obj: Option<PathBuf>,
+    /// A mesh adapted to landmarks (CSV, BigWarp or JSON; their sources are vertices),
+    /// over the --size frame grown by --margin, refined by Delaunay refinement.
+    #[arg(long)]
+    pub landmarks: Option<PathBuf>,
+    /// With --landmarks: pixels added around the frame (default: a tenth of its larger
+    /// side, at least 8).
+    #[arg(long)]
+    pub margin: Option<f64>,
+    /// With --landmarks: longest edge in pixels (default: a quarter of the larger side).
+    #[arg(long)]
+    pub max_edge: Option<f64>,
+    /// With --landmarks: the refinement's smallest angle in degrees (at most 33).
+    #[arg(long, default_value_t = 20.0)]
+    pub min_angle: f64,
+    /// Spline degree (5 or more for local edits).
+    #[arg(long, default_value_t = 5)]
+    pub degree: usize,
+    /// Vertex coordinates are snapped to multiples of 1/SNAP (default 16; with
+    /// --landmarks the smallest of 16, 80, 400, 2000, 10000, 50000 on which every source
+    /// is exact).
+    #[arg(long)]
+    pub snap: Option<i64>,
+    /// Make a 2.5D deformation with prisms over [A, B] (e.g. -10,10).
+    #[arg(long, allow_hyphen_values = true)]
+    pub z_range: Option<String>,
+    /// Output deformation (JSON).
+    #[arg(short, long)]
+    pub output: PathBuf,
+}
+
+/// The command line of `trimorph edit`.
+#[derive(clap::Args, Debug)]
+pub struct EditCli {
+    /// Input deformation.
+    pub deformation: PathBuf,
+    /// JSON array of operations.
+    #[arg(long)]
+    pub script: PathBuf,
+    /// Output deformation.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Bounded exactness: after each operation round the free points of the minimal
+    /// determining set to multiples of 2^-BITS (anchors land within 1e-4; sizes stay
+    /// bounded over long histories).
+    #[arg(long, default_value_t = 24)]
+    pub bounded_bits: u32,
+    /// Keep every value exactly as ECLES computes it (anchors exact; sizes grow with the
+    /// edit history).
+    #[arg(long)]
+    pub unbounded: bool,
+}
+
+/// The command line of `trimorph render`.
+#[derive(clap::Args, Debug)]
+pub struct RenderCli {
+    /// The deformation.
+    pub deformation: PathBuf,
+    /// Output PNG.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Background image (PNG, JPEG, TIFF or PNM); mesh coordinates are its pixels.
+    #[arg(long)]
+    pub background: Option<PathBuf>,
+    /// Layers: comma list of mesh, net, constraints, points, reference, all.
+    #[arg(long, default_value = "mesh,points")]
+    pub show: String,
+    /// Output size without a background, e.g. 800,600.
+    #[arg(long, default_value = "800,600")]
+    pub size: String,
+    /// A 3D model (OBJ, OFF, PLY, XYZ) to draw through a 2.5D deformation.
+    #[arg(long)]
+    pub model: Option<PathBuf>,
+    /// With --model: `top` (the xy projection, mesh and points) or `oblique` (both z
+    /// surfaces, the walls and the model, depth-sorted).
+    #[arg(long, default_value = "top")]
+    pub view: String,
+    #[command(flatten)]
+    pub up: model_cmd::UpArgs,
+    #[command(flatten)]
+    pub marks: spline_cmds::RenderMarks,
+}
+
+/// The command line of `trimorph warp`.
+#[derive(clap::Args, Debug)]
+pub struct WarpCli {
+    /// The deformation.
+    pub deformation: PathBuf,
+    /// Input image (PNG, TIFF, JPEG, PNM), or an OME-Zarr image (.zarr, Zarr v2 or v3: 2D
+    /// with optional t and c axes, level 0; every (t, c) plane is warped the same way).
+    #[arg(long)]
+    pub image: Option<PathBuf>,
+    /// Input points (CSV `x,y`).
+    #[arg(long)]
+    pub points: Option<PathBuf>,
+    /// Input colored triangle mesh (OBJ with vertex colours, or PLY).
+    #[arg(long)]
+    pub mesh: Option<PathBuf>,
+    /// Input 3D model (OBJ, OFF, PLY or XYZ) to move through the 2.5D deformation psi.
+    #[arg(long)]
+    pub model: Option<PathBuf>,
+    /// Output image (.png, .tif, .jpg, .pgm, .ppm, .pam; .zarr for an OME-Zarr input: same axes, dtype,
+    /// chunks and metadata, level 0 only), CSV, or (for --mesh) .png / .obj / .ply.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Size W,H of the picture drawn from --mesh (default: the undeformed mesh's extent).
+    #[arg(long)]
+    pub size: Option<String>,
+    /// Points: map q -> phi^-1(q) instead of p -> phi(p).
+    #[arg(long)]
+    pub inverse: bool,
+    /// Image resampling: nearest, bilinear or bicubic.
+    #[arg(long, default_value = "bilinear")]
+    pub interp: String,
+    /// Value of pixels whose preimage is outside the mesh (images: default 0; meshes:
+    /// a gray level 0..255, default transparent).
+    #[arg(long)]
+    pub background: Option<f64>,
+    /// Largest accepted error of an inverse point (pixels).
+    #[arg(long, default_value_t = 0.01)]
+    pub tolerance: f64,
+    /// Images: also print the time of each phase (decode, inverse map and resampling,
+    /// encode) and how many pixels took each path of the inverse map.
+    #[arg(long)]
+    pub verbose: bool,
+    #[command(flatten)]
+    pub up: model_cmd::UpArgs,
+}
+
+/// The command line of `trimorph morph`.
+#[derive(clap::Args, Debug)]
+pub struct MorphCli {
+    /// Image A (first frame).
+    pub a: PathBuf,
+    /// Image B (last frame).
+    pub b: PathBuf,
+    /// Landmark pairs (CSV `name,src_x,src_y,dst_x,dst_y[,weight]`, BigWarp CSV or JSON).
+    #[arg(long, required_unless_present = "phi_ab", conflicts_with = "phi_ab")]
+    pub landmarks: Option<PathBuf>,
+    /// Instead of landmarks: a deformation (format v1) mapping A's pixel coordinates to
+    /// B's, e.g. the output of `trimorph fit`.
+    #[arg(long, value_name = "DEF")]
+    pub phi_ab: Option<PathBuf>,
+    /// With --phi-ab: the deformation mapping B to A (default: fitted to samples of
+    /// --phi-ab).
+    #[arg(long, value_name = "DEF", requires = "phi_ab")]
+    pub phi_ba: Option<PathBuf>,
+    /// With --phi-ab and no --phi-ba: mesh cells per side of the grid mesh over B on
+    /// which B->A is fitted (1 to 48). Landmark morphs use landmark-adapted meshes.
+    #[arg(long, default_value_t = 8)]
+    pub cells: usize,
+    /// Keep B's raw pixel coordinates (no similarity alignment of B to A).
+    #[arg(long)]
+    pub no_align: bool,
+    /// Print the time of each phase (read, fits, frames, encodings, writes) to stderr.
+    #[arg(long)]
+    pub timings: bool,
+    /// Background where neither image has a preimage: one value for every channel, in
+    /// the images' sample units (0..255 for 8-bit, 0..65535 for 16-bit, 0..1 for float;
+    /// alpha is 0 there when the images have alpha).
+    #[arg(long, default_value_t = 0.0)]
+    pub background: f64,
+    /// Number of frames (t = k / (frames - 1)), 2 to 1000.
+    #[arg(long, default_value_t = 30)]
+    pub frames: usize,
+    /// Times T0,T1 of the first and last frame; outside 0,1 is a caricature
+    /// (e.g. `-0.25,1.25`); times lie within -100..100.
+    #[arg(long, default_value = "0,1", allow_hyphen_values = true)]
+    pub range: String,
+    /// Output folder.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Animated GIF (default OUTPUT/morph.gif).
+    #[arg(long)]
+    pub gif: Option<PathBuf>,
+    /// Animated PNG (default OUTPUT/morph.apng).
+    #[arg(long)]
+    pub apng: Option<PathBuf>,
+    /// Shape schedule alpha_shape(t): linear or smooth.
+    #[arg(long, default_value = "linear")]
+    pub shape: String,
+    /// Colour schedule alpha_color(t): linear or smooth.
+    #[arg(long, default_value = "linear")]
+    pub color: String,
+    /// Image resampling: nearest, bilinear or bicubic.
+    #[arg(long, default_value = "bilinear")]
+    pub interp: String,
+    /// Fast preview: draw A as a colour mesh with a vertex every STEP pixels instead of
+    /// warping both images.
+    #[arg(long, value_name = "STEP")]
+    pub preview: Option<u32>,
+    /// Delay between animation frames (milliseconds).
+    #[arg(long, default_value_t = 100)]
+    pub delay: u32,
+    /// No progress bar or summary.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// The command line of `trimorph editor`.
+#[derive(clap::Args, Debug)]
+pub struct EditorCli {
+    /// Deformation or scene to edit (format v1; a scene's "model" and "image" keys are
+    /// loaded too). Default: an identity over --image, or the bundled scene.
+    pub deformation: Option<PathBuf>,
+    /// 3D model (OBJ, OFF, PLY) bound to the prism layer.
+    #[arg(long)]
+    pub model: Option<PathBuf>,
+    /// Background image: the microscope frame to match.
+    #[arg(long)]
+    pub image: Option<PathBuf>,
+    /// Port on 127.0.0.1 (0: any free port).
+    #[arg(long, default_value_t = 8080)]
+    pub port: u16,
+}
+
+/// The command line of `trimorph field`.
+#[derive(clap::Args, Debug)]
+pub struct FieldCli {
+    /// The deformation.
+    pub deformation: PathBuf,
+    /// Output field (.tif: RGB float32 dx, dy, valid; .npy: float32 (H, W, 2), NaN
+    /// outside; .h5: ITK HDF5 DisplacementFieldTransform_double_2_2 in pixel units, f64,
+    /// NaN where undefined, by default phi^-1(q) - q so that ITK's Resample reproduces
+    /// `trimorph warp --image`; .zarr: float64 (2, H, W) = (c, y, x), c = 0 the y
+    /// displacement, NaN where undefined).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// The other direction: .npy/.tif hold phi^-1(q) - q instead of phi(p) - p; .h5 and
+    /// .zarr hold phi(p) - p instead of phi^-1(q) - q.
+    #[arg(long)]
+    pub inverse: bool,
+    /// .zarr only: write both fields as an NGFF `bijection` (forward phi(p) - p,
+    /// inverse phi^-1(q) - q).
+    #[arg(long)]
+    pub both: bool,
+    /// Also write the Jacobian determinant as a colour map (PNG): blue compression, white
+    /// 1, orange expansion, red folds.
+    #[arg(long)]
+    pub jacobian: Option<PathBuf>,
+    /// Grid size W,H in pixels (default: the mesh's extent from 0).
+    #[arg(long)]
+    pub size: Option<String>,
+}
+
+/// The command line of `trimorph model bind`.
+#[derive(clap::Args, Debug)]
+pub struct BindCli {
+    /// The 3D model (OBJ, OFF, PLY or XYZ).
+    #[arg(long)]
+    pub model: PathBuf,
+    /// Reference mesh: a 2D OBJ whose vertices have z = b (prisms over [-b, b]).
+    #[arg(long)]
+    pub mesh: Option<PathBuf>,
+    /// Fit a grid around the model's bounding box instead.
+    #[arg(long)]
+    pub auto: bool,
+    /// Grid of the automatic mesh, COLSxROWS.
+    #[arg(long, default_value = "4x2")]
+    pub grid: String,
+    /// Margin of the automatic mesh, as a fraction of the model's largest side.
+    #[arg(long, default_value_t = 0.05)]
+    pub margin: f64,
+    /// Prism range A,B (exact decimals or fractions; default from the mesh or model).
+    #[arg(long)]
+    pub range: Option<String>,
+    /// Spline degree.
+    #[arg(long, default_value_t = 5)]
+    pub degree: usize,
+    /// Output deformation file.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    #[command(flatten)]
+    pub extra: model_cmd::BindExtra,
+}
+
+impl MeshCli {
+    /// Runs `trimorph mesh`.
+    pub fn run(&self) -> anyhow::Result<()> {
+        spline_cmds::mesh(spline_cmds::MeshArgs {
+            points: self.points.as_deref(),
+            outline: self.outline.as_deref(),
+            grid: self.grid.as_deref(),
+            size: self.size.as_deref(),
+            obj: self.obj.as_deref(),
+            landmarks: self.landmarks.as_deref(),
+            margin: self.margin,
+            max_edge: self.max_edge,
+            min_angle: self.min_angle,
+            degree: self.degree,
+            snap: self.snap,
+            z_range: self.z_range.as_deref(),
+            output: &self.output,
+        })
+    }
+}
+
+impl EditCli {
+    /// Runs `trimorph edit`.
+    pub fn run(&self) -> anyhow::Result<()> {
+        let bounded = if self.unbounded { None } else { Some(self.bounded_bits) };
+        spline_cmds::edit(&self.deformation, &self.script, &self.output, bounded)
+    }
+}
+
+impl RenderCli {
+    /// Runs `trimorph render` (through a 2.5D deformation with --model).
+    pub fn run(&self) -> anyhow::Result<()> {
+        let bg = self.background.as_deref();
+        let (def, out, size) = (&self.deformation, &self.output, &self.size);
+        match &self.model {
+            Some(m) => self.marks.refuse_with_model().and_then(|()| {
+                model_cmd::render_model(def, m, out, bg, &self.view, size, self.up.up)
+            }),
+            None => spline_cmds::render(def, out, bg, &self.show, size, &self.marks),
+        }
+    }
+}
+
+impl BindCli {
+    /// Runs `trimorph model bind`.
+    pub fn run(self) -> anyhow::Result<()> {
+        model_cmd::bind_cmd(model_cmd::BindArgs {
+            model: &self.model,
+            mesh: self.mesh.as_deref(),
+            auto: self.auto,
+            grid: &self.grid,
+            margin: self.margin,
+            range: self.range.as_deref(),
+            degree: self.degree,
+            output: &self.output,
+            extra: self.extra,
+        })
+    }
+}
+
+impl WarpCli {
+    /// Runs `trimorph warp`.
+    pub fn run(&self) -> anyhow::Result<()> {
+        warp_cmd::run(warp_cmd::WarpArgs {
+            deformation: &self.deformation,
+            image: self.image.as_deref(),
+            points: self.points.as_deref(),
+            mesh: self.mesh.as_deref(),
+            model: self.model.as_deref(),
+            output: &self.output,
+            size: self.size.as_deref(),
+            inverse: self.inverse,
+            interp: &self.interp,
+            background: self.background,
+            tolerance: self.tolerance,
+            verbose: self.verbose,
+            up: self.up.up,
+        })
+    }
+}
+
+impl MorphCli {
+    /// Runs `trimorph morph`.
+    pub fn run(&self) -> anyhow::Result<()> {
+        morph_cmd::run(morph_cmd::MorphArgs {
+            a: &self.a,
+            b: &self.b,
+            landmarks: self.landmarks.as_deref(),
+            phi_ab: self.phi_ab.as_deref(),
+            phi_ba: self.phi_ba.as_deref(),
+            cells: self.cells,
+            align: !self.no_align,
+            timings: self.timings,
+            background: self.background,
+            frames: self.frames,
+            range: &self.range,
+            output: &self.output,
+            gif: self.gif.as_deref(),
+            apng: self.apng.as_deref(),
+            shape: &self.shape,
+            color: &self.color,
+            interp: &self.interp,
+            preview: self.preview,
+            delay_ms: self.delay,
+            quiet: self.quiet,
+        })
+    }
+}
+
+impl EditorCli {
+    /// Runs `trimorph editor`.
+    pub fn run(&self) -> anyhow::Result<()> {
+        editor_cmd::run(editor_cmd::EditorArgs {
+            deformation: self.deformation.as_deref(),
+            model: self.model.as_deref(),
+            image: self.image.as_deref(),
+            port: self.port,
+        })
+    }
+}
+
+impl FieldCli {
+    /// Runs `trimorph field`.
+    pub fn run(&self) -> anyhow::Result<()> {
+        warp_cmd::field(
+            &self.deformation,
+            &self.output,
+            self.inverse,
+            self.both,
+            self.jacobian.as_deref(),
+            self.size.as_deref(),
+        )
+    }
+}
