@@ -96,8 +96,8 @@ pub struct RenderCli {
     pub model: Option<PathBuf>,
     /// With --model: `top` (the xy projection, mesh and points) or `oblique` (both z
     /// surfaces, the walls and the model, depth-sorted).
-    #[arg(long, default_value = "top")]
-    pub view: String,
+    #[arg(long, value_enum, default_value = "top")]
+    pub view: super::common::ViewArg,
     #[command(flatten)]
     pub up: model_cmd::UpArgs,
     #[command(flatten)]
@@ -132,9 +132,9 @@ pub struct WarpCli {
     /// Points: map q -> phi^-1(q) instead of p -> phi(p).
     #[arg(long)]
     pub inverse: bool,
-    /// Image resampling: nearest, bilinear or bicubic.
-    #[arg(long, default_value = "bilinear")]
-    pub interp: String,
+    /// Image resampling.
+    #[arg(long, value_enum, default_value = "bilinear")]
+    pub interp: super::common::InterpArg,
     /// Value of pixels whose preimage is outside the mesh (images: default 0; meshes:
     /// a gray level 0..255, default transparent).
     #[arg(long)]
@@ -199,15 +199,15 @@ pub struct MorphCli {
     /// Animated PNG (default OUTPUT/morph.apng).
     #[arg(long)]
     pub apng: Option<PathBuf>,
-    /// Shape schedule alpha_shape(t): linear or smooth.
-    #[arg(long, default_value = "linear")]
-    pub shape: String,
-    /// Colour schedule alpha_color(t): linear or smooth.
-    #[arg(long, default_value = "linear")]
-    pub color: String,
-    /// Image resampling: nearest, bilinear or bicubic.
-    #[arg(long, default_value = "bilinear")]
-    pub interp: String,
+    /// Shape schedule alpha_shape(t) (smooth: 3t^2 - 2t^3).
+    #[arg(long, value_enum, default_value = "linear")]
+    pub shape: super::common::ScheduleArg,
+    /// Colour schedule alpha_color(t).
+    #[arg(long, value_enum, default_value = "linear")]
+    pub color: super::common::ScheduleArg,
+    /// Image resampling.
+    #[arg(long, value_enum, default_value = "bilinear")]
+    pub interp: super::common::InterpArg,
     /// Fast preview: draw A as a colour mesh with a vertex every STEP pixels instead of
     /// warping both images.
     #[arg(long, value_name = "STEP")]
@@ -333,7 +333,7 @@ impl RenderCli {
         let (def, out, size) = (&self.deformation, &self.output, &self.size);
         match &self.model {
             Some(m) => self.marks.refuse_with_model().and_then(|()| {
-                model_cmd::render_model(def, m, out, bg, &self.view, size, self.up.up)
+                model_cmd::render_model(def, m, out, bg, self.view.into(), size, self.up.up)
             }),
             None => spline_cmds::render(def, out, bg, &self.show, size, &self.marks),
         }
@@ -369,7 +369,7 @@ impl WarpCli {
             output: &self.output,
             size: self.size.as_deref(),
             inverse: self.inverse,
-            interp: &self.interp,
+            interp: self.interp.into(),
             background: self.background,
             tolerance: self.tolerance,
             verbose: self.verbose,
@@ -396,9 +396,9 @@ impl MorphCli {
             output: &self.output,
             gif: self.gif.as_deref(),
             apng: self.apng.as_deref(),
-            shape: &self.shape,
-            color: &self.color,
-            interp: &self.interp,
+            shape: self.shape.into(),
+            color: self.color.into(),
+            interp: self.interp.into(),
             preview: self.preview,
             delay_ms: self.delay,
             quiet: self.quiet,

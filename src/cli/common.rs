@@ -187,3 +187,48 @@ mod tests {
         assert!(parse_raster_size("12").is_err() && parse_raster_size("a,2").is_err());
     }
 }
+
+/// A command-line choice mirroring a library enum: clap lists and checks the values
+/// (`[possible values: ...]` in the help, an error naming the option otherwise).
+macro_rules! choice {
+    ($(#[$doc:meta])* $name:ident => $lib:ty { $($v:ident = $lv:expr),+ $(,)? }) => {
+        $(#[$doc])*
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+        pub enum $name {
+            $(
+                #[allow(missing_docs)]
+                $v,
+            )+
+        }
+        impl From<$name> for $lib {
+            fn from(c: $name) -> $lib {
+                match c {
+                    $($name::$v => $lv,)+
+                }
+            }
+        }
+    };
+}
+
+choice!(
+    /// `--interp`: image resampling.
+    InterpArg => crate::warp::Interp {
+        Nearest = crate::warp::Interp::Nearest,
+        Bilinear = crate::warp::Interp::Bilinear,
+        Bicubic = crate::warp::Interp::Bicubic,
+    }
+);
+choice!(
+    /// `--shape` / `--color`: a morph schedule.
+    ScheduleArg => crate::morph::Schedule {
+        Linear = crate::morph::Schedule::Linear,
+        Smooth = crate::morph::Schedule::Smooth,
+    }
+);
+choice!(
+    /// `--view`: the picture of a model.
+    ViewArg => crate::render::model::View {
+        Top = crate::render::model::View::Top,
+        Oblique = crate::render::model::View::Oblique,
+    }
+);

@@ -12,6 +12,7 @@ use super::solve::{compact_pretty, solve_text, PARALLELOGRAM, PUMP, THESIS};
 use super::spline_cmds;
 use crate::io::model::UpAxis;
 use crate::io::write_atomic;
+use crate::render::model::View;
 use anyhow::{Context, Result};
 use serde_json::json;
 use std::io::Write;
@@ -116,7 +117,7 @@ pub fn run(dir: &Path) -> Result<()> {
         output: &warped,
         size: None,
         inverse: false,
-        interp: "bicubic",
+        interp: crate::warp::Interp::Bicubic,
         background: Some(0.0),
         tolerance: 0.01,
         verbose: false,
@@ -135,7 +136,7 @@ pub fn run(dir: &Path) -> Result<()> {
         output: &warped_mesh,
         size: None,
         inverse: false,
-        interp: "bilinear",
+        interp: crate::warp::Interp::Bilinear,
         background: None,
         tolerance: 0.01,
         verbose: false,
@@ -212,8 +213,8 @@ pub fn run(dir: &Path) -> Result<()> {
     spline_cmds::edit(&scene, &zscript, &zedited, Some(24))?;
     let moved = models.join("worm_moved.obj");
     super::model_cmd::warp_model(&zedited, &worm, &moved, UpAxis::Z)?;
-    for view in ["top", "oblique"] {
-        let png = models.join(format!("view_{view}.png"));
+    for (name, view) in [("top", View::Top), ("oblique", View::Oblique)] {
+        let png = models.join(format!("view_{name}.png"));
         super::model_cmd::render_model(&zedited, &worm, &png, None, view, "800,600", UpAxis::Z)?;
     }
     println!(

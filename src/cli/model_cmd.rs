@@ -230,17 +230,16 @@ pub fn render_model(
     model_path: &Path,
     output: &Path,
     background: Option<&Path>,
-    view: &str,
+    view: crate::render::model::View,
     size: &str,
     up: UpAxis,
 ) -> Result<()> {
     use crate::render::deformation as rd;
-    use crate::render::model::{render_model as draw, ModelRenderOptions, View};
+    use crate::render::model::{render_model as draw, ModelRenderOptions};
     let (s, _) = deformation::from_str(&read_text(def)?)
         .with_context(|| format!("cannot read deformation {}", def.display()))?;
     let model = load_model_up(model_path, up)
         .with_context(|| format!("cannot load model {}", model_path.display()))?;
-    let view: View = view.parse()?;
     let (w, h) = super::common::parse_canvas_size(size)?;
     let b = bind(&model, &s)?;
     let moved = deform(&model, &b, &s);

@@ -36,9 +36,9 @@ pub struct MorphArgs<'a> {
     pub output: &'a Path,
     pub gif: Option<&'a Path>,
     pub apng: Option<&'a Path>,
-    pub shape: &'a str,
-    pub color: &'a str,
-    pub interp: &'a str,
+    pub shape: Schedule,
+    pub color: Schedule,
+    pub interp: Interp,
     pub preview: Option<u32>,
     pub delay_ms: u32,
     pub quiet: bool,
@@ -114,9 +114,7 @@ pub fn run(a: MorphArgs<'_>) -> Result<()> {
             a.frames
         );
     }
-    let shape: Schedule = a.shape.parse().map_err(|e: String| anyhow!("--shape: {e}"))?;
-    let color: Schedule = a.color.parse().map_err(|e: String| anyhow!("--color: {e}"))?;
-    let interp: Interp = a.interp.parse().map_err(|e: String| anyhow!("--interp: {e}"))?;
+    let (shape, color, interp) = (a.shape, a.color, a.interp);
     let (t0, t1) = a
         .range
         .split_once(',')

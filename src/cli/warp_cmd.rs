@@ -6,7 +6,7 @@ use crate::io::{read_text, write_atomic};
 use crate::warp::inverse::InverseOptions;
 use crate::warp::remap::RemapOptions;
 use crate::warp::{forward, inverse, warp_pages, Interp, WarpOptions};
-use anyhow::{anyhow, bail, Context, Result};
+use anyhow::{bail, Context, Result};
 use std::io::Write;
 use std::path::Path;
 
@@ -20,7 +20,7 @@ pub struct WarpArgs<'a> {
     pub output: &'a Path,
     pub size: Option<&'a str>,
     pub inverse: bool,
-    pub interp: &'a str,
+    pub interp: Interp,
     pub background: Option<f64>,
     pub tolerance: f64,
     /// Print phase times and the pixels of each inverse-map path.
@@ -167,7 +167,7 @@ pub fn run(a: WarpArgs) -> Result<()> {
             if a.inverse {
                 bail!("--inverse applies to --points; images are always warped as O(q) = I(phi^-1(q))");
             }
-            let interp: Interp = a.interp.parse().map_err(|e: String| anyhow!(e))?;
+            let interp = a.interp;
             if !background.is_finite() {
                 bail!("--background must be a finite number");
             }
