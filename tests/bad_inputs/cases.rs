@@ -722,6 +722,21 @@ pub fn cases() -> Vec<Case> {
             },
         },
         Case {
+            id: "scene_model_up_bad",
+            setup: |fx, id| {
+                let scene = fx.def_with(&format!("{id}.json"), |v| v["model_up"] = "w".into());
+                let frames = fx.dir.join(format!("{id}_frames"));
+                fs::create_dir_all(&frames).unwrap();
+                image::GrayImage::from_pixel(8, 8, image::Luma([9]))
+                    .save(frames.join("a.png"))
+                    .unwrap();
+                let lms = fx.file(&format!("{id}.csv"), format!("{LM_HEAD}m,2,2,2,2\n"));
+                let mut a = args(&["fit", "--model", s(&scene), "--frames", s(&frames)]);
+                a.extend(args(&["--landmarks", s(&lms), "-o", &fx.out("up")]));
+                (a, scene)
+            },
+        },
+        Case {
             id: "def_point_not_finite",
             setup: |fx, id| {
                 let huge = format!("1{}", "0".repeat(400));
