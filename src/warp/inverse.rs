@@ -15,6 +15,11 @@
 //! level of evaluating `phi` (about 1e-13 px on 500 px frames). Image warps skip it: their
 //! interpolation error is far above the tolerance already.
 
+/// Slack on first-order error bounds (1 %): the bounds drop the second-order term of a
+/// residual that is far below the tolerance, and this covers it and the bound's own f64
+/// rounding. Used here and by [`crate::warp::remap`].
+pub const FIRST_ORDER_SLACK: f64 = 1.01;
+
 use crate::spline::Spline;
 
 /// Polishing ([`InverseMap::polish`]) stops once a Newton step is at most this many units in
@@ -147,7 +152,11 @@ impl<'a> InverseMap<'a> {
             let smax = ((fro2 + ((fro2 * fro2 - 4.0 * det * det).max(0.0)).sqrt()) / 2.0).sqrt();
             let inv_norm = smax / det.abs();
             if rn <= 1e-12 * scale || rn * inv_norm <= self.opts.tolerance * 1e-3 {
-                return Some(Preimage { p, triangle: tri, error_bound: rn * inv_norm * 1.01 });
+                return Some(Preimage {
+                    p,
+                    triangle: tri,
+                    error_bound: rn * inv_norm * FIRST_ORDER_SLACK,
+                });
             }
             let dp =
                 [(j[1][1] * r[0] - j[0][1] * r[1]) / det, (-j[1][0] * r[0] + j[0][0] * r[1]) / det];
@@ -193,7 +202,7 @@ impl<'a> InverseMap<'a> {
             if rn < best_r {
                 let fro2 = j.iter().flatten().map(|v| v * v).sum::<f64>();
                 let smax = ((fro2 + (fro2 * fro2 - 4.0 * det * det).max(0.0).sqrt()) / 2.0).sqrt();
-                let bound = rn * smax / det.abs() * 1.01;
+                let bound = rn * smax / det.abs() * FIRST_ORDER_SLACK;
                 (best, best_r) = (Preimage { p, triangle: tri, error_bound: bound }, rn);
             }
             let dp =

@@ -19,7 +19,7 @@
 //! for a right triangle with legs `a, b` (circumradius `R`). With `A` the linear part of
 //! `L` and `|J - A| <= M diam` on the triangle, `|J^-1| <= K = |A^-1| / (1 - |A^-1| M diam)`,
 //! so `|p~ - phi^-1(q)| <= K M (a^2 + b^2) / 8` (to first order in this tiny defect; reported
-//! times 1.01). A triangle is rasterized when its bound is at most the tolerance (0.01 px by
+//! times [`FIRST_ORDER_SLACK`](crate::warp::inverse::FIRST_ORDER_SLACK), 1.01). A triangle is rasterized when its bound is at most the tolerance (0.01 px by
 //! default); otherwise its square is split in four, down to squares of 1 px
 //! ([`NEWTON_SIDE`]), whose halves that still miss the bound leave their pixels to Newton's
 //! method. `M` comes from
@@ -138,6 +138,16 @@ const MIN_SQUARE: f64 = 0.0625;
 /// least five forward evaluations per square for less than a pixel of output, while a
 /// seeded Newton solve costs about two iterations per pixel.
 const NEWTON_SIDE: f64 = 1.0;
+
+/// The smallest `1 - |A^-1| M diam` accepted for a piece: below it the perturbation bound
+/// `K = |A^-1| / (1 - |A^-1| M diam)` on `|J^-1|` more than doubles `|A^-1|`, so the piece is
+/// split instead (smaller pieces shrink `M diam` linearly and the bound quadratically).
+const MIN_SHRINK: f64 = 0.5;
+
+/// Margin on the leg length chosen for a `k x k` split (10 %): the split aims for legs whose
+/// bound is below the tolerance with this slack, so the pieces usually pass on the first try
+/// despite the first-order slack and `K > |A^-1|` ([`MIN_SHRINK`]).
+const SPLIT_MARGIN: f64 = 1.1;
 
 /// About how many local curvature bounds a plan computes (see [`RemapPlan::new`]).
 const CURVATURE_BOUNDS: f64 = 16_000.0;
@@ -303,10 +313,10 @@ impl HalfShape {
         let smax = ((fro2 + ((fro2 * fro2 - 4.0 * det * det).max(0.0)).sqrt()) / 2.0).sqrt();
         let ainv = smax / sq.abs();
         let shrink = 1.0 - ainv * m2 * self.diam;
-        if shrink <= 0.5 {
+        if shrink <= MIN_SHRINK {
             return None;
         }
-        Some(1.01 * ainv / shrink * m2 * self.r2 / 2.0)
+        Some(crate::warp::inverse::FIRST_ORDER_SLACK * ainv / shrink * m2 * self.r2 / 2.0)
     }
 }
 
@@ -332,13 +342,13 @@ impl Refiner<'_> {
         let (l01, l02, l12) = (d2(p[0], p[1]), d2(p[0], p[2]), d2(p[1], p[2]));
         let diam = l01.max(l02).max(l12).sqrt();
         let shrink = 1.0 - ainv * m2 * diam;
-        if shrink <= 0.5 {
+        if shrink <= MIN_SHRINK {
             return None;
         }
         // Largest of sum lambda_i |P_i - p|^2 is the squared circumradius for right and
         // obtuse-free lattice triangles: the hypotenuse squared over 4.
         let r2 = l01.max(l02).max(l12) / 4.0;
-        Some(1.01 * ainv / shrink * m2 * r2 / 2.0)
+        Some(crate::warp::inverse::FIRST_ORDER_SLACK * ainv / shrink * m2 * r2 / 2.0)
     }
 
     /// Tries to cut the square (all corners inside, not crossing the border) into `k x k`
@@ -355,7 +365,7 @@ impl Refiner<'_> {
                 .map(|h| affine_inverse_norm(h.map(|i| p[i]), h.map(|i| q[i])))
                 .try_fold(0.0f64, |a, b| Some(a.max(b?)));
             let Some(ainv) = ainv else { return false };
-            let leg = (4.0 * self.tol / (1.1 * ainv * m2)).sqrt();
+            let leg = (4.0 * self.tol / (SPLIT_MARGIN * ainv * m2)).sqrt();
             (sx.max(sy) / leg).ceil().max(1.0) as usize
         };
         if k > 1 && (sx.max(sy) / k as f64) < MIN_SQUARE.max(0.5) {
