@@ -695,3 +695,45 @@ fn a_deformation_beyond_the_pixel_range_is_refused_naming_the_file_and_the_point
     assert!(stderr.contains("beyond") && !stderr.contains("l.csv"), "{stderr}");
     assert!(!out.exists());
 }
+
+/// Bug (issue 19): the CLI parsed `--loss`, `--min-det` and `--bend` itself, and accepted
+/// `--loss huber --loss-scale=0` (a Huber loss of scale 0). It now uses the library's
+/// parsers (`Loss::from_name`, `Barrier::with_floor`, `Bend::from_str`), so both refuse the
+/// same values: exit 1, naming the option, nothing written.
+#[test]
+fn solver_options_are_checked_by_the_library_parsers() {
+    let dir = tempfile::tempdir().unwrap();
+    let lms = dir.path().join("l.csv");
+    fs::write(&lms, "name,src_x,src_y,dst_x,dst_y\na,10,10,11,10\nb,50,10,50,12\nc,30,40,31,41\n")
+        .unwrap();
+    let out = dir.path().join("f.json");
+    for (extra, want) in [
+        (&["--loss", "huber", "--loss-scale=0"][..], "--loss: the huber loss needs a finite scale"),
+        (&["--loss", "cauchy", "--loss-scale=inf"], "--loss: the cauchy loss needs a finite scale"),
+        (&["--loss", "l1"], "--loss: unknown loss `l1`"),
+        (&["--min-det", "1.5"], "--min-det: the determinant floor must be a number below 1"),
+        (&["--bend=-1e-3"], "--bend: `-1e-3` is neither `auto` nor a finite number >= 0"),
+    ] {
+        let mut a = vec!["fit", "--size", "60,50", "--landmarks", s(&lms), "-o", s(&out)];
+        a.extend_from_slice(extra);
+        let o = trimorph(&a);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{extra:?}: {err}");
+        assert!(err.contains(want), "{extra:?}: {err}");
+        assert!(!out.exists());
+    }
+    // The accepted forms still fit.
+    ok(&trimorph(&[
+        "fit",
+        "--size",
+        "60,50",
+        "--landmarks",
+        s(&lms),
+        "-o",
+        s(&out),
+        "--loss",
+        "l2",
+        "--bend",
+        " auto ",
+    ]));
+}

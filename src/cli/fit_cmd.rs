@@ -8,7 +8,7 @@ use crate::fit::solve::{fit, with_holdout, Bend, FitError, FitOptions, FitReport
 use crate::io::landmarks::read_landmarks_with_notes;
 use crate::io::{deformation, read_text, write_atomic};
 use crate::mesh::AdaptOptions;
-use anyhow::{bail, Context, Result};
+use anyhow::{anyhow, bail, Context, Result};
 use std::io::Write;
 use std::path::Path;
 
@@ -27,27 +27,15 @@ pub struct SolverArgs<'a> {
 impl SolverArgs<'_> {
     /// The library options.
     pub fn options(&self) -> Result<FitOptions> {
-        let loss = match self.loss {
-            "squares" | "l2" => Loss::Squares,
-            "huber" => Loss::Huber(self.loss_scale),
-            "cauchy" => Loss::Cauchy(self.loss_scale),
-            other => bail!("--loss: unknown loss `{other}` (use squares, huber or cauchy)"),
+        // The library's parsers, so the CLI and the library accept the same values.
+        let loss =
+            Loss::from_name(self.loss, self.loss_scale).map_err(|e| anyhow!("--loss: {e}"))?;
+        let barrier = if self.no_barrier {
+            None
+        } else {
+            Some(Barrier::with_floor(self.min_det).map_err(|e| anyhow!("--min-det: {e}"))?)
         };
-        if !(self.min_det.is_finite() && self.min_det < 1.0) {
-            bail!("--min-det must be a number below 1");
-        }
-        let barrier = (!self.no_barrier).then_some(Barrier {
-            floor: self.min_det,
-            tau: self.min_det + 0.2,
-            mu: 1.0,
-        });
-        let bend = match self.bend.trim() {
-            "auto" => Bend::Auto,
-            t => match t.parse::<f64>() {
-                Ok(w) if w.is_finite() && w >= 0.0 => Bend::Weight(w),
-                _ => bail!("--bend: `{t}` is neither `auto` nor a finite number >= 0"),
-            },
-        };
+        let bend: Bend = self.bend.parse().map_err(|e| anyhow!("--bend: {e}"))?;
         Ok(FitOptions {
             loss,
             bend,
