@@ -18,6 +18,7 @@
 //! stay the fast way for splines (band-wise certified interpolation of the inverse, located
 //! rows); these generic paths evaluate the map once per pixel, in parallel rows.
 
+use super::pullback::in_frame;
 use super::sample::Texel;
 use super::{fill, rebuild, source, Buf, Interp, Src, WarpError};
 use crate::spline::Spline;
@@ -140,17 +141,16 @@ fn resample<T: Texel + Default>(
     pos: &(dyn Fn(f64, f64) -> Option<[f64; 2]> + Sync),
 ) -> Vec<T> {
     let nc = src.nc;
-    let (xmax, ymax) = (src.w as f64 - 0.5, src.h as f64 - 0.5);
     let mut out = vec![T::default(); w * h * nc];
-    out.par_chunks_mut((w * nc).max(1)).enumerate().for_each(|(y, row)| {
-        let at: Vec<[f64; 2]> = (0..w)
-            .map(|x| match pos(x as f64, y as f64) {
-                Some(q) if q[0] >= -0.5 && q[0] <= xmax && q[1] >= -0.5 && q[1] <= ymax => q,
-                _ => [f64::NAN, f64::NAN],
-            })
-            .collect();
-        fill(src, &at, row, interp, background);
-    });
+    // One position buffer per worker, reused for every row it fills.
+    out.par_chunks_mut((w * nc).max(1)).enumerate().for_each_init(
+        || Vec::with_capacity(w),
+        |at: &mut Vec<[f64; 2]>, (y, row)| {
+            at.clear();
+            at.extend((0..w).map(|x| in_frame(pos(x as f64, y as f64), src.w, src.h)));
+            fill(src, at, row, interp, background);
+        },
+    );
     out
 }
 

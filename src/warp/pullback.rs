@@ -25,7 +25,6 @@ use rayon::prelude::*;
 /// `phi` at the reference pixels of row `y` (`w` of them); `NaN` where the pixel is outside
 /// the mesh or its image lies outside the `fw x fh` frame (see the module docs).
 fn mapped_row(s: &Spline, y: usize, w: usize, fw: usize, fh: usize) -> Vec<[f64; 2]> {
-    let (xmax, ymax) = (fw as f64 - 0.5, fh as f64 - 0.5);
     let mut hint = None;
     (0..w)
         .map(|x| {
@@ -33,12 +32,20 @@ fn mapped_row(s: &Spline, y: usize, w: usize, fw: usize, fh: usize) -> Vec<[f64;
                 hint = Some(t);
                 s.eval_cache().value(t, b)
             });
-            match q {
-                Some(q) if q[0] >= -0.5 && q[0] <= xmax && q[1] >= -0.5 && q[1] <= ymax => q,
-                _ => [f64::NAN, f64::NAN],
-            }
+            in_frame(q, fw, fh)
         })
         .collect()
+}
+
+/// `q` when it lies in the union of the `fw x fh` frame's pixel squares,
+/// `[-1/2, fw - 1/2] x [-1/2, fh - 1/2]`; `NaN` (the background) when it does not or is
+/// `None` (see the module docs).
+pub(super) fn in_frame(q: Option<[f64; 2]>, fw: usize, fh: usize) -> [f64; 2] {
+    let (xmax, ymax) = (fw as f64 - 0.5, fh as f64 - 0.5);
+    match q {
+        Some(q) if q[0] >= -0.5 && q[0] <= xmax && q[1] >= -0.5 && q[1] <= ymax => q,
+        _ => [f64::NAN, f64::NAN],
+    }
 }
 
 fn pull<T: Texel + Default>(
