@@ -74,21 +74,60 @@ pub fn value_row(s: &Spline, t: usize, b: [f64; 3]) -> Row {
 /// The rows of `d phi / dx` and `d phi / dy` at barycentric `b` in triangle `t`, as local
 /// weights over the patch's points (file order of the patch).
 pub fn derivative_rows(s: &Spline, t: usize, b: [f64; 3]) -> [Vec<f64>; 2] {
-    let d = s.degree();
-    let g = frame(s, t).gradients();
-    let n = (d + 1) * (d + 2) / 2;
-    let mut out = [vec![0.0; n], vec![0.0; n]];
-    for (m, w) in multi_indices(d - 1).iter().zip(bernstein(d - 1, b)) {
-        for c in 0..3 {
-            let mut up = *m;
-            up[c] += 1;
-            let k = local_index(d, up[0], up[1]);
-            for a in 0..2 {
-                out[a][k] += d as f64 * w * g[c][a];
-            }
-        }
+    DerivativeStencil::new(s.degree(), &[b]).rows(frame(s, t).gradients()).remove(0)
+}
+
+/// The parts of [`derivative_rows`] that do not depend on the triangle, for a list of
+/// barycentric sample points: `d phi / dx_a = sum_m sum_c d B^(d-1)_m(b) g_c[a] q_(m+e_c)`
+/// with `g_c` the gradient of the triangle's barycentric coordinate `c`. The Bernstein
+/// values (the same for every triangle) are computed once; per triangle only the gradients
+/// enter, in the same order of operations as the direct sum (so the rows are bit for bit
+/// the same).
+#[derive(Clone, Debug)]
+pub struct DerivativeStencil {
+    /// Patch size `(d + 1)(d + 2) / 2`.
+    n: usize,
+    /// Per sample: `(local index of m + e_c, c, d B_m(b))` in the sum's order.
+    terms: Vec<Vec<(usize, usize, f64)>>,
+}
+
+impl DerivativeStencil {
+    /// The stencil of degree `d` at the samples `bs`.
+    pub fn new(d: usize, bs: &[[f64; 3]]) -> DerivativeStencil {
+        let mi = multi_indices(d - 1);
+        let terms = bs
+            .iter()
+            .map(|&b| {
+                let mut out = Vec::with_capacity(3 * mi.len());
+                for (m, w) in mi.iter().zip(bernstein(d - 1, b)) {
+                    for c in 0..3 {
+                        let mut up = *m;
+                        up[c] += 1;
+                        out.push((local_index(d, up[0], up[1]), c, d as f64 * w));
+                    }
+                }
+                out
+            })
+            .collect();
+        DerivativeStencil { n: (d + 1) * (d + 2) / 2, terms }
     }
-    out
+
+    /// The derivative rows at every sample for a triangle whose barycentric gradients are
+    /// `g` ([`Frame::gradients`]).
+    pub fn rows(&self, g: [[f64; 2]; 3]) -> Vec<[Vec<f64>; 2]> {
+        self.terms
+            .iter()
+            .map(|terms| {
+                let mut out = [vec![0.0; self.n], vec![0.0; self.n]];
+                for &(k, c, dw) in terms {
+                    for a in 0..2 {
+                        out[a][k] += dw * g[c][a];
+                    }
+                }
+                out
+            })
+            .collect()
+    }
 }
 
 /// The parts of the bending matrix shared by every triangle of a degree: the multi-indices

@@ -26,7 +26,6 @@
 pub use super::affine::affine_fit;
 use super::landmarks::Landmark;
 use super::solve::{fit_with, validate, Fit, FitError, FitOptions};
-use crate::exact::Rat;
 use crate::mesh::{default_margin, AdaptOptions, Mesh, MeshError};
 use crate::spline::mds::{Mds, MdsError};
 use crate::spline::Spline;
@@ -123,23 +122,11 @@ pub fn source_grid(lms: &[Landmark]) -> i64 {
         .unwrap_or(GRIDS[0])
 }
 
-/// The exact spline of the affine map `a` over `mesh`.
+/// The exact spline of the affine map `a` over `mesh`, its coefficients rounded to
+/// multiples of `2^-AFFINE_BITS` ([`Spline::affine`]: C1 by construction).
 fn affine_spline(mesh: Mesh, degree: usize, a: &[[f64; 3]; 2]) -> Result<Spline, FitError> {
-    let id = Spline::identity(mesh, degree)?;
-    let coef: Vec<Vec<Rat>> = a
-        .iter()
-        .map(|row| {
-            row.iter().map(|&v| super::param::grid_rat(v, AFFINE_BITS)).collect::<Vec<Rat>>()
-        })
-        .collect();
-    let pts: Vec<Vec<Rat>> = id
-        .points()
-        .iter()
-        .map(|p| (0..2).map(|k| &coef[k][0] * &p[0] + &coef[k][1] * &p[1] + &coef[k][2]).collect())
-        .collect();
-    // An affine map is C1 whatever the mesh, so the exact check is left to the fit's result
-    // (`set_points` checks every condition there).
-    Ok(Spline::from_points_unchecked(id.mesh().clone(), degree, pts, None)?)
+    let coef = a.map(|row| row.map(|v| super::param::grid_rat(v, AFFINE_BITS)));
+    Ok(Spline::affine(mesh, degree, &coef)?)
 }
 
 /// Margin doublings tried when a fit does not cover the frame.
@@ -207,7 +194,8 @@ fn fit_on_mesh(
             e => FitError::Options(e.to_string()),
         })?;
         let spline = affine_spline(adapted.mesh.clone(), opts.degree, a)?;
-        match Mds::new(&spline) {
+        let mm = Mds::new(&spline);
+        match mm {
             Ok(mds) => break (adapted, spline, mds),
             Err(MdsError::Singular(v)) if tries < MAX_MDS_RETRIES => {
                 // Break the vertex's symmetric star with a point inside one of its triangles.

@@ -23,9 +23,10 @@
 //! data term's gradient is exact and cheap; the barrier's is `d det / d q` from the two
 //! derivative rows. Gradients are pulled back to `x` through the MDS map.
 
-use super::basis::{derivative_rows, sample_points, value_row, Bending, Row};
+use super::basis::{frame, sample_points, value_row, Bending, DerivativeStencil, Row};
 use super::param::Param;
 use crate::spline::Spline;
+use rayon::prelude::*;
 
 /// The robust loss of the data term.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -223,7 +224,10 @@ impl Objective {
     ) -> Objective {
         let pts = sample_points(det_level);
         let bending = Bending::new(s.degree());
+        let stencil = DerivativeStencil::new(s.degree(), &pts);
+        // Each triangle's terms depend on that triangle only: built in parallel, in order.
         let tris = (0..s.mesh().num_triangles())
+            .into_par_iter()
             .map(|t| {
                 let patch = s.layout().patches()[t].clone();
                 let v = s.mesh().triangle(t).map(|i| s.mesh().vertex(i));
@@ -233,7 +237,7 @@ impl Objective {
                         .abs();
                 TriTerm {
                     k: bending.matrix(s, t),
-                    samples: pts.iter().map(|&b| derivative_rows(s, t, b)).collect(),
+                    samples: stencil.rows(frame(s, t).gradients()),
                     sample_weight: area / pts.len() as f64,
                     patch,
                 }
@@ -486,54 +490,57 @@ impl Objective {
     pub(super) fn triangle_blocks(&self) -> Vec<TriangleBlock> {
         let nv = self.param.nv();
         let rows = self.param.rows();
-        let mut pos = vec![usize::MAX; nv];
+        // Independent per triangle: in parallel, in order, one position map per worker.
         self.tris
-            .iter()
-            .map(|tri| {
-                let mut local = Vec::new();
-                for &j in &tri.patch {
-                    for &(k, _) in &rows[j] {
-                        if pos[k] == usize::MAX {
-                            pos[k] = local.len();
-                            local.push(k);
-                        }
-                    }
-                }
-                let (m, u) = (tri.patch.len(), local.len());
-                // S_T (m x u), then K S_T (m x u), then S_T^T (K S_T) (u x u).
-                let mut st = vec![0.0; m * u];
-                for (a, &j) in tri.patch.iter().enumerate() {
-                    for &(k, v) in &rows[j] {
-                        st[a * u + pos[k]] += v;
-                    }
-                }
-                let mut ks = vec![0.0; m * u];
-                for r in 0..m {
-                    for c in 0..m {
-                        let kv = tri.k[r * m + c];
-                        if kv != 0.0 {
-                            for z in 0..u {
-                                ks[r * u + z] += kv * st[c * u + z];
+            .par_iter()
+            .map_init(
+                || vec![usize::MAX; nv],
+                |pos, tri| {
+                    let mut local = Vec::new();
+                    for &j in &tri.patch {
+                        for &(k, _) in &rows[j] {
+                            if pos[k] == usize::MAX {
+                                pos[k] = local.len();
+                                local.push(k);
                             }
                         }
                     }
-                }
-                let mut bend = vec![0.0; u * u];
-                for a in 0..m {
-                    for z1 in 0..u {
-                        let sv = st[a * u + z1];
-                        if sv != 0.0 {
-                            for z2 in 0..u {
-                                bend[z1 * u + z2] += sv * ks[a * u + z2];
+                    let (m, u) = (tri.patch.len(), local.len());
+                    // S_T (m x u), then K S_T (m x u), then S_T^T (K S_T) (u x u).
+                    let mut st = vec![0.0; m * u];
+                    for (a, &j) in tri.patch.iter().enumerate() {
+                        for &(k, v) in &rows[j] {
+                            st[a * u + pos[k]] += v;
+                        }
+                    }
+                    let mut ks = vec![0.0; m * u];
+                    for r in 0..m {
+                        for c in 0..m {
+                            let kv = tri.k[r * m + c];
+                            if kv != 0.0 {
+                                for z in 0..u {
+                                    ks[r * u + z] += kv * st[c * u + z];
+                                }
                             }
                         }
                     }
-                }
-                for &k in &local {
-                    pos[k] = usize::MAX;
-                }
-                TriangleBlock { local, st, bend }
-            })
+                    let mut bend = vec![0.0; u * u];
+                    for a in 0..m {
+                        for z1 in 0..u {
+                            let sv = st[a * u + z1];
+                            if sv != 0.0 {
+                                for z2 in 0..u {
+                                    bend[z1 * u + z2] += sv * ks[a * u + z2];
+                                }
+                            }
+                        }
+                    }
+                    for &k in &local {
+                        pos[k] = usize::MAX;
+                    }
+                    TriangleBlock { local, st, bend }
+                },
+            )
             .collect()
     }
 

@@ -4,14 +4,15 @@
 //! `sum_k c_k x_k` of a few rationals `x_k = n_k / d_k` with rational coefficients. Adding
 //! them one by one as reduced fractions costs a gcd per addition. Here each sum is put over
 //! one common denominator `L = lcm(d_k)` and evaluated as the integer `sum_k c_k n_k L / d_k`,
-//! with one gcd at the end. The C1 check ([`int_comb_is_zero`]) runs in `i128` with every
-//! operation checked (on overflow the caller falls back to reduced fractions); the
+//! with one gcd at the end. The C1 check ([`comb_is_zero`]) runs in `i128` with every
+//! operation checked, and on overflow in exact integers on the same common denominator; the
 //! determining-set plan ([`IntPlan`]) uses exact integers of any size. Either way the
 //! results are the same exact values as fraction arithmetic, only with far fewer gcds.
 
 use crate::exact::{Int, IntView, Rat};
 use num_integer::Integer;
 use num_traits::ToPrimitive;
+use rayon::prelude::*;
 
 /// `i128` value of an exact integer, if it fits.
 pub(crate) fn int_i128(x: &Int) -> Option<i128> {
@@ -66,6 +67,40 @@ pub(crate) fn int_comb_is_zero(terms: &[(i64, &Rat)]) -> Option<bool> {
         acc = acc.checked_add(t)?;
     }
     Some(acc == 0)
+}
+
+/// Whether `sum_k c_k x_k = 0` exactly, for rationals of any size: [`int_comb_is_zero`] in
+/// `i128` when nothing overflows, else the same sum on one common denominator
+/// `L = lcm(d_k)` in exact integers, `sum_k c_k n_k (L / d_k) = 0` (one gcd per distinct
+/// denominator, none per addition; the sign of `L > 0` does not matter for a zero test).
+pub(crate) fn comb_is_zero(terms: &[(i64, &Rat)]) -> bool {
+    if let Some(z) = int_comb_is_zero(terms) {
+        return z;
+    }
+    let Some((_, first)) = terms.first() else {
+        return true;
+    };
+    let mut l = first.denom().clone();
+    for (_, x) in &terms[1..] {
+        let d = x.denom();
+        if d != &l {
+            let g = l.gcd_int(d);
+            l = &l.div_exact(&g) * d;
+        }
+    }
+    let mut acc = Int::from(0);
+    for (c, x) in terms {
+        if *c == 0 || x.numer().is_zero_int() {
+            continue;
+        }
+        let t = &Int::from(*c) * x.numer();
+        if x.denom() == &l {
+            acc += &t;
+        } else {
+            acc += &(&t * &l.div_exact(x.denom()));
+        }
+    }
+    acc.is_zero_int()
 }
 
 /// The determining-set formulas on common denominators (see [`super::mds::Mds`]): each
@@ -141,9 +176,17 @@ impl IntPlan {
                 num[p * dim + a] = acc;
             }
         }
-        for (p, _) in &self.terms {
-            let d = &dd * &self.den[*p];
-            values[*p] = (0..dim).map(|a| Rat::new(num[p * dim + a].clone(), d.clone())).collect();
+        // The reductions (one gcd per value) are independent: in parallel.
+        let reduced: Vec<Vec<Rat>> = self
+            .terms
+            .par_iter()
+            .map(|(p, _)| {
+                let d = &dd * &self.den[*p];
+                (0..dim).map(|a| Rat::new(num[p * dim + a].clone(), d.clone())).collect()
+            })
+            .collect();
+        for ((p, _), v) in self.terms.iter().zip(reduced) {
+            values[*p] = v;
         }
     }
 }
@@ -185,7 +228,52 @@ mod tests {
             .is_none());
     }
 
+    #[test]
+    fn sums_too_large_for_i128_are_decided_exactly() {
+        // x = 2^100 / 3, y = 2^101 / 9 (reduced): 2 x - 3 y = 2^101/3 - 2^101/3 = 0, but the
+        // i128 path overflows on i64::MAX-sized coefficients.
+        let x = Rat::new(Int::from_i128(1i128 << 100), Int::from(3));
+        let y = Rat::new(Int::from_i128(1i128 << 101), Int::from(9));
+        assert!(comb_is_zero(&[(2, &x), (-3, &y)]));
+        assert!(!comb_is_zero(&[(2, &x), (-3, &y), (1, &r(1, 7))]));
+        let huge = Rat::new(Int::from_i128(i128::MAX), Int::from(5))
+            * Rat::from_integer(Int::from(1i64 << 40));
+        assert!(int_comb_is_zero(&[(i64::MAX, &huge), (-i64::MAX, &huge)]).is_none());
+        assert!(comb_is_zero(&[(i64::MAX, &huge), (-i64::MAX, &huge)]));
+        assert!(!comb_is_zero(&[(i64::MAX, &huge), (-i64::MAX + 1, &huge)]));
+        assert!(comb_is_zero(&[]));
+    }
+
     proptest! {
+        /// Sums of big rationals (numerators and denominators up to about 2^190, so the
+        /// `i128` path overflows): the common-denominator test agrees with fraction sums.
+        #[test]
+        fn big_sums_equal_rational_sums(
+            t in proptest::collection::vec((-50i64..50, any::<i64>(), 1i64..500, 0u32..3), 1..6),
+            zero in any::<bool>(),
+        ) {
+            let scale = Rat::new(Int::from_i128(i128::MAX), Int::from(1))
+                * Rat::new(Int::from(1i64 << 62), Int::from_i128((1i128 << 100) + 1));
+            let mut terms: Vec<(i64, Rat)> = t
+                .iter()
+                .map(|&(c, n, d, p)| {
+                    let mut x = Rat::new(Int::from(n), Int::from(d));
+                    for _ in 0..p {
+                        x = &x * &scale;
+                    }
+                    (c, x)
+                })
+                .collect();
+            if zero {
+                // Append the negated sum as a last term with coefficient 1: the total is 0.
+                let s = terms.iter().fold(Rat::zero(), |a, (c, x)| a + Rat::from_integer(Int::from(*c)) * x);
+                terms.push((-1, s));
+            }
+            let want = terms.iter().fold(Rat::zero(), |a, (c, x)| a + Rat::from_integer(Int::from(*c)) * x);
+            let refs: Vec<(i64, &Rat)> = terms.iter().map(|(c, x)| (*c, x)).collect();
+            prop_assert_eq!(comb_is_zero(&refs), want.is_zero());
+        }
+
         #[test]
         fn integer_sums_equal_rational_sums(
             t in proptest::collection::vec((-50i64..50, -1000i64..1000, 1i64..500), 0..6)

@@ -98,15 +98,21 @@ fn rref(rows: &mut [Vec<Rat>], ncand: usize) -> Vec<(usize, usize)> {
         let Some(p) = (r..rows.len()).find(|&i| !rows[i][c].is_zero()) else { continue };
         rows.swap(r, p);
         let inv = rows[r][c].recip();
-        for x in rows[r].iter_mut() {
-            *x *= &inv;
+        // The rows are sparse (a quadrilateral condition has four members): only the pivot
+        // row's nonzero entries take part, which leaves every value as the dense loops would.
+        let mut nz: Vec<usize> = Vec::new();
+        for (j, x) in rows[r].iter_mut().enumerate() {
+            if !x.is_zero() {
+                *x *= &inv;
+                nz.push(j);
+            }
         }
-        for i in 0..rows.len() {
-            if i != r && !rows[i][c].is_zero() {
-                let f = rows[i][c].clone();
-                for j in 0..rows[i].len() {
-                    let t = &f * &rows[r][j];
-                    rows[i][j] -= t;
+        let pivot_row = rows[r].clone();
+        for (i, row) in rows.iter_mut().enumerate() {
+            if i != r && !row[c].is_zero() {
+                let f = row[c].clone();
+                for &j in &nz {
+                    row[j] -= &f * &pivot_row[j];
                 }
             }
         }

@@ -14,6 +14,7 @@
 //! 2.5D deformations (thesis Part III) add two scalar splines `sigma0`, `sigma1` on the same
 //! layout ([`ZLayers`]); they obey the same C1 conditions with one coordinate.
 
+mod affine;
 pub mod c1;
 pub mod check;
 pub mod eval;
@@ -123,14 +124,7 @@ pub struct Spline {
 impl Spline {
     /// The identity deformation of degree `degree` over `mesh`.
     pub fn identity(mesh: Mesh, degree: usize) -> Result<Spline, SplineError> {
-        if degree == 0 || degree > 15 {
-            return Err(SplineError::Degree(degree));
-        }
-        let points = control_point_count(&mesh, degree);
-        if points > MAX_CONTROL_POINTS as u128 {
-            return Err(SplineError::TooLarge { degree, points });
-        }
-        let layout = Layout::new(&mesh, degree);
+        let layout = Self::layout_for(&mesh, degree)?;
         let den = Int::from(degree as i64 * mesh.grid_denominator());
         let points: Vec<Vec<Rat>> = layout
             .nominal_int(&mesh)
@@ -138,6 +132,19 @@ impl Spline {
             .map(|q| q.iter().map(|&c| Rat::new(Int::from_i128(c), den.clone())).collect())
             .collect();
         Ok(Self::assemble(mesh, layout, points, None))
+    }
+
+    /// The control-point layout of a degree-`degree` spline over `mesh`, after checking the
+    /// degree and the number of control points.
+    fn layout_for(mesh: &Mesh, degree: usize) -> Result<Layout, SplineError> {
+        if degree == 0 || degree > 15 {
+            return Err(SplineError::Degree(degree));
+        }
+        let points = control_point_count(mesh, degree);
+        if points > MAX_CONTROL_POINTS as u128 {
+            return Err(SplineError::TooLarge { degree, points });
+        }
+        Ok(Layout::new(mesh, degree))
     }
 
     /// A spline from explicit control points (checked to be C1 exactly).
@@ -160,11 +167,11 @@ impl Spline {
         points: Vec<Vec<Rat>>,
         z: Option<ZLayers>,
     ) -> Result<Spline, SplineError> {
-        let id = Self::identity(mesh, degree)?;
-        if points.len() != id.points.len() {
-            return Err(SplineError::PointCount { expected: id.points.len(), found: points.len() });
+        let layout = Self::layout_for(&mesh, degree)?;
+        if points.len() != layout.len() {
+            return Err(SplineError::PointCount { expected: layout.len(), found: points.len() });
         }
-        Ok(Self::assemble(id.mesh, id.layout, points, z))
+        Ok(Self::assemble(mesh, layout, points, z))
     }
 
     fn assemble(mesh: Mesh, layout: Layout, points: Vec<Vec<Rat>>, z: Option<ZLayers>) -> Spline {
@@ -381,16 +388,7 @@ impl Spline {
                     (q.coef[2], terms[2]),
                     (q.coef[3], terms[3]),
                 ];
-                match intform::int_comb_is_zero(&t) {
-                    Some(zero) => !zero,
-                    None => {
-                        let mut acc = Rat::zero();
-                        for (c, x) in t {
-                            acc += Rat::from_integer(Int::from(c)) * x;
-                        }
-                        !acc.is_zero()
-                    }
-                }
+                !intform::comb_is_zero(&t)
             })
         });
         match bad {
