@@ -55,11 +55,26 @@ impl Blend {
             .map(|pt| pt.iter().map(|(m, n, l)| Rat::new(&(&qp * m) + &(p * n), q * l)).collect())
             .collect()
     }
+
+    /// [`Blend::at`] as fractions not reduced to lowest terms (no gcd): the same exact
+    /// values, and so the same nearest `f64`s (`rat_to_f64` rounds the value, whatever its
+    /// representation), for a frame's map that is only evaluated.
+    pub fn at_raw(&self, w: &Rat) -> Vec<Vec<Rat>> {
+        let (p, q) = (w.numer(), w.denom());
+        let qp = q - p;
+        self.terms
+            .iter()
+            .map(|pt| {
+                pt.iter().map(|(m, n, l)| Rat::new_raw(&(&qp * m) + &(p * n), q * l)).collect()
+            })
+            .collect()
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::exact::rat_to_f64;
     use proptest::prelude::*;
 
     fn r(n: i64, d: i64) -> Rat {
@@ -82,6 +97,11 @@ mod tests {
                 .collect();
             let got = Blend::new(&p, &q).at(&w);
             prop_assert_eq!(&got, &want);
+            let raw = Blend::new(&p, &q).at_raw(&w);
+            prop_assert_eq!(&raw, &want);
+            for (g, e) in raw.iter().flatten().zip(want.iter().flatten()) {
+                prop_assert_eq!(rat_to_f64(g).to_bits(), rat_to_f64(e).to_bits());
+            }
             for (g, e) in got.iter().flatten().zip(want.iter().flatten()) {
                 prop_assert_eq!((g.numer(), g.denom()), (e.numer(), e.denom()));
             }

@@ -64,7 +64,7 @@ use crate::mesh::{AdaptOptions, Mesh, MeshError, MeshOptions};
 use crate::render::colormesh::rasterize;
 use crate::spline::{Spline, SplineError};
 use crate::warp::colormesh::{ColorMesh, ColorMeshError, ColorMode, Colors};
-use crate::warp::remap::{RemapOptions, RemapPlan};
+use crate::warp::remap::{CurvatureBounds, RemapOptions, RemapPlan};
 use crate::warp::sample::{Source, Texel};
 use crate::warp::Interp;
 use align::{umeyama, AlignError, Similarity};
@@ -76,6 +76,7 @@ use num_rational::BigRational;
 pub use preview::Preview;
 use rayon::prelude::*;
 use serde::Serialize;
+use std::sync::OnceLock;
 use tiny_skia::Pixmap;
 
 /// Why a morph cannot be made.
@@ -332,6 +333,10 @@ pub struct Morph {
     /// The fits' summaries (`A->B`, `B->A`) for a morph made from landmarks.
     summaries: Option<[MapSummary; 2]>,
     opts: MorphOptions,
+    /// The remap plans' curvature bounds of `phi_ab` and `phi_ba`, computed at the first
+    /// frame: a frame's maps have `D^2 phi_{A->t} = s D^2 phi_ab` and
+    /// `D^2 phi_{B->t} = (1 - s) D^2 phi_ba` ([`RemapPlan::new_scaled`]).
+    curvature: OnceLock<[CurvatureBounds; 2]>,
 }
 
 /// `S` applied to every control point of the identity on `s`'s mesh, exactly.
@@ -431,6 +436,7 @@ impl Morph {
             phi_ab: fab.spline,
             phi_ba: fba.spline,
             opts: opts.clone(),
+            curvature: OnceLock::new(),
         })
     }
 
@@ -514,6 +520,7 @@ impl Morph {
             phi_ab,
             phi_ba,
             opts: opts.clone(),
+            curvature: OnceLock::new(),
         })
     }
 
@@ -579,9 +586,7 @@ impl Morph {
 
     /// [`Morph::phi_a_at`] for an exact `s`.
     pub fn phi_a_exact(&self, s: &Rat) -> Result<Spline, MorphError> {
-        let mut out = self.phi_ab.clone();
-        out.set_points_c1_by_construction(self.blend_a.at(s))?;
-        Ok(out)
+        Ok(self.phi_ab.with_points_c1_by_construction(self.blend_a.at(s))?)
     }
 
     /// `phi_{B->t}` for the shape weight `s`: `s S + (1 - s) phi_ba` (`B`'s pixels -> `A`'s
@@ -592,9 +597,18 @@ impl Morph {
 
     /// [`Morph::phi_b_at`] for an exact `s`.
     pub fn phi_b_exact(&self, s: &Rat) -> Result<Spline, MorphError> {
-        let mut out = self.phi_ba.clone();
-        out.set_points_c1_by_construction(self.blend_b.at(s))?;
-        Ok(out)
+        Ok(self.phi_ba.with_points_c1_by_construction(self.blend_b.at(s))?)
+    }
+
+    /// `(phi_{A->t}, phi_{B->t})` for rendering: the maps of [`Morph::phi_a_exact`] and
+    /// [`Morph::phi_b_exact`] with their control points as unreduced fractions (the same
+    /// values and `f64`s, without the gcds), built in parallel.
+    fn frame_maps(&self, s: &Rat) -> Result<(Spline, Spline), MorphError> {
+        let (sa, sb) = rayon::join(
+            || self.phi_ab.with_points_c1_by_construction(self.blend_a.at_raw(s)),
+            || self.phi_ba.with_points_c1_by_construction(self.blend_b.at_raw(s)),
+        );
+        Ok((sa?, sb?))
     }
 
     /// `alpha_shape(t)` and the clamped `alpha_color(t)`.
@@ -651,13 +665,20 @@ impl Morph {
         let (_, c) = self.weights(rat_to_f64(t))?;
         let s = self.opts.shape.at_exact(t);
         let (w, h) = (self.a.width(), self.a.height());
-        let (sa, sb) = rayon::join(|| self.phi_a_exact(&s), || self.phi_b_exact(&s));
-        let (sa, sb) = (sa?, sb?);
+        let (sa, sb) = self.frame_maps(&s)?;
         let ro = self.opts.remap;
+        let [ca, cb] = self.curvature.get_or_init(|| {
+            let (ca, cb) = rayon::join(
+                || CurvatureBounds::new(&self.phi_ab),
+                || CurvatureBounds::new(&self.phi_ba),
+            );
+            [ca, cb]
+        });
+        let sf = rat_to_f64(&s);
         // Both plans even at c = 0 or 1: each image fills in where the other has no pixels.
         let (pa, pb) = rayon::join(
-            || Some(RemapPlan::new(&sa, w, h, ro)),
-            || Some(RemapPlan::new(&sb, w, h, ro)),
+            || Some(RemapPlan::new_scaled(&sa, w, h, ro, ca, sf)),
+            || Some(RemapPlan::new_scaled(&sb, w, h, ro, cb, 1.0 - sf)),
         );
         let job = Job {
             pa: pa.as_ref(),
@@ -752,8 +773,7 @@ impl Morph {
     pub fn check_frame(&self, t: &Rat) -> Result<FrameCheck, MorphError> {
         use crate::spline::jacobian::{certify, CertifyOptions};
         let s = self.opts.shape.at_exact(t);
-        let (sa, sb) = rayon::join(|| self.phi_a_exact(&s), || self.phi_b_exact(&s));
-        let (sa, sb) = (sa?, sb?);
+        let (sa, sb) = self.frame_maps(&s)?;
         let (w, h) = (f64::from(self.a.width()), f64::from(self.a.height()));
         let one = |sp: &Spline| {
             let d = certify(sp, &CertifyOptions::default());

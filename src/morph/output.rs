@@ -11,13 +11,16 @@
 //!   (the reference, and what the benchmarks time).
 //!
 //! The animations are 8-bit RGBA (gray and 16-bit frames are converted); the GIF palette is
-//! quantized per frame by the `image` crate (NeuQuant, speed 10). The APNG is told the frame
+//! quantized per frame (NeuQuant, speed 10, as the `image` crate's GIF encoder does), and
+//! the frames are quantized and LZW-compressed in parallel ([`gif_frame`]), then written in
+//! order: the same bytes as `image`'s sequential encoder
+//! (`tests::gif_is_the_image_crates_gif`). The APNG is told the frame
 //! count before the first frame (its `acTL` chunk comes first), so a streaming writer is made
 //! for a known number of frames.
 
 use crate::render::font::draw_text;
-use image::codecs::gif::{GifEncoder, Repeat};
-use image::{DynamicImage, Frame, ImageFormat, RgbaImage};
+use image::{DynamicImage, ImageFormat, RgbaImage};
+use rayon::prelude::*;
 use std::borrow::Cow;
 use std::io::{Cursor, Write};
 use tiny_skia::{Color, Pixmap};
@@ -31,6 +34,9 @@ pub enum EncodeError {
     /// The `png` crate failed (APNG).
     #[error("encoding APNG: {0}")]
     Png(#[from] png::EncodingError),
+    /// The `gif` crate failed.
+    #[error("encoding GIF: {0}")]
+    Gif(#[from] gif::EncodingError),
     /// No frames, or a frame of another size.
     #[error("{0}")]
     Frames(String),
@@ -92,14 +98,51 @@ fn rgba_frames(frames: &[DynamicImage]) -> Result<Vec<RgbaImage>, EncodeError> {
 /// An endlessly looping animated GIF, `delay_ms` per frame.
 pub fn gif_bytes(frames: &[DynamicImage], delay_ms: u32) -> Result<Vec<u8>, EncodeError> {
     let rgba = rgba_frames(frames)?;
-    let mut buf = Vec::new();
-    {
-        let mut enc = GifEncoder::new_with_speed(&mut buf, 10);
-        enc.set_repeat(Repeat::Infinite)?;
-        let delay = image::Delay::from_numer_denom_ms(delay_ms, 1);
-        enc.encode_frames(rgba.into_iter().map(|f| Frame::from_parts(f, 0, 0, delay)))?;
+    let (w, h) = gif_size(rgba[0].dimensions())?;
+    let encoded: Vec<gif::Frame<'static>> =
+        rgba.par_iter().map(|f| gif_frame(f, gif_delay(delay_ms))).collect();
+    let mut enc = gif_encoder(Vec::new(), w, h)?;
+    for f in &encoded {
+        enc.write_lzw_pre_encoded_frame(f)?;
     }
-    Ok(buf)
+    Ok(enc.into_inner()?)
+}
+
+/// A GIF encoder for `w x h` frames, looping forever.
+fn gif_encoder<W: Write>(out: W, w: u16, h: u16) -> Result<gif::Encoder<W>, EncodeError> {
+    let mut enc = gif::Encoder::new(out, w, h, &[])?;
+    enc.set_repeat(gif::Repeat::Infinite)?;
+    Ok(enc)
+}
+
+/// The frame size as a GIF's, which is at most `65535 x 65535`.
+fn gif_size((w, h): (u32, u32)) -> Result<(u16, u16), EncodeError> {
+    match (u16::try_from(w), u16::try_from(h)) {
+        (Ok(w), Ok(h)) => Ok((w, h)),
+        _ => Err(EncodeError::Frames(format!(
+            "a GIF is at most {} x {} pixels, the frames are {w} x {h}",
+            u16::MAX,
+            u16::MAX
+        ))),
+    }
+}
+
+/// A GIF frame delay: hundredths of a second, at most `u16::MAX` (as `image` saturates it).
+fn gif_delay(delay_ms: u32) -> u16 {
+    (delay_ms / 10).try_into().unwrap_or(u16::MAX)
+}
+
+/// One GIF frame: palette by NeuQuant at speed 10, restored to background after display,
+/// LZW-compressed (for [`gif::Encoder::write_lzw_pre_encoded_frame`]); independent of the
+/// other frames, so frames are made in parallel.
+fn gif_frame(f: &RgbaImage, delay: u16) -> gif::Frame<'static> {
+    let (w, h) = (f.width() as u16, f.height() as u16);
+    let mut px = f.as_raw().clone();
+    let mut frame = gif::Frame::from_rgba_speed(w, h, &mut px, 10);
+    frame.delay = delay;
+    frame.dispose = gif::DisposalMethod::Background;
+    frame.make_lzw_pre_encoded();
+    frame
 }
 
 /// An endlessly looping animated PNG (8-bit RGBA), `delay_ms` per frame, fast compression.
@@ -194,11 +237,12 @@ fn sheet_of(
 }
 
 /// Bytes an [`AnimationWriter`] holds at most besides the frames given to it, for `frames` frames of
-/// `width x height` pushed `batch` at a time, a sheet of `cols` columns: the 8-bit RGBA
-/// copies of a batch, the encoders' buffers (a frame's copy, palette indices and
-/// compressed data for the GIF, filter rows and compressed data for the APNG: counted as
-/// 14 bytes a pixel), every thumbnail, and at the end the sheet (drawn, then copied once
-/// more to be encoded). Frames that are 8-bit RGBA already are not copied (counted anyway).
+/// `width x height` pushed `batch` at a time, a sheet of `cols` columns: per frame of a
+/// batch, its 8-bit RGBA copy and its GIF frame (quantized in parallel: a working copy,
+/// palette indices, compressed data; 10 bytes a pixel with the copy), the APNG encoder's
+/// buffers (filter rows and compressed data: counted as 14 bytes a pixel), every thumbnail,
+/// and at the end the sheet (drawn, then copied once more to be encoded). Frames that are
+/// 8-bit RGBA already are not copied (counted anyway).
 pub fn streaming_memory(
     (width, height): (u32, u32),
     frames: usize,
@@ -211,7 +255,7 @@ pub fn streaming_memory(
     let thumbs = (frames as u64).saturating_mul(u64::from(tw) * u64::from(th) * 4);
     let (_, sw, sh) = sheet_layout(frames, cols, tw, th);
     let sheet = u64::from(sw) * u64::from(sh) * 4;
-    let streaming = (batch as u64).saturating_mul(px * 4).saturating_add(px * 14);
+    let streaming = (batch as u64).saturating_mul(px * 10).saturating_add(px * 14);
     streaming.max(sheet.saturating_mul(2)).saturating_add(thumbs)
 }
 
@@ -221,13 +265,12 @@ pub fn streaming_memory(
 ///
 /// Frames are pushed in order with [`push`](Self::push) or [`push_batch`](Self::push_batch);
 /// after the announced number of frames, [`finish`](Self::finish) ends both animations and
-/// returns the contact sheet. The GIF's trailer is written when its encoder is dropped, which
-/// ignores write errors: give a writer that remembers them (as
-/// [`crate::io::AtomicFile`] does) or one that cannot fail.
+/// returns the contact sheet (after writing the GIF's trailer, reporting its write errors).
 pub struct AnimationWriter<G: Write, A: Write> {
-    gif: GifEncoder<G>,
+    gif: gif::Encoder<G>,
     apng: png::Writer<A>,
-    delay: image::Delay,
+    /// GIF frame delay, hundredths of a second.
+    delay: u16,
     size: (u32, u32),
     frames: usize,
     thumb: (u32, u32),
@@ -249,17 +292,10 @@ impl<G: Write + Send, A: Write + Send> AnimationWriter<G, A> {
         if frames == 0 || width == 0 || height == 0 {
             return Err(EncodeError::Frames("no frames".into()));
         }
-        if width > u32::from(u16::MAX) || height > u32::from(u16::MAX) {
-            return Err(EncodeError::Frames(format!(
-                "a GIF is at most {} x {} pixels, the frames are {width} x {height}",
-                u16::MAX,
-                u16::MAX
-            )));
-        }
+        let (gw, gh) = gif_size((width, height))?;
         let count = u32::try_from(frames)
             .map_err(|_| EncodeError::Frames(format!("{frames} frames: too many for an APNG")))?;
-        let mut g = GifEncoder::new_with_speed(gif, 10);
-        g.set_repeat(Repeat::Infinite)?;
+        let g = gif_encoder(gif, gw, gh)?;
         let mut enc = png::Encoder::new(apng, width, height);
         enc.set_color(png::ColorType::Rgba);
         enc.set_depth(png::BitDepth::Eight);
@@ -271,7 +307,7 @@ impl<G: Write + Send, A: Write + Send> AnimationWriter<G, A> {
         Ok(AnimationWriter {
             gif: g,
             apng,
-            delay: image::Delay::from_numer_denom_ms(delay_ms, 1),
+            delay: gif_delay(delay_ms),
             size: (width, height),
             frames,
             thumb: thumb_size(width, height, thumb),
@@ -284,10 +320,9 @@ impl<G: Write + Send, A: Write + Send> AnimationWriter<G, A> {
         self.push_batch(std::slice::from_ref(frame))
     }
 
-    /// Encodes the next frames, in order: their RGBA conversions and thumbnails in parallel,
-    /// the GIF frames and the APNG frames side by side.
+    /// Encodes the next frames, in order: their RGBA conversions, GIF frames and thumbnails
+    /// in parallel, the APNG frames beside them.
     pub fn push_batch(&mut self, frames: &[DynamicImage]) -> Result<(), EncodeError> {
-        use rayon::prelude::*;
         if self.thumbs.len() + frames.len() > self.frames {
             return Err(EncodeError::Frames(format!(
                 "more than the {} frames announced",
@@ -313,8 +348,10 @@ impl<G: Write + Send, A: Write + Send> AnimationWriter<G, A> {
         let (gif, apng) = (&mut self.gif, &mut self.apng);
         let (g, (a, thumbs)) = rayon::join(
             || -> Result<(), EncodeError> {
-                for f in &rgba {
-                    gif.encode_frame(Frame::from_parts(f.as_ref().clone(), 0, 0, delay))?;
+                let encoded: Vec<gif::Frame<'static>> =
+                    rgba.par_iter().map(|f| gif_frame(f, delay)).collect();
+                for f in &encoded {
+                    gif.write_lzw_pre_encoded_frame(f)?;
                 }
                 Ok(())
             },
@@ -348,7 +385,7 @@ impl<G: Write + Send, A: Write + Send> AnimationWriter<G, A> {
             )));
         }
         let AnimationWriter { gif, apng, thumb: (tw, th), thumbs, .. } = self;
-        drop(gif);
+        gif.into_inner()?;
         apng.finish()?;
         sheet_of(&thumbs, times, cols, tw, th)
     }
@@ -402,6 +439,26 @@ mod tests {
         assert!(g == gif_bytes(&rgba, 70).unwrap() && a == apng_bytes(&rgba, 70).unwrap());
     }
 
+    /// The parallel GIF frames are the `image` crate's sequential encoder's bytes.
+    #[test]
+    fn gif_is_the_image_crates_gif() {
+        use image::codecs::gif::{GifEncoder, Repeat};
+        for (n, w, h, delay) in [(5, 37, 23, 70), (3, 64, 9, 1_000_000), (1, 1, 1, 5)] {
+            let fr = frames(n, w, h);
+            let mut want = Vec::new();
+            {
+                let mut enc = GifEncoder::new_with_speed(&mut want, 10);
+                enc.set_repeat(Repeat::Infinite).unwrap();
+                let d = image::Delay::from_numer_denom_ms(delay, 1);
+                enc.encode_frames(
+                    fr.iter().map(|f| image::Frame::from_parts(f.to_rgba8(), 0, 0, d)),
+                )
+                .unwrap();
+            }
+            assert!(gif_bytes(&fr, delay).unwrap() == want, "{n} frames of {w} x {h}");
+        }
+    }
+
     #[test]
     fn the_announced_frame_count_and_size_are_enforced() {
         let fr = frames(3, 10, 8);
@@ -424,7 +481,7 @@ mod tests {
         // Large frames, few of them: the streaming phase is the larger one.
         let one = streaming_memory((1000, 1000), 10, 1, 160, 8);
         let four = streaming_memory((1000, 1000), 10, 4, 160, 8);
-        assert_eq!(four - one, 3 * 4_000_000, "each frame of a batch: its RGBA copy");
+        assert_eq!(four - one, 3 * 10_000_000, "each frame of a batch: RGBA copy, GIF frame");
         let more = streaming_memory((1000, 1000), 20, 1, 160, 8);
         assert_eq!(more - one, 10 * 160 * 160 * 4, "each further frame: a thumbnail");
         // Many small frames: the contact sheet at the end is the larger phase.

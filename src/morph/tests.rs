@@ -76,6 +76,29 @@ fn blends_are_exactly_c1_and_end_at_identity_and_fit() {
     }
 }
 
+/// The frames render with unreduced blends (no gcds): the same exact values and the same
+/// `f64` control points as the reduced [`Morph::phi_a_exact`] / [`Morph::phi_b_exact`].
+#[test]
+fn frame_maps_are_the_exact_blends_without_reduction() {
+    let (a, b) = (pattern(64, 48, 0.0), pattern(56, 44, 3.0));
+    let m = Morph::new(&a, &b, &landmarks(), &MorphOptions::default()).unwrap();
+    for (n, d) in [(1i64, 3i64), (7, 10), (-1, 2), (3, 2)] {
+        let s = Rat::new(Int::from(n), Int::from(d));
+        let (fa, fb) = m.frame_maps(&s).unwrap();
+        let (ea, eb) = (m.phi_a_exact(&s).unwrap(), m.phi_b_exact(&s).unwrap());
+        for (f, e) in [(&fa, &ea), (&fb, &eb)] {
+            assert_eq!(f.points(), e.points());
+            let (cf, ce) = (f.eval_cache(), e.eval_cache());
+            for k in 0..f.mesh().num_triangles() * cf.per_patch() {
+                let (x, y) = (cf.patch_point(k), ce.patch_point(k));
+                assert_eq!(x.map(f64::to_bits), y.map(f64::to_bits), "{n}/{d}: slot {k}");
+            }
+        }
+        // Unreduced somewhere: the gcds were really skipped.
+        assert!(fa.points().iter().flatten().any(|r| r.numer().gcd_int(r.denom()) != Int::from(1)));
+    }
+}
+
 #[test]
 fn exact_and_float_times_give_the_same_frame() {
     let (a, b) = (pattern(64, 48, 0.0), pattern(64, 48, 3.0));

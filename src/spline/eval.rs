@@ -146,6 +146,12 @@ impl EvalCache {
         self.pts[slot] = q;
     }
 
+    /// The control point in slot `slot` of the flattened patch array (`per_patch()` slots
+    /// per triangle, in file order).
+    pub fn patch_point(&self, slot: usize) -> [f64; 2] {
+        self.pts[slot]
+    }
+
     /// Replaces the control points of the patches (same layout).
     pub fn set_points(&mut self, patch_points: Vec<[f64; 2]>) {
         assert_eq!(patch_points.len(), self.pts.len());
@@ -213,30 +219,66 @@ impl EvalCache {
         }
         let n = self.mi.len();
         let q = &self.pts[t * n..(t + 1) * n];
-        let g = self.frames[t].gradients();
-        let mut worst = [0.0f64; 2];
-        for m in multi_indices(d - 2) {
-            let mut h = [[0.0f64; 3]; 2];
-            for k in 0..3 {
-                for l in 0..3 {
-                    let mut idx = m;
-                    idx[k] += 1;
-                    idx[l] += 1;
-                    let v = q[super::layout::local_index(d, idx[0], idx[1])];
-                    for r in 0..2 {
-                        h[r][0] += g[k][0] * g[l][0] * v[r];
-                        h[r][1] += g[k][1] * g[l][1] * v[r];
-                        h[r][2] += 0.5 * (g[k][0] * g[l][1] + g[k][1] * g[l][0]) * v[r];
-                    }
+        let worst = hessian_rho(d, self.frames[t].gradients(), q);
+        (d * (d - 1)) as f64 * worst[0].hypot(worst[1]) * (1.0 + 1e-9)
+    }
+
+    /// A bound `E` with `|D^2 (phi - f psi)(p)[u, u]| <= E |u|^2` for every `p` of the mesh
+    /// and every direction `u`, where `phi` is this spline and `psi` the spline of `other`
+    /// (the same mesh and degree); `f64::INFINITY` if `other` is on another mesh or degree.
+    ///
+    /// Per triangle, the bound of [`second_derivative_bound`](Self::second_derivative_bound)
+    /// applied to the control points `q_i - f o_i` of `phi - f psi` (the Hessian is linear in
+    /// the control points), plus their rounding: each computed difference is within
+    /// `2 eps (|f o_i| + |q_i - f o_i|)` of the exact one, and a control-point error `e`
+    /// moves every `H_m` by at most `G^2 |e|` per coordinate (`G = sum_k |g_k|`), which
+    /// also covers the rounding of the Hessian sums and of `rho` (each entry of `H_m` sums
+    /// nine products of size at most `G^2 max |q_i - f o_i|`; `64 eps` times that).
+    ///
+    /// With it, `|D^2 phi| <= |f| M_psi + E` wherever `M_psi` bounds `|D^2 psi|`: the plans
+    /// of a morph's frames, `(1 - s) id + s phi` with exact blends rounded to `f64`, reuse the
+    /// bounds of `phi` scaled by `s` ([`crate::warp::remap::CurvatureBounds`]); there `E` is
+    /// a few rounding errors.
+    pub fn second_derivative_excess_bound(&self, other: &EvalCache, f: f64) -> f64 {
+        let d = self.degree;
+        if d != other.degree
+            || self.pts.len() != other.pts.len()
+            || self.frames.len() != other.frames.len()
+        {
+            return f64::INFINITY;
+        }
+        if d < 2 {
+            return 0.0;
+        }
+        let n = self.mi.len();
+        let eps = f64::EPSILON;
+        let mut diff = vec![[0.0f64; 2]; n];
+        let mut out = 0.0f64;
+        for (t, (fa, fb)) in self.frames.iter().zip(&other.frames).enumerate() {
+            let g = fa.gradients();
+            if g != fb.gradients() || fa.o != fb.o {
+                return f64::INFINITY;
+            }
+            let (q, o) = (&self.pts[t * n..(t + 1) * n], &other.pts[t * n..(t + 1) * n]);
+            let (mut err, mut big) = (0.0f64, 0.0f64);
+            for ((slot, qi), oi) in diff.iter_mut().zip(q).zip(o) {
+                for r in 0..2 {
+                    let fo = f * oi[r];
+                    slot[r] = qi[r] - fo;
+                    err = err.max(2.0 * eps * (fo.abs() + slot[r].abs()));
+                    big = big.max(slot[r].abs());
                 }
             }
-            for r in 0..2 {
-                let [p, s, c] = h[r];
-                let rho = ((p + s) / 2.0).abs() + (((p - s) / 2.0).powi(2) + c * c).sqrt();
-                worst[r] = worst[r].max(rho);
+            let worst = hessian_rho(d, g, &diff);
+            let gsum: f64 = g.iter().map(|v| v[0].hypot(v[1])).sum();
+            let slack = std::f64::consts::SQRT_2 * gsum * gsum * (err + 64.0 * eps * big);
+            let e = (d * (d - 1)) as f64 * (worst[0].hypot(worst[1]) + slack) * (1.0 + 1e-9);
+            if !e.is_finite() {
+                return f64::INFINITY;
             }
+            out = out.max(e);
         }
-        (d * (d - 1)) as f64 * worst[0].hypot(worst[1]) * (1.0 + 1e-9)
+        out
     }
 
     /// The Hessian coefficients of triangle `t`: for each multi-index `m` of degree `d - 2`
@@ -454,4 +496,33 @@ impl EvalCache {
         }
         j
     }
+}
+
+/// Per output coordinate, `max_m rho(H_m)` for the Hessian coefficients
+/// `H_m = sum_{k,l} g_k g_l^T q_(m+e_k+e_l)` of a degree-`d` patch `q` (file order) with
+/// barycentric gradients `g` (see [`EvalCache::second_derivative_bound`]).
+fn hessian_rho(d: usize, g: [[f64; 2]; 3], q: &[[f64; 2]]) -> [f64; 2] {
+    let mut worst = [0.0f64; 2];
+    for m in multi_indices(d - 2) {
+        let mut h = [[0.0f64; 3]; 2];
+        for k in 0..3 {
+            for l in 0..3 {
+                let mut idx = m;
+                idx[k] += 1;
+                idx[l] += 1;
+                let v = q[super::layout::local_index(d, idx[0], idx[1])];
+                for r in 0..2 {
+                    h[r][0] += g[k][0] * g[l][0] * v[r];
+                    h[r][1] += g[k][1] * g[l][1] * v[r];
+                    h[r][2] += 0.5 * (g[k][0] * g[l][1] + g[k][1] * g[l][0]) * v[r];
+                }
+            }
+        }
+        for r in 0..2 {
+            let [p, s, c] = h[r];
+            let rho = ((p + s) / 2.0).abs() + (((p - s) / 2.0).powi(2) + c * c).sqrt();
+            worst[r] = worst[r].max(rho);
+        }
+    }
+    worst
 }

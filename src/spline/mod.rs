@@ -191,17 +191,20 @@ impl Spline {
     }
 
     fn refresh_cache(&mut self) {
-        let pts: Vec<[f64; 2]> = self
-            .layout
-            .patches()
-            .iter()
-            .flatten()
-            .map(|&p| [rat_to_f64(&self.points[p][0]), rat_to_f64(&self.points[p][1])])
-            .collect();
+        self.cache = self.xy_cache(&self.points);
+        self.refresh_z_cache();
+    }
+
+    /// The evaluation cache of `points` (nearest `f64` of each coordinate) on this mesh.
+    fn xy_cache(&self, points: &[Vec<Rat>]) -> EvalCache {
+        // Each control point converted once (a vertex's point is in every patch around it).
+        let per_point: Vec<[f64; 2]> =
+            points.iter().map(|q| [rat_to_f64(&q[0]), rat_to_f64(&q[1])]).collect();
+        let pts: Vec<[f64; 2]> =
+            self.layout.patches().iter().flatten().map(|&p| per_point[p]).collect();
         let tris: Vec<[[f64; 2]; 3]> =
             self.mesh.triangles().iter().map(|t| t.map(|v| self.mesh.vertex(v))).collect();
-        self.cache = EvalCache::new(self.layout.degree(), &tris, pts);
-        self.refresh_z_cache();
+        EvalCache::new(self.layout.degree(), &tris, pts)
     }
 
     fn refresh_z_cache(&mut self) {
@@ -319,6 +322,33 @@ impl Spline {
         self.points = points;
         self.refresh_cache();
         Ok(())
+    }
+
+    /// A spline on this mesh and degree with the control points `points`, C1 by construction
+    /// as for [`Spline::set_points_c1_by_construction`]; the same as cloning `self` and
+    /// setting them, without copying `self`'s control points first.
+    pub fn with_points_c1_by_construction(
+        &self,
+        points: Vec<Vec<Rat>>,
+    ) -> Result<Spline, SplineError> {
+        if points.len() != self.points.len() {
+            return Err(SplineError::PointCount {
+                expected: self.points.len(),
+                found: points.len(),
+            });
+        }
+        let cache = self.xy_cache(&points);
+        Ok(Spline {
+            mesh: self.mesh.clone(),
+            layout: self.layout.clone(),
+            quads: self.quads.clone(),
+            system: self.system.clone(),
+            points,
+            z: self.z.clone(),
+            cache,
+            z_cache: self.z_cache.clone(),
+            slots: self.slots.clone(),
+        })
     }
 
     /// Writes some control points without a C1 check (the editor uses this after ECLES has

@@ -421,3 +421,81 @@ fn uniform_second_derivative_bounds_hold_on_each_sub_triangle() {
     // The sub-triangle bounds never exceed the whole triangle's (same hull argument, finer).
     assert!(subs.iter().all(|(_, b)| *b <= whole * (1.0 + 1e-6) + 1e-12));
 }
+
+/// A perturbed spline on `strip()` (C1 does not matter for the bounds).
+fn perturbed(seed: u64, scale: i64) -> Spline {
+    let id = Spline::identity(strip(), 5).unwrap();
+    let mut state = seed;
+    let mut next = || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state % 2001) as i64 - 1000
+    };
+    let pts: Vec<Vec<Rat>> = id
+        .points()
+        .iter()
+        .map(|p| {
+            let d = [next(), next()].map(|v| rat_int(v * scale) / rat_int(1000));
+            vec![&p[0] + &d[0], &p[1] + &d[1]]
+        })
+        .collect();
+    Spline::from_points_unchecked(strip(), 5, pts, None).unwrap()
+}
+
+/// `(1 - f) id + f psi`, exactly.
+fn blend_with_identity(psi: &Spline, f: &Rat) -> Spline {
+    let id = Spline::identity(psi.mesh().clone(), psi.degree()).unwrap();
+    let one_minus = Rat::from_integer(1.into()) - f;
+    let pts = id
+        .points()
+        .iter()
+        .zip(psi.points())
+        .map(|(a, b)| (0..2).map(|k| &one_minus * &a[k] + f * &b[k]).collect())
+        .collect();
+    psi.with_points_c1_by_construction(pts).unwrap()
+}
+
+#[test]
+fn excess_bound_of_a_blend_with_the_identity_is_rounding_only() {
+    let psi = perturbed(11, 3);
+    let c = psi.eval_cache();
+    let m: f64 = (0..psi.mesh().num_triangles()).map(|t| c.second_derivative_bound(t)).sum();
+    assert!(m > 1e-3, "{m}");
+    for (n, d) in [(1i64, 2i64), (3, 10), (-1, 3), (7, 5)] {
+        let f = Rat::new(n.into(), d.into());
+        let s = blend_with_identity(&psi, &f);
+        let e = s.eval_cache().second_derivative_excess_bound(c, crate::exact::rat_to_f64(&f));
+        assert!(e < 1e-9 * m, "f = {n}/{d}: E = {e}");
+        // And `|f| M_psi + E` bounds the blend's own per-triangle bound.
+        for t in 0..s.mesh().num_triangles() {
+            let own = s.eval_cache().second_derivative_bound(t);
+            let scaled = (n as f64 / d as f64).abs() * c.second_derivative_bound(t) + e;
+            assert!(own <= scaled * (1.0 + 1e-9), "t={t}: {own} > {scaled}");
+        }
+    }
+}
+
+#[test]
+fn excess_bound_covers_any_difference_and_refuses_other_meshes() {
+    let (phi, psi) = (perturbed(5, 4), perturbed(99, 2));
+    let (cp, cs) = (phi.eval_cache(), psi.eval_cache());
+    for f in [0.0, 0.4, -1.3, 2.0] {
+        let e = cp.second_derivative_excess_bound(cs, f);
+        // The difference's own bound, from its control points.
+        let tris: Vec<[[f64; 2]; 3]> =
+            phi.mesh().triangles().iter().map(|t| t.map(|v| phi.mesh().vertex(v))).collect();
+        let n = cp.per_patch();
+        let pts: Vec<[f64; 2]> = (0..tris.len() * n)
+            .map(|k| {
+                let (q, o) = (cp.patch_point(k), cs.patch_point(k));
+                [q[0] - f * o[0], q[1] - f * o[1]]
+            })
+            .collect();
+        let diff = EvalCache::new(5, &tris, pts);
+        let worst = (0..tris.len()).map(|t| diff.second_derivative_bound(t)).fold(0.0, f64::max);
+        assert!(worst > 0.0 && worst <= e && e <= worst * 1.001 + 1e-9, "f={f}: {worst} vs {e}");
+    }
+    let other = Spline::identity(Mesh::grid(3, 3, 40.0, 30.0, MeshOptions::default()).unwrap(), 5);
+    assert_eq!(cp.second_derivative_excess_bound(other.unwrap().eval_cache(), 1.0), f64::INFINITY);
+}

@@ -1,13 +1,111 @@
 //! Geometry for the certified inverse: local bounds on `D^2 phi` over the reference domain,
 //! border tests, and small triangle helpers (see the parent module for the bound).
 
+use crate::mesh::Mesh;
+use crate::spline::eval::EvalCache;
 use crate::spline::Spline;
 use rayon::prelude::*;
 
 /// A box of the reference domain `(lo, hi)` and a bound on `|D^2 phi|` in it.
 pub(super) type BoxBound = ([f64; 2], [f64; 2], f64);
 
+/// The lattice of a plan over the mesh's bounding box: squares of side `cell`, the last row
+/// and column narrower so that the lattice ends exactly on the box.
+pub(super) struct Lattice {
+    lo: [f64; 2],
+    hi: [f64; 2],
+    pub(super) cell: f64,
+    nx: usize,
+    ny: usize,
+}
+
+impl Lattice {
+    pub(super) fn new(s: &Spline, cell: f64) -> Lattice {
+        let (lo, hi) = s.mesh().bbox();
+        let nx = ((hi[0] - lo[0]) / cell).ceil() as usize + 1;
+        let ny = ((hi[1] - lo[1]) / cell).ceil() as usize + 1;
+        Lattice { lo, hi, cell, nx, ny }
+    }
+
+    /// Lattice point `(i, j)`.
+    pub(super) fn at(&self, i: usize, j: usize) -> [f64; 2] {
+        let x = if i + 1 == self.nx { self.hi[0] } else { self.lo[0] + i as f64 * self.cell };
+        let y = if j + 1 == self.ny { self.hi[1] } else { self.lo[1] + j as f64 * self.cell };
+        [x, y]
+    }
+
+    /// The squares `i in ia..ib`, `j in ja..jb` (square (i, j) spans lattice points i, i+1
+    /// and j, j+1): all of them, or those meeting the window.
+    pub(super) fn span(
+        &self,
+        window: Option<([f64; 2], [f64; 2])>,
+    ) -> (usize, usize, usize, usize) {
+        let span = |lo_w: f64, hi_w: f64, o: f64, n: usize| {
+            let a = ((lo_w - o) / self.cell).floor() - 1.0;
+            let b = ((hi_w - o) / self.cell).floor() + 2.0;
+            let clamp = |v: f64| v.clamp(0.0, n.saturating_sub(1) as f64) as usize;
+            (clamp(a), clamp(b))
+        };
+        let ((ia, ib), (ja, jb)) = match window {
+            None => ((0, self.nx.saturating_sub(1)), (0, self.ny.saturating_sub(1))),
+            Some((wl, wh)) => {
+                (span(wl[0], wh[0], self.lo[0], self.nx), span(wl[1], wh[1], self.lo[1], self.ny))
+            }
+        };
+        (ia, ib, ja, jb)
+    }
+}
+
+/// About how many local curvature bounds a plan computes (see [`bucket_for`]).
+const CURVATURE_BOUNDS: f64 = 16_000.0;
+
+/// Curvature buckets: as small as 8 px where that costs at most about 16,000 local bounds
+/// over the mesh (a sub-triangle per bucket), never coarser than 32 px. Finer buckets give
+/// tighter local bounds on strongly bent maps, so larger pieces pass.
+pub(super) fn bucket_for(m: &Mesh) -> f64 {
+    let (blo, bhi) = m.bbox();
+    let area = ((bhi[0] - blo[0]) * (bhi[1] - blo[1])).max(0.0);
+    (2.0 * area / CURVATURE_BOUNDS).sqrt().clamp(8.0, 32.0)
+}
+
+/// The local bounds on `|D^2 phi|` a [`RemapPlan`](super::RemapPlan) computes for a spline
+/// `phi`, kept for the plans of other splines on its mesh
+/// ([`RemapPlan::new_scaled`](super::RemapPlan::new_scaled)): a morph computes them once per
+/// fitted map instead of once per frame, since a frame's map `(1 - s) id + s phi` has
+/// `D^2 = s D^2 phi`.
+#[derive(Clone, Debug)]
+pub struct CurvatureBounds {
+    grid: CurvatureGrid,
+    bucket: f64,
+    cache: EvalCache,
+}
+
+impl CurvatureBounds {
+    /// The bounds of `s` over its whole mesh.
+    pub fn new(s: &Spline) -> CurvatureBounds {
+        let bucket = bucket_for(s.mesh());
+        CurvatureBounds {
+            grid: CurvatureGrid::new(s, bucket, None),
+            bucket,
+            cache: s.eval_cache().clone(),
+        }
+    }
+
+    pub(super) fn grid(&self) -> &CurvatureGrid {
+        &self.grid
+    }
+
+    pub(super) fn bucket(&self) -> f64 {
+        self.bucket
+    }
+
+    pub(super) fn cache(&self) -> &EvalCache {
+        &self.cache
+    }
+}
+
 /// Local bounds on `D^2 phi` and border flags in a grid of buckets over the reference domain.
+#[derive(Clone, Debug)]
 pub(super) struct CurvatureGrid {
     lo: [f64; 2],
     cell: f64,

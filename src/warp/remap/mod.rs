@@ -62,11 +62,12 @@ mod geometry;
 mod raster;
 mod stats;
 
+pub use geometry::CurvatureBounds;
 pub use stats::RemapStats;
 
 use super::inverse::{InverseMap, InverseOptions};
 use crate::spline::Spline;
-use geometry::{affine_inverse_norm, bbox, signed_area, CurvatureGrid};
+use geometry::{affine_inverse_norm, bbox, bucket_for, signed_area, CurvatureGrid, Lattice};
 use rayon::prelude::*;
 
 /// Options of the fast preimage computation.
@@ -148,9 +149,6 @@ const MIN_SHRINK: f64 = 0.5;
 /// bound is below the tolerance with this slack, so the pieces usually pass on the first try
 /// despite the first-order slack and `K > |A^-1|` ([`MIN_SHRINK`]).
 const SPLIT_MARGIN: f64 = 1.1;
-
-/// About how many local curvature bounds a plan computes (see [`RemapPlan::new`]).
-const CURVATURE_BOUNDS: f64 = 16_000.0;
 
 /// The affine inverse of a piece, `p = c + m q`, as Newton's seed for the pixels around it
 /// (`tri`: a mesh triangle near the preimage, for locating the seed).
@@ -322,11 +320,24 @@ impl HalfShape {
 
 struct Refiner<'s> {
     s: &'s Spline,
-    curv: CurvatureGrid,
+    curv: &'s CurvatureGrid,
+    /// `M = scale * curv.bound + add` ([`CurvatureBounds`]; `1, 0` for `s`'s own grid).
+    scale: f64,
+    add: f64,
     tol: f64,
 }
 
 impl Refiner<'_> {
+    /// The bound on `|D^2 phi|` over the box.
+    fn m2(&self, lo: [f64; 2], hi: [f64; 2]) -> f64 {
+        let m = self.curv.bound(lo, hi);
+        if self.scale == 1.0 && self.add == 0.0 {
+            m
+        } else {
+            self.scale * m + self.add
+        }
+    }
+
     fn eval(&self, p: [f64; 2], hint: Option<usize>) -> Corner {
         let (t, b) = self.s.mesh().locate(p, hint)?;
         Some((self.s.eval_cache().value(t, b), t))
@@ -437,7 +448,7 @@ impl Refiner<'_> {
         let q = qt.map(|c| c.map(|c| c.0));
         let side = (p[1][0] - p[0][0]).max(p[2][1] - p[0][1]);
         let (lo, hi) = bbox(&p);
-        let m2 = self.curv.bound(lo, hi);
+        let m2 = self.m2(lo, hi);
         let smallest = side <= NEWTON_SIDE;
         let all = q.iter().all(Option::is_some);
         let none = q.iter().all(Option::is_none);
@@ -540,42 +551,59 @@ impl<'a> RemapPlan<'a> {
         opts: RemapOptions,
         window: Option<([f64; 2], [f64; 2])>,
     ) -> RemapPlan<'a> {
-        let cell = opts.lattice_cell();
-        let opts = RemapOptions { cell, band_rows: opts.band_rows.max(1), ..opts };
-        let map = InverseMap::new(s, opts.inverse);
-        // Curvature buckets: as small as 8 px where that costs at most about 16,000 local
-        // bounds over the mesh (a sub-triangle per bucket), never coarser than 32 px. Finer
-        // buckets give tighter local bounds on strongly bent maps, so larger pieces pass.
-        let (blo, bhi) = s.mesh().bbox();
-        let area = ((bhi[0] - blo[0]) * (bhi[1] - blo[1])).max(0.0);
-        let bucket = (2.0 * area / CURVATURE_BOUNDS).sqrt().clamp(8.0, 32.0);
-        // Lattice over the mesh's bounding box; squares of side `cell`, the last row and
-        // column narrower so that the lattice ends exactly on the box.
-        let (lo, hi) = s.mesh().bbox();
-        let nx = ((hi[0] - lo[0]) / cell).ceil() as usize + 1;
-        let ny = ((hi[1] - lo[1]) / cell).ceil() as usize + 1;
-        let at = |i: usize, j: usize| {
-            let x = if i + 1 == nx { hi[0] } else { lo[0] + i as f64 * cell };
-            let y = if j + 1 == ny { hi[1] } else { lo[1] + j as f64 * cell };
-            [x, y]
-        };
-        // The squares `i in ia..ib`, `j in ja..jb` (square (i, j) spans lattice points i, i+1
-        // and j, j+1): all of them, or those meeting the window.
-        let span = |lo_w: f64, hi_w: f64, o: f64, n: usize| {
-            let a = ((lo_w - o) / cell).floor() - 1.0;
-            let b = ((hi_w - o) / cell).floor() + 2.0;
-            let clamp = |v: f64| v.clamp(0.0, n.saturating_sub(1) as f64) as usize;
-            (clamp(a), clamp(b))
-        };
-        let ((ia, ib), (ja, jb)) = match window {
-            None => ((0, nx.saturating_sub(1)), (0, ny.saturating_sub(1))),
-            Some((wl, wh)) => (span(wl[0], wh[0], lo[0], nx), span(wl[1], wh[1], lo[1], ny)),
-        };
-        let (mx, my) = (ib + 1 - ia.min(ib), jb + 1 - ja.min(jb));
+        let lat = Lattice::new(s, opts.lattice_cell());
+        let (ia, ib, ja, jb) = lat.span(window);
         // Curvature bounds for the squares covered (all of the mesh without a window).
-        let covered = window.map(|_| (at(ia, ja), at(ib, jb)));
-        let curv = CurvatureGrid::new(s, bucket, covered);
-        let refiner = Refiner { s, curv, tol: opts.inverse.tolerance };
+        let covered = window.map(|_| (lat.at(ia, ja), lat.at(ib, jb)));
+        let curv = CurvatureGrid::new(s, bucket_for(s.mesh()), covered);
+        RemapPlan::with_grid(s, w, h, opts, window, &curv, 1.0, 0.0)
+    }
+
+    /// [`RemapPlan::new`] with the curvature bounds of `base` scaled by `factor`, plus the
+    /// bound `E` of [`EvalCache::second_derivative_excess_bound`] on `s - factor * base`
+    /// (`|D^2 s| <= |factor| M_base + E`), so the plan's error bound holds for any `s`.
+    /// Where `s - factor * base` is affine, as for a morph's frame `(1 - f) id + f base`
+    /// (exact blends, rounded to `f64`), `E` is a few rounding errors and the plan is a fresh
+    /// one's up to them, without recomputing the local bounds (the costliest step of a
+    /// plan). On another mesh, `s`'s own bounds are computed instead.
+    ///
+    /// [`EvalCache::second_derivative_excess_bound`]: crate::spline::eval::EvalCache::second_derivative_excess_bound
+    pub fn new_scaled(
+        s: &'a Spline,
+        w: u32,
+        h: u32,
+        opts: RemapOptions,
+        base: &CurvatureBounds,
+        factor: f64,
+    ) -> RemapPlan<'a> {
+        let add = s.eval_cache().second_derivative_excess_bound(base.cache(), factor);
+        let scale = factor.abs() * (1.0 + 4.0 * f64::EPSILON);
+        if !add.is_finite() || !scale.is_finite() || base.bucket() != bucket_for(s.mesh()) {
+            return RemapPlan::new(s, w, h, opts);
+        }
+        RemapPlan::with_grid(s, w, h, opts, None, base.grid(), scale, add)
+    }
+
+    /// The plan with the curvature bounds `scale * curv + add` (`curv` covers at least the
+    /// squares meeting `window`).
+    #[allow(clippy::too_many_arguments)]
+    fn with_grid(
+        s: &'a Spline,
+        w: u32,
+        h: u32,
+        opts: RemapOptions,
+        window: Option<([f64; 2], [f64; 2])>,
+        curv: &CurvatureGrid,
+        scale: f64,
+        add: f64,
+    ) -> RemapPlan<'a> {
+        let lat = Lattice::new(s, opts.lattice_cell());
+        let opts = RemapOptions { cell: lat.cell, band_rows: opts.band_rows.max(1), ..opts };
+        let map = InverseMap::new(s, opts.inverse);
+        let (ia, ib, ja, jb) = lat.span(window);
+        let (mx, my) = (ib + 1 - ia.min(ib), jb + 1 - ja.min(jb));
+        let at = |i, j| lat.at(i, j);
+        let refiner = Refiner { s, curv, scale, add, tol: opts.inverse.tolerance };
         let pts: Vec<[f64; 2]> = (ja..=jb).flat_map(|j| (ia..=ib).map(move |i| at(i, j))).collect();
         // Each corner located without a hint, so that its value (which triangle evaluates a
         // point on an edge) does not depend on which squares the plan covers.

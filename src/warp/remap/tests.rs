@@ -32,9 +32,14 @@ fn fill_all(plan: &RemapPlan<'_>) -> (Vec<[f64; 2]>, Vec<bool>, RemapStats) {
 /// either, unless their centre is within `2 tol` of the deformed border. Returns the number of
 /// pixels checked.
 fn check_bound(s: &Spline, w: u32, h: u32, step: usize) -> (RemapStats, usize) {
+    check_plan(s, &RemapPlan::new(s, w, h, RemapOptions::default()), step)
+}
+
+/// [`check_bound`] for a given plan of `s`.
+fn check_plan(s: &Spline, plan: &RemapPlan<'_>, step: usize) -> (RemapStats, usize) {
     let tol = 0.01;
-    let plan = RemapPlan::new(s, w, h, RemapOptions::default());
-    let (pos, folds, st) = fill_all(&plan);
+    let w = plan.size().0;
+    let (pos, folds, st) = fill_all(plan);
     assert!(st.max_error_bound <= tol, "{st:?}");
     let map = InverseMap::new(s, InverseOptions { tolerance: 1e-6, ..Default::default() });
     let mut checked = 0;
@@ -152,4 +157,65 @@ fn reused_band_buffers_give_the_same_preimages_as_fresh_ones() {
     for (k, (a, b)) in pos.iter().zip(&fresh).enumerate() {
         assert!(a == b || (a[0].is_nan() && b[0].is_nan()), "pixel {k}: {a:?} vs {b:?}");
     }
+}
+
+/// `(1 - f) id + f psi`, exactly (a morph frame's map).
+fn blend_with_identity(psi: &Spline, f: &crate::exact::Rat) -> Spline {
+    let id = Spline::identity(psi.mesh().clone(), psi.degree()).unwrap();
+    let one_minus = crate::exact::rat_int(1) - f;
+    let pts = id
+        .points()
+        .iter()
+        .zip(psi.points())
+        .map(|(a, b)| (0..2).map(|k| &one_minus * &a[k] + f * &b[k]).collect())
+        .collect();
+    psi.with_points_c1_by_construction(pts).unwrap()
+}
+
+/// Issue 17: a morph frame's plan reuses the fitted map's curvature bounds, scaled by the
+/// shape weight. The plan still meets the bound pixel by pixel (against Newton), and is as
+/// tight as a fresh one: the same pieces up to the rounding margin, so (almost) the same
+/// pixels interpolated.
+#[test]
+fn scaled_curvature_bounds_of_a_blend_meet_the_bound_and_are_tight() {
+    let psi = load("bent");
+    let base = CurvatureBounds::new(&psi);
+    let o = RemapOptions::default();
+    for (n, d) in [(1i64, 2i64), (9, 10), (1, 5)] {
+        let f = crate::exact::Rat::new(n.into(), d.into());
+        let s = blend_with_identity(&psi, &f);
+        let plan = RemapPlan::new_scaled(&s, 1024, 1024, o, &base, n as f64 / d as f64);
+        let (st, checked) = check_plan(&s, &plan, 97);
+        assert!(checked > 10_000 && st.folded == 0, "{n}/{d}: {checked} {st:?}");
+        let (_, _, fst) = fill_all(&RemapPlan::new(&s, 1024, 1024, o));
+        let slack = st.pixels / 1000;
+        assert!(st.interpolated + slack >= fst.interpolated, "{n}/{d}: {st:?} vs {fst:?}");
+        assert!(st.newton_solves <= fst.newton_solves + slack, "{n}/{d}: {st:?} vs {fst:?}");
+    }
+}
+
+/// A spline that is not a multiple of the base plus an affine map gets a large excess
+/// bound: the plan is coarser but still certified.
+#[test]
+fn scaled_curvature_bounds_stay_certified_for_an_unrelated_map() {
+    let psi = load("folded");
+    let base = CurvatureBounds::new(&psi);
+    let plan = RemapPlan::new_scaled(&psi, 150, 225, RemapOptions::default(), &base, 0.0);
+    let (st, checked) = check_plan(&psi, &plan, 1);
+    assert!(st.folded > 0 && checked > 10_000, "{st:?} {checked}");
+}
+
+/// On another mesh the base's bounds do not apply: the plan is a fresh one.
+#[test]
+fn scaled_curvature_bounds_of_another_mesh_give_a_fresh_plan() {
+    let base = CurvatureBounds::new(&load("bent"));
+    let s = load("folded");
+    let plan = RemapPlan::new_scaled(&s, 150, 225, RemapOptions::default(), &base, 0.5);
+    let fresh = RemapPlan::new(&s, 150, 225, RemapOptions::default());
+    let (a, b) = (fill_all(&plan), fill_all(&fresh));
+    assert_eq!(
+        a.0.iter().map(|p| p.map(f64::to_bits)).collect::<Vec<_>>(),
+        b.0.iter().map(|p| p.map(f64::to_bits)).collect::<Vec<_>>()
+    );
+    assert_eq!(a.1, b.1);
 }
