@@ -50,6 +50,7 @@ pub mod align;
 mod blend;
 pub mod fits;
 mod job;
+mod lzw;
 pub mod output;
 mod preview;
 #[cfg(test)]

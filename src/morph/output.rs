@@ -12,9 +12,9 @@
 //!
 //! The animations are 8-bit RGBA (gray and 16-bit frames are converted); the GIF palette is
 //! quantized per frame (NeuQuant, speed 10, as the `image` crate's GIF encoder does), and
-//! the frames are quantized and LZW-compressed in parallel ([`gif_frame`]), then written in
-//! order: the same bytes as `image`'s sequential encoder
-//! (`tests::gif_is_the_image_crates_gif`). The APNG is told the frame
+//! the frames are quantized and LZW-compressed ([`super::lzw`]) in parallel, then written
+//! in order: the same frames as `image`'s sequential encoder, in smaller or equal LZW streams
+//! (`tests::gif_decodes_to_the_image_crates_gif`). The APNG is told the frame
 //! count before the first frame (its `acTL` chunk comes first), so a streaming writer is made
 //! for a known number of frames.
 
@@ -132,17 +132,119 @@ fn gif_delay(delay_ms: u32) -> u16 {
     (delay_ms / 10).try_into().unwrap_or(u16::MAX)
 }
 
-/// One GIF frame: palette by NeuQuant at speed 10, restored to background after display,
-/// LZW-compressed (for [`gif::Encoder::write_lzw_pre_encoded_frame`]); independent of the
-/// other frames, so frames are made in parallel.
+/// One GIF frame: palette by NeuQuant at speed 10 (exact for at most 256 colours), restored
+/// to background after display, LZW-compressed ([`super::lzw`], for
+/// [`gif::Encoder::write_lzw_pre_encoded_frame`]); independent of the other frames, so
+/// frames are made in parallel.
 fn gif_frame(f: &RgbaImage, delay: u16) -> gif::Frame<'static> {
     let (w, h) = (f.width() as u16, f.height() as u16);
     let mut px = f.as_raw().clone();
-    let mut frame = gif::Frame::from_rgba_speed(w, h, &mut px, 10);
+    let mut frame = exact_palette_frame(w, h, &mut px)
+        .unwrap_or_else(|| gif::Frame::from_rgba_speed(w, h, &mut px, 10));
     frame.delay = delay;
     frame.dispose = gif::DisposalMethod::Background;
-    frame.make_lzw_pre_encoded();
+    frame.buffer = Cow::Owned(super::lzw::gif_lzw(&frame.buffer));
     frame
+}
+
+/// [`gif::Frame::from_rgba_speed`] for a frame of at most 256 colours (a grey image, say),
+/// the same frame from hash tables instead of its ordered maps (`None` for more colours:
+/// NeuQuant then). As there: every alpha but 0 becomes 255, every transparent pixel takes
+/// the first transparent pixel's value, and the palette is the colours in `(r, g, b, a)`
+/// order (here `u32` keys `r << 24 | g << 16 | b << 8 | a`, which sort the same way).
+fn exact_palette_frame(w: u16, h: u16, px: &mut [u8]) -> Option<gif::Frame<'static>> {
+    let mut transparent: Option<[u8; 4]> = None;
+    for p in px.chunks_exact_mut(4) {
+        if p[3] != 0 {
+            p[3] = 0xFF;
+        } else if let Some(t) = transparent {
+            p.copy_from_slice(&t);
+        } else {
+            transparent = Some([p[0], p[1], p[2], p[3]]);
+        }
+    }
+    let key = |p: &[u8]| u32::from_be_bytes([p[0], p[1], p[2], p[3]]);
+    let mut table = ColorTable::new();
+    for p in px.chunks_exact(4) {
+        if !table.insert(key(p)) {
+            return None;
+        }
+    }
+    let mut colors = table.keys();
+    colors.sort_unstable();
+    for (i, &c) in colors.iter().enumerate() {
+        table.set_index(c, i as u8);
+    }
+    let palette = colors.iter().flat_map(|c| [(c >> 24) as u8, (c >> 16) as u8, (c >> 8) as u8]);
+    let index = |p: &[u8]| table.index(key(p));
+    Some(gif::Frame {
+        width: w,
+        height: h,
+        buffer: Cow::Owned(px.chunks_exact(4).map(index).collect()),
+        palette: Some(palette.collect()),
+        transparent: transparent.map(|t| index(&t)),
+        ..gif::Frame::default()
+    })
+}
+
+/// An open-addressing set of at most 256 colours, with a palette index per colour.
+struct ColorTable {
+    /// `(colour + 1, index)`; 0 marks an empty slot (a colour may be 0).
+    slots: Box<[(u64, u8); ColorTable::SIZE]>,
+    len: usize,
+}
+
+impl ColorTable {
+    const SIZE: usize = 1024;
+
+    fn new() -> ColorTable {
+        ColorTable { slots: Box::new([(0, 0); ColorTable::SIZE]), len: 0 }
+    }
+
+    /// The slot of `c`: where it is, or the empty slot where it would go.
+    #[inline]
+    fn slot(&self, c: u32) -> usize {
+        let mut i = (c.wrapping_mul(0x9E37_79B9) >> 22) as usize;
+        let k = u64::from(c) + 1;
+        while self.slots[i].0 != 0 && self.slots[i].0 != k {
+            i = (i + 1) % ColorTable::SIZE;
+        }
+        i
+    }
+
+    /// Adds `c`; false if that would make more than 256 colours.
+    #[inline]
+    fn insert(&mut self, c: u32) -> bool {
+        let i = self.slot(c);
+        if self.slots[i].0 == 0 {
+            if self.len == 256 {
+                return false;
+            }
+            self.slots[i].0 = u64::from(c) + 1;
+            self.len += 1;
+        }
+        true
+    }
+
+    fn keys(&self) -> Vec<u32> {
+        self.slots.iter().filter(|s| s.0 != 0).map(|s| (s.0 - 1) as u32).collect()
+    }
+
+    fn set_index(&mut self, c: u32, index: u8) {
+        let i = self.slot(c);
+        self.slots[i].1 = index;
+    }
+
+    /// The index of a colour in the table (0 for one not in it, as `gif` does).
+    #[inline]
+    fn index(&self, c: u32) -> u8 {
+        let i = self.slot(c);
+        if self.slots[i].0 == 0 {
+            0
+        } else {
+            self.slots[i].1
+        }
+    }
 }
 
 /// An endlessly looping animated PNG (8-bit RGBA), `delay_ms` per frame, fast compression.
@@ -439,12 +541,67 @@ mod tests {
         assert!(g == gif_bytes(&rgba, 70).unwrap() && a == apng_bytes(&rgba, 70).unwrap());
     }
 
-    /// The parallel GIF frames are the `image` crate's sequential encoder's bytes.
+    /// Every frame of a GIF as the decoder gives it: size, palette, indices, transparent
+    /// index, delay, disposal; and the loop count.
+    fn gif_contents(bytes: &[u8]) -> (Vec<String>, gif::Repeat) {
+        let mut o = gif::DecodeOptions::new();
+        o.set_color_output(gif::ColorOutput::Indexed);
+        let mut d = o.read_info(bytes).unwrap();
+        let mut out = Vec::new();
+        while let Some(f) = d.read_next_frame().unwrap() {
+            out.push(format!(
+                "{}x{} {:?} {:?} {:?} {} {:?}",
+                f.width, f.height, f.palette, f.buffer, f.transparent, f.delay, f.dispose
+            ));
+        }
+        (out, d.repeat())
+    }
+
+    /// The parallel GIF frames decode to exactly what the `image` crate's sequential
+    /// encoder's do (palettes, indices, timing, looping): only the LZW streams differ
+    /// ([`super::super::lzw`]).
     #[test]
-    fn gif_is_the_image_crates_gif() {
+    fn gif_decodes_to_the_image_crates_gif() {
         use image::codecs::gif::{GifEncoder, Repeat};
-        for (n, w, h, delay) in [(5, 37, 23, 70), (3, 64, 9, 1_000_000), (1, 1, 1, 5)] {
-            let fr = frames(n, w, h);
+        // Grey frames (at most 256 colours: the exact palette) and RGBA frames with
+        // transparent pixels, besides the colourful ones (NeuQuant).
+        let grey: Vec<DynamicImage> = frames(4, 40, 30).iter().map(|f| f.grayscale()).collect();
+        let holes: Vec<DynamicImage> = frames(3, 33, 17)
+            .iter()
+            .map(|f| {
+                let mut x = f.to_rgba8();
+                for (k, p) in x.pixels_mut().enumerate() {
+                    p.0[3] = [0, 255, 3, 0][k % 4];
+                }
+                DynamicImage::ImageRgba8(x)
+            })
+            .collect();
+        let few: Vec<DynamicImage> = holes
+            .iter()
+            .map(|f| {
+                let mut x = f.to_rgba8();
+                for p in x.pixels_mut() {
+                    p.0 = [p.0[0] & 0xC0, p.0[1] & 0x80, 0, p.0[3]];
+                }
+                DynamicImage::ImageRgba8(x)
+            })
+            .collect();
+        let cases = [
+            (frames(5, 37, 23), 70),
+            (frames(3, 64, 9), 1_000_000),
+            (frames(1, 1, 1), 5),
+            (grey, 40),
+            (holes, 40),
+            (few, 40),
+        ];
+        let exact = |f: &DynamicImage| {
+            let (w, h) = (f.width() as u16, f.height() as u16);
+            exact_palette_frame(w, h, &mut f.to_rgba8().into_raw()).is_some()
+        };
+        assert!(exact(&cases[3].0[0]) && exact(&cases[5].0[0]));
+        assert!(!exact(&cases[0].0[0]) && !exact(&cases[4].0[0]));
+        for (fr, delay) in cases {
+            let (n, w, h) = (fr.len(), fr[0].width(), fr[0].height());
             let mut want = Vec::new();
             {
                 let mut enc = GifEncoder::new_with_speed(&mut want, 10);
@@ -455,7 +612,9 @@ mod tests {
                 )
                 .unwrap();
             }
-            assert!(gif_bytes(&fr, delay).unwrap() == want, "{n} frames of {w} x {h}");
+            let got = gif_contents(&gif_bytes(&fr, delay).unwrap());
+            assert!(got == gif_contents(&want), "{n} frames of {w} x {h}");
+            assert_eq!(got.0.len(), n);
         }
     }
 
