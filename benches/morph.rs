@@ -6,7 +6,8 @@
 //!   (target: under 1 s).
 //!
 //! Phases: `fits` (alignment and both certified fits), `blend` (one frame's two exact
-//! control-point blends), `plan` (one frame's two inverse-map plans), `frame` (one whole
+//! control-point blends, reduced), `plan` (two fresh inverse-map plans), `plan_scaled` (the
+//! same from the fitted maps' curvature bounds, scaled: what a frame does), `frame` (one whole
 //! frame: blends, plans, resampling, dissolve), `check` (one frame's two certificates),
 //! `frames` (all frames), `png`, `gif`, `apng`, `sheet` (encodings of all frames), and `whole`
 //! (everything the command does except reading and writing files).
@@ -18,7 +19,7 @@ use trimorph::fit::landmarks::Landmark;
 use trimorph::io::landmarks::read_landmarks;
 use trimorph::morph::output::{apng_bytes, contact_sheet, gif_bytes, png_bytes};
 use trimorph::morph::{frame_times, frame_times_exact, Morph, MorphOptions};
-use trimorph::warp::remap::RemapPlan;
+use trimorph::warp::remap::{CurvatureBounds, RemapPlan};
 
 fn root() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -80,6 +81,15 @@ fn group(
         bn.iter(|| {
             let ro = opts.remap;
             (RemapPlan::new(&sa, w, h, ro), RemapPlan::new(&sb, w, h, ro))
+        })
+    });
+    // What a frame does: the fitted maps' curvature bounds, computed once per morph, scaled.
+    let (ca, cb) = (CurvatureBounds::new(m.phi_ab()), CurvatureBounds::new(m.phi_ba()));
+    g.bench_function(format!("{tag}_plan_scaled"), |bn| {
+        bn.iter(|| {
+            let ro = opts.remap;
+            let pa = RemapPlan::new_scaled(&sa, w, h, ro, &ca, 0.5);
+            (pa, RemapPlan::new_scaled(&sb, w, h, ro, &cb, 0.5))
         })
     });
     g.bench_function(format!("{tag}_frame"), |bn| bn.iter(|| m.frame_exact(&half).unwrap()));

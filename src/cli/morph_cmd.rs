@@ -4,6 +4,7 @@
 
 use super::common::progress_bar;
 use crate::exact::matrix::rat_to_f64;
+use crate::exact::Rat;
 use crate::io::folder::Staged;
 use crate::io::landmarks::read_landmarks;
 use crate::io::raster::read_stack;
@@ -225,7 +226,8 @@ pub fn run(a: MorphArgs<'_>) -> Result<()> {
     };
     let cols = a.frames.min(8);
     let need = |batch: usize| {
-        let frames = crate::memory::bytes_of(batch as u64, px.saturating_mul(2 * bpp));
+        // Two batches: one computed while the other is written.
+        let frames = crate::memory::bytes_of(2 * batch as u64, px.saturating_mul(2 * bpp));
         frames.saturating_add(streaming_memory((fw, fh), a.frames, batch, THUMB, cols))
     };
     let mut batch = (rayon::current_num_threads() * BATCH_PER_THREAD).clamp(1, a.frames);
@@ -287,8 +289,10 @@ pub fn run(a: MorphArgs<'_>) -> Result<()> {
     };
     let bar = progress_bar(a.frames as u64, !a.quiet, "morph");
     let mut uncovered = 0;
-    for (chunk, ts) in exact_times.chunks(batch).enumerate() {
-        let frames: Vec<DynamicImage> = match &preview {
+    // One batch of frames is computed while the one before is written (PNGs) and encoded
+    // (GIF, APNG): two batches are alive at a time (`need` counts them).
+    let compute = |ts: &[Rat]| -> Result<(Vec<DynamicImage>, usize, usize)> {
+        match &preview {
             None => {
                 let out: Vec<(DynamicImage, FrameStats)> = ts
                     .par_iter()
@@ -298,25 +302,26 @@ pub fn run(a: MorphArgs<'_>) -> Result<()> {
                         f
                     })
                     .collect::<Result<_, _>>()?;
-                for (_, st) in &out {
-                    uncovered += st.uncovered;
-                    newton_solves += st.newton_solves;
-                }
-                out.into_iter().map(|(f, _)| f).collect()
+                let unc = out.iter().map(|(_, st)| st.uncovered).sum();
+                let newton = out.iter().map(|(_, st)| st.newton_solves).sum();
+                Ok((out.into_iter().map(|(f, _)| f).collect(), unc, newton))
             }
-            Some((pv, bg)) => ts
-                .par_iter()
-                .map(|t| {
-                    let pm = morph.preview_frame_exact(pv, t, [*bg, *bg, *bg, 255])?;
-                    bar.inc(1);
-                    let img = image::RgbaImage::from_raw(pm.width(), pm.height(), pm.take())
-                        .expect("sizes match");
-                    Ok(DynamicImage::ImageRgba8(img))
-                })
-                .collect::<Result<_>>()?,
-        };
-        ph.mark("frames");
-        let first = chunk * batch;
+            Some((pv, bg)) => {
+                let frames = ts
+                    .par_iter()
+                    .map(|t| {
+                        let pm = morph.preview_frame_exact(pv, t, [*bg, *bg, *bg, 255])?;
+                        bar.inc(1);
+                        let img = image::RgbaImage::from_raw(pm.width(), pm.height(), pm.take())
+                            .expect("sizes match");
+                        Ok(DynamicImage::ImageRgba8(img))
+                    })
+                    .collect::<Result<_>>()?;
+                Ok((frames, 0, 0))
+            }
+        }
+    };
+    let write = |sink: &mut AnimationWriter<_, _>, first: usize, frames: &[DynamicImage]| {
         let (pngs, anims) = rayon::join(
             || {
                 frames.par_iter().enumerate().try_for_each(|(k, f)| -> Result<()> {
@@ -325,11 +330,31 @@ pub fn run(a: MorphArgs<'_>) -> Result<()> {
                         .with_context(|| format!("cannot write {}", p.display()))
                 })
             },
-            || sink.push_batch(&frames),
+            || sink.push_batch(frames),
         );
         pngs?;
-        anims?;
-        ph.mark("encode");
+        anims.map_err(anyhow::Error::from)
+    };
+    let chunks: Vec<&[Rat]> = exact_times.chunks(batch).collect();
+    let mut done: Option<Vec<DynamicImage>> = None;
+    for k in 0..=chunks.len() {
+        let (next, written) = rayon::join(
+            || chunks.get(k).map(|ts| compute(ts)).transpose(),
+            || match &done {
+                Some(frames) => write(&mut sink, (k - 1) * batch, frames),
+                None => Ok(()),
+            },
+        );
+        written?;
+        done = match next? {
+            Some((frames, unc, newton)) => {
+                uncovered += unc;
+                newton_solves += newton;
+                Some(frames)
+            }
+            None => None,
+        };
+        ph.mark("frames and encoding");
     }
     bar.finish_and_clear();
     if uncovered > 0 && !a.quiet {
@@ -373,8 +398,12 @@ pub fn run(a: MorphArgs<'_>) -> Result<()> {
         write_atomic(&p, deformation::to_string(s, None).as_bytes())
             .with_context(|| format!("cannot write {}", p.display()))
     };
-    write_def("phi_ab.json", &morph.phi_ab_raw()?)?;
-    write_def("phi_ba.json", morph.phi_ba())?;
+    // Both at once: each is a few thousand exact rationals to print.
+    let raw = morph.phi_ab_raw()?;
+    let (ab, ba) =
+        rayon::join(|| write_def("phi_ab.json", &raw), || write_def("phi_ba.json", morph.phi_ba()));
+    ab?;
+    ba?;
     ph.mark("deformations");
     let pm = sink.finish(&times, cols)?;
     gif_file.commit().with_context(|| format!("cannot write {}", gif.display()))?;
