@@ -305,25 +305,65 @@ fn real_pair_prints_the_similarity_and_writes_deformations_that_read_back() {
         out2.to_str().unwrap(),
     ]);
     common::ok(&o);
-    assert!(
-        String::from_utf8_lossy(&o.stderr).contains("B aligned to A by the similarity: scale 0.5")
-    );
-    let (g0, g2) = (
-        image::open(out2.join("frame_000.png")).unwrap(),
-        image::open(out2.join("frame_002.png")).unwrap(),
-    );
-    let (f0, f2) = (
-        image::open(out.join("frame_000.png")).unwrap(),
-        image::open(out.join("frame_002.png")).unwrap(),
-    );
+    let err2 = String::from_utf8_lossy(&o.stderr);
+    assert!(err2.contains("similarity read from") && err2.contains("morph_similarity"), "{err2}");
+    // phi_ab.json keeps the similarity exactly: the same morph, the same files.
+    let line = |e: &str| e.lines().find(|l| l.starts_with("B aligned")).unwrap().to_string();
+    assert_eq!(line(&err2), line(&err));
+    for k in 0..3 {
+        let n = format!("frame_{k:03}.png");
+        assert!(
+            std::fs::read(out.join(&n)).unwrap() == std::fs::read(out2.join(&n)).unwrap(),
+            "{n}"
+        );
+    }
+
+    // Without the key (a deformation from elsewhere), the similarity is re-estimated from
+    // phi_ab's samples: close to, not equal to, the landmarks' one.
+    let mut doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&pa).unwrap()).unwrap();
+    doc.as_object_mut().unwrap().remove("morph_similarity").unwrap();
+    let plain = dir.path().join("plain.json");
+    std::fs::write(&plain, doc.to_string()).unwrap();
+    let out3 = dir.path().join("out3");
+    let run3 = |phi: &Path, to: &Path| {
+        trimorph(&[
+            "morph",
+            &a,
+            &b,
+            "--phi-ab",
+            phi.to_str().unwrap(),
+            "--phi-ba",
+            pb.to_str().unwrap(),
+            "--frames",
+            "3",
+            "-o",
+            to.to_str().unwrap(),
+        ])
+    };
+    let o = run3(&plain, &out3);
+    common::ok(&o);
+    let err3 = String::from_utf8_lossy(&o.stderr);
+    assert!(err3.contains("B aligned to A by the similarity: scale 0.5"), "{err3}");
+    assert!(!err3.contains("similarity read from"), "{err3}");
     let diff = |x: &DynamicImage, y: &DynamicImage| {
         let (x, y) = (x.to_rgb8(), y.to_rgb8());
         x.as_raw().iter().zip(y.as_raw()).filter(|(p, q)| p.abs_diff(**q) > 2).count()
     };
-    assert_eq!(diff(&g0, &f0), 0, "frame 0 is A in both runs");
-    // The last frames differ: with --phi-ab the similarity is re-estimated from phi_ab's
-    // samples (the landmarks are not known), not the landmarks' one.
-    assert!(diff(&g2, &f2) > 0);
+    let open = |d: &Path, k: usize| image::open(d.join(format!("frame_{k:03}.png"))).unwrap();
+    assert_eq!(diff(&open(&out3, 0), &open(&out, 0)), 0, "frame 0 is A in both runs");
+    assert!(diff(&open(&out3, 2), &open(&out, 2)) > 0);
+
+    // A malformed stored similarity is refused, naming the file and the key.
+    doc["morph_similarity"] = serde_json::json!({"a": "1/0", "b": "0", "tx": "0", "ty": "0"});
+    std::fs::write(&plain, doc.to_string()).unwrap();
+    let o = run3(&plain, &dir.path().join("out4"));
+    assert_eq!(o.status.code(), Some(1));
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        e.contains("plain.json") && e.contains("morph_similarity") && e.contains("\"a\""),
+        "{e}"
+    );
 }
 
 #[test]

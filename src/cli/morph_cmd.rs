@@ -9,6 +9,7 @@ use crate::io::folder::Staged;
 use crate::io::landmarks::read_landmarks;
 use crate::io::raster::read_stack;
 use crate::io::{deformation, read_text, temp_name, write_atomic, AtomicFile};
+use crate::morph::align::{Similarity, SIMILARITY_KEY};
 use crate::morph::output::{
     frame_name, is_output_name, png_bytes, streaming_memory, AnimationWriter,
 };
@@ -182,9 +183,16 @@ pub fn run(a: MorphArgs<'_>) -> Result<()> {
             m
         }
         (None, Some(p)) => {
-            let phi_ab = load(p)?;
+            let text = read_text(p)?;
+            let (phi_ab, _) = deformation::from_str(&text)
+                .with_context(|| format!("cannot read deformation {}", p.display()))?;
+            let stored = if a.align { stored_similarity(&text, p)? } else { None };
             let phi_ba = a.phi_ba.map(load).transpose()?;
-            let m = Morph::from_deformations(&img_a, &img_b, phi_ab, phi_ba, &opts)?;
+            let given = stored.is_some();
+            let m = Morph::from_deformations_with(&img_a, &img_b, phi_ab, phi_ba, stored, &opts)?;
+            if given && !a.quiet {
+                eprintln!("similarity read from {} ({SIMILARITY_KEY})", p.display());
+            }
             let cov = m.coverage();
             if cov < 1.0 && !a.quiet {
                 eprintln!(
@@ -393,15 +401,23 @@ pub fn run(a: MorphArgs<'_>) -> Result<()> {
         }
         ph.mark("checks");
     }
-    let write_def = |name: &str, s: &Spline| -> Result<()> {
+    let write_def = |name: &str, s: &Spline, sim: Option<&Similarity>| -> Result<()> {
         let p = stage.path(name);
-        write_atomic(&p, deformation::to_string(s, None).as_bytes())
+        let mut doc = deformation::to_json_with(s, None, &[]);
+        if let (Some(sim), Some(obj)) = (sim, doc.as_object_mut()) {
+            obj.insert(SIMILARITY_KEY.into(), sim.to_json());
+        }
+        write_atomic(&p, crate::io::json_rows(&doc).as_bytes())
             .with_context(|| format!("cannot write {}", p.display()))
     };
-    // Both at once: each is a few thousand exact rationals to print.
+    // Both at once: each is a few thousand exact rationals to print. `phi_ab.json` keeps the
+    // similarity, so that `--phi-ab` gives this very morph back.
     let raw = morph.phi_ab_raw()?;
-    let (ab, ba) =
-        rayon::join(|| write_def("phi_ab.json", &raw), || write_def("phi_ba.json", morph.phi_ba()));
+    let sim = morph.similarity();
+    let (ab, ba) = rayon::join(
+        || write_def("phi_ab.json", &raw, Some(sim)),
+        || write_def("phi_ba.json", morph.phi_ba(), None),
+    );
     ab?;
     ba?;
     ph.mark("deformations");
@@ -461,4 +477,14 @@ pub fn run(a: MorphArgs<'_>) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// The similarity stored in a deformation file's [`SIMILARITY_KEY`], if it has one.
+fn stored_similarity(text: &str, path: &Path) -> Result<Option<Similarity>> {
+    let doc: serde_json::Value = serde_json::from_str(text)
+        .with_context(|| format!("cannot read deformation {}", path.display()))?;
+    doc.get(SIMILARITY_KEY)
+        .map(Similarity::from_json)
+        .transpose()
+        .with_context(|| format!("{}: key {SIMILARITY_KEY}", path.display()))
 }

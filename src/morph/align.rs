@@ -24,7 +24,7 @@
 //! spline is exactly C1 whenever the spline is, and [`Similarity::inverse_exact`] is the
 //! exact inverse of those rounded coefficients.
 
-use crate::exact::{rat_to_f64, Rat};
+use crate::exact::{parse_rat, rat_to_f64, rat_to_string, Rat};
 use crate::fit::param::grid_rat;
 use serde::Serialize;
 
@@ -44,6 +44,9 @@ pub enum AlignError {
     /// All of `B`'s points coincide (or a weight is not positive).
     #[error("B's landmarks all coincide, so they fix no rotation or scale; spread them out or use --no-align")]
     Degenerate,
+    /// A stored similarity ([`Similarity::from_json`]) is malformed.
+    #[error("stored similarity: {0}")]
+    Stored(String),
     /// The pair is a mirror image.
     #[error(
         "B's landmarks are a mirror image of A's (a reflection fits them with rms {mirrored:.3} \
@@ -57,6 +60,11 @@ pub enum AlignError {
         mirrored: f64,
     },
 }
+
+/// The key of a morph's `phi_ab.json` that holds its similarity ([`Similarity::to_json`];
+/// an extra key, which the deformation format allows), so that `--phi-ab` gives the same
+/// morph back.
+pub const SIMILARITY_KEY: &str = "morph_similarity";
 
 /// `S(p) = [[a, -b], [b, a]] p + t`, exactly (see the module docs).
 #[derive(Clone, Debug, PartialEq)]
@@ -94,6 +102,50 @@ impl Similarity {
         let exact = c.map(|v| grid_rat(v, ALIGN_BITS));
         let f = [0, 1, 2, 3].map(|k| rat_to_f64(&exact[k]));
         Similarity { exact, f, rms }
+    }
+
+    /// The similarity with the exact coefficients `[a, b, t_x, t_y]` (as
+    /// [`Similarity::exact_coefficients`] gives them), for instance read back from a morph's
+    /// `phi_ab.json`, with the landmarks' residual rms `rms` it reports;
+    /// [`AlignError::Degenerate`] when `a = b = 0`.
+    pub fn from_exact(c: [Rat; 4], rms: f64) -> Result<Similarity, AlignError> {
+        if c[0] == Rat::from_integer(0.into()) && c[1] == Rat::from_integer(0.into()) {
+            return Err(AlignError::Degenerate);
+        }
+        let f = [0, 1, 2, 3].map(|k| rat_to_f64(&c[k]));
+        Ok(Similarity { exact: c, f, rms })
+    }
+
+    /// `[a, b, t_x, t_y]`, exactly.
+    pub fn exact_coefficients(&self) -> &[Rat; 4] {
+        &self.exact
+    }
+
+    /// The similarity as stored under [`SIMILARITY_KEY`]: `{"maps": ..., "a", "b", "tx",
+    /// "ty": exact rationals as strings, "rms": the landmarks' residual rms in pixels}`.
+    pub fn to_json(&self) -> serde_json::Value {
+        let [a, b, tx, ty] = self.exact.clone().map(|r| rat_to_string(&r));
+        serde_json::json!({
+            "maps": "B's pixels -> A's pixels: S(p) = [[a, -b], [b, a]] p + (tx, ty)",
+            "a": a,
+            "b": b,
+            "tx": tx,
+            "ty": ty,
+            "rms": self.rms,
+        })
+    }
+
+    /// The similarity of [`Similarity::to_json`]'s object, exactly.
+    pub fn from_json(v: &serde_json::Value) -> Result<Similarity, AlignError> {
+        let coef = |k: &str| -> Result<Rat, AlignError> {
+            let t = v.get(k).and_then(|x| x.as_str()).ok_or_else(|| {
+                AlignError::Stored(format!("\"{k}\": expected an exact number as a string"))
+            })?;
+            parse_rat(t).map_err(|e| AlignError::Stored(format!("\"{k}\": {e}")))
+        };
+        let c = [coef("a")?, coef("b")?, coef("tx")?, coef("ty")?];
+        let rms = v.get("rms").and_then(serde_json::Value::as_f64).unwrap_or(0.0);
+        Similarity::from_exact(c, rms)
     }
 
     /// `[a, b, t_x, t_y]` as `f64` (the exact values rounded).
@@ -267,6 +319,26 @@ mod tests {
         assert_eq!(s.inverse_exact(&s.apply_exact(&p)), p);
         let q = s.inverse(s.apply([12.5, -3.0]));
         assert!((q[0] - 12.5).abs() < 1e-9 && (q[1] + 3.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn stored_similarities_read_back_exactly_and_bad_ones_are_refused() {
+        let f = known(0.6, 12.0, [8.5, 36.0]);
+        let x = pts();
+        let y: Vec<_> = x.iter().map(|&p| f(p)).collect();
+        let s = umeyama(&x, &y, &[1.0; 5]).unwrap();
+        let v = s.to_json();
+        let back = Similarity::from_json(&serde_json::from_str(&v.to_string()).unwrap()).unwrap();
+        assert_eq!(back, s);
+        for (k, bad) in [("a", serde_json::json!(1.5)), ("tx", serde_json::json!("1/0"))] {
+            let mut w = v.clone();
+            w[k] = bad;
+            let e = Similarity::from_json(&w).unwrap_err().to_string();
+            assert!(e.contains(&format!("\"{k}\"")), "{e}");
+        }
+        let mut z = v.clone();
+        (z["a"], z["b"]) = (serde_json::json!("0"), serde_json::json!("0"));
+        assert!(matches!(Similarity::from_json(&z), Err(AlignError::Degenerate)));
     }
 
     proptest! {

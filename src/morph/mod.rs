@@ -461,6 +461,23 @@ impl Morph {
         phi_ba: Option<Spline>,
         opts: &MorphOptions,
     ) -> Result<Morph, MorphError> {
+        Morph::from_deformations_with(a, b, phi_ab, phi_ba, None, opts)
+    }
+
+    /// [`Morph::from_deformations`] with a given similarity `S` (`B`'s pixels -> `A`'s; for
+    /// instance the one a landmark morph stored in its `phi_ab.json`) instead of one
+    /// estimated from samples of `phi_ab`. With the landmark morph's own deformations and
+    /// similarity, the morph is that morph exactly: `S ∘ S^-1 ∘ phi_ab` is computed in
+    /// rationals. `None`: as [`Morph::from_deformations`]; [`MorphOptions::align`] off
+    /// ignores `similarity`.
+    pub fn from_deformations_with(
+        a: &DynamicImage,
+        b: &DynamicImage,
+        phi_ab: Spline,
+        phi_ba: Option<Spline>,
+        similarity: Option<Similarity>,
+        opts: &MorphOptions,
+    ) -> Result<Morph, MorphError> {
         for (img, name) in [(a, 'A'), (b, 'B')] {
             if img.width() < 2 || img.height() < 2 {
                 return Err(MorphError::TooSmall(name, img.width(), img.height()));
@@ -489,7 +506,9 @@ impl Morph {
                 inside.then_some(Landmark { name: None, src: q, dst: *p, weight: 1.0 })
             })
             .collect();
-        let sim = if opts.align && samples.len() >= 2 {
+        let sim = if let (true, Some(given)) = (opts.align, similarity) {
+            given
+        } else if opts.align && samples.len() >= 2 {
             let (x, y): (Vec<_>, Vec<_>) = samples.iter().map(|l| (l.src, l.dst)).unzip();
             umeyama(&x, &y, &vec![1.0; x.len()])?
         } else {
