@@ -471,4 +471,4 @@ impl Spline {
 }
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;

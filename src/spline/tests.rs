@@ -345,21 +345,7 @@ fn second_derivative_bound_holds_and_vanishes_for_affine_maps() {
         assert!(id.eval_cache().second_derivative_bound(t) < 1e-9);
     }
     // Perturb every control point (C1 does not matter for the bound).
-    let mut state = 7u64;
-    let mut next = || {
-        state ^= state << 13;
-        state ^= state >> 7;
-        state ^= state << 17;
-        (state % 2001) as i64 - 1000
-    };
-    let pts: Vec<Vec<Rat>> = id
-        .points()
-        .iter()
-        .map(|p| {
-            vec![&p[0] + rat_int(next()) / rat_int(1000), &p[1] + rat_int(next()) / rat_int(1000)]
-        })
-        .collect();
-    let s = Spline::from_points_unchecked(strip(), 5, pts, None).unwrap();
+    let s = perturbed(7, 1);
     let c = s.eval_cache();
     let h = 1e-3;
     for t in 0..s.mesh().num_triangles() {
@@ -443,8 +429,8 @@ fn perturbed(seed: u64, scale: i64) -> Spline {
     Spline::from_points_unchecked(strip(), 5, pts, None).unwrap()
 }
 
-/// `(1 - f) id + f psi`, exactly.
-fn blend_with_identity(psi: &Spline, f: &Rat) -> Spline {
+/// `(1 - f) id + f psi`, exactly (a morph frame's map).
+pub(crate) fn blend_with_identity(psi: &Spline, f: &Rat) -> Spline {
     let id = Spline::identity(psi.mesh().clone(), psi.degree()).unwrap();
     let one_minus = Rat::from_integer(1.into()) - f;
     let pts = id

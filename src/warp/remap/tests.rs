@@ -159,18 +159,7 @@ fn reused_band_buffers_give_the_same_preimages_as_fresh_ones() {
     }
 }
 
-/// `(1 - f) id + f psi`, exactly (a morph frame's map).
-fn blend_with_identity(psi: &Spline, f: &crate::exact::Rat) -> Spline {
-    let id = Spline::identity(psi.mesh().clone(), psi.degree()).unwrap();
-    let one_minus = crate::exact::rat_int(1) - f;
-    let pts = id
-        .points()
-        .iter()
-        .zip(psi.points())
-        .map(|(a, b)| (0..2).map(|k| &one_minus * &a[k] + f * &b[k]).collect())
-        .collect();
-    psi.with_points_c1_by_construction(pts).unwrap()
-}
+use crate::spline::tests::blend_with_identity;
 
 /// Issue 17: a morph frame's plan reuses the fitted map's curvature bounds, scaled by the
 /// shape weight. The plan still meets the bound pixel by pixel (against Newton), and is as
