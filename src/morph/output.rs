@@ -12,7 +12,7 @@
 //!
 //! The animations are 8-bit RGBA (gray and 16-bit frames are converted); the GIF palette is
 //! quantized per frame (NeuQuant, speed 10, as the `image` crate's GIF encoder does), and
-//! the frames are quantized and LZW-compressed ([`super::lzw`]) in parallel, then written
+//! the frames are quantized and LZW-compressed (`morph::lzw`) in parallel, then written
 //! in order: the same frames as `image`'s sequential encoder, in smaller or equal LZW streams
 //! (`tests::gif_decodes_to_the_image_crates_gif`). The APNG is told the frame
 //! count before the first frame (its `acTL` chunk comes first), so a streaming writer is made
