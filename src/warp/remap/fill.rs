@@ -3,7 +3,7 @@
 //! around border and unbounded pieces by Newton's method.
 
 use super::geometry::{bbox, clip_box};
-use super::raster::raster;
+use super::raster::{raster, Gap};
 use super::{BandScratch, Rect, RemapPlan, RemapStats};
 use crate::warp::sample::fast_floor;
 
@@ -37,7 +37,8 @@ impl RemapPlan<'_> {
         out.fill([f64::NAN; 2]);
         let mut st = RemapStats::default();
         let (ylo, yhi) = (y0 as f64 - 1.0, (y0 + rows) as f64 + 1.0);
-        let BandScratch { near, mask, tried } = scratch;
+        let BandScratch { near, mask, tried, gaps } = scratch;
+        gaps.clear();
         near.clear();
         near.extend(
             self.rows
@@ -82,9 +83,8 @@ impl RemapPlan<'_> {
                             qq.iter().map(|v| v[0]).fold(f64::INFINITY, f64::min),
                             qq.iter().map(|v| v[0]).fold(f64::NEG_INFINITY, f64::max),
                         );
-                        if fast_floor(xhi + 1e-7) < xlo - 1e-7
-                            || fast_floor(qhi + 1e-7) < qlo - 1e-7
-                        {
+                        let m = b.gap + 1e-7;
+                        if fast_floor(xhi + m) < xlo - m || fast_floor(qhi + m) < qlo - m {
                             continue;
                         }
                         let px = b.p0[0] + i as f64 * b.step[0];
@@ -94,7 +94,13 @@ impl RemapPlan<'_> {
                             [px, py + b.step[1]],
                             [px + b.step[0], py + b.step[1]],
                         ];
-                        for h in [[0, 1, 3], [0, 3, 2]] {
+                        // Edges opposite each vertex of the halves (0, 1, 3) and (0, 3, 2):
+                        // right, diagonal, top; bottom, left, diagonal. Only the block's outer
+                        // edges can meet a neighbour of another size (the inner ones share
+                        // the block's grid points), so only they are searched for gaps.
+                        let (l, r, t, bo) = (i == 0, i + 1 == b.k, j == 0, j + 1 == b.k);
+                        for (h, edges) in [([0, 1, 3], [r, false, t]), ([0, 3, 2], [bo, l, false])]
+                        {
                             written += raster(
                                 &h.map(|c| pp[c]),
                                 &h.map(|c| qq[c]),
@@ -102,6 +108,11 @@ impl RemapPlan<'_> {
                                 rect,
                                 w,
                                 mask.as_deref_mut().map(|m| (m, b.folded)),
+                                edges.contains(&true).then_some(Gap {
+                                    width: b.gap,
+                                    edges,
+                                    found: &mut *gaps,
+                                }),
                             );
                         }
                     }
@@ -122,8 +133,15 @@ impl RemapPlan<'_> {
                 if t.y[1] < ylo || t.y[0] > yhi {
                     continue;
                 }
-                let written =
-                    raster(&t.p, &t.q, out, rect, w, mask.as_deref_mut().map(|m| (m, t.folded)));
+                let written = raster(
+                    &t.p,
+                    &t.q,
+                    out,
+                    rect,
+                    w,
+                    mask.as_deref_mut().map(|m| (m, t.folded)),
+                    Some(Gap { width: t.gap, edges: t.outer, found: &mut *gaps }),
+                );
                 if t.folded {
                     if written > 0 {
                         let (lo, hi) = bbox(&t.q);
@@ -183,6 +201,32 @@ impl RemapPlan<'_> {
                         None => st.newton_failed += 1,
                     }
                 }
+            }
+        }
+        // Pixels in the thin gaps that T-junctions leave between pieces (a square split
+        // finer than its neighbour), within a gap width of a piece and still without a
+        // value: Newton from that piece's affine inverse, the first piece in lattice order
+        // (so the seed is the pixel's and the plan's alone). No other seeds: the seed is
+        // within about the tolerance of a preimage if there is one.
+        if !gaps.is_empty() && tried.is_empty() {
+            tried.resize(rows * ww, false);
+        }
+        for &(k, seed) in gaps.iter() {
+            let k = k as usize;
+            if !out[k][0].is_nan() || tried[k] {
+                continue;
+            }
+            tried[k] = true;
+            let q = [(x0 + k % ww) as f64, (y0 + k / ww) as f64];
+            match self.map.invert_from(q, seed, None) {
+                Some(pm) => {
+                    out[k] = pm.p;
+                    st.newton_solves += 1;
+                    st.newton_seeded += 1;
+                    st.newton_gaps += 1;
+                    st.max_error_bound = st.max_error_bound.max(pm.error_bound);
+                }
+                None => st.newton_failed += 1,
             }
         }
         st.outside = out.iter().filter(|p| p[0].is_nan()).count();

@@ -43,6 +43,14 @@
 //! injective a pixel has several preimages and shows the layer rasterized last (lattice
 //! order, row by row), never a blend.
 //!
+//! **Gaps.** Squares are refined independently, so a square split finer than its
+//! neighbour meets it in a T-junction: along their shared side, the coarse piece's edge is
+//! the chord `phi(a) phi(b)` and the fine pieces follow `phi` at more points, and a pixel
+//! centre can fall in the sliver between the two polygons (at most `M l^2 / 8` wide, see
+//! [`gap_width`]). Every piece is therefore searched, across its outer edges, for pixels
+//! within its gap width that no piece covers; those are solved by Newton from the piece's
+//! affine inverse ([`RemapStats::newton_gaps`]), so the covered region has no cracks.
+//!
 //! **Time.** A lattice square of side `c` ([`RemapOptions::cell`], 32 px) is split at most
 //! `log2(c)` times, so it yields at most `(4^(log2 c + 1) - 1) / 3 = (4 c^2 - 1) / 3`
 //! squares (1,365 for 32 px), each costing five forward evaluations plus at most one failed
@@ -207,6 +215,11 @@ struct Tri {
     /// Output rows spanned.
     y: [f64; 2],
     bound: f64,
+    /// Width of the gaps its edges may leave to finer neighbours ([`gap_width`]).
+    gap: f64,
+    /// Which edges (opposite each vertex) are sides of its lattice square, not the
+    /// diagonal shared with the other half.
+    outer: [bool; 3],
     folded: bool,
 }
 
@@ -220,9 +233,27 @@ struct Block {
     off: usize,
     y: [f64; 2],
     bound: f64,
+    /// Width of the gaps its outer edges may leave to neighbours ([`gap_width`]).
+    gap: f64,
     /// The image is reversed (det J < 0 on the whole block).
     folded: bool,
 }
+
+/// Largest gap (output pixels) between the image of a piece's edge of length `leg` and a
+/// neighbour's finer polygon along the same edge: both interpolate the curve `phi(edge)`,
+/// whose distance from any chord over a reference segment of length `l` is at most
+/// `M l^2 / 8` (`M`: the bound on `|D^2 phi|`, [`Refiner::m2`]). The gap between the two
+/// polygons is swept by the segments joining their points of equal parameter, and a point
+/// at fraction `s` along such a segment is within `s (d_1 + d_2)` of the first polygon and
+/// `(1 - s) (d_1 + d_2)` of the second, so within `d_1` of the first or `d_2` of the
+/// second: growing each piece by its own `M leg^2 / 8` covers every gap. Kept at most half
+/// a pixel (gaps next to folds), with 1 % and `1e-7` px of margin for rounding.
+fn gap_width(m2: f64, leg: f64) -> f64 {
+    (m2 * leg * leg / 8.0 * 1.01 + 1e-7).min(MAX_GAP)
+}
+
+/// Largest gap width searched around a piece (output pixels, [`gap_width`]).
+const MAX_GAP: f64 = 0.5;
 
 /// A lattice corner's image and the mesh triangle it lies in (`None`: outside the mesh).
 type Corner = Option<([f64; 2], usize)>;
@@ -438,6 +469,7 @@ impl Refiner<'_> {
             off,
             y: [lo[1], hi[1]],
             bound: worst,
+            gap: gap_width(m2, step[0].max(step[1])),
             folded: sign < 0.0,
         });
         true
@@ -472,19 +504,31 @@ impl Refiner<'_> {
             if smallest || bounds.iter().all(Option::is_some) {
                 // At the smallest size: halves that meet the bound or fold are drawn; any
                 // other half is left to Newton, pixel by pixel.
+                // The diagonal is the edge opposite vertex 1 of (0, 1, 3), 2 of (0, 3, 2).
+                let outer = [[true, false, true], [true, true, false]];
                 for (k, h) in halves.iter().enumerate() {
                     let (pt, qt) = (h.map(|i| p[i]), h.map(|i| qv[i]));
+                    let outer = outer[k];
                     let folded = signed_area(pt) * signed_area(qt) <= 0.0;
                     let (lo, hi) = bbox(&qt);
+                    let gap = gap_width(m2, side);
                     match bounds[k] {
-                        Some(b) => {
-                            out.tris.push(Tri { p: pt, q: qt, y: [lo[1], hi[1]], bound: b, folded })
-                        }
+                        Some(b) => out.tris.push(Tri {
+                            p: pt,
+                            q: qt,
+                            y: [lo[1], hi[1]],
+                            bound: b,
+                            gap,
+                            outer,
+                            folded,
+                        }),
                         None if folded => out.tris.push(Tri {
                             p: pt,
                             q: qt,
                             y: [lo[1], hi[1]],
                             bound: f64::INFINITY,
+                            gap,
+                            outer,
                             folded,
                         }),
                         None => {
@@ -710,6 +754,8 @@ pub struct BandScratch {
     mask: Vec<bool>,
     /// Which pixels of the band Newton has tried.
     tried: Vec<bool>,
+    /// Pixels in the gaps between pieces, with their seeds ([`raster::Gap`]).
+    gaps: Vec<(u32, [f64; 2])>,
 }
 
 /// The preimage of every pixel centre of a `w x h` output (row-major; `[NaN, NaN]` where

@@ -27,6 +27,7 @@ pub(super) fn raster(
     win: Rect,
     w: usize,
     mut fold_mask: Option<(&mut [bool], bool)>,
+    gap: Option<Gap<'_>>,
 ) -> usize {
     let (wx0, wy0, ww) = (win.x0 as usize, win.y0 as usize, win.w as usize);
     let rows = win.h as usize;
@@ -34,10 +35,12 @@ pub(super) fn raster(
                         // The pixel centres of the bounding box first: most pieces of a finely split block
                         // cover none, and then the setup (a division) is skipped.
     let (lo, hi) = bbox(q);
-    let ya = fast_ceil(lo[1] - 1e-7).max(wy0 as f64) as usize;
-    let yb = (fast_floor(hi[1] + 1e-7) as isize).min((wy0 + rows) as isize - 1);
-    let xa = fast_ceil(lo[0] - 1e-7).max(0.0) as usize;
-    let xb = (fast_floor(hi[0] + 1e-7) as isize).min(w as isize - 1);
+    // The margin of the gap search: the box grows by it.
+    let m = gap.as_ref().map_or(0.0, |g| g.width) + 1e-7;
+    let ya = fast_ceil(lo[1] - m).max(wy0 as f64) as usize;
+    let yb = (fast_floor(hi[1] + m) as isize).min((wy0 + rows) as isize - 1);
+    let xa = fast_ceil(lo[0] - m).max(0.0) as usize;
+    let xb = (fast_floor(hi[0] + m) as isize).min(w as isize - 1);
     if yb < ya as isize || xb < xa as isize || xb < wx0 as isize || xa >= wx1 {
         return 0;
     }
@@ -59,44 +62,50 @@ pub(super) fn raster(
     let c = [1.0 - c1 - c2, c1, c2];
     let bx = [-inv[0][0] - inv[1][0], inv[0][0], inv[1][0]];
     let by = [-inv[0][1] - inv[1][1], inv[0][1], inv[1][1]];
-    // Since sum_k bx_k = 0 and not all bx_k vanish, there are at most two lower lines, two
-    // upper lines and one flat line; unused slots hold neutral lines (x >= xa, x <= xb,
-    // 0 >= -eps), so each row costs a fixed, branch-free handful of operations.
     let (xaf, xbf) = (xa as f64, xb as f64);
-    let (mut lower, mut upper, mut flat) = ([[xaf, 0.0]; 2], [[xbf, 0.0]; 2], [0.0f64, 0.0]);
-    let (mut nl, mut nu) = (0, 0);
-    for k in 0..3 {
-        if bx[k] == 0.0 {
-            flat = [c[k], by[k]];
-        } else {
-            let rb = 1.0 / bx[k];
-            let line = [(-eps - c[k]) * rb, -by[k] * rb];
-            if bx[k] > 0.0 {
-                lower[nl & 1] = line;
-                nl += 1;
+    let rb = bx.map(|b| if b == 0.0 { 0.0 } else { 1.0 / b });
+    let (lower, upper, flat) = span_lines([xaf, xbf], c, bx, by, rb, [eps; 3]);
+    // The gap search's lines: `lambda_k >= -eps - width |grad lambda_k|`, each edge moved
+    // out by `width` pixels.
+    let grown = gap.as_ref().map(|g| {
+        let e = [0, 1, 2].map(|k| {
+            if g.edges[k] {
+                eps + g.width * (bx[k] * bx[k] + by[k] * by[k]).sqrt()
             } else {
-                upper[nu & 1] = line;
-                nu += 1;
+                eps
             }
-        }
-    }
+        });
+        span_lines([xaf, xbf], c, bx, by, rb, e)
+    });
     // p = p0 + lambda_1 pe1 + lambda_2 pe2 = pc + px x + py y.
     let px = [bx[1] * pe1[0] + bx[2] * pe2[0], bx[1] * pe1[1] + bx[2] * pe2[1]];
     let py = [by[1] * pe1[0] + by[2] * pe2[0], by[1] * pe1[1] + by[2] * pe2[1]];
     let pc = [p[0][0] + c[1] * pe1[0] + c[2] * pe2[0], p[0][1] + c[1] * pe1[1] + c[2] * pe2[1]];
     let mut written = 0;
+    let mut gap = gap;
     for y in ya..=yb as usize {
         let yf = y as f64;
-        let lo_x = xaf.max(lower[0][0] + lower[0][1] * yf).max(lower[1][0] + lower[1][1] * yf);
-        let hi_x = xbf.min(upper[0][0] + upper[0][1] * yf).min(upper[1][0] + upper[1][1] * yf);
-        if hi_x < lo_x || flat[0] + flat[1] * yf < -eps {
-            continue;
+        let span = row_span(&lower, &upper, &flat, [xaf, xbf], yf, eps);
+        if let (Some(g), Some((lo, up, fl))) = (gap.as_mut(), grown.as_ref()) {
+            // Pixels of the grown span, outside the triangle's own, still without a value.
+            if let Some((g0, g1)) = row_span(lo, up, fl, [xaf, xbf], yf, eps) {
+                // The grown span minus the own one: a few pixels at either end.
+                let (a, b) = match span {
+                    Some((x0, x1)) => (g0..x0.min(g1 + 1), (x1 + 1).max(g0)..g1 + 1),
+                    None => (g0..g1 + 1, 0..0),
+                };
+                let row = (y - wy0) * ww;
+                for x in a.chain(b) {
+                    if x < wx0 || x >= wx1 || !out[row + x - wx0][0].is_nan() {
+                        continue;
+                    }
+                    let xf = x as f64;
+                    let seed = [pc[0] + py[0] * yf + px[0] * xf, pc[1] + py[1] * yf + px[1] * xf];
+                    g.found.push(((row + x - wx0) as u32, seed));
+                }
+            }
         }
-        let (x0, x1) = (fast_ceil(lo_x), fast_floor(hi_x));
-        if x1 < x0 {
-            continue;
-        }
-        let (x0, x1) = (x0 as usize, x1 as usize);
+        let Some((x0, x1)) = span else { continue };
         // The window's part of the span [x0, x1].
         let (xs, xe) = (x0.max(wx0), x1.min(wx1 - 1));
         if xe < xs {
@@ -115,4 +124,69 @@ pub(super) fn raster(
         }
     }
     written
+}
+
+/// The lines bounding a triangle's rows: `lambda_k(x, y) = c_k + bx_k x + by_k y >= -e_k`
+/// (`rb_k = 1 / bx_k`).
+/// Since `sum_k bx_k = 0` and not all `bx_k` vanish, there are at most two lower lines
+/// (`x >= a + b y`), two upper lines and one flat line (`c + b y >= -e`); unused slots hold
+/// neutral lines (`x >= xa`, `x <= xb`, `0 >= -eps`), so each row costs a fixed, branch-free
+/// handful of operations.
+type Lines = ([[f64; 2]; 2], [[f64; 2]; 2], [f64; 3]);
+
+#[inline(always)]
+fn span_lines(
+    x: [f64; 2],
+    c: [f64; 3],
+    bx: [f64; 3],
+    by: [f64; 3],
+    rb: [f64; 3],
+    e: [f64; 3],
+) -> Lines {
+    let (mut lower, mut upper, mut flat) = ([[x[0], 0.0]; 2], [[x[1], 0.0]; 2], [0.0f64, 0.0, 0.0]);
+    let (mut nl, mut nu) = (0, 0);
+    for k in 0..3 {
+        if bx[k] == 0.0 {
+            flat = [c[k], by[k], e[k]];
+        } else {
+            let line = [(-e[k] - c[k]) * rb[k], -by[k] * rb[k]];
+            if bx[k] > 0.0 {
+                lower[nl & 1] = line;
+                nl += 1;
+            } else {
+                upper[nu & 1] = line;
+                nu += 1;
+            }
+        }
+    }
+    (lower, upper, flat)
+}
+
+/// The columns `x0 ..= x1` of row `y` inside the lines (`None`: none).
+#[inline(always)]
+fn row_span(
+    lower: &[[f64; 2]; 2],
+    upper: &[[f64; 2]; 2],
+    flat: &[f64; 3],
+    x: [f64; 2],
+    y: f64,
+    eps: f64,
+) -> Option<(usize, usize)> {
+    let lo_x = x[0].max(lower[0][0] + lower[0][1] * y).max(lower[1][0] + lower[1][1] * y);
+    let hi_x = x[1].min(upper[0][0] + upper[0][1] * y).min(upper[1][0] + upper[1][1] * y);
+    if hi_x < lo_x || flat[0] + flat[1] * y < -flat[2].max(eps) {
+        return None;
+    }
+    let (x0, x1) = (fast_ceil(lo_x), fast_floor(hi_x));
+    (x1 >= x0).then_some((x0 as usize, x1 as usize))
+}
+
+/// The gap search of [`raster`]: the pixels within `width` output pixels of the
+/// triangle's image across the edges `edges` (edge `k` is the one opposite vertex `k`),
+/// outside the triangle and still without a preimage, with the triangle's affine inverse
+/// there (Newton's seed), as `(index in the window, seed)`.
+pub(super) struct Gap<'a> {
+    pub width: f64,
+    pub edges: [bool; 3],
+    pub found: &'a mut Vec<(u32, [f64; 2])>,
 }

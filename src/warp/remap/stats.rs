@@ -17,6 +17,9 @@ pub struct RemapStats {
     /// affine inverse of the piece that needed it (the others needed the neighbour's
     /// preimage or the forward samples as seeds).
     pub newton_seeded: usize,
+    /// Of [`RemapStats::newton_seeded`], the pixels in the thin gaps between neighbouring
+    /// pieces of different sizes (T-junctions of the lattice refinement).
+    pub newton_gaps: usize,
     /// Pixels that Newton tried and found no preimage for (counted in
     /// [`RemapStats::outside`] too).
     pub newton_failed: usize,
@@ -37,6 +40,7 @@ impl RemapStats {
         self.max_error_bound = self.max_error_bound.max(o.max_error_bound);
         self.newton_solves += o.newton_solves;
         self.newton_seeded += o.newton_seeded;
+        self.newton_gaps += o.newton_gaps;
         self.newton_failed += o.newton_failed;
         self.interpolated += o.interpolated;
         self.folded += o.folded;
@@ -51,12 +55,13 @@ impl RemapStats {
     /// One line: how many pixels took each path of the inverse map.
     pub fn paths_line(&self) -> String {
         format!(
-            "{} pixels: {} interpolated from certified pieces, {} drawn from folded pieces, {} by Newton ({} seeded from the piece's affine inverse, {} from other seeds), {} outside ({} after a failed Newton search)",
+            "{} pixels: {} interpolated from certified pieces, {} drawn from folded pieces, {} by Newton ({} seeded from the piece's affine inverse, of them {} in gaps between pieces, {} from other seeds), {} outside ({} after a failed Newton search)",
             self.pixels,
             self.interpolated - self.folded.min(self.interpolated),
             self.folded,
             self.newton_solves,
             self.newton_seeded,
+            self.newton_gaps,
             self.newton_solves - self.newton_seeded,
             self.outside,
             self.newton_failed
