@@ -426,7 +426,9 @@ fn encode_tiff(stack: &Stack) -> Result<Vec<u8>, tiff::TiffError> {
 fn encode_tiff_above(stack: &Stack, classic_max: u64) -> Result<Vec<u8>, tiff::TiffError> {
     use tiff::encoder::TiffEncoder;
     let raw: u64 = stack.pages.iter().map(|p| p.as_bytes().len() as u64).sum();
-    let mut out = Cursor::new(Vec::new());
+    // Samples plus directories and strip tables: one allocation, no regrowth.
+    let cap = raw.saturating_add(stack.pages.len() as u64 * 65_536).min(isize::MAX as u64);
+    let mut out = Cursor::new(Vec::with_capacity(cap as usize));
     if raw > classic_max {
         encode_pages(&mut TiffEncoder::new_big(&mut out)?, stack)?;
     } else {
