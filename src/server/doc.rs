@@ -9,7 +9,10 @@
 //! y down, pixel centres at integers), as everywhere in trimorph; the frame is drawn in the
 //! same coordinates, so `phi` maps the reference onto the frame.
 
+pub mod history;
 pub mod pairs;
+
+pub use history::{Step, UNDO_LIMIT};
 
 use super::paths::confine;
 use super::ServerError;
@@ -30,9 +33,6 @@ use serde_json::{json, Value};
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
-
-/// Most undo steps kept (older ones are dropped).
-pub const UNDO_LIMIT: usize = 200;
 
 /// Largest accepted absolute coordinate (mesh units = pixels) of an edit's arguments, of a
 /// control point after an edit, and of a loaded file's control points (and z values).
@@ -91,8 +91,8 @@ pub struct Doc {
     editor: Editor,
     model: Option<BoundModel>,
     frame: Option<Frame>,
-    undo: Vec<Spline>,
-    redo: Vec<Spline>,
+    undo: Vec<Step>,
+    redo: Vec<Step>,
     pinned: BTreeSet<usize>,
     /// Landmark pairs placed, moved or imported in the page ([`pairs`]).
     landmarks: Vec<Landmark>,
@@ -359,47 +359,11 @@ impl Doc {
         op.to_exact().and_then(|m| m.apply(&mut self.editor)).map_err(edit_err)
     }
 
-    fn push_undo(&mut self, s: Spline) {
-        self.undo.push(s);
-        if self.undo.len() > UNDO_LIMIT {
-            self.undo.remove(0);
-        }
-        self.redo.clear();
-    }
-
     /// Ends the selection.
     pub fn clear_selection(&mut self) {
         self.editor.clear_selection();
         self.before_drag = None;
         self.last_op = None;
-    }
-
-    /// Undoes the last change (an edit, a load over the same mesh, or a refit).
-    pub fn undo(&mut self) -> Result<(), ServerError> {
-        self.step_history(true)
-    }
-
-    /// Redoes the last undone change.
-    pub fn redo(&mut self) -> Result<(), ServerError> {
-        self.step_history(false)
-    }
-
-    /// Moves one state from one history stack to the spline, pushing the current spline on
-    /// the other stack; on failure both stacks and the spline stay as they were.
-    fn step_history(&mut self, undo: bool) -> Result<(), ServerError> {
-        let (from, to) =
-            if undo { (&mut self.undo, &mut self.redo) } else { (&mut self.redo, &mut self.undo) };
-        let what = if undo { "nothing to undo" } else { "nothing to redo" };
-        let target = from.pop().ok_or(ServerError::Unprocessable(what.into()))?;
-        let cur = self.editor.spline().clone();
-        if let Err(e) = self.editor.replace_spline(target.clone()) {
-            from.push(target);
-            return Err(edit_err(e));
-        }
-        to.push(cur);
-        self.before_drag = None;
-        self.cert.refresh_all(self.editor.spline());
-        Ok(())
     }
 
     /// The deformation file's JSON (format v1), with the corrected points (`"pinned"`),
@@ -559,7 +523,9 @@ impl Doc {
             };
             let cur = self.editor.spline().clone();
             self.editor.replace_spline(s).map_err(edit_err)?;
-            self.push_undo(cur);
+            // A scene's pairs replace the current ones in the same step.
+            let pairs = lms.as_ref().map(|_| self.landmarks.clone());
+            self.push_step(Step { spline: Some(cur), pairs });
             self.model = bound;
             self.cert.refresh_all(self.editor.spline());
         } else {

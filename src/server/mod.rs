@@ -19,13 +19,13 @@
 //! | `POST /api/select` | `{anchors, radius?, mode?}` (`radius` null: all) | selection |
 //! | `POST /api/update` | `{op: translate, v}` (or `by`) / `{op: rotate, center, angle}` / `{op: scale, center, factor}`: a [`crate::edit::script::Motion`] | geometry |
 //! | `POST /api/clear` | | state |
-//! | `POST /api/undo`, `/api/redo` | | geometry |
+//! | `POST /api/undo`, `/api/redo` | | geometry (a step is a drag, a load over the same mesh, a re-fit or a pair change: [`doc::history`]) |
 //! | `POST /api/save` | `{path, scene?}` | `{saved, written}` (`written`: a scene's copies of its model and frame) |
 //! | `POST /api/stat` | `{path}` | `{exists, same_layout, scene_copies}` (asked before a save or load) |
 //! | `POST /api/load` | `{path}` | state |
 //! | `POST /api/export` | `{kind: obj / warped, path}` | `{saved}` |
 //! | `POST /api/refit` | `{landmarks?, hard?}` (`landmarks`: a file; none: the doc's pairs) | fit summary (with the pairs' `landmarks` list when fitted from them) |
-//! | `GET /api/landmarks` | | the pairs ([`doc::Doc::pairs_json`]) |
+//! | `GET /api/landmarks` | | the pairs ([`doc::Doc::pairs_json`], with the `undo` / `redo` counts) |
 //! | `POST /api/landmarks/add` | `{src, dst, name?}` | the pairs, `index` of the new one |
 //! | `POST /api/landmarks/move` | `{index, src?, dst?}` | the pairs |
 //! | `POST /api/landmarks/delete` | `{index}` | the pairs |

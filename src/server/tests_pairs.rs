@@ -32,6 +32,15 @@ fn place_four(d: &mut super::doc::Doc) -> Value {
     last
 }
 
+fn undo_steps(d: &mut super::doc::Doc) -> u64 {
+    call(d, "GET", "/api/state", Value::Null).1["undo"].as_u64().unwrap()
+}
+
+fn undo(d: &mut super::doc::Doc, which: &str) {
+    let (st, v) = call(d, "POST", &format!("/api/{which}"), Value::Null);
+    assert_eq!(st, 200, "{which}: {v}");
+}
+
 #[test]
 fn pairs_are_added_moved_deleted_and_listed_with_their_residuals() {
     let dir = tempfile::tempdir().unwrap();
@@ -136,11 +145,12 @@ fn refit_from_the_pairs_lowers_the_residuals_and_is_one_undo_step() {
     let dir = tempfile::tempdir().unwrap();
     let mut d = doc(dir.path());
     let before = place_four(&mut d);
+    let steps = undo_steps(&mut d);
     let (st, v) = call(&mut d, "POST", "/api/refit", json!({"hard": false}));
     assert_eq!(st, 200, "{v}");
     let soft = v["landmarks"]["rms"].as_f64().unwrap();
     assert!(soft < 0.5 * before["rms"].as_f64().unwrap(), "soft {soft} vs {}", before["rms"]);
-    assert_eq!(call(&mut d, "GET", "/api/state", Value::Null).1["undo"], 1);
+    assert_eq!(undo_steps(&mut d), steps + 1, "a re-fit is one undo step");
     let (st, v) = call(&mut d, "POST", "/api/refit", json!({"hard": true}));
     assert_eq!(st, 200, "{v}");
     let hard = v["landmarks"]["max"].as_f64().unwrap();
@@ -182,4 +192,95 @@ fn scenes_keep_the_pairs_and_plain_files_keep_the_current_ones() {
     let (st, v) = call(&mut e, "POST", "/api/load", json!({"path": "bad.json"}));
     assert_eq!(st, 422, "{v}");
     assert_eq!(e.pairs().len(), 3);
+}
+
+#[test]
+fn every_pair_change_is_one_undo_step_and_redo_replays_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut d = doc(dir.path());
+    let mut states = vec![d.pairs().to_vec()];
+    place_four(&mut d);
+    states.push(d.pairs().to_vec());
+    call(&mut d, "POST", "/api/landmarks/move", json!({"index": 1, "dst": [80.0, 23.0]}));
+    states.push(d.pairs().to_vec());
+    call(&mut d, "POST", "/api/landmarks/delete", json!({"index": 0}));
+    states.push(d.pairs().to_vec());
+    std::fs::write(dir.path().join("two.csv"), "a,1,2,3,4,1\nb,5,6,7,8,1\n").unwrap();
+    let (st, v) = call(&mut d, "POST", "/api/landmarks/import", json!({"path": "two.csv"}));
+    assert_eq!(st, 200, "{v}");
+    assert_eq!((v["undo"].as_u64(), v["redo"].as_u64()), (Some(7), Some(0)), "{v}");
+    let last = d.pairs().to_vec();
+    // Refused changes record nothing.
+    let (st, _) = call(&mut d, "POST", "/api/landmarks/delete", json!({"index": 9}));
+    assert_eq!((st, undo_steps(&mut d)), (422, 7));
+    // Back through the import, the delete and the move, each exactly.
+    for want in states.iter().rev().take(3) {
+        undo(&mut d, "undo");
+        assert_eq!(d.pairs(), &want[..]);
+    }
+    // The four adds, one by one.
+    for k in (0..4).rev() {
+        undo(&mut d, "undo");
+        assert_eq!(d.pairs(), &states[1][..k]);
+    }
+    let (st, v) = call(&mut d, "POST", "/api/undo", Value::Null);
+    assert_eq!(st, 422, "{v}");
+    for _ in 0..7 {
+        undo(&mut d, "redo");
+    }
+    assert_eq!(d.pairs(), &last[..], "redo replays every change");
+    // A new change after an undo drops the redo steps.
+    undo(&mut d, "undo");
+    call(&mut d, "POST", "/api/landmarks/add", json!({"src": [5, 5], "dst": [6, 6]}));
+    let (_, v) = call(&mut d, "GET", "/api/landmarks", Value::Null);
+    assert_eq!(v["redo"], 0, "{v}");
+}
+
+#[test]
+fn pair_changes_and_drags_share_one_history_in_order() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut d = doc(dir.path());
+    let identity = d.spline().points().to_vec();
+    let m = d.spline().mesh();
+    let c = (0..m.num_vertices()).find(|&v| m.vertex(v) == [50.0, 50.0]).unwrap();
+    place_four(&mut d);
+    let four = d.pairs().to_vec();
+    let (st, _) = call(&mut d, "POST", "/api/select", json!({"anchors": [c], "radius": 2}));
+    assert_eq!(st, 200);
+    let (st, _) = call(&mut d, "POST", "/api/update", json!({"op": "translate", "v": [3.0, 1.0]}));
+    assert_eq!(st, 200);
+    call(&mut d, "POST", "/api/clear", Value::Null);
+    let dragged = d.spline().points().to_vec();
+    call(&mut d, "POST", "/api/landmarks/delete", json!({"index": 2}));
+    // Undo takes back the delete first (the map keeps the drag), then the drag (the pairs
+    // stay), and the residuals follow the map.
+    undo(&mut d, "undo");
+    assert_eq!((d.pairs(), d.spline().points()), (&four[..], &dragged[..]));
+    undo(&mut d, "undo");
+    assert_eq!((d.pairs(), d.spline().points()), (&four[..], &identity[..]));
+    let (_, v) = call(&mut d, "GET", "/api/landmarks", Value::Null);
+    let r = residuals(&v);
+    assert!(close(&r, &[5f64.sqrt(), 5f64.sqrt(), 2f64.sqrt(), 5f64.sqrt()]), "{r:?}");
+    d.spline().check_c1().unwrap();
+}
+
+#[test]
+fn a_scene_loaded_over_the_same_mesh_takes_back_map_and_pairs_in_one_step() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut d = doc(dir.path());
+    place_four(&mut d);
+    let (st, _) = call(&mut d, "POST", "/api/save", json!({"path": "s.json", "scene": true}));
+    assert_eq!(st, 200);
+    let mut e = doc(dir.path());
+    call(&mut e, "POST", "/api/landmarks/add", json!({"src": [9, 9], "dst": [9, 9]}));
+    let mine = e.pairs().to_vec();
+    let steps = undo_steps(&mut e);
+    let (st, v) = call(&mut e, "POST", "/api/load", json!({"path": "s.json"}));
+    assert_eq!(st, 200, "{v}");
+    assert_eq!(undo_steps(&mut e), steps + 1);
+    assert_eq!(e.pairs(), d.pairs());
+    undo(&mut e, "undo");
+    assert_eq!(e.pairs(), &mine[..], "the load's undo restores the pairs it replaced");
+    undo(&mut e, "redo");
+    assert_eq!(e.pairs(), d.pairs());
 }

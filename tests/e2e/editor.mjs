@@ -259,6 +259,17 @@ try {
   await page.waitForFunction(() => /^deleted pair 1/.test(document.getElementById('msg').textContent), null, { timeout: 10000 });
   lms = await api('GET', '/api/landmarks');
   if (JSON.stringify(lms.pairs.map((p) => p.name)) !== '["P2","P3"]') fail('delete left ' + JSON.stringify(lms.pairs.map((p) => p.name)));
+  // Ctrl+Z takes the delete back (the table lists three pairs again), Ctrl+Y redoes it.
+  for (const [key, want] of [['Control+z', '["P1","P2","P3"]'], ['Control+y', '["P2","P3"]']]) {
+    const v0 = await lmVersion();
+    await page.keyboard.press(key);
+    await page.waitForFunction((v) => window.trimorph.lm.version > v, v0, { timeout: 10000 });
+    lms = await api('GET', '/api/landmarks');
+    const names = JSON.stringify(lms.pairs.map((p) => p.name));
+    if (names !== want) fail(`${key} after the delete left ${names}`);
+    const rows = await page.evaluate(() => document.querySelectorAll('#pairtable tbody tr').length);
+    if (rows !== lms.pairs.length) fail(`${key}: the table lists ${rows} pairs, the server ${lms.pairs.length}`);
+  }
   // Export both formats.
   for (const [file, format] of [['e2e_pairs.csv', 'csv'], ['e2e_bigwarp.csv', 'bigwarp']]) {
     await page.fill('#landmarks', file);
@@ -281,6 +292,32 @@ try {
   if (JSON.stringify(shown) !== JSON.stringify(lms.pairs.map((p) => p.residual.toFixed(3)))) fail(`the table shows ${shown}, the server ${JSON.stringify(lms.pairs.map((p) => p.residual))}`);
   if ((await api('GET', '/api/state')).undo !== undoFit + 1) fail('a re-fit is one undo step');
   await page.screenshot({ path: shot.replace(/\.png$/, '_landmarks.png') });
+
+  // Scene round trip in the page: "save scene" keeps map, pairs, model and frame; a change,
+  // then "load" brings the saved state back (over the same mesh: one undo step, which
+  // Ctrl+Z takes back with the pairs it replaced).
+  const savedGeo = JSON.stringify((await api('GET', '/api/geometry?full=1')).points);
+  const savedPairs = JSON.stringify(lms.pairs.map((p) => [p.name, p.src, p.dst]));
+  await page.fill('#path', 'e2e_scene.json');
+  await page.click('#savescene');
+  await page.waitForFunction(() => /^saved scene /.test(document.getElementById('msg').textContent), null, { timeout: 10000 });
+  const sceneFile = JSON.parse(readFileSync(join(work, 'e2e_scene.json'), 'utf8'));
+  if (!sceneFile.model || !sceneFile.image || (sceneFile.landmarks || []).length !== 2) fail('the scene lost a key: ' + JSON.stringify(Object.keys(sceneFile)));
+  await api('POST', '/api/landmarks/delete', { index: 0 });
+  await page.fill('#path', 'e2e_scene.json');
+  await page.click('#load');
+  await page.waitForFunction(() => /^loaded /.test(document.getElementById('msg').textContent), null, { timeout: 20000 });
+  const back = await api('GET', '/api/landmarks');
+  if (JSON.stringify(back.pairs.map((p) => [p.name, p.src, p.dst])) !== savedPairs) fail('the loaded scene has other pairs: ' + JSON.stringify(back.pairs));
+  if (JSON.stringify((await api('GET', '/api/geometry?full=1')).points) !== savedGeo) fail('the loaded scene has another map');
+  const loaded = await api('GET', '/api/state');
+  if (!loaded.model || !loaded.frame) fail('the loaded scene lost the model or the frame: ' + JSON.stringify([loaded.model, loaded.frame]));
+  const rowsLoaded = await page.evaluate(() => document.querySelectorAll('#pairtable tbody tr').length);
+  if (rowsLoaded !== 2) fail(`after the load the table lists ${rowsLoaded} pairs`);
+  const vLoad = await lmVersion();
+  await page.keyboard.press('Control+z');
+  await page.waitForFunction((v) => window.trimorph.lm.version > v, vLoad, { timeout: 10000 });
+  if ((await api('GET', '/api/landmarks')).pairs.length !== 1) fail('Ctrl+Z after the load did not bring back the one-pair state');
   const landmarks = { rms_before: rmsBefore, rms_after: lms.rms, residuals_after: lms.pairs.map((p) => p.residual) };
   if (errors.length) fail('page errors: ' + errors.join('; '));
 

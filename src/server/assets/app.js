@@ -292,6 +292,8 @@ function applyGeo(r) {
 function applyPairs(v) {
   const lm = T.lm;
   lm.pairs = v.pairs; lm.rms = v.rms; lm.max = v.max; lm.version++;
+  // A pair change is one undo step: the status line counts it.
+  if (T.state && v.undo !== undefined) { T.state.undo = v.undo; T.state.redo = v.redo; }
   if (lm.sel >= lm.pairs.length) lm.sel = -1;
   const body = $('pairtable').querySelector('tbody');
   body.textContent = '';

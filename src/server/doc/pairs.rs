@@ -14,6 +14,10 @@
 //! [`crate::fit::landmarks`] (`{"name", "src", "dst", "weight"}`), imported and exported as
 //! the project's landmark CSV or BigWarp CSV with the library's readers and writers, and
 //! re-fitted with [`Doc::refit_pairs`] (the corrected control points pinned).
+//!
+//! Every change of the pairs (add, move, delete, import) is one undo step of the document's
+//! history ([`super::history`]), as drags and re-fits are: Ctrl+Z in the page takes back a
+//! misplaced pair as it takes back a drag.
 
 use super::{within, Doc, MAX_COORD};
 use crate::fit::landmarks::{self, Landmark, LandmarkFormat};
@@ -87,14 +91,22 @@ impl Doc {
         &self.landmarks
     }
 
-    /// Replaces the pairs (checked as [`Doc::add_pair`] checks one).
+    /// Replaces the pairs (checked as [`Doc::add_pair`] checks one), without an undo step
+    /// (the document's starting pairs; the page's changes are undoable).
     pub fn set_pairs(&mut self, lms: Vec<Landmark>) -> Result<(), ServerError> {
         check_all(&lms, "landmarks")?;
         self.landmarks = lms;
         Ok(())
     }
 
-    /// Adds a pair; an unnamed pair is called `P<k>` with the first free `k >= 1`.
+    /// Replaces the pairs with `next` (already checked) as one undo step.
+    fn change_pairs(&mut self, next: Vec<Landmark>) {
+        let before = std::mem::replace(&mut self.landmarks, next);
+        self.push_pairs_undo(before);
+    }
+
+    /// Adds a pair (one undo step); an unnamed pair is called `P<k>` with the first free
+    /// `k >= 1`.
     /// Refuses (422) points that are not finite or beyond [`MAX_COORD`], and a name in use.
     pub fn add_pair(
         &mut self,
@@ -112,11 +124,11 @@ impl Doc {
         let mut next = self.landmarks.clone();
         next.push(Landmark { name: Some(name), src, dst, weight: 1.0 });
         check_all(&next, "new pair")?;
-        self.landmarks = next;
+        self.change_pairs(next);
         Ok(self.landmarks.len() - 1)
     }
 
-    /// Moves one or both points of pair `index` (0-based).
+    /// Moves one or both points of pair `index` (0-based); one undo step.
     pub fn move_pair(
         &mut self,
         index: usize,
@@ -124,33 +136,39 @@ impl Doc {
         dst: Option<[f64; 2]>,
     ) -> Result<(), ServerError> {
         let n = self.landmarks.len();
-        let l = self
-            .landmarks
-            .get_mut(index)
-            .ok_or_else(|| refuse(format!("no pair {index} (there are {n})")))?;
+        if index >= n {
+            return Err(refuse(format!("no pair {index} (there are {n})")));
+        }
         let src = src.map(|p| point("src", p)).transpose()?;
         let dst = dst.map(|p| point("dst", p)).transpose()?;
+        let mut next = self.landmarks.clone();
+        let l = &mut next[index];
         if let Some(p) = src {
             l.src = p;
         }
         if let Some(p) = dst {
             l.dst = p;
         }
+        self.change_pairs(next);
         Ok(())
     }
 
-    /// Deletes pair `index` (0-based); the others keep their order and names.
+    /// Deletes pair `index` (0-based); the others keep their order and names. One undo
+    /// step.
     pub fn delete_pair(&mut self, index: usize) -> Result<(), ServerError> {
         if index >= self.landmarks.len() {
             return Err(refuse(format!("no pair {index} (there are {})", self.landmarks.len())));
         }
-        self.landmarks.remove(index);
+        let mut next = self.landmarks.clone();
+        next.remove(index);
+        self.change_pairs(next);
         Ok(())
     }
 
     /// The pairs with `phi(src)` and their residual `|phi(src) - dst|` (pixels, `null`
-    /// outside the mesh), and `rms` and `max` over the pairs with a residual (`null`
-    /// without any).
+    /// outside the mesh), `rms` and `max` over the pairs with a residual (`null`
+    /// without any), and the history's `undo` and `redo` step counts (a pair change is
+    /// one step).
     pub fn pairs_json(&self) -> Value {
         let s = self.spline();
         let mut sum = 0.0;
@@ -172,16 +190,17 @@ impl Doc {
             })
             .collect();
         let rms = (n > 0).then(|| (sum / n as f64).sqrt());
-        json!({ "pairs": pairs, "rms": rms, "max": max })
+        let (undo, redo) = self.history_len();
+        json!({ "pairs": pairs, "rms": rms, "max": max, "undo": undo, "redo": redo })
     }
 
     /// Replaces the pairs with those of the landmark file `rel` (CSV, BigWarp or JSON,
-    /// detected as `trimorph fit` does) inside the root.
+    /// detected as `trimorph fit` does) inside the root; one undo step.
     pub fn import_pairs(&mut self, rel: &str) -> Result<(), ServerError> {
         let path = confine(&self.root, rel, false)?;
         let lms = read_landmarks(&path).map_err(|e| refuse(format!("{rel}: {e}")))?;
         check_all(&lms, rel)?;
-        self.landmarks = lms;
+        self.change_pairs(lms);
         Ok(())
     }
 
