@@ -7,6 +7,52 @@
 //! shows the other image alone when that one's preimage is on real pixels, and the dissolve
 //! of the edge-clamped samples only when neither is: a smaller `B` then shows `A` around it
 //! instead of smeared edge pixels, and no pixel shows the background.
+//!
+//! **Feathering.** Switching from the dissolve to one image where the other's preimage leaves
+//! its pixels would leave a seam: the two images' values differ there (the two halfway maps
+//! are not the same map), so the frame would step along the curve where the preimage crosses
+//! the image border. Each image therefore gets a coverage weight
+//!
+//! ```text
+//!   f(p) = smoothstep(min(1, d(p) / F)),   smoothstep(u) = 3u^2 - 2u^3,
+//! ```
+//!
+//! `d(p)` the distance (in that image's pixels) from the preimage `p` to the image's border,
+//! `F` = [`FEATHER_PX`] (at most a quarter of the image's smaller side), and the frame is the
+//! normalized blend
+//!
+//! ```text
+//!   ((1 - c) f_A A + c f_B B) / ((1 - c) f_A + c f_B),
+//! ```
+//!
+//! which is the plain dissolve wherever both preimages are `F` or more inside their images
+//! (`f_A = f_B = 1`: the same arithmetic, the same values), moves smoothly (C1 in `d`) to one
+//! image as the other's preimage approaches its border, and equals the hard switch beyond it.
+//! For colour weights outside `[0, 1]` (caricature ranges) the normalization could divide by
+//! numbers near 0, so those frames keep the hard switch.
+
+/// Width (source pixels) of the band inside each image's border over which its weight in
+/// the dissolve falls smoothly to 0 (module docs: **Feathering**).
+pub const FEATHER_PX: f64 = 8.0;
+
+/// The feather width of a `w x h` image: [`FEATHER_PX`], at most a quarter of its smaller side.
+fn feather_width(w: usize, h: usize) -> f64 {
+    FEATHER_PX.min(w.min(h) as f64 / 4.0).max(0.5)
+}
+
+/// The coverage weight `f(q)` of the module docs for the pixel rectangle `[-0.5, r]`
+/// (0 outside it or for a missing preimage, 1 from `f` inside).
+fn coverage(q: [f64; 2], r: [f64; 2], f: f64, e: f64) -> f32 {
+    if q[0].is_nan() {
+        return 0.0;
+    }
+    let d = (q[0] + 0.5).min(q[1] + 0.5).min(r[0] - q[0]).min(r[1] - q[1]);
+    if d <= 0.0 {
+        return 0.0;
+    }
+    let u = (d / f.min(e)).min(1.0);
+    (u * u * (3.0 - 2.0 * u)) as f32
+}
 
 use super::FrameStats;
 use crate::warp::remap::RemapPlan;
@@ -89,14 +135,34 @@ impl Job<'_, '_> {
                         } else {
                             let c = self.c;
                             let (ra, rb) = (rect(&a), rect(&b));
+                            let (fwa, fwb) = (feather_width(a.w, a.h), feather_width(b.w, b.h));
+                            let feather = (0.0..=1.0).contains(&c);
                             for i in 0..n {
                                 let (qa, qb) = (pos_a[i], pos_b[i]);
+                                let px = &mut dst[i * nc..(i + 1) * nc];
+                                let pb = &tmp[i * nc..(i + 1) * nc];
+                                let (x, y) = (
+                                    (i % self.w) as f64,
+                                    (band * self.band_rows + i / self.w) as f64,
+                                );
+                                let e = (x + 0.5)
+                                    .min(y + 0.5)
+                                    .min(self.w as f64 - 0.5 - x)
+                                    .min(self.h as f64 - 0.5 - y);
+                                let (ka, kb) = (coverage(qa, ra, fwa, e), coverage(qb, rb, fwb, e));
+                                if feather && ka > 0.0 && kb > 0.0 && (ka < 1.0 || kb < 1.0) {
+                                    // Normalized feathered dissolve (module docs).
+                                    let (wa, wb) = ((1.0 - c) * ka, c * kb);
+                                    let sum = wa + wb;
+                                    for (o, v) in px.iter_mut().zip(pb) {
+                                        *o = T::from_f32((wa * o.to_f32() + wb * v.to_f32()) / sum);
+                                    }
+                                    continue;
+                                }
                                 let (va, vb) = (!qa[0].is_nan(), !qb[0].is_nan());
                                 let (ina, inb) = (va && within(qa, ra), vb && within(qb, rb));
                                 // Prefer real pixels to edge-clamped ones (module docs).
                                 let (ua, ub) = if ina || inb { (ina, inb) } else { (va, vb) };
-                                let px = &mut dst[i * nc..(i + 1) * nc];
-                                let pb = &tmp[i * nc..(i + 1) * nc];
                                 match (ua, ub) {
                                     (true, true) => {
                                         for (o, v) in px.iter_mut().zip(pb) {

@@ -358,3 +358,32 @@ fn a_deformation_not_covering_a_leaves_background_and_reports_coverage() {
     assert_ne!(f.get_pixel(60, 20)[0], 255, "a pixel only B covers shows B");
     assert_eq!(f.get_pixel(10, 20)[0], a.to_luma8().get_pixel(10, 20)[0]);
 }
+
+/// Where `B`'s preimage leaves `B`'s pixels inside `A`'s frame, the dissolve fades to `A`
+/// over the feather band instead of stepping (job.rs, **Feathering**); deep inside both it is
+/// the plain dissolve.
+#[test]
+fn the_dissolve_fades_across_b_s_border_instead_of_stepping() {
+    let a: DynamicImage = GrayImage::from_pixel(64, 48, image::Luma([40])).into();
+    let b: DynamicImage = GrayImage::from_pixel(40, 30, image::Luma([220])).into();
+    let lms = vec![
+        lm([5.0, 5.0], [5.5, 5.0]),
+        lm([35.0, 5.0], [34.0, 5.5]),
+        lm([5.0, 25.0], [5.0, 24.5]),
+        lm([35.0, 25.0], [35.5, 25.0]),
+        lm([20.0, 15.0], [20.0, 15.0]),
+    ];
+    let m = Morph::new(&a, &b, &lms, &raw()).unwrap();
+    let f = m.frame(0.5).unwrap().to_luma8();
+    assert_eq!(f.get_pixel(18, 14)[0], 130, "plain dissolve deep inside both");
+    assert_eq!(f.get_pixel(60, 14)[0], 40, "A alone beyond B");
+    // Along a row crossing B's right border, and a column crossing its bottom border: no
+    // step near the hard switch's 90 levels.
+    let row: Vec<i32> = (20..60).map(|x| i32::from(f.get_pixel(x, 14)[0])).collect();
+    let col: Vec<i32> = (10..46).map(|y| i32::from(f.get_pixel(18, y)[0])).collect();
+    for (what, line) in [("row 14", &row), ("column 18", &col)] {
+        let step = line.windows(2).map(|w| (w[1] - w[0]).abs()).max().unwrap();
+        assert!(step <= 30, "{what}: a step of {step} levels: {line:?}");
+        assert!(line.first() > line.last(), "{what} goes from the dissolve to A: {line:?}");
+    }
+}
