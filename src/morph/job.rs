@@ -42,16 +42,18 @@ fn feather_width(w: usize, h: usize) -> f64 {
 
 /// The coverage weight `f(q)` of the module docs for the pixel rectangle `[-0.5, r]`
 /// (0 outside it or for a missing preimage, 1 from `f` inside).
-fn coverage(q: [f64; 2], r: [f64; 2], f: f64, e: f64) -> f32 {
-    if q[0].is_nan() {
-        return 0.0;
-    }
-    let d = (q[0] + 0.5).min(q[1] + 0.5).min(r[0] - q[0]).min(r[1] - q[1]);
-    if d <= 0.0 {
+fn coverage(d: f64, f: f64, e: f64) -> f32 {
+    if d.is_nan() || d <= 0.0 {
         return 0.0;
     }
     let u = (d / f.min(e)).min(1.0);
     (u * u * (3.0 - 2.0 * u)) as f32
+}
+
+/// Distance (pixels) from `q` inside the pixel rectangle `[-0.5, r]` to its border
+/// (negative outside, NaN for a missing preimage).
+fn depth(q: [f64; 2], r: [f64; 2]) -> f64 {
+    (q[0] + 0.5).min(q[1] + 0.5).min(r[0] - q[0]).min(r[1] - q[1])
 }
 
 use super::FrameStats;
@@ -141,16 +143,18 @@ impl Job<'_, '_> {
                                 let (qa, qb) = (pos_a[i], pos_b[i]);
                                 let px = &mut dst[i * nc..(i + 1) * nc];
                                 let pb = &tmp[i * nc..(i + 1) * nc];
-                                let (x, y) = (
-                                    (i % self.w) as f64,
-                                    (band * self.band_rows + i / self.w) as f64,
-                                );
-                                let e = (x + 0.5)
-                                    .min(y + 0.5)
-                                    .min(self.w as f64 - 0.5 - x)
-                                    .min(self.h as f64 - 0.5 - y);
-                                let (ka, kb) = (coverage(qa, ra, fwa, e), coverage(qb, rb, fwb, e));
-                                if feather && ka > 0.0 && kb > 0.0 && (ka < 1.0 || kb < 1.0) {
+                                let (da, db) = (depth(qa, ra), depth(qb, rb));
+                                // Most pixels are deep inside both images: the plain dissolve
+                                // below, without the weights.
+                                let edge = !(da >= fwa && db >= fwb);
+                                if feather && edge && da > 0.0 && db > 0.0 {
+                                    let x = (i % self.w) as f64;
+                                    let y = (band * self.band_rows + i / self.w) as f64;
+                                    let e = (x + 0.5)
+                                        .min(y + 0.5)
+                                        .min(self.w as f64 - 0.5 - x)
+                                        .min(self.h as f64 - 0.5 - y);
+                                    let (ka, kb) = (coverage(da, fwa, e), coverage(db, fwb, e));
                                     // Normalized feathered dissolve (module docs).
                                     let (wa, wb) = ((1.0 - c) * ka, c * kb);
                                     let sum = wa + wb;
