@@ -5,6 +5,8 @@
 //!
 //! Modules follow the data flow; lower modules never import higher ones:
 //!
+//! * [`alloc`]: a global allocator asking for huge pages on large buffers (used by the
+//!   binary; imports nothing of the crate);
 //! * [`json`]: strict JSON reading (duplicate keys refused), used by every reader;
 //! * [`memory`]: the process's memory budget, checked before large buffers are allocated
 //!   (below every other module);
@@ -29,6 +31,7 @@
 // Index loops are the clearest way to write the matrix algorithms here.
 #![allow(clippy::needless_range_loop)]
 
+pub mod alloc;
 pub mod bundled;
 pub mod cli;
 pub mod ecles;
