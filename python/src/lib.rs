@@ -22,6 +22,11 @@ mod memory;
 mod sequence;
 mod tiles;
 
+/// The extension's own large buffers (warp outputs, maps) on transparent huge pages, as in
+/// the `trimorph` binary ([`trimorph::alloc`]); numpy's arrays keep Python's allocator.
+#[global_allocator]
+static ALLOC: trimorph::alloc::HugePages = trimorph::alloc::HugePages;
+
 /// The native module `trimorph._trimorph` (re-exported by the `trimorph` package).
 #[pymodule]
 fn _trimorph(m: &Bound<'_, PyModule>) -> PyResult<()> {
