@@ -13,7 +13,8 @@
 //!
 //! The advice changes only how the kernel backs the pages, never their contents, and it is
 //! best effort: where the kernel refuses it (THP disabled, not Linux) nothing changes. The
-//! `trimorph` binary installs it (`src/main.rs`); a program using the library can too:
+//! `trimorph` binary installs it (`src/main.rs`), and so does the Python extension (for its
+//! own buffers; numpy's arrays keep Python's allocator); a program using the library can too:
 //!
 //! ```
 //! #[global_allocator]
