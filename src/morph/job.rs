@@ -31,31 +31,6 @@
 //! For colour weights outside `[0, 1]` (caricature ranges) the normalization could divide by
 //! numbers near 0, so those frames keep the hard switch.
 
-/// Width (source pixels) of the band inside each image's border over which its weight in
-/// the dissolve falls smoothly to 0 (module docs: **Feathering**).
-pub const FEATHER_PX: f64 = 8.0;
-
-/// The feather width of a `w x h` image: [`FEATHER_PX`], at most a quarter of its smaller side.
-fn feather_width(w: usize, h: usize) -> f64 {
-    FEATHER_PX.min(w.min(h) as f64 / 4.0).max(0.5)
-}
-
-/// The coverage weight `f(q)` of the module docs for the pixel rectangle `[-0.5, r]`
-/// (0 outside it or for a missing preimage, 1 from `f` inside).
-fn coverage(d: f64, f: f64, e: f64) -> f32 {
-    if d.is_nan() || d <= 0.0 {
-        return 0.0;
-    }
-    let u = (d / f.min(e)).min(1.0);
-    (u * u * (3.0 - 2.0 * u)) as f32
-}
-
-/// Distance (pixels) from `q` inside the pixel rectangle `[-0.5, r]` to its border
-/// (negative outside, NaN for a missing preimage).
-fn depth(q: [f64; 2], r: [f64; 2]) -> f64 {
-    (q[0] + 0.5).min(q[1] + 0.5).min(r[0] - q[0]).min(r[1] - q[1])
-}
-
 use super::FrameStats;
 use crate::warp::remap::RemapPlan;
 use crate::warp::sample::{self, Source, Texel};
@@ -92,9 +67,30 @@ fn rect<T>(s: &Source<'_, T>) -> [f64; 2] {
     [s.w as f64 - 0.5, s.h as f64 - 0.5]
 }
 
-/// Whether `q` lies on the image's pixels `[-0.5, w - 0.5] x [-0.5, h - 0.5]`.
-fn within(q: [f64; 2], r: [f64; 2]) -> bool {
-    q[0] >= -0.5 && q[1] >= -0.5 && q[0] <= r[0] && q[1] <= r[1]
+/// Width (source pixels) of the band inside each image's border over which its weight in
+/// the dissolve falls smoothly to 0 (module docs: **Feathering**).
+pub const FEATHER_PX: f64 = 8.0;
+
+/// The feather width of a `w x h` image: [`FEATHER_PX`], at most a quarter of its smaller side.
+fn feather_width(w: usize, h: usize) -> f64 {
+    FEATHER_PX.min(w.min(h) as f64 / 4.0).max(0.5)
+}
+
+/// The coverage weight of the module docs for a preimage at depth `d` ([`depth`]) with
+/// feather width `f`, for an output pixel `e` from the frame's edge (the band is never wider
+/// than `e`): 0 outside the image or for a missing preimage, 1 from `min(f, e)` inside.
+fn coverage(d: f64, f: f64, e: f64) -> f32 {
+    if d.is_nan() || d <= 0.0 {
+        return 0.0;
+    }
+    let u = (d / f.min(e)).min(1.0);
+    (u * u * (3.0 - 2.0 * u)) as f32
+}
+
+/// Distance (pixels) from `q` inside the pixel rectangle `[-0.5, r]` to its border
+/// (negative outside, NaN for a missing preimage).
+fn depth(q: [f64; 2], r: [f64; 2]) -> f64 {
+    (q[0] + 0.5).min(q[1] + 0.5).min(r[0] - q[0]).min(r[1] - q[1])
 }
 
 impl Job<'_, '_> {
@@ -164,7 +160,8 @@ impl Job<'_, '_> {
                                     continue;
                                 }
                                 let (va, vb) = (!qa[0].is_nan(), !qb[0].is_nan());
-                                let (ina, inb) = (va && within(qa, ra), vb && within(qb, rb));
+                                // On the image's pixels (a NaN depth compares false).
+                                let (ina, inb) = (da >= 0.0, db >= 0.0);
                                 // Prefer real pixels to edge-clamped ones (module docs).
                                 let (ua, ub) = if ina || inb { (ina, inb) } else { (va, vb) };
                                 match (ua, ub) {
