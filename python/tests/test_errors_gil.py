@@ -45,18 +45,11 @@ def test_bad_warp_arguments_are_value_errors(fitted):
         d.map_points(np.zeros((3, 3)))
 
 
-def test_warp_releases_the_gil(fitted):
-    """Another Python thread keeps running while warps run in Rust.
-
-    The worker warps a large image repeatedly for at least half a second; the main thread
-    ticks meanwhile. Were the GIL held through a warp, the main thread would stall for a
-    whole call, so its longest pause would be at least one call's duration.
-    """
+def _longest_pause(d, img):
+    """One measurement: the main thread's longest pause while a worker thread warps `img`
+    repeatedly for at least half a second, and the median warp call (seconds)."""
     import sys
 
-    d, _ = fitted
-    # Large enough that one warp takes many milliseconds even in a release build.
-    img = (np.random.default_rng(0).random((5000, 5000, 3)) * 255).astype(np.uint8)
     ticks, calls = [], []
     done = threading.Event()
 
@@ -81,11 +74,32 @@ def test_warp_releases_the_gil(fitted):
         th.join()
     finally:
         sys.setswitchinterval(old)
-    call = float(np.median(calls))
-    assert call > 0.01, f"each warp must be long enough to tell ({call:.4f} s)"
-    gaps = np.diff(ticks)
-    assert gaps.max() < 0.5 * call, (gaps.max(), call)
     assert len(ticks) > 20
+    return float(np.diff(ticks).max()), float(np.median(calls))
+
+
+def test_warp_releases_the_gil(fitted):
+    """Another Python thread keeps running while warps run in Rust.
+
+    The worker warps a large image repeatedly for at least half a second; the main thread
+    ticks meanwhile. Were the GIL held through a warp, the main thread would stall for a
+    whole call in every measurement, so its longest pause would be at least one call's
+    duration. On a 2-core machine the warp's threads fill both cores, and the ticking thread
+    is now and then not scheduled for tens of milliseconds (seen in CI: 22 ms against a
+    35 ms call); so up to three measurements are taken and the best one must show it.
+    """
+    d, _ = fitted
+    # Large enough that one warp takes many milliseconds even in a release build.
+    img = (np.random.default_rng(0).random((5000, 5000, 3)) * 255).astype(np.uint8)
+    seen = []
+    for _ in range(3):
+        pause, call = _longest_pause(d, img)
+        assert call > 0.01, f"each warp must be long enough to tell ({call:.4f} s)"
+        seen.append((pause, call))
+        if pause < 0.5 * call:
+            break
+    pause, call = min(seen, key=lambda pc: pc[0] / pc[1])
+    assert pause < 0.5 * call, seen
 
 
 def test_an_image_over_the_memory_budget_is_a_memory_error_and_the_budget_resets(tmp_path):
