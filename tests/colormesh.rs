@@ -5,11 +5,13 @@ use image::{DynamicImage, Rgba, RgbaImage};
 use std::path::Path;
 use tiny_skia::Pixmap;
 use trimorph::exact::{rat_int, Rat};
-use trimorph::io::colormesh::{load, read_obj, read_ply, save, save_ply, write_ply, PlyFormat};
+use trimorph::io::colormesh::{
+    load, read_obj, read_ply, save, save_ply, write_ply, Location, MeshFileError, PlyFormat,
+};
 use trimorph::mesh::{Mesh, MeshOptions};
 use trimorph::render::colormesh::rasterize;
 use trimorph::spline::Spline;
-use trimorph::warp::colormesh::{ColorMesh, ColorMeshError, ColorMode, Colors, Location};
+use trimorph::warp::colormesh::{ColorMesh, ColorMeshError, ColorMode, Colors};
 
 fn noisy(w: u32, h: u32) -> RgbaImage {
     RgbaImage::from_fn(w, h, |x, y| {
@@ -151,10 +153,10 @@ fn a_shifted_spline_shifts_the_picture() {
 }
 
 /// The message of an error, which must be a format error at `location`.
-fn format_error(e: ColorMeshError, location: Location) -> String {
+fn format_error(e: MeshFileError, location: Location) -> String {
     let text = e.to_string();
     match e {
-        ColorMeshError::Format { location: l, .. } => assert_eq!(l, location, "{text}"),
+        MeshFileError::Format { location: l, .. } => assert_eq!(l, location, "{text}"),
         other => panic!("not a format error: {other}"),
     }
     text
@@ -269,17 +271,20 @@ fn files_names_and_invalid_meshes() {
     let dir = tempfile::tempdir().unwrap();
     let m = mesh_of(&noisy(4, 4), 1, ColorMode::PerVertex);
     let p = dir.path().join("m.stl");
-    assert!(matches!(save(&m, &p), Err(ColorMeshError::UnknownFormat { .. })));
-    assert!(matches!(load(&p), Err(ColorMeshError::UnknownFormat { .. })));
+    assert!(matches!(save(&m, &p), Err(MeshFileError::UnknownFormat { .. })));
+    assert!(matches!(load(&p), Err(MeshFileError::UnknownFormat { .. })));
     let missing = dir.path().join("missing.OBJ");
     let e = load(&missing).unwrap_err();
-    assert!(matches!(e, ColorMeshError::Read { .. }) && e.to_string().contains("missing.OBJ"));
+    assert!(matches!(e, MeshFileError::Read { .. }) && e.to_string().contains("missing.OBJ"));
     // An invalid mesh is not written, and an older file stays.
     let p = dir.path().join("m.ply");
     save(&m, &p).unwrap();
     let mut bad = m.clone();
     bad.triangles[0][0] = 99;
-    assert!(matches!(save(&bad, &p), Err(ColorMeshError::Index { triangle: 0, index: 99, .. })));
+    assert!(matches!(
+        save(&bad, &p),
+        Err(MeshFileError::Mesh(ColorMeshError::Index { triangle: 0, index: 99, .. }))
+    ));
     assert_eq!(load(&p).unwrap(), m);
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
 }

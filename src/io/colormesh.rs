@@ -32,13 +32,80 @@
 //!
 //! Errors name the file and the line (text) or element (binary) at fault.
 
-use std::fmt::Write as _;
-use std::path::Path;
-
 use std::collections::HashMap;
+use std::fmt;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
 
 use super::obj::{Obj, ObjError};
-use crate::warp::colormesh::{ColorMesh, ColorMeshError, Colors, Location};
+use crate::warp::colormesh::{ColorMesh, ColorMeshError, Colors};
+
+/// Where in a file a problem is.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Location {
+    /// The file as a whole.
+    File,
+    /// The header (PLY).
+    Header,
+    /// A line of a text file (1-based).
+    Line(usize),
+    /// An element of a binary file, e.g. `vertex 12` (0-based index).
+    Element {
+        /// Element name (`vertex`, `face`, ...).
+        name: String,
+        /// Index of the element.
+        index: u64,
+    },
+}
+
+impl fmt::Display for Location {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Location::File => write!(f, "file"),
+            Location::Header => write!(f, "header"),
+            Location::Line(n) => write!(f, "line {n}"),
+            Location::Element { name, index } => write!(f, "{name} {index}"),
+        }
+    }
+}
+
+/// Errors of colored mesh files: reading, parsing and writing them. A mesh that is itself
+/// invalid (a bad index, a non-finite vertex, a color count that does not match) is
+/// [`MeshFileError::Mesh`] when it is about to be written; when it is read from a file it is
+/// a [`MeshFileError::Format`] naming the file.
+#[derive(Debug, thiserror::Error)]
+pub enum MeshFileError {
+    /// A file could not be read.
+    #[error("cannot read {}: {source}", path.display())]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// A file could not be written.
+    #[error(transparent)]
+    Write(#[from] crate::io::IoError),
+    /// A file's content is malformed.
+    #[error("{}: {location}: {message}", path.display())]
+    Format {
+        /// The file.
+        path: PathBuf,
+        /// Where in the file.
+        location: Location,
+        /// What is wrong.
+        message: String,
+    },
+    /// The file name has no known mesh extension.
+    #[error("{}: unknown colored mesh format (use .obj or .ply)", path.display())]
+    UnknownFormat {
+        /// The file.
+        path: PathBuf,
+    },
+    /// The mesh to be written is invalid.
+    #[error(transparent)]
+    Mesh(#[from] ColorMeshError),
+}
 
 /// Encoding of a written PLY file.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -52,8 +119,8 @@ pub enum PlyFormat {
     Ascii,
 }
 
-fn fail(path: &Path, location: Location, message: impl Into<String>) -> ColorMeshError {
-    ColorMeshError::Format { path: path.to_path_buf(), location, message: message.into() }
+fn fail(path: &Path, location: Location, message: impl Into<String>) -> MeshFileError {
+    MeshFileError::Format { path: path.to_path_buf(), location, message: message.into() }
 }
 
 fn extension(path: &Path) -> Option<String> {
@@ -61,13 +128,13 @@ fn extension(path: &Path) -> Option<String> {
 }
 
 /// Reads a colored mesh from a `.obj` or `.ply` file (extension case-insensitive).
-pub fn load(path: &Path) -> Result<ColorMesh, ColorMeshError> {
+pub fn load(path: &Path) -> Result<ColorMesh, MeshFileError> {
     let ext = extension(path);
     if !matches!(ext.as_deref(), Some("obj" | "ply")) {
-        return Err(ColorMeshError::UnknownFormat { path: path.to_path_buf() });
+        return Err(MeshFileError::UnknownFormat { path: path.to_path_buf() });
     }
     let bytes = std::fs::read(path)
-        .map_err(|source| ColorMeshError::Read { path: path.to_path_buf(), source })?;
+        .map_err(|source| MeshFileError::Read { path: path.to_path_buf(), source })?;
     let mesh = if ext.as_deref() == Some("obj") {
         read_obj(&bytes, path)?
     } else {
@@ -79,19 +146,19 @@ pub fn load(path: &Path) -> Result<ColorMesh, ColorMeshError> {
 
 /// Writes a (valid) colored mesh to a `.obj` or `.ply` (binary little endian) file,
 /// atomically.
-pub fn save(mesh: &ColorMesh, path: &Path) -> Result<(), ColorMeshError> {
+pub fn save(mesh: &ColorMesh, path: &Path) -> Result<(), MeshFileError> {
     match extension(path).as_deref() {
         Some("obj") => {
             mesh.validate()?;
             Ok(crate::io::write_atomic(path, write_obj(mesh).as_bytes())?)
         }
         Some("ply") => save_ply(mesh, path, PlyFormat::default()),
-        _ => Err(ColorMeshError::UnknownFormat { path: path.to_path_buf() }),
+        _ => Err(MeshFileError::UnknownFormat { path: path.to_path_buf() }),
     }
 }
 
 /// Writes a (valid) colored mesh to a PLY file in the given encoding, atomically.
-pub fn save_ply(mesh: &ColorMesh, path: &Path, format: PlyFormat) -> Result<(), ColorMeshError> {
+pub fn save_ply(mesh: &ColorMesh, path: &Path, format: PlyFormat) -> Result<(), MeshFileError> {
     mesh.validate()?;
     Ok(crate::io::write_atomic(path, &write_ply(mesh, format))?)
 }
@@ -132,7 +199,7 @@ pub fn write_obj(mesh: &ColorMesh) -> String {
 }
 
 /// Reads OBJ text (`path` only names the file in errors; see the module docs).
-pub fn read_obj(bytes: &[u8], path: &Path) -> Result<ColorMesh, ColorMeshError> {
+pub fn read_obj(bytes: &[u8], path: &Path) -> Result<ColorMesh, MeshFileError> {
     let obj = Obj::parse(bytes).map_err(|e| obj_error(path, e))?;
     let (mut points, mut rgb, mut over_1) = (Vec::new(), Vec::new(), false);
     for v in obj.vertices() {
@@ -192,7 +259,7 @@ pub fn read_obj(bytes: &[u8], path: &Path) -> Result<ColorMesh, ColorMeshError> 
 }
 
 /// A colored mesh's wording of an OBJ statement error.
-fn obj_error(path: &Path, e: ObjError) -> ColorMeshError {
+fn obj_error(path: &Path, e: ObjError) -> MeshFileError {
     let at = Location::Line(e.line());
     match &e {
         ObjError::BadNumber { token, .. } => fail(path, at, format!("`{token}` is not a number")),
@@ -325,7 +392,7 @@ struct Element {
 }
 
 /// Parses the header: encoding, elements, offset of the body and its first line number.
-fn header(bytes: &[u8], path: &Path) -> Result<(Enc, Vec<Element>, usize, usize), ColorMeshError> {
+fn header(bytes: &[u8], path: &Path) -> Result<(Enc, Vec<Element>, usize, usize), MeshFileError> {
     let (mut pos, mut enc, mut elems, mut n) = (0usize, None, Vec::<Element>::new(), 0);
     loop {
         n += 1;
@@ -474,7 +541,7 @@ impl<'a> Body<'a> {
 }
 
 /// Positions of the color properties (`red`, `green`, `blue`, optional `alpha`) of `e`.
-fn color_props(e: &Element, path: &Path) -> Result<Option<[Option<usize>; 4]>, ColorMeshError> {
+fn color_props(e: &Element, path: &Path) -> Result<Option<[Option<usize>; 4]>, MeshFileError> {
     let find = |c: &str| {
         e.props.iter().position(|p| p.name == c || p.name.strip_prefix("diffuse_") == Some(c))
     };
@@ -507,7 +574,7 @@ fn color(e: &Element, idx: &[Option<usize>; 4], vals: &[f64]) -> Result<[u8; 4],
 }
 
 /// Reads PLY bytes (`path` only names the file in errors; see the module docs).
-pub fn read_ply(bytes: &[u8], path: &Path) -> Result<ColorMesh, ColorMeshError> {
+pub fn read_ply(bytes: &[u8], path: &Path) -> Result<ColorMesh, MeshFileError> {
     let raw = read_ply_raw(bytes, path, true)?;
     let vertices = raw.vertices.iter().map(|v| [v[0], v[1]]).collect();
     let colors = match (raw.face_colors, raw.vertex_colors) {
@@ -534,11 +601,7 @@ pub struct RawPly {
 /// Reads a PLY file (ascii, binary little or big endian). With `need_colors`, a file
 /// without vertex or face colours is an error; without it, the `face` element is optional
 /// (a point cloud).
-pub fn read_ply_raw(
-    bytes: &[u8],
-    path: &Path,
-    need_colors: bool,
-) -> Result<RawPly, ColorMeshError> {
+pub fn read_ply_raw(bytes: &[u8], path: &Path, need_colors: bool) -> Result<RawPly, MeshFileError> {
     let (enc, elems, start, line) = header(bytes, path)?;
     let body_len = (bytes.len() - start) as u128;
     let mut need = 0u128;

@@ -48,7 +48,7 @@ pub enum ModelIoError {
     },
     /// A PLY error from the shared reader.
     #[error(transparent)]
-    Ply(#[from] crate::warp::colormesh::ColorMeshError),
+    Ply(#[from] crate::io::colormesh::MeshFileError),
     /// Unknown extension.
     #[error("{0}: unknown model format (use .obj, .off, .ply or .xyz)")]
     Extension(PathBuf),

@@ -21,8 +21,6 @@
 use crate::spline::Spline;
 use image::{DynamicImage, RgbaImage};
 use rayon::prelude::*;
-use std::fmt;
-use std::path::PathBuf;
 
 /// Most triangles [`ColorMesh::from_image`] makes (about 1.2 GB of mesh at 24 bytes each).
 pub const MAX_TRIANGLES: u64 = 50_000_000;
@@ -56,36 +54,8 @@ pub struct ColorMesh {
     pub colors: Colors,
 }
 
-/// Where in a file a problem is.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub enum Location {
-    /// The file as a whole.
-    File,
-    /// The header (PLY).
-    Header,
-    /// A line of a text file (1-based).
-    Line(usize),
-    /// An element of a binary file, e.g. `vertex 12` (0-based index).
-    Element {
-        /// Element name (`vertex`, `face`, ...).
-        name: String,
-        /// Index of the element.
-        index: u64,
-    },
-}
-
-impl fmt::Display for Location {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Location::File => write!(f, "file"),
-            Location::Header => write!(f, "header"),
-            Location::Line(n) => write!(f, "line {n}"),
-            Location::Element { name, index } => write!(f, "{name} {index}"),
-        }
-    }
-}
-
-/// Errors of colored meshes: building, checking, drawing, reading and writing them.
+/// Errors of colored meshes: building, checking and drawing them (the file errors are
+/// [`crate::io::colormesh::MeshFileError`]).
 #[derive(Debug, thiserror::Error)]
 pub enum ColorMeshError {
     /// A triangle refers to a vertex that does not exist.
@@ -148,33 +118,6 @@ pub enum ColorMeshError {
         width: u32,
         /// Requested height.
         height: u32,
-    },
-    /// A file could not be read.
-    #[error("cannot read {}: {source}", path.display())]
-    Read {
-        /// The file.
-        path: PathBuf,
-        /// The cause.
-        source: std::io::Error,
-    },
-    /// A file could not be written.
-    #[error(transparent)]
-    Write(#[from] crate::io::IoError),
-    /// A file's content is malformed.
-    #[error("{}: {location}: {message}", path.display())]
-    Format {
-        /// The file.
-        path: PathBuf,
-        /// Where in the file.
-        location: Location,
-        /// What is wrong.
-        message: String,
-    },
-    /// The file name has no known mesh extension.
-    #[error("{}: unknown colored mesh format (use .obj or .ply)", path.display())]
-    UnknownFormat {
-        /// The file.
-        path: PathBuf,
     },
 }
 
