@@ -6,6 +6,7 @@ use crate::edit::script::{self, OpReport, Script, ScriptError};
 use crate::edit::Editor;
 use crate::exact::parse_rat;
 use crate::io::deformation::{self, LastEdit};
+use crate::io::points::read_points;
 use crate::io::{read_text, write_atomic};
 use crate::mesh::{Mesh, MeshOptions};
 use crate::spline::jacobian::{certify, CertifyOptions};
@@ -14,30 +15,6 @@ use anyhow::{anyhow, bail, Context, Result};
 use serde_json::json;
 use std::io::Write;
 use std::path::Path;
-
-/// Reads `x,y` rows from CSV text (extra columns are allowed, and a header line: a first
-/// line with no number in its first two columns).
-pub fn read_points_csv(text: &str, source: &str) -> Result<Vec<[f64; 2]>> {
-    let mut out = Vec::new();
-    for (i, line) in text.lines().enumerate() {
-        let line = line.trim();
-        if line.is_empty() || line.starts_with('#') {
-            continue;
-        }
-        let cols: Vec<&str> = line.split([',', ';', '\t', ' ']).filter(|c| !c.is_empty()).collect();
-        let parse = |c: Option<&&str>| c.and_then(|c| c.trim().parse::<f64>().ok());
-        match (parse(cols.first()), parse(cols.get(1))) {
-            (Some(x), Some(y)) if x.is_finite() && y.is_finite() => out.push([x, y]),
-            // A header has no number in either column (a typo in one is an error).
-            (None, None) if out.is_empty() && i == 0 => continue,
-            _ => bail!("{source}, line {}: expected two numbers `x,y`, found `{line}`", i + 1),
-        }
-    }
-    if out.is_empty() {
-        bail!("{source}: no points");
-    }
-    Ok(out)
-}
 
 /// Options of `trimorph mesh`.
 pub struct MeshArgs<'a> {
@@ -85,12 +62,11 @@ pub fn mesh(a: MeshArgs) -> Result<()> {
                 .mesh
         }
         (Some(p), None, None, None) => {
-            let mut pts = read_points_csv(&read_text(p)?, &p.display().to_string())?;
+            let mut pts = read_points(&read_text(p)?, &p.display().to_string())?;
             match a.outline {
                 None => Mesh::delaunay(&pts, opts),
                 Some(o) => {
-                    let mut outline_pts =
-                        read_points_csv(&read_text(o)?, &o.display().to_string())?;
+                    let mut outline_pts = read_points(&read_text(o)?, &o.display().to_string())?;
                     // A closed polygon (last vertex repeating the first) is the same outline.
                     if outline_pts.len() > 3 && outline_pts.first() == outline_pts.last() {
                         outline_pts.pop();

@@ -1,6 +1,7 @@
 //! `trimorph warp DEF (--image IN | --points IN.csv) -o OUT`.
 
 use super::common::{parse_raster_size, progress_bar, raster_fits};
+use crate::io::points::{optional_points_csv, read_optional_points};
 use crate::io::raster::Stack;
 use crate::io::{read_text, write_atomic};
 use crate::warp::inverse::InverseOptions;
@@ -116,33 +117,6 @@ pub fn colormesh(image: &Path, output: &Path, step: u32, flat: bool) -> Result<(
         output.display()
     );
     Ok(())
-}
-
-/// Reads `x,y` rows; a row with empty fields (as `warp` writes for missing points) is `None`,
-/// so warped files can be warped back row for row.
-fn read_optional_points(text: &str, source: &str) -> Result<Vec<Option<[f64; 2]>>> {
-    let mut out = Vec::new();
-    for (i, line) in text.lines().enumerate() {
-        let line = line.trim();
-        if line.is_empty() || line.starts_with('#') {
-            continue;
-        }
-        let cols: Vec<&str> = line.split(',').map(str::trim).collect();
-        if cols.len() >= 2 && cols[0].is_empty() && cols[1].is_empty() {
-            out.push(None);
-            continue;
-        }
-        let parse =
-            |c: Option<&&str>| c.and_then(|c| c.parse::<f64>().ok()).filter(|v| v.is_finite());
-        match (parse(cols.first()), parse(cols.get(1))) {
-            (Some(x), Some(y)) => out.push(Some([x, y])),
-            // A header has no number in either column (a typo in one is an error, so output
-            // rows keep lining up with input rows).
-            (None, None) if out.is_empty() && i == 0 => continue,
-            _ => bail!("{source}, line {}: expected `x,y` (finite numbers) or an empty row `,`, found `{line}`", i + 1),
-        }
-    }
-    Ok(out)
 }
 
 /// Runs `trimorph warp`.
@@ -267,18 +241,8 @@ pub fn run(a: WarpArgs) -> Result<()> {
             let mut it = mapped.into_iter();
             let res: Vec<Option<[f64; 2]>> =
                 rows.iter().map(|r| r.and_then(|_| it.next().expect("one per point"))).collect();
-            let mut csv = String::from("x,y\n");
-            let mut missing = 0;
-            for r in &res {
-                match r {
-                    Some(q) => csv.push_str(&format!("{},{}\n", q[0], q[1])),
-                    None => {
-                        missing += 1;
-                        csv.push_str(",\n");
-                    }
-                }
-            }
-            write_atomic(a.output, csv.as_bytes())?;
+            let missing = res.iter().filter(|r| r.is_none()).count();
+            write_atomic(a.output, optional_points_csv(&res).as_bytes())?;
             let dir = if a.inverse { "phi^-1 (inverse)" } else { "phi (forward)" };
             writeln!(out, "{} points through {dir} -> {}", rows.len(), a.output.display())?;
             if missing > 0 {

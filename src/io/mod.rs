@@ -13,6 +13,7 @@ pub mod landmarks;
 pub mod model;
 pub mod ngff;
 pub mod obj;
+pub mod points;
 pub mod raster;
 
 use std::fs;
