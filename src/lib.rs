@@ -7,7 +7,9 @@
 //!
 //! * [`alloc`]: a global allocator asking for huge pages on large buffers (used by the
 //!   binary; imports nothing of the crate);
+//! * [`geom`]: points and vectors of the plane (pixels), the types of the public API;
 //! * [`json`]: strict JSON reading (duplicate keys refused), used by every reader;
+//! * [`timing`]: wall-time phases of a job (below every other module);
 //! * [`memory`]: the process's memory budget, checked before large buffers are allocated
 //!   (below every other module);
 //! * [`exact`]: exact integer / rational linear algebra (fraction-free LDU, exact solve,
@@ -38,6 +40,7 @@ pub mod ecles;
 pub mod edit;
 pub mod exact;
 pub mod fit;
+pub mod geom;
 pub mod io;
 pub mod json;
 pub mod memory;
@@ -47,4 +50,5 @@ pub mod prism;
 pub mod render;
 pub mod server;
 pub mod spline;
+pub mod timing;
 pub mod warp;

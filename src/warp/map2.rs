@@ -3,7 +3,8 @@
 //! A [`Map2`] is a map `m: R^2 -> R^2` in pixels (x to the right, y down, pixel `(i, j)`
 //! centred at `(i, j)`, as everywhere in [`crate::warp`]): its value `m(p)` (`None` outside
 //! its domain), its Jacobian `Dm(p) = [[dm_x/dx, dm_x/dy], [dm_y/dx, dm_y/dy]]`, and, where
-//! the map can say, its inverse `m^-1(q)`. The spline deformation ([`Spline`]), an affine
+//! the map can say, its inverse `m^-1(q)`. Points are [`Point`]s, the translation of an
+//! affine map a [`Vector`] (inner loops keep `[f64; 2]` arrays; the types convert for free). The spline deformation ([`Spline`]), an affine
 //! map ([`AffineMap`]) and the baselines of the tests (a thin-plate spline) implement it, so
 //! they are resampled by the same code:
 //!
@@ -21,6 +22,7 @@
 use super::pullback::in_frame;
 use super::sample::Texel;
 use super::{fill, rebuild, source, Buf, Interp, Src, WarpError};
+use crate::geom::{Mat2, Point, Vector};
 use crate::spline::Spline;
 use image::DynamicImage;
 use rayon::prelude::*;
@@ -28,14 +30,14 @@ use rayon::prelude::*;
 /// A map of the plane in pixels (see the module docs).
 pub trait Map2: Sync {
     /// `m(p)`, or `None` where `p` is outside the map's domain.
-    fn value(&self, p: [f64; 2]) -> Option<[f64; 2]>;
+    fn value(&self, p: Point) -> Option<Point>;
 
     /// The Jacobian `[[dm_x/dx, dm_x/dy], [dm_y/dx, dm_y/dy]]` at `p` (`None` outside).
-    fn jacobian(&self, p: [f64; 2]) -> Option<[[f64; 2]; 2]>;
+    fn jacobian(&self, p: Point) -> Option<Mat2>;
 
     /// `m^-1(q)` when the map provides it and `q` has a preimage; `None` otherwise (the
     /// default: no inverse).
-    fn inverse(&self, q: [f64; 2]) -> Option<[f64; 2]> {
+    fn inverse(&self, q: Point) -> Option<Point> {
         let _ = q;
         None
     }
@@ -50,13 +52,13 @@ pub trait Map2: Sync {
 /// [`super::inverse::InverseMap`] once (it implements [`Map2`] with the inverse) instead of
 /// one per point.
 impl Map2 for Spline {
-    fn value(&self, p: [f64; 2]) -> Option<[f64; 2]> {
-        let (t, b) = self.mesh().locate(p, None)?;
-        Some(self.eval_cache().value(t, b))
+    fn value(&self, p: Point) -> Option<Point> {
+        let (t, b) = self.mesh().locate(p.to_array(), None)?;
+        Some(self.eval_cache().value(t, b).into())
     }
 
-    fn jacobian(&self, p: [f64; 2]) -> Option<[[f64; 2]; 2]> {
-        let (t, b) = self.mesh().locate(p, None)?;
+    fn jacobian(&self, p: Point) -> Option<Mat2> {
+        let (t, b) = self.mesh().locate(p.to_array(), None)?;
         Some(self.eval_cache().jacobian(t, b))
     }
 }
@@ -64,16 +66,17 @@ impl Map2 for Spline {
 /// `phi` with its inverse: Newton's method from the map's buckets, polished to machine
 /// precision ([`super::inverse::InverseMap::polish`]), as [`super::inverse()`] does.
 impl Map2 for super::inverse::InverseMap<'_> {
-    fn value(&self, p: [f64; 2]) -> Option<[f64; 2]> {
+    fn value(&self, p: Point) -> Option<Point> {
         self.spline().value(p)
     }
 
-    fn jacobian(&self, p: [f64; 2]) -> Option<[[f64; 2]; 2]> {
+    fn jacobian(&self, p: Point) -> Option<Mat2> {
         self.spline().jacobian(p)
     }
 
-    fn inverse(&self, q: [f64; 2]) -> Option<[f64; 2]> {
-        self.invert(q, None).map(|r| self.polish(q, r).p)
+    fn inverse(&self, q: Point) -> Option<Point> {
+        let q = q.to_array();
+        self.invert(q, None).map(|r| self.polish(q, r).p.into())
     }
 
     fn has_inverse(&self) -> bool {
@@ -82,47 +85,52 @@ impl Map2 for super::inverse::InverseMap<'_> {
 }
 
 /// An affine map `p -> a p + b` of the whole plane (`a` row-major).
+///
+/// ```
+/// use trimorph::geom::{Point, Vector};
+/// use trimorph::warp::{AffineMap, Map2};
+/// let m = AffineMap { a: [[0.0, -1.0], [1.0, 0.0]], b: Vector::new(10.0, 0.0) };
+/// let q = m.apply(Point::new(1.0, 2.0));
+/// assert_eq!(q, Point::new(8.0, 1.0));
+/// assert_eq!(m.inverse(q), Some(Point::new(1.0, 2.0)));
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct AffineMap {
     /// The linear part: `a[r][c]`.
-    pub a: [[f64; 2]; 2],
+    pub a: Mat2,
     /// The translation.
-    pub b: [f64; 2],
+    pub b: Vector,
 }
 
 impl AffineMap {
     /// `a p + b`.
-    pub fn apply(&self, p: [f64; 2]) -> [f64; 2] {
-        let a = &self.a;
-        [a[0][0] * p[0] + a[0][1] * p[1] + self.b[0], a[1][0] * p[0] + a[1][1] * p[1] + self.b[1]]
+    pub fn apply(&self, p: Point) -> Point {
+        Point::ORIGIN + crate::geom::mat_vec(&self.a, p.to_vector()) + self.b
     }
 
     /// The inverse map, `None` when `det a` is 0 or not finite.
     pub fn inverted(&self) -> Option<AffineMap> {
         let a = &self.a;
-        let det = a[0][0] * a[1][1] - a[0][1] * a[1][0];
+        let det = crate::geom::det(a);
         if det == 0.0 || !det.is_finite() {
             return None;
         }
         let inv = [[a[1][1] / det, -a[0][1] / det], [-a[1][0] / det, a[0][0] / det]];
-        let b = [
-            -(inv[0][0] * self.b[0] + inv[0][1] * self.b[1]),
-            -(inv[1][0] * self.b[0] + inv[1][1] * self.b[1]),
-        ];
+        let b = -crate::geom::mat_vec(&inv, self.b);
         Some(AffineMap { a: inv, b })
     }
 }
 
 impl Map2 for AffineMap {
-    fn value(&self, p: [f64; 2]) -> Option<[f64; 2]> {
+    fn value(&self, p: Point) -> Option<Point> {
         Some(self.apply(p))
     }
 
-    fn jacobian(&self, _p: [f64; 2]) -> Option<[[f64; 2]; 2]> {
+    fn jacobian(&self, _p: Point) -> Option<Mat2> {
         Some(self.a)
     }
 
-    fn inverse(&self, q: [f64; 2]) -> Option<[f64; 2]> {
+    fn inverse(&self, q: Point) -> Option<Point> {
         self.inverted().map(|m| m.apply(q))
     }
 
@@ -184,7 +192,9 @@ pub fn pull_back_map<M: Map2 + ?Sized>(
     interp: Interp,
     background: f64,
 ) -> Result<DynamicImage, WarpError> {
-    resample_image(frame, w, h, interp, background, &|x, y| map.value([x, y]))
+    resample_image(frame, w, h, interp, background, &|x, y| {
+        map.value(Point::new(x, y)).map(Point::to_array)
+    })
 }
 
 /// `O(q) = I(m^-1(q))`, the size and type of `img` ([`super::warp_image`]'s direction);
@@ -199,7 +209,9 @@ pub fn warp_map<M: Map2 + ?Sized>(
     if !map.has_inverse() {
         return Err(WarpError::NoInverse);
     }
-    resample_image(img, img.width(), img.height(), interp, background, &|x, y| map.inverse([x, y]))
+    resample_image(img, img.width(), img.height(), interp, background, &|x, y| {
+        map.inverse(Point::new(x, y)).map(Point::to_array)
+    })
 }
 
 #[cfg(test)]
@@ -217,7 +229,7 @@ mod tests {
     #[test]
     fn an_affine_shift_moves_pixels_exactly_both_ways() {
         let img = ramp(20, 12);
-        let shift = AffineMap { a: [[1.0, 0.0], [0.0, 1.0]], b: [3.0, -2.0] };
+        let shift = AffineMap { a: [[1.0, 0.0], [0.0, 1.0]], b: Vector::new(3.0, -2.0) };
         let out = warp_map(&shift, &img, Interp::Bilinear, 0.0).unwrap().into_luma16();
         let back = pull_back_map(&shift, &img, 20, 12, Interp::Bilinear, 0.0).unwrap();
         let (src, back) = (img.to_luma16(), back.into_luma16());
@@ -235,13 +247,13 @@ mod tests {
     /// The affine map's inverse and Jacobian are its own; a singular one has no inverse.
     #[test]
     fn affine_inverse_and_jacobian() {
-        let m = AffineMap { a: [[2.0, 1.0], [-0.5, 1.5]], b: [4.0, -1.0] };
-        let p = [3.25, -7.5];
+        let m = AffineMap { a: [[2.0, 1.0], [-0.5, 1.5]], b: Vector::new(4.0, -1.0) };
+        let p = Point::new(3.25, -7.5);
         let q = m.value(p).unwrap();
         let back = m.inverse(q).unwrap();
-        assert!((back[0] - p[0]).abs() < 1e-12 && (back[1] - p[1]).abs() < 1e-12);
+        assert!(back.distance(p) < 1e-12);
         assert_eq!(m.jacobian(p), Some(m.a));
-        let flat = AffineMap { a: [[1.0, 2.0], [2.0, 4.0]], b: [0.0, 0.0] };
+        let flat = AffineMap { a: [[1.0, 2.0], [2.0, 4.0]], b: Vector::ZERO };
         assert!(!flat.has_inverse());
         let img = ramp(4, 4);
         assert!(matches!(warp_map(&flat, &img, Interp::Nearest, 0.0), Err(WarpError::NoInverse)));
@@ -267,6 +279,7 @@ mod tests {
         let generic = warp_map(&inv, &img, Interp::Bilinear, 0.0).unwrap();
         let (a, b) = (fast.into_luma16(), generic.into_luma16());
         assert!(a.pixels().zip(b.pixels()).all(|(x, y)| x[0].abs_diff(y[0]) <= 4));
-        assert!(s.jacobian([9.5, 5.5]).is_some() && s.value([-5.0, 0.0]).is_none());
+        assert!(s.jacobian(Point::new(9.5, 5.5)).is_some());
+        assert!(s.value(Point::new(-5.0, 0.0)).is_none());
     }
 }

@@ -1,6 +1,7 @@
 //! A thin-plate spline baseline (interpolating), implemented here independently of trimorph.
 
 use trimorph::fit::landmarks::Landmark;
+use trimorph::geom::Point;
 
 /// Thin-plate spline through the landmarks: `f(p) = a + A p + sum_i w_i U(|p - s_i|)`,
 /// `U(r) = r^2 log r`, solved per coordinate from the standard bordered system.
@@ -80,12 +81,13 @@ impl Tps {
 /// The TPS as a map of the plane, so the library's generic resampling takes it
 /// (`trimorph::warp::pull_back_map`); defined everywhere, without an inverse.
 impl trimorph::warp::Map2 for Tps {
-    fn value(&self, p: [f64; 2]) -> Option<[f64; 2]> {
-        Some(self.eval(p))
+    fn value(&self, p: Point) -> Option<Point> {
+        Some(self.eval(p.to_array()).into())
     }
 
     /// `d/dp [r^2 log r] = (2 log r + 1) (p - s)` (0 at `r = 0`).
-    fn jacobian(&self, p: [f64; 2]) -> Option<[[f64; 2]; 2]> {
+    fn jacobian(&self, p: Point) -> Option<[[f64; 2]; 2]> {
+        let p = p.to_array();
         let n = self.src.len();
         Some([0, 1].map(|c| {
             let w = &self.coef[c];

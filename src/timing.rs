@@ -1,0 +1,67 @@
+//! Wall-time phases of a job (`--timings`, reports): a phase marked again adds up, so a
+//! phase done batch after batch is one row.
+//!
+//! ```
+//! use trimorph::timing::Phases;
+//! let mut ph = Phases::new();
+//! ph.mark("read");
+//! ph.mark("work");
+//! ph.mark("read");
+//! assert_eq!(ph.rows().iter().map(|r| r.0).collect::<Vec<_>>(), ["read", "work"]);
+//! ```
+
+use std::time::Instant;
+
+/// Phase timings: the wall time since the previous mark (or the start) goes to each mark's
+/// phase.
+#[derive(Clone, Debug)]
+pub struct Phases {
+    start: Instant,
+    last: Instant,
+    rows: Vec<(&'static str, f64)>,
+}
+
+impl Default for Phases {
+    fn default() -> Phases {
+        Phases::new()
+    }
+}
+
+impl Phases {
+    /// Starts the clock.
+    pub fn new() -> Phases {
+        let now = Instant::now();
+        Phases { start: now, last: now, rows: Vec::new() }
+    }
+
+    /// Adds the time since the last mark to the phase `name`.
+    pub fn mark(&mut self, name: &'static str) {
+        let now = Instant::now();
+        self.add(name, (now - self.last).as_secs_f64() * 1e3);
+        self.last = now;
+    }
+
+    /// Adds `ms` to the phase `name` (a phase measured elsewhere) without moving the clock.
+    pub fn add(&mut self, name: &'static str, ms: f64) {
+        match self.rows.iter_mut().find(|(n, _)| *n == name) {
+            Some(row) => row.1 += ms,
+            None => self.rows.push((name, ms)),
+        }
+    }
+
+    /// The phases in the order first marked, with their milliseconds.
+    pub fn rows(&self) -> &[(&'static str, f64)] {
+        &self.rows
+    }
+
+    /// Milliseconds since the start.
+    pub fn total_ms(&self) -> f64 {
+        self.start.elapsed().as_secs_f64() * 1e3
+    }
+
+    /// `name ms, name ms, ...; total ms`, one decimal.
+    pub fn line(&self) -> String {
+        let parts: Vec<String> = self.rows.iter().map(|(n, ms)| format!("{n} {ms:.1}")).collect();
+        format!("{}; total {:.1}", parts.join(", "), self.total_ms())
+    }
+}
