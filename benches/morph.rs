@@ -10,7 +10,9 @@
 //! same from the fitted maps' curvature bounds, scaled: what a frame does), `frame` (one whole
 //! frame: blends, plans, resampling, dissolve), `check` (one frame's two certificates),
 //! `frames` (all frames), `png`, `gif`, `apng`, `sheet` (encodings of all frames), and `whole`
-//! (everything the command does except reading and writing files).
+//! (everything the command does except reading and writing files), `files` (everything the
+//! command does except reading its inputs: the fits and
+//! [`trimorph::render::morph_files::write_morph`], files written and synced).
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use image::DynamicImage;
@@ -19,6 +21,7 @@ use trimorph::fit::landmarks::Landmark;
 use trimorph::io::landmarks::read_landmarks;
 use trimorph::morph::output::{apng_bytes, contact_sheet, gif_bytes, png_bytes};
 use trimorph::morph::{frame_times, frame_times_exact, Morph, MorphOptions};
+use trimorph::render::morph_files::{write_morph, MorphFileOptions};
 use trimorph::warp::remap::{CurvatureBounds, RemapPlan};
 
 fn root() -> &'static Path {
@@ -69,6 +72,16 @@ fn group(
     let mut g = c.benchmark_group("morph");
     g.sample_size(10);
     g.bench_function(format!("{tag}_whole_{n}_frames"), |bn| bn.iter(|| whole(a, b, lms, n)));
+    // The command's whole job but reading the inputs: fits, then every file written
+    // atomically into a staged folder (frames, GIF, APNG, sheet, both deformations).
+    let dir = tempfile::tempdir().unwrap();
+    let files = MorphFileOptions::new(dir.path().join("out"), n);
+    g.bench_function(format!("{tag}_files_{n}_frames"), |bn| {
+        bn.iter(|| {
+            let m = Morph::new(a, b, lms, &opts).unwrap();
+            write_morph(&m, &files, &|| {}).unwrap().newton_solves
+        })
+    });
     g.bench_function(format!("{tag}_fits"), |bn| bn.iter(|| Morph::new(a, b, lms, &opts).unwrap()));
     let m = Morph::new(a, b, lms, &opts).unwrap();
     let half = trimorph::exact::Rat::new(1.into(), 2.into());

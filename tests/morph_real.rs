@@ -102,7 +102,7 @@ fn trimorph_frames_are_smoother_than_the_delaunay_baseline_across_its_edges() {
     let s = m.similarity().clone();
     let la: Vec<[f64; 2]> = lms.iter().map(|l| l.src).collect();
     let lb: Vec<[f64; 2]> = lms.iter().map(|l| l.dst).collect();
-    let half = Rat::new(1.into(), 2.into());
+    let half = frame_times_exact(3)[1].clone();
     let mut figures = Vec::new();
     for (name, (ia, ib)) in [("real", (a.clone(), b.clone())), ("ramp", ramps(&m, &a, &b))] {
         let mm = if name == "real" {
@@ -203,4 +203,68 @@ fn doc_images_of_the_real_pair() {
     for (name, fr) in [("morph_real_contact.png", &frames), ("morph_delaunay_contact.png", &base)] {
         contact_sheet(fr, &times, 6, 160).unwrap().save_png(dir.join(name)).unwrap();
     }
+}
+
+/// The library writes a morph's folder as `trimorph morph` does: frames, animations, sheet
+/// and the two deformations, which read back into the same morph; a second write with fewer
+/// frames leaves no stale frame, and a refused write leaves the folder as it was.
+#[test]
+fn write_morph_writes_the_folder_all_or_nothing_and_the_deformations_read_back() {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    use trimorph::io::deformation;
+    use trimorph::morph::align::{Similarity, SIMILARITY_KEY};
+    use trimorph::render::morph_files::{write_morph, MorphFileOptions, MorphFilesError};
+    let (a, b, lms) = pair();
+    let m = Morph::new(&a, &b, &lms, &MorphOptions::default()).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("m");
+    let calls = AtomicUsize::new(0);
+    let rep = write_morph(&m, &MorphFileOptions::new(&out, 5), &|| {
+        calls.fetch_add(1, Ordering::Relaxed);
+    })
+    .unwrap();
+    assert_eq!(calls.load(Ordering::Relaxed), 5);
+    assert!(rep.uncertified.is_empty() && rep.uncovered == 0, "{rep:?}");
+    assert!(rep.largest_residual < 1.0, "{rep:?}");
+    let names = |d: &Path| {
+        let mut v: Vec<String> = std::fs::read_dir(d)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        v.sort();
+        v
+    };
+    let mut want: Vec<String> = (0..5).map(|k| format!("frame_{k:03}.png")).collect();
+    want.extend(
+        ["contact-sheet.png", "morph.apng", "morph.gif", "phi_ab.json", "phi_ba.json"]
+            .map(String::from),
+    );
+    want.sort();
+    assert_eq!(names(&out), want);
+    // The last frame is B in A's frame: the same as the library's own frame at t = 1.
+    let last = image::open(out.join("frame_004.png")).unwrap();
+    let (f1, _) = m.frame_with_stats(&frame_times_exact(2)[1]).unwrap();
+    assert_eq!(last.to_rgb8(), f1.to_rgb8());
+    // phi_ab.json holds phi_{A->B} exactly and the similarity: reading both back gives the
+    // same morph (the same middle frame).
+    let text = std::fs::read_to_string(out.join("phi_ab.json")).unwrap();
+    let (ab, _) = deformation::from_str(&text).unwrap();
+    let doc: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let sim = Similarity::from_json(&doc[SIMILARITY_KEY]).unwrap();
+    let (ba, _) =
+        deformation::from_str(&std::fs::read_to_string(out.join("phi_ba.json")).unwrap()).unwrap();
+    let again =
+        Morph::from_deformations_with(&a, &b, ab, Some(ba), Some(sim), &MorphOptions::default())
+            .unwrap();
+    let half = frame_times_exact(3)[1].clone();
+    assert_eq!(again.frame_with_stats(&half).unwrap().0, m.frame_with_stats(&half).unwrap().0);
+    // Fewer frames: no stale frame_003/004.
+    write_morph(&m, &MorphFileOptions::new(&out, 3), &|| {}).unwrap();
+    assert_eq!(names(&out).iter().filter(|n| n.starts_with("frame_")).count(), 3);
+    // A refused write (one frame) changes nothing.
+    let before = std::fs::read(out.join("frame_001.png")).unwrap();
+    let e = write_morph(&m, &MorphFileOptions::new(&out, 1), &|| {}).unwrap_err();
+    assert!(matches!(e, MorphFilesError::Options(_)) && e.to_string().contains("--frames"), "{e}");
+    assert_eq!(std::fs::read(out.join("frame_001.png")).unwrap(), before);
+    assert_eq!(names(&out).len(), 8);
 }

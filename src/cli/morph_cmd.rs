@@ -3,24 +3,18 @@
 //! (B's pixels -> A's pixels), readable by `--phi-ab` / `--phi-ba`.
 
 use super::common::progress_bar;
-use crate::exact::matrix::rat_to_f64;
-use crate::exact::Rat;
-use crate::io::folder::Staged;
 use crate::io::landmarks::read_landmarks;
 use crate::io::raster::read_stack;
-use crate::io::{deformation, read_text, temp_name, write_atomic, AtomicFile};
+use crate::io::{deformation, read_text};
 use crate::morph::align::{Similarity, SIMILARITY_KEY};
-use crate::morph::output::{
-    frame_name, is_output_name, png_bytes, streaming_memory, AnimationWriter,
-};
-use crate::morph::{times_between, FrameStats, Morph, MorphOptions, Schedule};
+use crate::morph::{Morph, MorphOptions, Schedule};
+use crate::render::morph_files::{check_frames, write_morph, MorphFileOptions, MAX_TIME};
 use crate::spline::Spline;
+use crate::timing::Phases;
 use crate::warp::Interp;
 use anyhow::{anyhow, bail, Context, Result};
 use image::DynamicImage;
-use rayon::prelude::*;
-use std::path::{Path, PathBuf};
-use std::time::Instant;
+use std::path::Path;
 
 /// Options of `trimorph morph`.
 pub struct MorphArgs<'a> {
@@ -52,70 +46,14 @@ fn first_page(path: &Path, which: &str) -> Result<DynamicImage> {
     stack.pages.into_iter().next().ok_or_else(|| anyhow!("image {which} has no pages"))
 }
 
-/// Most frames of a morph. Frames are streamed (one batch in memory at a time), so memory
-/// does not set this limit; it bounds the contact sheet (a thumbnail of every frame is kept
-/// for it: 1,250 rows at the limit) and the run time. The thumbnails and the sheet are
-/// counted in the memory budget.
-const MAX_FRAMES: usize = 10_000;
-/// Frames computed at once: this many per thread of the pool.
-const BATCH_PER_THREAD: usize = 1;
-/// Width of the contact sheet's thumbnails, px.
-const THUMB: u32 = 160;
-/// Largest `|t|` of `--range` (a caricature far beyond the landmarks).
-const MAX_TIME: f64 = 100.0;
 /// Largest `--cells`: finer meshes exceed the fit's size limit
 /// ([`crate::fit::solve::MAX_FIT_VARIABLES`]).
 const MAX_CELLS: usize = 48;
 
-/// Phase timings for `--timings`.
-struct Phases {
-    on: bool,
-    last: Instant,
-    start: Instant,
-    rows: Vec<(&'static str, f64)>,
-}
-
-impl Phases {
-    fn new(on: bool) -> Phases {
-        let now = Instant::now();
-        Phases { on, last: now, start: now, rows: Vec::new() }
-    }
-
-    /// Adds the time since the last mark to the phase `name` (a phase marked again, as
-    /// the frames and their encoding batch after batch, adds up).
-    fn mark(&mut self, name: &'static str) {
-        let now = Instant::now();
-        let ms = (now - self.last).as_secs_f64() * 1e3;
-        match self.rows.iter_mut().find(|(n, _)| *n == name) {
-            Some(row) => row.1 += ms,
-            None => self.rows.push((name, ms)),
-        }
-        self.last = now;
-    }
-
-    fn print(&self) {
-        if !self.on {
-            return;
-        }
-        let total = (Instant::now() - self.start).as_secs_f64() * 1e3;
-        let parts: Vec<String> = self.rows.iter().map(|(n, ms)| format!("{n} {ms:.1}")).collect();
-        eprintln!("timings (ms): {}; total {total:.1}", parts.join(", "));
-    }
-}
-
 /// Runs the command.
 pub fn run(a: MorphArgs<'_>) -> Result<()> {
-    let mut ph = Phases::new(a.timings);
-    if a.frames < 2 {
-        bail!("--frames must be at least 2 (the first frame is A, the last B), got {}", a.frames);
-    }
-    if a.frames > MAX_FRAMES {
-        bail!(
-            "--frames: at most {MAX_FRAMES} (a thumbnail of every frame is kept for the \
-             contact sheet), got {}",
-            a.frames
-        );
-    }
+    let mut ph = Phases::new();
+    check_frames(a.frames)?;
     let (shape, color, interp) = (a.shape, a.color, a.interp);
     let (t0, t1) = a
         .range
@@ -213,254 +151,50 @@ pub fn run(a: MorphArgs<'_>) -> Result<()> {
         }
     }
     ph.mark("fits");
-    // All or nothing: the files go into a sibling folder swapped into place at the end, so a
-    // failed or killed morph leaves the earlier output as it was, and a shorter run leaves no
-    // stale frames (only files of the morph's own naming are replaced or removed).
-    let stage = Staged::begin(a.output, is_output_name)
-        .with_context(|| format!("cannot create {}", a.output.display()))?;
-
-    let exact_times = times_between(a.frames, t0, t1)?;
-    let mut newton_solves = 0;
-    let times: Vec<f64> = exact_times.iter().map(rat_to_f64).collect();
-    // Frames are streamed: computed a batch at a time in parallel, written (PNG, GIF, APNG)
-    // and dropped; only a thumbnail of each stays for the contact sheet. The budget is one
-    // batch (each frame, its PNG bytes and its RGBA copy) with the encoders and thumbnails;
-    // a tight budget makes the batch smaller, down to one frame.
-    let (fw, fh) = (morph.image_a().width(), morph.image_a().height());
-    let px = fw as u64 * fh as u64;
-    let bpp = match a.preview {
-        Some(_) => 4,
-        None => morph.image_a().color().bytes_per_pixel() as u64,
-    };
-    let cols = a.frames.min(8);
-    let need = |batch: usize| {
-        // Two batches: one computed while the other is written.
-        let frames = crate::memory::bytes_of(2 * batch as u64, px.saturating_mul(2 * bpp));
-        frames.saturating_add(streaming_memory((fw, fh), a.frames, batch, THUMB, cols))
-    };
-    let mut batch = (rayon::current_num_threads() * BATCH_PER_THREAD).clamp(1, a.frames);
-    while batch > 1 && need(batch) > crate::memory::limit() {
-        batch -= 1;
-    }
-    crate::memory::check(need(batch), || {
-        format!(
-            "{batch} frame(s) of {fw} x {fh} at a time, with the GIF and APNG encoders, {} \
-             thumbnails and the contact sheet",
-            a.frames
-        )
-    })?;
-    let gif = a.gif.map(Path::to_path_buf).unwrap_or_else(|| a.output.join("morph.gif"));
-    let apng = a.apng.map(Path::to_path_buf).unwrap_or_else(|| a.output.join("morph.apng"));
-    let sheet: PathBuf = a.output.join("contact-sheet.png");
-    // The animations go into the folder unless --gif / --apng name another place. A place
-    // outside the folder is written beside it and put in place before the folder is swapped
-    // in (a failure there leaves the folder as it was); a place inside it is written into
-    // the stage under a temporary name and copied to its place after the swap.
-    let target = stage.target().to_path_buf();
-    let inside = |p: &Path| {
-        let dir = p.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
-        std::fs::canonicalize(dir).is_ok_and(|d| d.starts_with(&target))
-    };
-    let open =
-        |given: Option<&Path>, name: &str, path: &Path| -> Result<(AtomicFile, Option<String>)> {
-            let (to, later) = match given {
-                None => (stage.path(name), None),
-                Some(p) if !inside(p) => (p.to_path_buf(), None),
-                Some(_) => {
-                    let tmp = temp_name(name);
-                    (stage.path(&tmp), Some(tmp))
-                }
-            };
-            let f = AtomicFile::create(&to)
-                .with_context(|| format!("cannot write {}", path.display()))?;
-            Ok((f, later))
-        };
-    let (mut gif_file, gif_later) = open(a.gif, "morph.gif", &gif)?;
-    let (mut apng_file, apng_later) = open(a.apng, "morph.apng", &apng)?;
-    let mut sink =
-        AnimationWriter::new(&mut gif_file, &mut apng_file, (fw, fh), a.frames, a.delay_ms, THUMB)?;
-    let preview = match a.preview {
-        Some(step) => {
-            let pv = morph.preview(step)?;
-            // The preview is 8-bit: scale the background from the working type's range.
-            let full = match morph.image_a().color().bytes_per_pixel()
-                / morph.image_a().color().channel_count()
-            {
-                1 => 255.0,
-                2 => 65535.0,
-                _ => 1.0,
-            };
-            let bg = (a.background / full * 255.0).round().clamp(0.0, 255.0) as u8;
-            Some((pv, bg))
-        }
-        None => None,
+    let files = MorphFileOptions {
+        output: a.output.to_path_buf(),
+        gif: a.gif.map(Path::to_path_buf),
+        apng: a.apng.map(Path::to_path_buf),
+        frames: a.frames,
+        range: (t0, t1),
+        preview: a.preview,
+        background: a.background,
+        delay_ms: a.delay_ms,
     };
     let bar = progress_bar(a.frames as u64, !a.quiet, "morph");
-    let mut uncovered = 0;
-    // One batch of frames is computed while the one before is written (PNGs) and encoded
-    // (GIF, APNG): two batches are alive at a time (`need` counts them).
-    let compute = |ts: &[Rat]| -> Result<(Vec<DynamicImage>, usize, usize)> {
-        match &preview {
-            None => {
-                let out: Vec<(DynamicImage, FrameStats)> = ts
-                    .par_iter()
-                    .map(|t| {
-                        let f = morph.frame_with_stats(t);
-                        bar.inc(1);
-                        f
-                    })
-                    .collect::<Result<_, _>>()?;
-                let unc = out.iter().map(|(_, st)| st.uncovered).sum();
-                let newton = out.iter().map(|(_, st)| st.newton_solves).sum();
-                Ok((out.into_iter().map(|(f, _)| f).collect(), unc, newton))
-            }
-            Some((pv, bg)) => {
-                let frames = ts
-                    .par_iter()
-                    .map(|t| {
-                        let pm = morph.preview_frame_exact(pv, t, [*bg, *bg, *bg, 255])?;
-                        bar.inc(1);
-                        let img = image::RgbaImage::from_raw(pm.width(), pm.height(), pm.take())
-                            .expect("sizes match");
-                        Ok(DynamicImage::ImageRgba8(img))
-                    })
-                    .collect::<Result<_>>()?;
-                Ok((frames, 0, 0))
-            }
-        }
-    };
-    let write = |sink: &mut AnimationWriter<_, _>, first: usize, frames: &[DynamicImage]| {
-        let (pngs, anims) = rayon::join(
-            || {
-                frames.par_iter().enumerate().try_for_each(|(k, f)| -> Result<()> {
-                    let p = stage.path(&frame_name(first + k, a.frames));
-                    write_atomic(&p, &png_bytes(f)?)
-                        .with_context(|| format!("cannot write {}", p.display()))
-                })
-            },
-            || sink.push_batch(frames),
-        );
-        pngs?;
-        anims.map_err(anyhow::Error::from)
-    };
-    let chunks: Vec<&[Rat]> = exact_times.chunks(batch).collect();
-    let mut done: Option<Vec<DynamicImage>> = None;
-    for k in 0..=chunks.len() {
-        let (next, written) = rayon::join(
-            || chunks.get(k).map(|ts| compute(ts)).transpose(),
-            || match &done {
-                Some(frames) => write(&mut sink, (k - 1) * batch, frames),
-                None => Ok(()),
-            },
-        );
-        written?;
-        done = match next? {
-            Some((frames, unc, newton)) => {
-                uncovered += unc;
-                newton_solves += newton;
-                Some(frames)
-            }
-            None => None,
-        };
-        ph.mark("frames and encoding");
-    }
+    let rep = write_morph(&morph, &files, &|| bar.inc(1))?;
     bar.finish_and_clear();
-    if uncovered > 0 && !a.quiet {
-        eprintln!(
-            "note: {uncovered} pixels over all frames have a preimage in neither image \
-             (they show --background)"
-        );
+    for &(name, ms) in &rep.phases {
+        ph.add(name, ms);
     }
-    // Every frame's two maps: certified fold-free, and covering A's frame.
-    // One family certificate covers every frame with shape weight in [0, 1]; the others
-    // (caricatures, or families not proven that way) are certified one by one.
-    if a.landmarks.is_some() {
-        let family = morph.certify_blends();
-        let covered = family[0] && family[1];
-        let shape = morph.options().shape;
-        let bad: Vec<String> = exact_times
-            .par_iter()
-            .zip(&times)
-            .map(|(t, &tf)| -> Result<Option<String>> {
-                let s = rat_to_f64(&shape.at_exact(t));
-                if covered && (0.0..=1.0).contains(&s) {
-                    return Ok(None);
-                }
-                let c = morph.check_frame(t)?;
-                Ok((!(c.fold_free[0] && c.fold_free[1])).then(|| format!("{tf:.3}")))
-            })
-            .collect::<Result<Vec<_>>>()?
-            .into_iter()
-            .flatten()
-            .collect();
-        if !bad.is_empty() && !a.quiet {
+    if !a.quiet {
+        if rep.uncovered > 0 {
             eprintln!(
-                "warning: the blended maps are not certified fold-free at t = {}",
-                bad.join(", ")
+                "note: {} pixels over all frames have a preimage in neither image \
+                 (they show --background)",
+                rep.uncovered
             );
         }
-        ph.mark("checks");
-    }
-    let write_def = |name: &str, s: &Spline, sim: Option<&Similarity>| -> Result<()> {
-        let p = stage.path(name);
-        let mut doc = deformation::to_json_with(s, None, &[]);
-        if let (Some(sim), Some(obj)) = (sim, doc.as_object_mut()) {
-            obj.insert(SIMILARITY_KEY.into(), sim.to_json());
-        }
-        write_atomic(&p, crate::io::json_rows(&doc).as_bytes())
-            .with_context(|| format!("cannot write {}", p.display()))
-    };
-    // Both at once: each is a few thousand exact rationals to print. `phi_ab.json` keeps the
-    // similarity, so that `--phi-ab` gives this very morph back.
-    let raw = morph.phi_ab_raw()?;
-    let sim = morph.similarity();
-    let (ab, ba) = rayon::join(
-        || write_def("phi_ab.json", &raw, Some(sim)),
-        || write_def("phi_ba.json", morph.phi_ba(), None),
-    );
-    ab?;
-    ba?;
-    ph.mark("deformations");
-    let pm = sink.finish(&times, cols)?;
-    gif_file.commit().with_context(|| format!("cannot write {}", gif.display()))?;
-    apng_file.commit().with_context(|| format!("cannot write {}", apng.display()))?;
-    let bytes = pm.encode_png().map_err(|e| anyhow!("encoding the contact sheet: {e}"))?;
-    drop(pm);
-    write_atomic(&stage.path("contact-sheet.png"), &bytes)
-        .with_context(|| format!("cannot write {}", sheet.display()))?;
-    stage.commit().with_context(|| format!("cannot write {}", a.output.display()))?;
-    // Animations inside the output folder: now in it under their temporary names.
-    for (later, path) in [(gif_later, &gif), (apng_later, &apng)] {
-        if let Some(tmp) = later {
-            let from = target.join(tmp);
-            let copied = (|| -> Result<()> {
-                let mut to = AtomicFile::create(path)?;
-                std::io::copy(&mut std::fs::File::open(&from)?, &mut to)?;
-                Ok(to.commit()?)
-            })();
-            let _ = std::fs::remove_file(&from);
-            copied.with_context(|| format!("cannot write {}", path.display()))?;
+        if !rep.uncertified.is_empty() {
+            let ts: Vec<String> = rep.uncertified.iter().map(|t| format!("{t:.3}")).collect();
+            eprintln!(
+                "warning: the blended maps are not certified fold-free at t = {}",
+                ts.join(", ")
+            );
         }
     }
-    ph.mark("sheet");
     if a.timings {
         eprintln!(
-            "inverse maps: {newton_solves} pixels solved by per-pixel Newton over all frames"
+            "inverse maps: {} pixels solved by per-pixel Newton over all frames",
+            rep.newton_solves
         );
     }
-    ph.print();
-
-    let worst = [0.0, 1.0]
-        .iter()
-        .map(|&t| morph.landmark_errors(t))
-        .collect::<Result<Vec<_>, _>>()?
-        .concat()
-        .iter()
-        .flatten()
-        .fold(0.0f64, |m, &e| if e.is_finite() { m.max(e) } else { m });
+    if a.timings {
+        eprintln!("timings (ms): {}", ph.line());
+    }
     if !a.quiet {
         let residual = if a.landmarks.is_some() {
-            format!("; largest landmark fit residual {worst:.3} px")
+            format!("; largest landmark fit residual {:.3} px", rep.largest_residual)
         } else {
             String::new()
         };
@@ -470,9 +204,9 @@ pub fn run(a: MorphArgs<'_>) -> Result<()> {
             morph.image_a().width(),
             morph.image_a().height(),
             a.output.display(),
-            gif.display(),
-            apng.display(),
-            sheet.display(),
+            rep.gif.display(),
+            rep.apng.display(),
+            rep.sheet.display(),
             residual
         );
     }
