@@ -182,10 +182,10 @@ fn unlucky_prime_is_not_certified() {
     assert!(basis.redundant.is_empty());
 }
 
-/// The canonical redundant set survives a prime that hides a dependency in row order: rows
-/// 0 and 1 are equal modulo the first prime but independent over Q, and row 2 = row 0 + row
-/// 1. Modulo that prime row 1 looks redundant; its certificate fails, and the next prime
-/// names row 2, the row that depends on earlier ones.
+/// The canonical redundant set survives a prime that hides a dependency in row order: the
+/// first two rows are equal modulo the first prime but independent over Q, and the third is
+/// their sum. Modulo that prime the second row looks redundant; its certificate fails, and
+/// the next prime names the third, the row that depends on earlier ones.
 #[test]
 fn unlucky_prime_in_row_order_gives_the_canonical_set() {
     let p = primes(1)[0] as i64;
