@@ -7,6 +7,7 @@ derived columns of R; for a select-all edit, R without the anchor columns) as a 
 PyPI). In the same run it times the whole `trimorph solve` process on the same file.
 
     python3 benches/flint_fflu.py TRIMORPH_BIN problem.json [problem2.json ...]
+    python3 benches/flint_fflu.py --flint-only problem.json     (FLINT column only)
 
 Prints CSV: file,rows,cols,flint_fflu_s,flint_rank,trimorph_s,trimorph_path,ratio.
 Not run in CI (it needs python-flint and takes seconds).
@@ -52,6 +53,10 @@ def main():
         lu = m.fflu()
         t_flint = time.perf_counter() - t0
         rank = m.rank()
+        if binary == "--flint-only":
+            print(f"{f},{len(dense)},{len(dense[0]) if dense else 0},{t_flint:.3f},{rank},,,",
+                  flush=True)
+            continue
         with tempfile.NamedTemporaryFile(suffix=".json") as out:
             t0 = time.perf_counter()
             subprocess.run([binary, "solve", f, "-o", out.name], check=True)

@@ -7,6 +7,11 @@
 //! The mesh has the smallest number of random points (uniform in a 200 x 200 square, snapped
 //! to 1/16) whose Delaunay triangulation has at least `TRIANGLES` triangles. `dense` writes
 //! `R` as rows of `n` integers, `sparse` (the default) as `{"rows": [[[col, val], ...], ...]}`.
+//!
+//! `cargo run --release --example c1_select_all -- banded OUT.json` writes instead the sparse
+//! 400 x 800 benchmark of `benches/exact.rs` (`solve_process/sparse_400x800`): 4 nonzeros per
+//! row near the diagonal, entries in [-20, 20], anchor 0 moved by (1/2, 1/3), all other
+//! parameters derived, `Q = R P`.
 
 use rand::rngs::SmallRng;
 use rand::{Rng, SeedableRng};
@@ -29,8 +34,65 @@ fn mesh_with(triangles: usize, seed: u64) -> Mesh {
     }
 }
 
+/// The banded 400 x 800 problem (the same generator as `benches/exact.rs`).
+fn banded(out: &str) {
+    let (m, n): (usize, usize) = (400, 800);
+    let mut rng = SmallRng::seed_from_u64(42);
+    let rows: Vec<Vec<(usize, i64)>> = (0..m)
+        .map(|i| {
+            let c = i * n / m;
+            let (lo, hi) = (c.saturating_sub(8), (c + 8).min(n - 1));
+            let mut cols: Vec<usize> = Vec::new();
+            while cols.len() < 4 {
+                let j = rng.gen_range(lo..=hi);
+                if !cols.contains(&j) {
+                    cols.push(j);
+                }
+            }
+            cols.into_iter()
+                .map(|j| (j, [-1, 1][rng.gen_range(0..2)] * rng.gen_range(1..=20)))
+                .collect()
+        })
+        .collect();
+    let p: Vec<[i64; 2]> = (0..n).map(|j| [(j % 7) as i64, (j % 5) as i64]).collect();
+    let q: Vec<String> = rows
+        .iter()
+        .map(|r| {
+            let (a, b) =
+                r.iter().fold((0i64, 0i64), |(a, b), &(j, v)| (a + v * p[j][0], b + v * p[j][1]));
+            format!("[{a},{b}]")
+        })
+        .collect();
+    let mut mrows = rows.clone();
+    for r in &mut mrows {
+        r.sort_unstable();
+    }
+    let r_json: Vec<String> = mrows
+        .iter()
+        .map(|r| {
+            let e: Vec<String> = r.iter().map(|(j, v)| format!("[{j},{v}]")).collect();
+            format!("[{}]", e.join(","))
+        })
+        .collect();
+    let p_json: Vec<String> = p.iter().map(|q| format!("[\"{}\",\"{}\"]", q[0], q[1])).collect();
+    let derived: Vec<String> = (1..n).map(|i| i.to_string()).collect();
+    let text = format!(
+        "{{\"Q\": [{}], \"R\": {{\"rows\": [{}]}}, \"P\": [{}], \"anchors\": {{\"0\": [\"1/2\", \"1/3\"]}}, \"derived\": [{}]}}\n",
+        q.join(","),
+        r_json.join(","),
+        p_json.join(","),
+        derived.join(",")
+    );
+    std::fs::write(out, text).expect("write");
+    eprintln!("{out}: banded, R {m} x {n}, anchor 0");
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().collect();
+    if args.get(1).is_some_and(|a| a == "banded") {
+        banded(args.get(2).map_or("banded.json", String::as_str));
+        return;
+    }
     let tris: usize = args.get(1).and_then(|a| a.parse().ok()).unwrap_or(102);
     let seed: u64 = args.get(2).and_then(|a| a.parse().ok()).unwrap_or(7);
     let out = args.get(3).cloned().unwrap_or_else(|| "select_all.json".into());

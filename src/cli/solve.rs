@@ -1,7 +1,7 @@
 //! `trimorph solve` and `trimorph demo`.
 
 use super::{Exit, EXIT_INPUT, EXIT_UNSOLVABLE};
-use crate::ecles::problem::{error_json, Problem, ProblemError};
+use crate::ecles::problem::{error_json, Problem, ProblemError, Solution};
 use crate::ecles::EclesError;
 use crate::io::{read_text, write_atomic};
 use anyhow::Result;
@@ -17,6 +17,12 @@ fn fail(code: i32, obj: serde_json::Value) -> anyhow::Error {
 }
 
 pub(super) fn solve_text(text: &str, source: &str) -> Result<serde_json::Value> {
+    Ok(solve_problem(text, source)?.to_json())
+}
+
+/// Reads and solves a problem, mapping errors to the CLI's exits (JSON object on stderr).
+fn solve_problem(text: &str, source: &str) -> Result<Solution> {
+    let t0 = std::time::Instant::now();
     let problem = Problem::from_json(text).map_err(|e| {
         let kind = match e {
             ProblemError::Json(_) => "invalid_json",
@@ -28,6 +34,7 @@ pub(super) fn solve_text(text: &str, source: &str) -> Result<serde_json::Value> 
             json!({ "error": kind, "file": source, "message": format!("{source}: {e}") }),
         )
     })?;
+    trace(&format!("parsed in {:.3} s", t0.elapsed().as_secs_f64()));
     let solution = problem.solve().map_err(|e| {
         let code = match e {
             EclesError::NotWeaklySolvable { .. } | EclesError::NotStronglySolvable { .. } => {
@@ -39,7 +46,15 @@ pub(super) fn solve_text(text: &str, source: &str) -> Result<serde_json::Value> 
         obj["file"] = json!(source);
         fail(code, obj)
     })?;
-    Ok(solution.to_json())
+    trace(&format!("solved ({}) in {:.3} s", solution.path, t0.elapsed().as_secs_f64()));
+    Ok(solution)
+}
+
+/// A line on stderr when `TRIMORPH_TRACE` is set.
+fn trace(msg: &str) {
+    if std::env::var_os("TRIMORPH_TRACE").is_some() {
+        eprintln!("trace: {msg}");
+    }
 }
 
 /// JSON with one key per line and one row per line for arrays of rows.
@@ -52,12 +67,15 @@ pub fn run(system: &Path, output: Option<&Path>) -> Result<()> {
     let text = read_text(system).map_err(|e| {
         fail(EXIT_INPUT, json!({ "error": "io", "file": system.display().to_string(), "message": e.to_string() }))
     })?;
-    let out = solve_text(&text, &system.display().to_string())?;
-    let body = compact_pretty(&out);
+    let t0 = std::time::Instant::now();
+    let solution = solve_problem(&text, &system.display().to_string())?;
+    let body = solution.to_json_text();
+    trace(&format!("formatted {} bytes in {:.3} s", body.len(), t0.elapsed().as_secs_f64()));
     match output {
         Some(path) => write_atomic(path, body.as_bytes())?,
         None => std::io::stdout().lock().write_all(body.as_bytes())?,
     }
+    trace(&format!("written after {:.3} s", t0.elapsed().as_secs_f64()));
     Ok(())
 }
 

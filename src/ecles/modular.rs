@@ -15,10 +15,9 @@
 //!    (exactly verified) and `x''` computed from it in exact integers.
 //!
 //! The minimizer is unique, so `P` is bit-identical to the fraction-free path; the rank too.
-//! The set of redundant rows is *a* maximal dependent complement chosen by the modular
-//! Markowitz order: of the same size as the fraction-free one, and certified, but when the
-//! relevant rows are dependent it may name other rows. Any failure to certify returns
-//! `None` and the caller runs the fraction-free path.
+//! The redundant rows are the canonical set (each depends on the relevant rows before it,
+//! [`ConstraintSystem::canonical_redundant`]), which `trimorph solve` reports on both paths.
+//! Any failure to certify returns `None` and the caller runs the fraction-free path.
 
 use super::session::{check_indices, check_rows};
 use super::{ConstraintSystem, EclesError};
@@ -51,6 +50,23 @@ fn column(rows: &[Vec<Rat>], j: usize) -> ScaledVec {
 }
 
 impl ConstraintSystem {
+    /// `R_ED`: the relevant rows and the derived columns (in the order of `derived`).
+    fn r_ed(&self, relevant: &[usize], derived: &[usize]) -> SparseIntMatrix {
+        let md: std::collections::HashMap<usize, usize> =
+            derived.iter().enumerate().map(|(k, &s)| (s, k)).collect();
+        self.r.select_with(relevant, |c| md.get(&c).copied(), derived.len())
+    }
+
+    /// The canonical redundant set of the relevant constraints (sorted original indices):
+    /// constraint `relevant[z]` is redundant iff row `z` of `R_ED` is a combination of the
+    /// rows before it (see [`crate::exact::modular`]), certified exactly. The fraction-free
+    /// path reports this set too, so both paths name the same constraints. `None` when no
+    /// prime certified it (then the caller keeps its own certified set).
+    pub fn canonical_redundant(&self, relevant: &[usize], derived: &[usize]) -> Option<Vec<usize>> {
+        let basis = certified_basis(&self.r_ed(relevant, derived)).ok()?;
+        Some(basis.redundant.iter().map(|&k| relevant[k]).collect())
+    }
+
     /// ECLES Initialize + one Update on the modular path (module docs). `Ok(None)` when the
     /// modular computation could not be certified (run the fraction-free path instead).
     /// Errors are those of [`ConstraintSystem::initialize`] and [`super::Session::update`].
@@ -95,8 +111,8 @@ impl ConstraintSystem {
         let map_cols = |cols: &[usize]| -> std::collections::HashMap<usize, usize> {
             cols.iter().enumerate().map(|(k, &s)| (s, k)).collect()
         };
-        let (md, ma, mf) = (map_cols(derived), map_cols(anchors), map_cols(&fixed_relevant));
-        let r_ed = self.r.select_with(&relevant, |c| md.get(&c).copied(), derived.len());
+        let (ma, mf) = (map_cols(anchors), map_cols(&fixed_relevant));
+        let r_ed = self.r_ed(&relevant, derived);
         let r_ea = self.r.select_with(&relevant, |c| ma.get(&c).copied(), anchors.len());
         let r_ef = self.r.select_with(&relevant, |c| mf.get(&c).copied(), fixed_relevant.len());
         let trace = std::env::var_os("TRIMORPH_TRACE").is_some();
@@ -253,7 +269,19 @@ fn least_squares(
         return Some((out, 0));
     }
     let busy_rhs: Vec<ScaledVec> = busy.iter().map(|&j| rhs[j].clone()).collect();
+    let t0 = std::time::Instant::now();
     let (lams, st) = solve_nonsingular(&g, &busy_rhs).ok()?;
+    if std::env::var_os("TRIMORPH_TRACE").is_some() {
+        eprintln!(
+            "trace: G Lambda = v ({} x {}, {} nonzeros): {:.3} s, {} lifting steps, Lambda denominator {} bits",
+            g.rows(),
+            g.cols(),
+            (0..g.rows()).map(|i| g.row(i).len()).sum::<usize>(),
+            t0.elapsed().as_secs_f64(),
+            st.primes,
+            lams.first().map_or(0, |l| l.den.bits())
+        );
+    }
     for (&j, lam) in busy.iter().zip(lams) {
         let mut atl = vec![Int::zero(); n];
         for (i, li) in lam.num.iter().enumerate() {

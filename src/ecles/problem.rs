@@ -21,14 +21,16 @@
 //! `"redundant"` (constraint and parameter indices, 0-based), and `"path"`: the solver that
 //! ran, `"fraction_free"` (the LDU of thesis ch. 6-9) or `"modular"` (the multi-modular
 //! path of [`super::modular`], chosen by `"auto"` when `|E| x |D|` is at least
-//! [`MODULAR_MIN_ENTRIES`]). Both give the same `"P"` and `"rank"`; see
-//! [`super::modular`] for `"redundant"`.
+//! [`MODULAR_MIN_ENTRIES`]). Both give the same output apart from `"path"`: the same
+//! `"P"` and `"rank"` (the minimizer is unique) and the same canonical `"redundant"` set
+//! (each redundant constraint depends on the relevant ones before it; see
+//! [`super::modular`]).
 
 use super::{ConstraintSystem, EclesError, InitOptions};
 use crate::exact::ldu::Simplification;
 use crate::exact::matrix::{parse_rat, rat_to_f64, rat_to_string, Rat, ScaledVec, SparseIntMatrix};
 use crate::exact::Int;
-use num_traits::Zero;
+use num_traits::{One, Zero};
 use serde_json::{json, Map, Value};
 
 /// Smallest `|E| x |D|` (relevant constraints times derived parameters) for which `"auto"`
@@ -95,7 +97,7 @@ pub struct Problem {
 /// The result of [`Problem::solve`].
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Solution {
-    /// All parameters after the edit.
+    /// All parameters after the edit, in lowest terms (both paths reduce their values).
     pub p: Vec<Vec<Rat>>,
     /// Rank of `R_ED`.
     pub rank: usize,
@@ -466,8 +468,16 @@ impl Problem {
         for (k, &s) in self.derived.iter().enumerate() {
             p[s] = raw.iter().map(|c| c[k].clone()).collect();
         }
+        let t0 = std::time::Instant::now();
         let all_constraints_hold = self.system.is_satisfied_fast(&p);
+        let t1 = t0.elapsed().as_secs_f64();
         let cols: Vec<Vec<Rat>> = e.derived_values.iter().map(reduced).collect();
+        if std::env::var_os("TRIMORPH_TRACE").is_some() {
+            eprintln!(
+                "trace: every constraint checked in {t1:.3} s; lowest terms in {:.3} s",
+                t0.elapsed().as_secs_f64() - t1
+            );
+        }
         for (k, &s) in self.derived.iter().enumerate() {
             p[s] = cols.iter().map(|c| c[k].clone()).collect();
         }
@@ -489,13 +499,22 @@ impl Problem {
         s.update(&self.anchor_values, Some(&self.hints), Some(&self.weights))?;
         let mut p = self.p.clone();
         s.write_into(&mut p);
+        let mut redundant = s.redundant();
+        if !redundant.is_empty() {
+            // The canonical set (the same as the modular path's); the LDU's own set is as
+            // valid and is kept if no prime certifies the canonical one.
+            if let Some(c) = self.system.canonical_redundant(s.relevant(), &self.derived) {
+                debug_assert_eq!(c.len(), redundant.len());
+                redundant = c;
+            }
+        }
         Ok(Solution {
             all_constraints_hold: self.system.is_satisfied(&p),
             p,
             rank: s.rank(),
             relevant: s.relevant().to_vec(),
             fixed_relevant: s.fixed_relevant().to_vec(),
-            redundant: s.redundant(),
+            redundant,
             path: "fraction_free",
         })
     }
@@ -514,6 +533,75 @@ impl Solution {
             "all_constraints_hold": self.all_constraints_hold,
             "path": self.path,
         })
+    }
+}
+
+impl Solution {
+    /// The text `trimorph solve` writes: the same bytes as
+    /// [`crate::io::json_rows`]`(&self.to_json())`, formatted row by row in parallel. The
+    /// values of `p` are in lowest terms on both paths, so no gcd is taken here.
+    pub fn to_json_text(&self) -> String {
+        use rayon::prelude::*;
+        debug_assert!(self.p.iter().flatten().all(|r| r.denom().is_one() || {
+            let g = num_integer::Integer::gcd(r.numer(), r.denom());
+            g.is_one()
+        }));
+        // The values of an exact solve share few denominators: each is converted once.
+        let mut dens: Vec<&Int> =
+            self.p.iter().flatten().map(|r| r.denom()).filter(|d| !d.is_one()).collect();
+        dens.sort_unstable();
+        dens.dedup();
+        let den_text: std::collections::HashMap<&Int, String> =
+            dens.par_iter().map(|&d| (d, d.to_string())).collect();
+        let p_rows: Vec<String> = self
+            .p
+            .par_iter()
+            .map(|r| {
+                let cells: Vec<String> = r
+                    .iter()
+                    .map(|v| match den_text.get(v.denom()) {
+                        Some(d) => format!("\"{}/{d}\"", v.numer()),
+                        None => format!("\"{}\"", v.numer()),
+                    })
+                    .collect();
+                format!("[{}]", cells.join(","))
+            })
+            .collect();
+        let f_rows: Vec<String> = self
+            .p
+            .par_iter()
+            .map(|r| Value::from(r.iter().map(rat_to_f64).collect::<Vec<_>>()).to_string())
+            .collect();
+        let rows = |out: &mut String, rows: &[String]| {
+            if rows.is_empty() {
+                out.push_str("[]");
+                return;
+            }
+            out.push_str("[\n");
+            for (j, r) in rows.iter().enumerate() {
+                out.push_str("    ");
+                out.push_str(r);
+                out.push_str(if j + 1 < rows.len() { ",\n" } else { "\n" });
+            }
+            out.push_str("  ]");
+        };
+        let total: usize = p_rows.iter().chain(&f_rows).map(|r| r.len() + 6).sum();
+        let mut out = String::with_capacity(total + 256);
+        out.push_str("{\n  \"P\": ");
+        rows(&mut out, &p_rows);
+        out.push_str(",\n  \"P_float\": ");
+        rows(&mut out, &f_rows);
+        let list = |v: &[usize]| Value::from(v.to_vec()).to_string();
+        out.push_str(&format!(
+            ",\n  \"all_constraints_hold\": {},\n  \"fixed_relevant\": {},\n  \"path\": {},\n  \"rank\": {},\n  \"redundant\": {},\n  \"relevant\": {}\n}}\n",
+            self.all_constraints_hold,
+            list(&self.fixed_relevant),
+            Value::from(self.path),
+            self.rank,
+            list(&self.redundant),
+            list(&self.relevant),
+        ));
+        out
     }
 }
 
@@ -547,6 +635,34 @@ mod tests {
         assert_eq!(s.to_json()["P_float"], json!([[4.0], [0.0], [4.0], [9.0]]));
         assert!(s.all_constraints_hold);
         assert_eq!(s.rank, 2);
+    }
+
+    /// The fast writer gives the same bytes as formatting the JSON value: fractions,
+    /// negative and huge values, shared and distinct denominators, empty lists.
+    #[test]
+    fn json_text_equals_the_formatted_value() {
+        let huge = format!("-{}/7", "9".repeat(60));
+        let cases = [
+            PUMP.to_string(),
+            r#"{"R": [[1, -1, 0], [0, 1, -1], [1, 0, -1]], "P": [["1/3", 2], [0.1, "-5/6"], [7, 1e3]],
+                "anchors": {"0": ["2/3", "1/9"]}, "derived": [1, 2], "weights": {"2": 3}}"#
+                .to_string(),
+            format!(r#"{{"R": [[2, 3]], "P": [["{huge}"], [0]], "anchors": {{"0": ["1/11"]}}, "derived": [1]}}"#),
+        ];
+        for text in cases {
+            let s = Problem::from_json(&text).unwrap().solve().unwrap();
+            assert_eq!(s.to_json_text(), crate::io::json_rows(&s.to_json()), "{text}");
+        }
+        let empty = Solution {
+            p: Vec::new(),
+            rank: 0,
+            relevant: Vec::new(),
+            fixed_relevant: Vec::new(),
+            redundant: Vec::new(),
+            all_constraints_hold: true,
+            path: "modular",
+        };
+        assert_eq!(empty.to_json_text(), crate::io::json_rows(&empty.to_json()));
     }
 
     #[test]

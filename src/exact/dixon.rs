@@ -31,7 +31,7 @@ use super::modp::{primes, LuModP, Zp};
 use super::modular::{rows_mod, SolveStats};
 use num_bigint::BigInt;
 use num_integer::Integer;
-use num_traits::{One, Signed, Zero};
+use num_traits::{One, Zero};
 use rayon::prelude::*;
 
 /// Largest absolute entry of `A` for the 128-bit residual products.
@@ -124,6 +124,7 @@ impl Lifter<'_> {
         if col.num.iter().all(Int::is_zero_int) {
             return Some((ScaledVec::new(vec![Int::zero(); k], Int::one()), 0));
         }
+        let t0 = std::time::Instant::now();
         let p = BigInt::from(self.lu.zp.p);
         let (mut bm, mut xm, mut x) = (vec![0u64; k], vec![0u64; k], vec![0i64; k]);
         // Phase 1: the denominator of w . y.
@@ -159,10 +160,12 @@ impl Lifter<'_> {
             }
         }
         let den = den?;
+        let phase1 = (steps, t0.elapsed().as_secs_f64());
         // Phase 2: the integer numerators Y of D c.
         let dint = Int::from_big(den.clone());
         let mut r: Vec<Int> = col.num.iter().map(|v| v * &dint).collect();
         let mut digits: Vec<Vec<i64>> = Vec::new();
+        let trace = std::env::var_os("TRIMORPH_TRACE").is_some();
         let limit = 2 * steps + 20;
         let mut exact = true;
         loop {
@@ -193,6 +196,16 @@ impl Lifter<'_> {
             })
             .collect();
         let total = steps + digits.len();
+        if trace && total > 200 {
+            eprintln!(
+                "trace: lifting: denominator {} bits after {} steps ({:.3} s), numerators {} steps, done {:.3} s",
+                den.bits(),
+                phase1.0,
+                phase1.1,
+                digits.len(),
+                t0.elapsed().as_secs_f64()
+            );
+        }
         if exact {
             return Some((ScaledVec::new(y, &dint * &col.den), total));
         }
@@ -225,21 +238,10 @@ fn from_digits(d: &[i64], powers: &[BigInt]) -> BigInt {
     from_digits(lo, powers) + from_digits(hi, powers) * &powers[l]
 }
 
-/// The denominator of Wang's reconstruction of `u mod m` (bounds `sqrt(m / 2)`).
+/// The denominator of Wang's reconstruction of `u mod m` (`0 <= u < m`, bounds
+/// `sqrt(m / 2)`), by [`super::gcd::wang_den`].
 fn wang_den(u: &BigInt, m: &BigInt) -> Option<BigInt> {
-    let bound: BigInt = (m >> 1u32).sqrt();
-    let (mut r0, mut r1) = (m.clone(), u.clone());
-    let (mut t0, mut t1) = (BigInt::zero(), BigInt::one());
-    while r1.magnitude() > bound.magnitude() {
-        let (q, rr) = r0.div_rem(&r1);
-        r0 = std::mem::replace(&mut r1, rr);
-        let nt = &t0 - &q * &t1;
-        t0 = std::mem::replace(&mut t1, nt);
-    }
-    if t1.is_zero() || t1.magnitude() > bound.magnitude() || !r1.gcd(&t1).is_one() {
-        return None;
-    }
-    Some(t1.abs())
+    super::gcd::wang_den(u.magnitude(), m.magnitude()).map(BigInt::from)
 }
 
 #[cfg(test)]
@@ -271,5 +273,76 @@ mod tests {
         let (got, stats) = solve(&a, &[ScaledVec::from_rats(&b)]).unwrap();
         assert_eq!(got[0].to_rats(), want);
         assert!(stats.primes >= 2);
+    }
+
+    /// The bug of the first lifting version: it took the denominator from the first rational
+    /// reconstruction that succeeded. With balanced bounds most residues reconstruct to
+    /// *some* fraction, so an answer larger than the first modulus gave a spurious
+    /// denominator, the numerator phase could not end exactly, and the solve fell back to
+    /// CRT (the 102-triangle select-all). Here the first attempt that reconstructs gives a
+    /// wrong denominator, and lifting still returns the exact answer.
+    #[test]
+    fn dixon_denominator_needs_two_agreeing_attempts() {
+        use rand::{Rng, SeedableRng};
+        let k = 40;
+        let mut rng = rand::rngs::SmallRng::seed_from_u64(24);
+        let rows: Vec<Vec<(usize, Int)>> = (0..k)
+            .map(|i| {
+                let mut r: Vec<(usize, Int)> = (0..6)
+                    .map(|_| {
+                        (rng.gen_range(0..k), Int::from(rng.gen_range(-(1i64 << 50)..1 << 50)))
+                    })
+                    .collect();
+                r.push((i, Int::from(1i64 << 52)));
+                r.sort_by_key(|e| e.0);
+                r.dedup_by_key(|e| e.0);
+                r
+            })
+            .collect();
+        let a = SparseIntMatrix::from_rows(k, rows).unwrap();
+        let b: Vec<Rat> = (0..k).map(|i| Rat::from_integer(Int::from(i as i64 - 17))).collect();
+        let want = Ldu::factor(&a, LduOptions::default()).solve(&b).unwrap();
+        let col = ScaledVec::from_rats(&b);
+        // Phase 1 by hand for two steps: the first reconstruction attempt.
+        let lu = primes(1)
+            .into_iter()
+            .map(|p| LuModP::factor(Zp::new(p), k, rows_mod(&Zp::new(p), &a)))
+            .next()
+            .unwrap();
+        assert_eq!(lu.rank(), k);
+        let rows64 = (0..k)
+            .map(|i| a.row(i).iter().map(|(j, v)| (*j, v.as_i64().unwrap())).collect())
+            .collect();
+        let lifter = Lifter { a: &a, lu, rows: rows64 };
+        let w: Vec<i64> = (0..k).map(|i| 1 + ((i as i64 * 7919 + 13) % 65_521)).collect();
+        let (mut bm, mut xm, mut x) = (vec![0u64; k], vec![0u64; k], vec![0i64; k]);
+        let (mut r, mut s, mut pj) = (col.num.clone(), BigInt::zero(), BigInt::one());
+        let p = BigInt::from(lifter.lu.zp.p);
+        // The old rule: the first attempt (same schedule as `solve_column`) that reconstructs.
+        let ws = want
+            .iter()
+            .zip(&w)
+            .fold(Rat::zero(), |acc, (y, &wi)| acc + y * Rat::from_integer(Int::from(wi)));
+        let (mut steps, mut next_try, mut first) = (0usize, 2usize, None);
+        while first.is_none() && steps < 30 {
+            assert!(lifter.step(&mut r, &mut x, &mut bm, &mut xm));
+            let wx: i128 = w.iter().zip(&x).map(|(&wi, &xi)| wi as i128 * xi as i128).sum();
+            s += &pj * BigInt::from(wx);
+            pj *= &p;
+            steps += 1;
+            if steps >= next_try {
+                next_try = steps + steps / 4 + 1;
+                first = wang_den(&s.mod_floor(&pj), &pj).map(|d| (d, steps));
+            }
+        }
+        let (first, at) = first.expect("some early attempt reconstructs");
+        assert!(at < 24, "the first success comes early ({at} steps)");
+        assert_ne!(Int::from_big(first), ws.denom().clone(), "and it is spurious");
+        // The answer needs far more digits than the old numerator phase allowed after a
+        // denominator taken that early (2 * steps + 20 digits).
+        assert!(ws.denom().bits() > (2 * at as u64 + 20) * 62);
+        let (got, stats) = solve(&a, std::slice::from_ref(&col)).expect("lifting certifies");
+        assert_eq!(got[0].to_rats(), want);
+        assert!(stats.primes > 24, "{stats:?}");
     }
 }

@@ -180,10 +180,9 @@ impl Int {
                 let r = (b % BigInt::from(*a)).to_i64().expect("remainder fits");
                 int_from_u64(gcd_u64(a.unsigned_abs(), r.unsigned_abs()))
             }
-            (Int(Repr::Big(a)), Int(Repr::Big(b))) => Int::from_big(BigInt::from(lehmer_gcd(
-                a.magnitude().clone(),
-                b.magnitude().clone(),
-            ))),
+            (Int(Repr::Big(a)), Int(Repr::Big(b))) => {
+                Int::from_big(BigInt::from(super::gcd::gcd_biguint(a.magnitude(), b.magnitude())))
+            }
         }
     }
 
@@ -212,65 +211,11 @@ impl Int {
     }
 }
 
-/// Lehmer's gcd (Knuth, TAOCP vol. 2, 4.5.2, Algorithm L) with 64-bit leading digits: most
-/// Euclid steps run on machine words, and the big numbers are updated once per ~60 bits.
-/// (num-bigint's binary gcd is quadratic in the bit size with a large constant.)
-pub fn lehmer_gcd(mut u: BigUint, mut v: BigUint) -> BigUint {
-    if u < v {
-        std::mem::swap(&mut u, &mut v);
-    }
-    loop {
-        if v.is_zero() {
-            return u;
-        }
-        if u.bits() <= 64 {
-            let (a, b) = (u.to_u64().expect("u has at most 64 bits"), v.to_u64().expect("v <= u"));
-            return BigUint::from(gcd_u64(a, b));
-        }
-        // Leading 62 bits, so that every intermediate fits in i64.
-        let shift = u.bits() - 62;
-        let mut uh = (&u >> shift).to_u64().expect("62 bits") as i64;
-        let mut vh = (&v >> shift).to_u64().expect("62 bits") as i64;
-        let (mut a, mut b, mut c, mut d): (i64, i64, i64, i64) = (1, 0, 0, 1);
-        loop {
-            if vh + c == 0 || vh + d == 0 {
-                break;
-            }
-            let q = (uh + a) / (vh + c);
-            if q != (uh + b) / (vh + d) {
-                break;
-            }
-            let t = a - q * c;
-            a = c;
-            c = t;
-            let t = b - q * d;
-            b = d;
-            d = t;
-            let t = uh - q * vh;
-            uh = vh;
-            vh = t;
-        }
-        if b == 0 {
-            let t = &u % &v;
-            u = v;
-            v = t;
-        } else {
-            // Cofactor signs alternate: (a, b) and (c, d) each have one negative entry, and
-            // both combinations are nonnegative.
-            let comb = |x: i64, y: i64, u: &BigUint, v: &BigUint| -> BigUint {
-                let (xu, yv) = (u * x.unsigned_abs(), v * y.unsigned_abs());
-                if x <= 0 && y >= 0 {
-                    yv - xu
-                } else {
-                    xu - yv
-                }
-            };
-            let nu = comb(a, b, &u, &v);
-            let nv = comb(c, d, &u, &v);
-            u = nu;
-            v = nv;
-        }
-    }
+/// Lehmer's gcd (Knuth, TAOCP vol. 2, 4.5.2, Algorithm L): most Euclid steps run on
+/// machine words, and the big numbers are updated in place once per ~30 bits
+/// ([`super::gcd`]). (num-bigint's binary gcd is quadratic with a large constant.)
+pub fn lehmer_gcd(u: BigUint, v: BigUint) -> BigUint {
+    super::gcd::gcd_biguint(&u, &v)
 }
 
 fn int_from_u64(g: u64) -> Int {

@@ -8,10 +8,12 @@
 //! * [`modp`], [`crt`], [`modular`]: the multi-modular path for large systems: sparse LU
 //!   modulo word-size primes, Chinese remaindering, rational reconstruction with early
 //!   termination, and an exact verification of every answer.
+//! * [`gcd`]: Lehmer's gcd and Wang's rational reconstruction on 64-bit limbs, in place.
 
 pub mod bitgrowth;
 pub mod crt;
 pub mod dixon;
+pub mod gcd;
 pub mod int;
 pub mod ldu;
 pub mod lsq;

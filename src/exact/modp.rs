@@ -19,6 +19,12 @@
 //! prime (no search); a pivot that vanishes modulo the new prime makes it fail, and the
 //! caller takes another prime.
 //!
+//! [`LuModP::factor_in_row_order`] takes the pivot *rows* in index order (the first row
+//! that has not reduced to zero; its column of fewest nonzeros): its pivot rows are then the
+//! lexicographically first basis of the rows modulo `p`, each zero row depends on the rows
+//! before it, which is how [`crate::exact::modular::certified_basis`] names one canonical
+//! redundant set.
+//!
 //! The factoring is `Pr A Pc = L U` with `L` unit lower trapezoidal and `U` upper
 //! trapezoidal: the rows `row_order[..rank]` are independent modulo `p` (hence independent
 //! over the rationals), the rows `row_order[rank..]` reduce to zero modulo `p`.
@@ -253,7 +259,13 @@ fn value_at(r: &ModRow, c: u32) -> Option<u64> {
 impl LuModP {
     /// Factors the matrix whose rows are `rows` (`n` columns) with Markowitz pivoting.
     pub fn factor(zp: Zp, n: usize, rows: Vec<ModRow>) -> LuModP {
-        Self::run(zp, n, rows, None).expect("a free search never fails")
+        Self::run(zp, n, rows, Mode::Markowitz).expect("a free search never fails")
+    }
+
+    /// Factors taking the pivot rows in index order (see the module docs): the pivot rows are
+    /// the lexicographically first basis of the rows modulo `p`.
+    pub fn factor_in_row_order(zp: Zp, n: usize, rows: Vec<ModRow>) -> LuModP {
+        Self::run(zp, n, rows, Mode::RowOrder).expect("a free search never fails")
     }
 
     /// Factors with the pivot sequence of `order` (an earlier factoring of the same integer
@@ -264,15 +276,10 @@ impl LuModP {
         rows: Vec<ModRow>,
         order: &[(usize, usize)],
     ) -> Result<LuModP, BadPrime> {
-        Self::run(zp, n, rows, Some(order))
+        Self::run(zp, n, rows, Mode::Replay(order))
     }
 
-    fn run(
-        zp: Zp,
-        n: usize,
-        rows: Vec<ModRow>,
-        order: Option<&[(usize, usize)]>,
-    ) -> Result<LuModP, BadPrime> {
+    fn run(zp: Zp, n: usize, rows: Vec<ModRow>, mode: Mode<'_>) -> Result<LuModP, BadPrime> {
         let m = rows.len();
         let mut w = Work {
             active: vec![true; m],
@@ -298,13 +305,18 @@ impl LuModP {
             zero_rows: Vec::new(),
         };
         let mut step = 0;
+        let mut next_row = 0;
         loop {
-            let (rho, gamma) = match order {
-                Some(o) => match o.get(step) {
+            let (rho, gamma) = match mode {
+                Mode::Replay(o) => match o.get(step) {
                     Some(&pc) => pc,
                     None => break,
                 },
-                None => match w.choose() {
+                Mode::Markowitz => match w.choose() {
+                    Some(pc) => pc,
+                    None => break,
+                },
+                Mode::RowOrder => match w.choose_in_row_order(&mut next_row) {
                     Some(pc) => pc,
                     None => break,
                 },
@@ -342,7 +354,7 @@ impl LuModP {
             step += 1;
         }
         lu.zero_rows = (0..m).filter(|&i| w.active[i]).collect();
-        if order.is_some() && lu.zero_rows.iter().any(|&i| !w.rows[i].is_empty()) {
+        if matches!(mode, Mode::Replay(_)) && lu.zero_rows.iter().any(|&i| !w.rows[i].is_empty()) {
             // The replayed sequence is shorter than the rank modulo this prime: the first
             // prime was unlucky, not this one; report it as a mismatch all the same.
             return Err(BadPrime { p: zp.p, step });
@@ -391,7 +403,36 @@ impl LuModP {
     }
 }
 
+/// How [`LuModP::run`] picks its pivots.
+#[derive(Clone, Copy)]
+enum Mode<'a> {
+    /// Least Markowitz cost over the whole active matrix.
+    Markowitz,
+    /// The first row (by index) that has not reduced to zero, its sparsest column.
+    RowOrder,
+    /// A given sequence.
+    Replay(&'a [(usize, usize)]),
+}
+
 impl Work {
+    /// The first active nonzero row at or after `*next` and its column of fewest nonzeros
+    /// (ties: lowest column). Rows before `*next` are pivots or zero, and a zero row stays
+    /// zero, so the cursor only moves forward.
+    fn choose_in_row_order(&self, next: &mut usize) -> Option<(usize, usize)> {
+        while *next < self.rows.len() {
+            let t = *next;
+            if self.active[t] && !self.rows[t].is_empty() {
+                let &(c, _) = self.rows[t]
+                    .iter()
+                    .min_by_key(|&&(c, _)| (self.col_count[c as usize], c))
+                    .expect("nonempty row");
+                return Some((t, c as usize));
+            }
+            *next += 1;
+        }
+        None
+    }
+
     fn choose(&self) -> Option<(usize, usize)> {
         let mut best: Option<(usize, usize, usize)> = None; // (cost, row, col)
         for (t, r) in self.rows.iter().enumerate() {

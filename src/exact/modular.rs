@@ -33,6 +33,18 @@
 //! fraction-free path. The certificates also decide consistency exactly: `R x = b` is
 //! solvable iff `b_z = c_z . b_I` for every redundant `z` (eq. 8.10 of the 2017 thesis in
 //! this basis).
+//!
+//! # One canonical redundant set
+//!
+//! A rank-deficient matrix has many bases of its rows; the one reported is the
+//! *lexicographically first*: row `i` is redundant iff it is a combination of the rows
+//! `0..i`. The LU modulo `p` takes its pivot rows in index order
+//! ([`LuModP::factor_in_row_order`]), and each certificate must use only independent rows
+//! before `z`. That certifies the set exactly: every reported `z` depends on earlier rows,
+//! so the lexicographically first basis lies inside `I`; `I` is independent and as large as
+//! the rank, so the two are equal. A prime that breaks this (a row independent over `Q`
+//! but zero modulo `p`) fails the check and the next prime is tried. The fraction-free path
+//! reports the same set (computed here), so `"redundant"` is identical on both paths.
 
 use super::crt::CrtVec;
 use super::int::Int;
@@ -110,7 +122,12 @@ pub fn solve_nonsingular_with(
         if let Some(t) = tamper {
             t(&mut x);
         }
-        if x.iter().zip(b).all(|(x, bc)| verify(a, x, bc)) {
+        let t0 = std::time::Instant::now();
+        let ok = x.iter().zip(b).all(|(x, bc)| verify(a, x, bc));
+        if std::env::var_os("TRIMORPH_TRACE").is_some() {
+            eprintln!("trace: exact verification {:.3} s", t0.elapsed().as_secs_f64());
+        }
+        if ok {
             return Ok((x, stats));
         }
         rejected = 1;
@@ -264,7 +281,7 @@ pub fn certified_basis(r: &SparseIntMatrix) -> Result<CertifiedBasis, ModularErr
     let (m, n) = (r.rows(), r.cols());
     for &p in primes(3).iter() {
         let zp = Zp::new(p);
-        let lu = LuModP::factor(zp, n, rows_mod(&zp, r));
+        let lu = LuModP::factor_in_row_order(zp, n, rows_mod(&zp, r));
         let independent: Vec<usize> = lu.pivots.iter().map(|e| e.0).collect();
         let pivot_cols: Vec<usize> = lu.pivots.iter().map(|e| e.1).collect();
         let redundant = lu.zero_rows.clone();
@@ -305,8 +322,12 @@ pub fn certified_basis(r: &SparseIntMatrix) -> Result<CertifiedBasis, ModularErr
             })
             .collect();
         let Ok((certs, stats)) = solve_nonsingular(&mt, &rhs) else { continue };
-        // The certificate solved the pivot columns; check every column.
+        // The certificate solved the pivot columns; check every column, and that row z
+        // depends on earlier rows only (the canonical set, module docs).
         let ok = redundant.par_iter().zip(&certs).all(|(&z, c)| {
+            if independent.iter().zip(&c.num).any(|(&i, v)| i > z && !v.is_zero()) {
+                return false;
+            }
             let mut acc: std::collections::BTreeMap<usize, Int> = Default::default();
             for (k, &i) in independent.iter().enumerate() {
                 if c.num[k].is_zero() {
