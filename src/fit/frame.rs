@@ -25,7 +25,8 @@
 
 pub use super::affine::affine_fit;
 use super::landmarks::Landmark;
-use super::solve::{fit_with, validate, Fit, FitError, FitOptions};
+use super::objective::TriangleTerms;
+use super::solve::{fit_with_terms, validate, Fit, FitError, FitOptions};
 use crate::mesh::{default_margin, AdaptOptions, Mesh, MeshError};
 use crate::spline::mds::{Mds, MdsError};
 use crate::spline::Spline;
@@ -181,7 +182,7 @@ fn fit_on_mesh(
     let mut mesh_opts = AdaptOptions { margin: Some(margin), grid, ..opts.mesh.clone() };
     let mut tries = 0;
     let start = std::time::Instant::now();
-    let (adapted, spline, mds) = loop {
+    let (adapted, spline, mds, terms) = loop {
         let adapted = Mesh::landmark_adapted(&sources, size, &mesh_opts).map_err(|e| match e {
             MeshError::OutsideFrame { index, x, y, w, h } => FitError::BadLandmark {
                 index,
@@ -194,9 +195,15 @@ fn fit_on_mesh(
             e => FitError::Options(e.to_string()),
         })?;
         let spline = affine_spline(adapted.mesh.clone(), opts.degree, a)?;
-        let mm = Mds::new(&spline);
+        // The determining set (exact eliminations) and the triangles' objective terms
+        // (floating point) depend on the spline only: built side by side.
+        let level = opts.fit.det_level;
+        let (mm, terms) = rayon::join(
+            || Mds::new(&spline),
+            || (level > 0).then(|| TriangleTerms::new(&spline, level)),
+        );
         match mm {
-            Ok(mds) => break (adapted, spline, mds),
+            Ok(mds) => break (adapted, spline, mds, terms),
             Err(MdsError::Singular(v)) if tries < MAX_MDS_RETRIES => {
                 // Break the vertex's symmetric star with a point inside one of its triangles.
                 let m = &adapted.mesh;
@@ -211,7 +218,7 @@ fn fit_on_mesh(
             Err(e) => return Err(e.into()),
         }
     };
-    let f = fit_with(&spline, &mds, lms, &opts.fit, start)?;
+    let f = fit_with_terms(&spline, &mds, lms, &opts.fit, start, terms)?;
     Ok((adapted, f))
 }
 

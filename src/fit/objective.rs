@@ -196,6 +196,39 @@ pub struct Terms {
     pub total: f64,
 }
 
+/// Every triangle's share of the objective that does not depend on the parameterization
+/// (bending matrix, `det J` sample rows): it needs the spline's mesh and degree only, so a
+/// caller can build it alongside the determining set.
+pub(super) struct TriangleTerms(Vec<TriTerm>);
+
+impl TriangleTerms {
+    /// The terms of every triangle of `s`, `det J` sampled at level `det_level`.
+    pub(super) fn new(s: &Spline, det_level: usize) -> TriangleTerms {
+        let pts = sample_points(det_level);
+        let bending = Bending::new(s.degree());
+        let stencil = DerivativeStencil::new(s.degree(), &pts);
+        // Each triangle's terms depend on that triangle only: built in parallel, in order.
+        let tris = (0..s.mesh().num_triangles())
+            .into_par_iter()
+            .map(|t| {
+                let patch = s.layout().patches()[t].clone();
+                let v = s.mesh().triangle(t).map(|i| s.mesh().vertex(i));
+                let area = 0.5
+                    * ((v[1][0] - v[0][0]) * (v[2][1] - v[0][1])
+                        - (v[2][0] - v[0][0]) * (v[1][1] - v[0][1]))
+                        .abs();
+                TriTerm {
+                    k: bending.matrix(s, t),
+                    samples: stencil.rows(frame(s, t).gradients()),
+                    sample_weight: area / pts.len() as f64,
+                    patch,
+                }
+            })
+            .collect();
+        TriangleTerms(tris)
+    }
+}
+
 /// The objective over one parameterization; see the module docs.
 #[derive(Clone, Debug)]
 pub struct Objective {
@@ -222,28 +255,21 @@ impl Objective {
         barrier: Option<Barrier>,
         det_level: usize,
     ) -> Objective {
-        let pts = sample_points(det_level);
-        let bending = Bending::new(s.degree());
-        let stencil = DerivativeStencil::new(s.degree(), &pts);
-        // Each triangle's terms depend on that triangle only: built in parallel, in order.
-        let tris = (0..s.mesh().num_triangles())
-            .into_par_iter()
-            .map(|t| {
-                let patch = s.layout().patches()[t].clone();
-                let v = s.mesh().triangle(t).map(|i| s.mesh().vertex(i));
-                let area = 0.5
-                    * ((v[1][0] - v[0][0]) * (v[2][1] - v[0][1])
-                        - (v[2][0] - v[0][0]) * (v[1][1] - v[0][1]))
-                        .abs();
-                TriTerm {
-                    k: bending.matrix(s, t),
-                    samples: stencil.rows(frame(s, t).gradients()),
-                    sample_weight: area / pts.len() as f64,
-                    patch,
-                }
-            })
-            .collect();
-        Objective { param, rows, tris, loss, bend, barrier }
+        let terms = TriangleTerms::new(s, det_level);
+        Objective::with_terms(param, rows, loss, bend, barrier, terms)
+    }
+
+    /// [`new`](Self::new) with the triangles' terms already built (for the same spline's
+    /// mesh and degree, and the same `det_level`).
+    pub(super) fn with_terms(
+        param: Param,
+        rows: Vec<DataRow>,
+        loss: Loss,
+        bend: f64,
+        barrier: Option<Barrier>,
+        terms: TriangleTerms,
+    ) -> Objective {
+        Objective { param, rows, tris: terms.0, loss, bend, barrier }
     }
 
     /// The triangles' terms.

@@ -15,16 +15,21 @@
 //! 1,000 landmarks.
 //!
 //! **Landmark space.** Let `x0 = -K^-1 b` (the smoothest map for the fixed points),
-//! `y0 = A x0 + r`, `Z = K^-1 A^T` and `M = A Z` (`k x k`, `k` landmarks). The push-through
-//! identity `(A^T W A + lambda K)^-1 A^T W = Z (M + lambda W^-1)^-1` gives the minimizer as
+//! `y0 = A x0 + r` and `M = A K^-1 A^T` (`k x k`, `k` landmarks). The push-through identity
+//! `(A^T W A + lambda K)^-1 A^T W = K^-1 A^T (M + lambda W^-1)^-1` gives the minimizer as
 //!
 //! ```text
-//!   x = x0 + Z c,     c = (M + lambda W^-1)^-1 (t - y0),
+//!   x = x0 + K^-1 A^T c,     c = (M + lambda W^-1)^-1 (t - y0),
 //! ```
 //!
-//! so one sparse factorization of `K` and `k` solves serve every `lambda` and every
-//! reweighting (robust losses). With `M~ = W^1/2 M W^1/2 = U diag(mu) U^T`, the fitted values
-//! are `y = y0 + W^-1/2 H~ W^1/2 (t - y0)` with `H~ = U diag(mu / (mu + lambda)) U^T`, hence in
+//! so one sparse factorization of `K` serves every `lambda` and every reweighting (robust
+//! losses): `M` is the Gram matrix `G^T G` of `G = L^-1 P A^T` (`K = P^T L L^T P`), whose
+//! columns are forward substitutions of sparse landmark rows and stay zero outside a small
+//! part of `L` ([`super::sparse::Factor::inverse_gram`]); each solve then costs one
+//! `k x k` Cholesky factorization and one sparse solve with `K`.
+//!
+//! With `M~ = W^1/2 M W^1/2 = U diag(mu) U^T`, the fitted values are
+//! `y = y0 + W^-1/2 H~ W^1/2 (t - y0)` with `H~ = U diag(mu / (mu + lambda)) U^T`, hence in
 //! closed form for any `lambda`:
 //!
 //! ```text
@@ -47,7 +52,7 @@ use faer::{Mat, Side};
 /// Relative ridge added to the bending matrix's diagonal (see the module docs).
 pub const RIDGE: f64 = 1e-9;
 
-/// Largest `nv * k` (entries of `Z`) the smoother stores: 512 MiB of `f64`.
+/// Largest `nv * k` (entries of `L^-1 P A^T`, at most) the smoother stores: 512 MiB of `f64`.
 pub const MAX_SMOOTHER_ENTRIES: usize = 1 << 26;
 
 /// The bending weights GCV searches: `10^(BEND_LOG_RANGE.0 + i * BEND_LOG_STEP)`.
@@ -65,8 +70,10 @@ pub const DEFAULT_BEND: f64 = 1e-7;
 pub struct Smoother {
     nv: usize,
     k: usize,
-    /// `K^-1 A^T`, column-major `nv x k`.
-    z: Vec<f64>,
+    /// The factorization of `K` (with the ridge).
+    factor: Factor,
+    /// The landmark rows `a_i` over the variables.
+    cols: Vec<Vec<(usize, f64)>>,
     /// `A K^-1 A^T`, row-major `k x k`.
     m: Vec<f64>,
     /// `x0` per coordinate.
@@ -133,27 +140,8 @@ impl Smoother {
             factor.solve(&mut v);
             v
         });
-        let mut z = vec![0.0; nv * k];
-        for (i, (row, _, _)) in rows.iter().enumerate() {
-            for &(j, w) in row {
-                z[i * nv + j] += w;
-            }
-        }
-        factor.solve_many(&mut z, nv, k);
-        let mut m = vec![0.0; k * k];
-        for (i, (row, _, _)) in rows.iter().enumerate() {
-            for j in 0..k {
-                let col = &z[j * nv..(j + 1) * nv];
-                m[i * k + j] = row.iter().map(|&(a, w)| w * col[a]).sum();
-            }
-        }
-        for i in 0..k {
-            for j in 0..i {
-                let s = 0.5 * (m[i * k + j] + m[j * k + i]);
-                m[i * k + j] = s;
-                m[j * k + i] = s;
-            }
-        }
+        let cols: Vec<Vec<(usize, f64)>> = rows.iter().map(|(row, _, _)| row.clone()).collect();
+        let m = factor.inverse_gram(&cols);
         let gap = rows
             .iter()
             .map(|(row, r0, t)| {
@@ -163,7 +151,7 @@ impl Smoother {
             .collect();
         let weights: Vec<f64> = obj.rows().iter().map(|r| r.weight).collect();
         let scale = weights.iter().sum::<f64>() * obj.area();
-        Ok(Smoother { nv, k, z, m, x0, gap, weights, scale })
+        Ok(Smoother { nv, k, factor, cols, m, x0, gap, weights, scale })
     }
 
     /// `lambda` for a scale-free weight.
@@ -191,16 +179,19 @@ impl Smoother {
         let llt = a.llt(Side::Lower).map_err(|_| FitError::Singular(0))?;
         let mut rhs = Mat::<f64>::from_fn(k, 2, |i, c| self.gap[i][c]);
         faer::linalg::solvers::Solve::solve_in_place(&llt, rhs.as_mut());
+        // x = x0 + K^-1 A^T c, per coordinate.
+        let mut b = vec![0.0; 2 * nv];
         for c in 0..2 {
-            for j in 0..k {
+            for (j, col) in self.cols.iter().enumerate() {
                 let cj = rhs[(j, c)];
-                if cj != 0.0 {
-                    let col = &self.z[j * nv..(j + 1) * nv];
-                    for (xa, za) in x[c * nv..(c + 1) * nv].iter_mut().zip(col) {
-                        *xa += cj * za;
-                    }
+                for &(a, w) in col {
+                    b[c * nv + a] += cj * w;
                 }
             }
+        }
+        self.factor.solve_many(&mut b, nv, 2);
+        for (xa, ba) in x.iter_mut().zip(&b) {
+            *xa += ba;
         }
         Ok(x)
     }

@@ -20,7 +20,7 @@
 
 use super::landmarks::Landmark;
 use super::newton::newton;
-use super::objective::{data_row, Barrier, Loss, Objective};
+use super::objective::{data_row, Barrier, Loss, Objective, TriangleTerms};
 use super::param::Param;
 use super::smooth::{Smoother, DEFAULT_BEND};
 use crate::edit::select::{neighborhood, Neighborhood, SelectIndex};
@@ -406,6 +406,17 @@ pub fn objective_with(
     lms: &[Landmark],
     opts: &FitOptions,
 ) -> Result<Objective, FitError> {
+    objective_with_terms(s, mds, lms, opts, None)
+}
+
+/// [`objective_with`] with the triangles' terms possibly prebuilt (at `opts.det_level`).
+fn objective_with_terms(
+    s: &Spline,
+    mds: &Mds,
+    lms: &[Landmark],
+    opts: &FitOptions,
+    terms: Option<TriangleTerms>,
+) -> Result<Objective, FitError> {
     check_options(opts)?;
     if lms.is_empty() {
         return Err(FitError::NoLandmarks);
@@ -450,7 +461,8 @@ pub fn objective_with(
     }
     let param =
         if opts.pin_border { border_closed(s, mds, is_var) } else { Param::new(s, mds, &is_var) };
-    let mut obj = Objective::new(s, param, rows, opts.loss, 0.0, opts.barrier, opts.det_level);
+    let terms = terms.unwrap_or_else(|| TriangleTerms::new(s, opts.det_level));
+    let mut obj = Objective::with_terms(param, rows, opts.loss, 0.0, opts.barrier, terms);
     // lambda = bend * sum w * area (see `super::smooth`); with `Bend::Auto` the solver sets it.
     if let Bend::Weight(w) = opts.bend {
         obj.bend = w * lms.iter().map(|l| l.weight).sum::<f64>() * obj.area();
@@ -510,10 +522,23 @@ pub fn fit_with(
     opts: &FitOptions,
     start: Instant,
 ) -> Result<Fit, FitError> {
+    fit_with_terms(s, mds, lms, opts, start, None)
+}
+
+/// [`fit_with`] with the triangles' terms possibly prebuilt (for `s` at `opts.det_level`;
+/// used by the soft fit only).
+pub(super) fn fit_with_terms(
+    s: &Spline,
+    mds: &Mds,
+    lms: &[Landmark],
+    opts: &FitOptions,
+    start: Instant,
+    terms: Option<TriangleTerms>,
+) -> Result<Fit, FitError> {
     if opts.hard || !opts.pinned.is_empty() {
         return super::hard::fit_hard(s, mds, lms, opts, start);
     }
-    fit_soft(s, mds, lms, opts, start)
+    fit_soft_terms(s, mds, lms, opts, start, terms)
 }
 
 /// The soft fit (no landmark rows, no ECLES step; pinned free points do not vary).
@@ -524,7 +549,19 @@ pub(super) fn fit_soft(
     opts: &FitOptions,
     start: Instant,
 ) -> Result<Fit, FitError> {
-    let mut obj = objective_with(s, mds, lms, opts)?;
+    fit_soft_terms(s, mds, lms, opts, start, None)
+}
+
+/// [`fit_soft`] with the triangles' terms possibly prebuilt.
+fn fit_soft_terms(
+    s: &Spline,
+    mds: &Mds,
+    lms: &[Landmark],
+    opts: &FitOptions,
+    start: Instant,
+    terms: Option<TriangleTerms>,
+) -> Result<Fit, FitError> {
+    let mut obj = objective_with_terms(s, mds, lms, opts, terms)?;
     let nv = obj.param.nv();
     let x0 = obj.param.x0();
     let out = if nv == 0 {

@@ -16,9 +16,14 @@
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::LltRegularization;
-use faer::sparse::linalg::cholesky::{factorize_symbolic_cholesky, LltRef, SymbolicCholesky};
+use faer::linalg::matmul::matmul;
+use faer::linalg::triangular_solve::solve_lower_triangular_in_place;
+use faer::sparse::linalg::cholesky::supernodal::SupernodalLltRef;
+use faer::sparse::linalg::cholesky::{
+    factorize_symbolic_cholesky, LltRef, SymbolicCholesky, SymbolicCholeskyRaw,
+};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
-use faer::{Conj, MatMut, Par, Side};
+use faer::{Accum, Conj, Mat, MatMut, MatRef, Par, Side};
 use rayon::prelude::*;
 use std::sync::Arc;
 
@@ -207,6 +212,237 @@ impl Factor {
     }
 }
 
+/// `L^-1 P B` for one block of sparse right-hand sides, kept on the nodes it reaches only
+/// (see [`Factor::inverse_gram`]).
+struct Reached {
+    /// The block's columns (indices into the caller's list).
+    cols: Vec<usize>,
+    /// Nodes of `L` where the block is not zero, ascending.
+    nodes: Vec<usize>,
+    /// Row of each reached node's first entry in `vals`.
+    offs: Vec<usize>,
+    /// The reached rows, `rows x cols.len()`, column-major.
+    vals: Vec<f64>,
+    rows: usize,
+}
+
+impl Reached {
+    fn mat(&self) -> MatRef<'_, f64> {
+        MatRef::from_column_major_slice(&self.vals, self.rows, self.cols.len())
+    }
+}
+
+impl Factor {
+    /// The column groups of `L`: supernodes, or single columns of a simplicial factor.
+    /// Returns each node's first column (and `n` at the end).
+    fn node_starts(&self) -> Vec<usize> {
+        match self.symbolic.raw() {
+            SymbolicCholeskyRaw::Supernodal(s) => {
+                let mut v: Vec<usize> = s.supernode_begin().to_vec();
+                v.push(self.n);
+                v
+            }
+            SymbolicCholeskyRaw::Simplicial(_) => (0..=self.n).collect(),
+        }
+    }
+
+    /// The Gram matrix `B^T A^-1 B` (row-major, `k x k`) of `k` sparse columns `b_j`, given
+    /// as `(row, value)` lists in the matrix's own order.
+    ///
+    /// With `A = P^T L L^T P`, `B^T A^-1 B = G^T G` for `G = L^-1 P B`, and a column of `G`
+    /// is zero outside the nodes of `L` that its right-hand side reaches (the nodes of its
+    /// nonzero rows and their ancestors in the elimination tree): for right-hand sides with
+    /// a few nonzeros, such as the landmark rows of a fit, a small part of `L`. So the
+    /// columns are grouped by where they start ([`SOLVE_BLOCK`] per block), each block is
+    /// forward-substituted skipping the nodes where it is still zero (which leaves every
+    /// value as the full substitution computes it), and `G^T G` is summed block pair by
+    /// block pair over the nodes both blocks reach. Neither the backward substitution nor
+    /// the dense `A^-1 B` is formed.
+    pub fn inverse_gram(&self, cols: &[Vec<(usize, f64)>]) -> Vec<f64> {
+        let (n, k) = (self.n, cols.len());
+        let mut gram = vec![0.0; k * k];
+        if n == 0 || k == 0 {
+            return gram;
+        }
+        let inv: Vec<usize> = match self.symbolic.perm() {
+            Some(p) => p.arrays().1.to_vec(),
+            None => (0..n).collect(),
+        };
+        let starts = self.node_starts();
+        let mut node_of = vec![0usize; n];
+        for s in 0..starts.len() - 1 {
+            node_of[starts[s]..starts[s + 1]].fill(s);
+        }
+        // Columns ordered by the first node they touch: nodes are numbered in postorder,
+        // so columns in one subtree come together and their blocks reach few nodes.
+        let first = |b: &Vec<(usize, f64)>| {
+            b.iter().filter(|e| e.1 != 0.0).map(|&(r, _)| node_of[inv[r]]).min()
+        };
+        let mut order: Vec<(usize, usize)> =
+            cols.iter().enumerate().map(|(j, b)| (first(b).unwrap_or(usize::MAX), j)).collect();
+        order.sort_unstable();
+        let blocks: Vec<Vec<usize>> =
+            order.chunks(SOLVE_BLOCK).map(|c| c.iter().map(|&(_, j)| j).collect()).collect();
+        let reached: Vec<Reached> = blocks
+            .into_par_iter()
+            .map_init(
+                || vec![0.0f64; n * SOLVE_BLOCK],
+                |x, block| self.forward_block(x, &starts, &inv, cols, block),
+            )
+            .collect();
+        let pairs: Vec<(usize, usize)> =
+            (0..reached.len()).flat_map(|i| (i..reached.len()).map(move |j| (i, j))).collect();
+        let products: Vec<Mat<f64>> =
+            pairs.par_iter().map(|&(i, j)| node_products(&reached[i], &reached[j])).collect();
+        for (&(i, j), p) in pairs.iter().zip(&products) {
+            for (a, &ca) in reached[i].cols.iter().enumerate() {
+                for (b, &cb) in reached[j].cols.iter().enumerate() {
+                    gram[ca * k + cb] = p[(a, b)];
+                    gram[cb * k + ca] = p[(a, b)];
+                }
+            }
+        }
+        gram
+    }
+
+    /// Forward substitution `L y = P b` of one block of columns in the scratch `x`
+    /// (`n x SOLVE_BLOCK`, left zero on return), skipping nodes where the block is zero.
+    fn forward_block(
+        &self,
+        x: &mut [f64],
+        starts: &[usize],
+        inv: &[usize],
+        cols: &[Vec<(usize, f64)>],
+        block: Vec<usize>,
+    ) -> Reached {
+        let n = self.n;
+        let c = block.len();
+        let x = &mut x[..n * c];
+        for (a, &j) in block.iter().enumerate() {
+            for &(r, v) in &cols[j] {
+                x[a * n + inv[r]] += v;
+            }
+        }
+        let mut nodes = Vec::new();
+        let nonzero = |x: &[f64], lo: usize, hi: usize| {
+            (0..c).any(|a| x[a * n + lo..a * n + hi].iter().any(|&v| v != 0.0))
+        };
+        match self.symbolic.raw() {
+            SymbolicCholeskyRaw::Supernodal(sym) => {
+                let llt = SupernodalLltRef::new(sym, &self.values);
+                let mut tmp: Vec<f64> = Vec::new();
+                for s in 0..starts.len() - 1 {
+                    let (lo, hi) = (starts[s], starts[s + 1]);
+                    if !nonzero(x, lo, hi) {
+                        continue;
+                    }
+                    nodes.push(s);
+                    let node = llt.supernode(s);
+                    let size = hi - lo;
+                    let (top, bot) = node.val().split_at_row(size);
+                    let pattern = node.pattern();
+                    let mut xm = MatMut::from_column_major_slice_mut(x, n, c);
+                    solve_lower_triangular_in_place(
+                        top,
+                        xm.as_mut().subrows_mut(lo, size),
+                        Par::Seq,
+                    );
+                    if pattern.is_empty() {
+                        continue;
+                    }
+                    tmp.clear();
+                    tmp.resize(pattern.len() * c, 0.0);
+                    let mut t = MatMut::from_column_major_slice_mut(&mut tmp, pattern.len(), c);
+                    matmul(
+                        t.as_mut(),
+                        Accum::Replace,
+                        bot,
+                        xm.as_ref().subrows(lo, size),
+                        1.0,
+                        Par::Seq,
+                    );
+                    for a in 0..c {
+                        for (idx, &i) in pattern.iter().enumerate() {
+                            x[a * n + i] -= t[(idx, a)];
+                        }
+                    }
+                }
+            }
+            SymbolicCholeskyRaw::Simplicial(sym) => {
+                let l = sym.factor();
+                let (cp, ri) = (l.col_ptr(), l.row_idx());
+                for j in 0..n {
+                    if !nonzero(x, j, j + 1) {
+                        continue;
+                    }
+                    nodes.push(j);
+                    let d = self.values[cp[j]];
+                    for a in 0..c {
+                        let xj = x[a * n + j] / d;
+                        x[a * n + j] = xj;
+                        for p in cp[j] + 1..cp[j + 1] {
+                            x[a * n + ri[p]] -= self.values[p] * xj;
+                        }
+                    }
+                }
+            }
+        }
+        let mut offs = Vec::with_capacity(nodes.len());
+        let mut rows = 0;
+        for &s in &nodes {
+            offs.push(rows);
+            rows += starts[s + 1] - starts[s];
+        }
+        let mut vals = vec![0.0; rows * c];
+        for a in 0..c {
+            for (&s, &o) in nodes.iter().zip(&offs) {
+                let (lo, hi) = (starts[s], starts[s + 1]);
+                vals[a * rows + o..a * rows + o + hi - lo]
+                    .copy_from_slice(&x[a * n + lo..a * n + hi]);
+            }
+            x[a * n..(a + 1) * n].fill(0.0);
+        }
+        Reached { cols: block, nodes, offs, vals, rows }
+    }
+}
+
+/// `G_I^T G_J` over the nodes both blocks reach, one product per run of nodes that are
+/// consecutive in both blocks' storage.
+fn node_products(bi: &Reached, bj: &Reached) -> Mat<f64> {
+    let mut out = Mat::<f64>::zeros(bi.cols.len(), bj.cols.len());
+    let (gi, gj) = (bi.mat(), bj.mat());
+    let (mut p, mut q) = (0, 0);
+    while p < bi.nodes.len() && q < bj.nodes.len() {
+        match bi.nodes[p].cmp(&bj.nodes[q]) {
+            std::cmp::Ordering::Less => p += 1,
+            std::cmp::Ordering::Greater => q += 1,
+            std::cmp::Ordering::Equal => {
+                let (p0, q0) = (p, q);
+                while p + 1 < bi.nodes.len()
+                    && q + 1 < bj.nodes.len()
+                    && bi.nodes[p + 1] == bj.nodes[q + 1]
+                {
+                    p += 1;
+                    q += 1;
+                }
+                let end_i = if p + 1 < bi.nodes.len() { bi.offs[p + 1] } else { bi.rows };
+                let len = end_i - bi.offs[p0];
+                matmul(
+                    out.as_mut(),
+                    Accum::Add,
+                    gi.subrows(bi.offs[p0], len).transpose(),
+                    gj.subrows(bj.offs[q0], len),
+                    1.0,
+                    Par::Seq,
+                );
+                p += 1;
+                q += 1;
+            }
+        }
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -311,5 +547,78 @@ mod tests {
     fn an_indefinite_matrix_is_reported() {
         let p = Pattern::new(2, &[(0, 0), (1, 1), (1, 0)]).unwrap();
         assert_eq!(p.factor(&[1.0, 1.0, 2.0]).unwrap_err(), SparseError::NotPositiveDefinite);
+    }
+
+    /// A 2D grid system (`g x g` unknowns): each unknown coupled to those within `reach`
+    /// steps in both directions, diagonally dominant.
+    fn grid_system(g: usize, reach: usize) -> (usize, Vec<(usize, usize)>, Vec<f64>) {
+        let n = g * g;
+        let (mut entries, mut vals) = (Vec::new(), Vec::new());
+        let side = 2 * reach + 1;
+        for i in 0..g {
+            for j in 0..g {
+                let p = i * g + j;
+                entries.push((p, p));
+                vals.push((side * side) as f64);
+                for di in 0..=reach {
+                    for dj in 0..side {
+                        let (ii, jj) = (i + di, (j + dj).wrapping_sub(reach));
+                        if (di, dj) <= (0, reach) || ii >= g || jj >= g {
+                            continue;
+                        }
+                        entries.push((p, ii * g + jj));
+                        vals.push(-1.0);
+                    }
+                }
+            }
+        }
+        (n, entries, vals)
+    }
+
+    /// `B^T A^-1 B` by sparse forward substitution equals the product with full solves,
+    /// for simplicial and supernodal factors and for columns in any order (some empty).
+    #[test]
+    fn inverse_gram_matches_full_solves() {
+        let mut kinds = Vec::new();
+        for (g, reach) in [(4, 1), (9, 1), (20, 2), (30, 3)] {
+            let (n, entries, vals) = grid_system(g, reach);
+            let f = Pattern::new(n, &entries).unwrap().factor(&vals).unwrap();
+            kinds.push(matches!(f.symbolic.raw(), SymbolicCholeskyRaw::Supernodal(_)));
+            let k = 2 * SOLVE_BLOCK + 5;
+            let cols: Vec<Vec<(usize, f64)>> = (0..k)
+                .map(|j| {
+                    if j % 17 == 5 {
+                        return Vec::new();
+                    }
+                    let c = (j * 7919) % n;
+                    let mut col = vec![(c, 1.0 + j as f64 * 0.01)];
+                    if c + 1 < n {
+                        col.push((c + 1, -0.5));
+                    }
+                    col.push(((c * 31 + 3) % n, 0.25));
+                    col
+                })
+                .collect();
+            let gram = f.inverse_gram(&cols);
+            let mut dense = vec![0.0; n * k];
+            for (j, col) in cols.iter().enumerate() {
+                for &(r, v) in col {
+                    dense[j * n + r] += v;
+                }
+            }
+            f.solve_many(&mut dense, n, k);
+            for i in 0..k {
+                for j in 0..k {
+                    let want: f64 = cols[i].iter().map(|&(r, v)| v * dense[j * n + r]).sum();
+                    let got = gram[i * k + j];
+                    assert!(
+                        (got - want).abs() <= 1e-12 * (1.0 + want.abs()),
+                        "{i},{j}: {got} vs {want}"
+                    );
+                    assert_eq!(got, gram[j * k + i]);
+                }
+            }
+        }
+        assert!(kinds.contains(&true) && kinds.contains(&false), "both factor kinds: {kinds:?}");
     }
 }
