@@ -105,8 +105,8 @@ fn split_tre(n: usize, sep: f64, noise: f64) -> (f64, f64) {
     (mean(&ours), mean(&base))
 }
 
-// Measured (release, this data): without noise, 30 landmarks: trimorph 4.55 px, TPS 4.83 px;
-// 60 landmarks: 2.38 vs 2.14. With 1.5 px noise, 30 landmarks: 4.76 vs 4.72; 60 landmarks:
+// Measured (release, this data): without noise, 30 landmarks: trimorph 4.56 px, TPS 4.83 px;
+// 60 landmarks: 2.38 vs 2.14. With 1.5 px noise, 30 landmarks: 4.77 vs 4.72; 60 landmarks:
 // 3.10 vs 2.98. The bounds below hold those figures with a little room; being better than
 // TPS with noise is the aim, not yet reached with dense landmarks.
 
