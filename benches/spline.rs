@@ -41,8 +41,8 @@ fn bench(c: &mut Criterion) {
         eprintln!(
             "single vertex anchor: {} derived, {} relevant conditions, rank {}",
             sel.derived.len(),
-            sel.session().relevant().len(),
-            sel.session().rank()
+            sel.relevant(),
+            sel.rank()
         );
     }
     let by = [Rat::new(Int::from(7), Int::from(2)), rat_int(-2)];
@@ -80,9 +80,9 @@ fn bench(c: &mut Criterion) {
         let sel = probe.select(&[anchor], &[], &Neighborhood::Radius(2), Mode::Xy).unwrap().clone();
         eprintln!(
             "{name} anchor relevant system: {} x {} (rank {})",
-            sel.session().relevant().len(),
+            sel.relevant(),
             sel.derived.len(),
-            sel.session().rank()
+            sel.rank()
         );
         let sys = spline.system();
         let target: Vec<Vec<Rat>> = sel

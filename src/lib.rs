@@ -12,6 +12,8 @@
 //! * [`timing`]: wall-time phases of a job (below every other module);
 //! * [`memory`]: the process's memory budget, checked before large buffers are allocated
 //!   (below every other module);
+//! * [`sparse`]: sparse symmetric positive definite systems (faer's supernodal Cholesky),
+//!   in `f64`, for the fit and the editor's select-all solve (below every other module);
 //! * [`exact`]: exact integer / rational linear algebra (fraction-free LDU, exact solve,
 //!   weighted least squares) -- thesis Part I, ch. 4 and 6-9;
 //! * [`ecles`]: editing parameters under affine constraints (ECLES) -- thesis ch. 2 and 5;
@@ -49,6 +51,7 @@ pub mod morph;
 pub mod prism;
 pub mod render;
 pub mod server;
+pub mod sparse;
 pub mod spline;
 pub mod timing;
 pub mod warp;

@@ -31,6 +31,7 @@
 //! steps) and runs a script all or nothing.
 
 pub mod extra;
+pub mod global;
 pub mod script;
 pub mod select;
 
@@ -38,8 +39,10 @@ use crate::ecles::{ConstraintSystem, EclesError, InitOptions, Session};
 use crate::exact::{rat_from_f64, rat_to_f64, Int, Rat};
 use crate::spline::Spline;
 use extra::{axis_system, Extra};
+use global::GlobalSolve;
 use num_traits::{One, Zero};
 use select::{expand, neighborhood, rel_magnitude, Neighborhood, SelectIndex};
+use std::sync::Arc;
 
 /// Which spline an edit changes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
@@ -129,20 +132,53 @@ pub struct Selection {
     base_anchors: Vec<Vec<Rat>>,
     base_derived: Vec<Vec<Rat>>,
     /// One session (parameters in R^2 or R^1), or two one-coordinate sessions (x, y) when
-    /// extra constraints bind the coordinates differently.
+    /// extra constraints bind the coordinates differently; none on the select-all path.
     sessions: Vec<Session>,
+    /// The select-all path ([`global`]), instead of sessions.
+    global: Option<Arc<GlobalSolve>>,
+    /// Relevant conditions and their rank (reported by scripts and the editor).
+    relevant: usize,
+    rank: usize,
     /// `f64` preview of translations: derived = p0 + v_x gx + v_y gy (built on demand).
     preview: Option<(Vec<f64>, Vec<f64>, Vec<f64>)>,
 }
 
 impl Selection {
-    /// The (first) ECLES session of this selection (relevant constraints, rank, ...).
-    pub fn session(&self) -> &Session {
-        &self.sessions[0]
+    /// The (first) ECLES session of this selection (relevant constraints, rank, ...);
+    /// `None` on the select-all path ([`Selection::is_global`]).
+    pub fn session(&self) -> Option<&Session> {
+        self.sessions.first()
     }
-    /// All ECLES sessions of this selection (two, x and y, with extra constraints).
+    /// All ECLES sessions of this selection (two, x and y, with extra constraints; none on
+    /// the select-all path).
     pub fn sessions(&self) -> &[Session] {
         &self.sessions
+    }
+    /// Whether this select-all edit is solved in determining-set coordinates ([`global`])
+    /// rather than by ECLES sessions.
+    pub fn is_global(&self) -> bool {
+        self.global.is_some()
+    }
+    /// Number of C1 conditions that involve an anchor or a derived point.
+    pub fn relevant(&self) -> usize {
+        self.relevant
+    }
+    /// Rank of those conditions (on the select-all path: control points minus the size of
+    /// the minimal determining set, the rank of the whole C1 system).
+    pub fn rank(&self) -> usize {
+        self.rank
+    }
+    /// The relevant conditions without redundant ones, as ECLES found them; on the
+    /// select-all path every condition of the spline (redundancy is not computed there).
+    pub fn independent_constraints(&self, spline: &Spline) -> Vec<usize> {
+        match self.sessions.first() {
+            Some(session) => {
+                let redundant: std::collections::BTreeSet<usize> =
+                    session.redundant().into_iter().collect();
+                session.relevant().iter().copied().filter(|c| !redundant.contains(c)).collect()
+            }
+            None => (0..spline.c1_matrix().rows()).collect(),
+        }
     }
 }
 
@@ -155,6 +191,8 @@ pub struct Editor {
     extras: Vec<Extra>,
     axis_sys: Option<[ConstraintSystem; 2]>,
     bounded: Option<(crate::spline::mds::Mds, u32)>,
+    /// Fewest control points for the select-all path (`None`: never).
+    global_min: Option<usize>,
     selection: Option<Selection>,
 }
 
@@ -236,8 +274,18 @@ impl Editor {
             extras: Vec::new(),
             axis_sys: None,
             bounded: None,
+            global_min: Some(global::GLOBAL_MIN_POINTS),
             selection: None,
         }
+    }
+
+    /// Select-all edits in bounded xy mode without extra constraints, on splines with at
+    /// least `min_points` control points, are solved in the coordinates of the minimal
+    /// determining set ([`global`]); `None` always uses ECLES sessions. The default is
+    /// [`global::GLOBAL_MIN_POINTS`]. Ends the selection.
+    pub fn set_global_path(&mut self, min_points: Option<usize>) {
+        self.global_min = min_points;
+        self.selection = None;
     }
 
     /// Bounded exactness (xy mode without extra constraints): after every operation the free
@@ -394,6 +442,10 @@ impl Editor {
             Some(z) => z,
             None => self.spline.points(),
         };
+        if let Some(sel) = self.select_global(anchors, hood, mode) {
+            self.selection = Some(sel);
+            return Ok(self.selection.as_ref().expect("the selection is stored just above"));
+        }
         let mut in_d = vec![false; n];
         let mut seeds: Vec<usize> = anchors.to_vec();
         for p in extra.iter().copied().chain(neighborhood(&self.index, anchors, hood)) {
@@ -478,6 +530,7 @@ impl Editor {
             close(&mut in_d, &self.bounded);
         };
         let theta = rel_magnitude(&self.index, anchors, &derived);
+        let (relevant, rank) = (sessions[0].relevant().len(), sessions[0].rank());
         self.selection = Some(Selection {
             anchors: anchors.to_vec(),
             base_anchors: anchors.iter().map(|&a| params[a].clone()).collect(),
@@ -487,13 +540,106 @@ impl Editor {
             strong,
             mode,
             sessions,
+            global: None,
+            relevant,
+            rank,
             preview: None,
         });
         Ok(self.selection.as_ref().expect("the selection is stored just above"))
     }
 
+    /// The select-all path's selection, when it applies ([`global`]): every point but the
+    /// anchors derived, xy mode, bounded, no extra constraints, a large enough spline, and
+    /// independent anchor equations. `None` sends the caller to the general path.
+    fn select_global(
+        &self,
+        anchors: &[usize],
+        hood: &Neighborhood,
+        mode: Mode,
+    ) -> Option<Selection> {
+        let n = self.spline.num_points();
+        let (mds, _) = self.bounded.as_ref()?;
+        let applies = matches!(hood, Neighborhood::All)
+            && mode == Mode::Xy
+            && self.extras.is_empty()
+            && self.global_min.is_some_and(|m| n >= m);
+        if !applies {
+            return None;
+        }
+        let solve = GlobalSolve::new(mds, n, anchors).ok()?;
+        let mut is_anchor = vec![false; n];
+        for &a in anchors {
+            is_anchor[a] = true;
+        }
+        let derived: Vec<usize> = (0..n).filter(|&p| !is_anchor[p]).collect();
+        let theta = rel_magnitude(&self.index, anchors, &derived);
+        let c1 = self.spline.c1_matrix();
+        let relevant =
+            (0..c1.rows()).filter(|&r| c1.row(r).iter().any(|(p, _)| !is_anchor[*p])).count();
+        let params = self.spline.points();
+        Some(Selection {
+            anchors: anchors.to_vec(),
+            base_anchors: anchors.iter().map(|&a| params[a].clone()).collect(),
+            base_derived: derived.iter().map(|&p| params[p].clone()).collect(),
+            derived,
+            theta,
+            strong: true,
+            mode,
+            sessions: Vec::new(),
+            global: Some(Arc::new(solve)),
+            relevant,
+            rank: n - mds.num_free(),
+            preview: None,
+        })
+    }
+
+    /// The select-all path's operation: the `f64` minimizer in determining-set coordinates,
+    /// its free points rounded to the bounded grid, the dependents recomputed exactly.
+    fn apply_global(
+        &mut self,
+        solve: &GlobalSolve,
+        anchors: &[Vec<Rat>],
+        hints: &[Vec<Rat>],
+    ) -> Result<(), EditError> {
+        let sel = self.selection.as_ref().ok_or(EditError::NoSelection)?;
+        let n = self.spline.num_points();
+        let af: Vec<[f64; 2]> =
+            anchors.iter().map(|a| [rat_to_f64(&a[0]), rat_to_f64(&a[1])]).collect();
+        let mut hf = vec![[0.0; 2]; n];
+        for (&p, h) in sel.derived.iter().zip(hints) {
+            hf[p] = [rat_to_f64(&h[0]), rat_to_f64(&h[1])];
+        }
+        let free = solve.solve_free(&af, &hf);
+        let mut exact_anchor: Vec<Option<&Vec<Rat>>> = vec![None; n];
+        for (&a, v) in sel.anchors.iter().zip(anchors) {
+            exact_anchor[a] = Some(v);
+        }
+        let (mut idx, mut vals, mut approx) = (Vec::new(), Vec::new(), Vec::new());
+        for (p, f) in free.iter().enumerate() {
+            if f[0].is_nan() && f[1].is_nan() {
+                continue; // a dependent point
+            }
+            let v = match exact_anchor[p] {
+                Some(a) => a.clone(),
+                None => vec![exact(f[0])?, exact(f[1])?],
+            };
+            idx.push(p);
+            vals.push(v);
+            approx.push(*f);
+        }
+        let (mds, bits) = self.bounded.as_ref().expect("the select-all path is bounded");
+        // Nothing has changed yet: the writes below cannot fail.
+        self.spline.write_points(&idx, vals, &approx);
+        self.spline.bound_region(mds, &vec![true; n], *bits);
+        Ok(())
+    }
+
     /// Runs ECLES update with these anchor values and hints, then writes the result.
     fn apply(&mut self, anchors: Vec<Vec<Rat>>, hints: Vec<Vec<Rat>>) -> Result<(), EditError> {
+        let global = self.selection.as_ref().and_then(|s| s.global.clone());
+        if let Some(solve) = global {
+            return self.apply_global(&solve, &anchors, &hints);
+        }
         let sel = self.selection.as_mut().ok_or(EditError::NoSelection)?;
         let (derived, df): (Vec<Vec<Rat>>, Vec<Vec<f64>>) = if sel.sessions.len() == 1 {
             sel.sessions[0].update(&anchors, Some(&hints), None)?;
@@ -650,7 +796,26 @@ impl Editor {
     /// the drag. Positions are in the order anchors, then derived.
     pub fn preview_translate(&mut self, v: [f64; 2]) -> Result<Vec<[f64; 2]>, EditError> {
         let sel = self.selection.as_mut().ok_or(EditError::NoSelection)?;
-        if sel.mode != Mode::Xy || sel.sessions.len() != 1 {
+        if let (Some(solve), None) = (&sel.global, &sel.preview) {
+            // Positions are affine in v: p(v) = p0 + v_x gx + v_y gy.
+            let n = self.spline.num_points();
+            let base_a: Vec<[f64; 2]> =
+                sel.base_anchors.iter().map(|a| [rat_to_f64(&a[0]), rat_to_f64(&a[1])]).collect();
+            let eval = |v: [f64; 2]| -> Vec<f64> {
+                let af: Vec<[f64; 2]> = base_a.iter().map(|a| [a[0] + v[0], a[1] + v[1]]).collect();
+                let mut hf = vec![[0.0; 2]; n];
+                for ((&p, b), th) in sel.derived.iter().zip(&sel.base_derived).zip(&sel.theta) {
+                    hf[p] = [rat_to_f64(&b[0]) + th * v[0], rat_to_f64(&b[1]) + th * v[1]];
+                }
+                let pos = solve.positions(&solve.solve_free(&af, &hf));
+                sel.derived.iter().flat_map(|&p| pos[p]).collect()
+            };
+            let p0 = eval([0.0, 0.0]);
+            let sub = |g: Vec<f64>| -> Vec<f64> { g.iter().zip(&p0).map(|(a, b)| a - b).collect() };
+            let (gx, gy) = (sub(eval([1.0, 0.0])), sub(eval([0.0, 1.0])));
+            sel.preview = Some((p0, gx, gy));
+        }
+        if sel.global.is_none() && (sel.mode != Mode::Xy || sel.sessions.len() != 1) {
             return Err(EditError::Mode(
                 "preview works for xy edits without extra constraints".into(),
             ));
@@ -732,3 +897,6 @@ pub fn exact(v: f64) -> Result<Rat, EditError> {
 
 #[cfg(test)]
 mod tests;
+
+#[cfg(test)]
+mod global_tests;

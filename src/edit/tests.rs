@@ -21,8 +21,8 @@ fn thesis_example_14_4() {
     let mut ed = Editor::new(s);
     let sel = ed.select(&[anchor], &[], &Neighborhood::Radius(0), Mode::Xy).unwrap().clone();
     assert_eq!(sel.derived.len(), 4, "derived {:?}", sel.derived);
-    assert_eq!(sel.session().relevant().len(), 2);
-    assert_eq!(sel.session().fixed_relevant().len(), 2);
+    assert_eq!(sel.session().unwrap().relevant().len(), 2);
+    assert_eq!(sel.session().unwrap().fixed_relevant().len(), 2);
     assert!(sel.strong);
     // The derived points are the medial points q^u_122, q^v_122, q^u_131, q^v_131.
     let lay = ed.spline().layout();

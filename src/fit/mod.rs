@@ -33,7 +33,7 @@ mod rng;
 pub mod sequence;
 pub mod smooth;
 pub mod solve;
-pub mod sparse;
+pub use crate::sparse;
 #[cfg(test)]
 mod tests;
 pub mod track;

@@ -293,8 +293,8 @@ impl Doc {
             "derived": sel.derived,
             "theta": sel.theta,
             "strong": sel.strong,
-            "relevant": sel.session().relevant().len(),
-            "rank": sel.session().rank(),
+            "relevant": sel.relevant(),
+            "rank": sel.rank(),
         });
         self.before_drag = Some(before);
         self.last_op = None;

@@ -211,11 +211,7 @@ pub fn write_geometry(doc: &Doc, full: bool, out: &mut JsonObject) {
         }),
     );
     if let Some(sel) = doc.editor().selection() {
-        let session = sel.session();
-        let redundant: std::collections::BTreeSet<usize> =
-            session.redundant().into_iter().collect();
-        let relevant: Vec<usize> =
-            session.relevant().iter().copied().filter(|c| !redundant.contains(c)).collect();
+        let relevant = sel.independent_constraints(doc.editor().spline());
         out.value(
             "selection",
             &json!({

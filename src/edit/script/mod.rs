@@ -537,8 +537,8 @@ fn apply_op(ed: &mut Editor, op: &Op, index: usize) -> Result<OpReport, ScriptEr
             Ok(OpReport::Moved {
                 anchors: sel.anchors.clone(),
                 derived: sel.derived.clone(),
-                relevant: sel.session().relevant().len(),
-                rank: sel.session().rank(),
+                relevant: sel.relevant(),
+                rank: sel.rank(),
                 strong: sel.strong,
             })
         }

@@ -1,6 +1,7 @@
-//! Sparse symmetric positive definite systems for the fit: assembly from triplets and a
-//! supernodal Cholesky factorization `A = L L^T` by `faer` (fill-reducing ordering chosen by
-//! faer's symbolic analysis), with the symbolic part reused when only the values change.
+//! Sparse symmetric positive definite systems (the fit's bending systems, the editor's
+//! select-all solve): assembly from triplets and a supernodal Cholesky factorization
+//! `A = L L^T` by `faer` (fill-reducing ordering chosen by faer's symbolic analysis), with
+//! the symbolic part reused when only the values change.
 //!
 //! The numeric factorization and each solve run on one thread ([`FACTOR_PAR`]): the fit's
 //! systems (a few thousand to a few tens of thousands of unknowns, supernodes of a few
