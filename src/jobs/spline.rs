@@ -308,8 +308,9 @@ pub fn edit_file(
     Ok(EditReport { operations, certificate, output: output.to_path_buf() })
 }
 
-/// Draws the deformation `def` (layers and size in `opts`, over the picture `background`
-/// if given) and saves the PNG `output`. Returns the picture's size.
+/// Draws the deformation `s` (with the last edit's anchors `last`; layers and size in
+/// `opts`, over the picture `background` if given) and saves the PNG `output`. Returns the
+/// picture's size.
 pub fn render_file(
     s: &Spline,
     last: Option<&LastEdit>,
