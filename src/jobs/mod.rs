@@ -15,8 +15,8 @@
 //! * [`bitgrowth`]: the bit-size study of the exact factoring (CSV and plots);
 //! * [`demo`]: the demonstration on bundled data, written into one folder.
 //!
-//! Layer: above [`crate::render`] and [`crate::io`], below [`crate::server`] and
-//! [`crate::cli`].
+//! Layer: above [`crate::render`] and [`crate::io`], below [`crate::server`] and the
+//! command line.
 
 pub mod bitgrowth;
 pub mod demo;
