@@ -1,7 +1,7 @@
-//! Data compiled into the library: the microscope image of `trimorph demo`, a ten-frame
-//! fluorescence time-lapse of moving nuclei with hand-made tracks of the nucleus centres
-//! (`data/microscopy`), and the bundled 2.5D scene built on them (the demo's, the editor
-//! benchmark's, and a ready-made input for library callers).
+//! Data compiled into the library: the ECLES example problems and the microscope image of
+//! `trimorph demo`, a ten-frame fluorescence time-lapse of moving nuclei with hand-made
+//! tracks of the nucleus centres (`data/microscopy`), and the bundled 2.5D scene built on
+//! them (the demo's, the editor benchmark's, and a ready-made input for library callers).
 //!
 //! The scene is a PrisMystic deformation (thesis Part III): a worm-like organism model
 //! ([`crate::prism::organism::worm`]) in a layer of prisms (`z` in `[-16, 16]`) over an
@@ -34,6 +34,16 @@ pub const TIMELAPSE_FRAMES: [&[u8]; 10] = [
 
 /// The tracks of the nucleus centres, CSV `track_id,frame,y,x` with a header line.
 pub const TIMELAPSE_TRACKS: &str = include_str!("../data/microscopy/timelapse/tracks.csv");
+
+/// The ECLES example problems of `examples/` (name, JSON text), solved by `trimorph demo`:
+/// four pumps with `p0 + p1 = p2`, `p3 = p2 + 5` (set `p0 = 4`); the rank-3 system of
+/// thesis 8.3 / 9.2 with two redundant rows; and dragging one corner of a parallelogram
+/// (thesis fig. 2.1).
+pub const ECLES_EXAMPLES: [(&str, &str); 3] = [
+    ("pump", include_str!("../examples/pump.json")),
+    ("thesis_8_3", include_str!("../examples/thesis_8_3.json")),
+    ("parallelogram_2d", include_str!("../examples/parallelogram_2d.json")),
+];
 
 /// Errors building the bundled data (none occur for the data as shipped; each is kept with
 /// its cause rather than hidden).

@@ -26,6 +26,8 @@
 //! * [`morph`]: image morphing through two fitted deformations blended exactly;
 //! * [`render`]: pictures (plots, deformations);
 //! * [`io`]: atomic file output;
+//! * [`jobs`]: file jobs, the library calls behind the subcommands (read, compute, write
+//!   atomically, report; no printing);
 //! * [`server`]: the interactive editor (local HTTP server and embedded page);
 //! * [`cli`]: the `trimorph` command line.
 //!
@@ -44,6 +46,7 @@ pub mod exact;
 pub mod fit;
 pub mod geom;
 pub mod io;
+pub mod jobs;
 pub mod json;
 pub mod memory;
 pub mod mesh;

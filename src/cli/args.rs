@@ -300,21 +300,7 @@ pub struct BindCli {
 impl MeshCli {
     /// Runs `trimorph mesh`.
     pub fn run(&self) -> anyhow::Result<()> {
-        spline_cmds::mesh(spline_cmds::MeshArgs {
-            points: self.points.as_deref(),
-            outline: self.outline.as_deref(),
-            grid: self.grid.as_deref(),
-            size: self.size.as_deref(),
-            obj: self.obj.as_deref(),
-            landmarks: self.landmarks.as_deref(),
-            margin: self.margin,
-            max_edge: self.max_edge,
-            min_angle: self.min_angle,
-            degree: self.degree,
-            snap: self.snap,
-            z_range: self.z_range.as_deref(),
-            output: &self.output,
-        })
+        spline_cmds::mesh(self)
     }
 }
 
@@ -343,16 +329,17 @@ impl RenderCli {
 impl BindCli {
     /// Runs `trimorph model bind`.
     pub fn run(self) -> anyhow::Result<()> {
-        model_cmd::bind_cmd(model_cmd::BindArgs {
-            model: &self.model,
-            mesh: self.mesh.as_deref(),
+        model_cmd::bind_cmd(&crate::jobs::model::BindOptions {
+            model: self.model,
+            mesh: self.mesh,
             auto: self.auto,
-            grid: &self.grid,
+            grid: self.grid,
             margin: self.margin,
-            range: self.range.as_deref(),
+            range: self.range,
             degree: self.degree,
-            output: &self.output,
-            extra: self.extra,
+            output: self.output,
+            up: self.extra.up.up,
+            snap: self.extra.snap,
         })
     }
 }
@@ -360,74 +347,38 @@ impl BindCli {
 impl WarpCli {
     /// Runs `trimorph warp`.
     pub fn run(&self) -> anyhow::Result<()> {
-        warp_cmd::run(warp_cmd::WarpArgs {
-            deformation: &self.deformation,
-            image: self.image.as_deref(),
-            points: self.points.as_deref(),
-            mesh: self.mesh.as_deref(),
-            model: self.model.as_deref(),
-            output: &self.output,
-            size: self.size.as_deref(),
-            inverse: self.inverse,
-            interp: self.interp.into(),
-            background: self.background,
-            tolerance: self.tolerance,
-            verbose: self.verbose,
-            up: self.up.up,
-        })
+        warp_cmd::run(self)
     }
 }
 
 impl MorphCli {
     /// Runs `trimorph morph`.
     pub fn run(&self) -> anyhow::Result<()> {
-        morph_cmd::run(morph_cmd::MorphArgs {
-            a: &self.a,
-            b: &self.b,
-            landmarks: self.landmarks.as_deref(),
-            phi_ab: self.phi_ab.as_deref(),
-            phi_ba: self.phi_ba.as_deref(),
-            cells: self.cells,
-            align: !self.no_align,
-            timings: self.timings,
-            background: self.background,
-            frames: self.frames,
-            range: &self.range,
-            output: &self.output,
-            gif: self.gif.as_deref(),
-            apng: self.apng.as_deref(),
-            shape: self.shape.into(),
-            color: self.color.into(),
-            interp: self.interp.into(),
-            preview: self.preview,
-            delay_ms: self.delay,
-            quiet: self.quiet,
-        })
+        morph_cmd::run(self)
     }
 }
 
 impl EditorCli {
     /// Runs `trimorph editor`.
     pub fn run(&self) -> anyhow::Result<()> {
-        editor_cmd::run(editor_cmd::EditorArgs {
-            deformation: self.deformation.as_deref(),
-            model: self.model.as_deref(),
-            image: self.image.as_deref(),
-            port: self.port,
-        })
+        let start = crate::server::start::StartOptions {
+            deformation: self.deformation.clone(),
+            model: self.model.clone(),
+            image: self.image.clone(),
+        };
+        editor_cmd::run(&start, self.port)
     }
 }
 
 impl FieldCli {
     /// Runs `trimorph field`.
     pub fn run(&self) -> anyhow::Result<()> {
-        warp_cmd::field(
-            &self.deformation,
-            &self.output,
-            self.inverse,
-            self.both,
-            self.jacobian.as_deref(),
-            self.size.as_deref(),
-        )
+        let opts = crate::jobs::field::FieldOptions {
+            output: self.output.clone(),
+            inverse: self.inverse,
+            both: self.both,
+            jacobian: self.jacobian.clone(),
+        };
+        warp_cmd::field(&self.deformation, &opts, self.size.as_deref())
     }
 }

@@ -79,6 +79,13 @@ pub(super) fn parse_memory(s: &str) -> Result<u64, String> {
     crate::memory::parse_size(s).map_err(|e| e.to_string())
 }
 
+/// Writes `text` and a newline to stdout; unlike `println!` a closed pipe is an error
+/// (mapped to exit 0 by [`exit_code`]), not a panic.
+pub fn say(text: impl std::fmt::Display) -> std::io::Result<()> {
+    use std::io::Write;
+    writeln!(std::io::stdout(), "{text}")
+}
+
 /// A progress bar on stderr for `len` units of work, drawn only when `show` and stderr is a
 /// terminal (indicatif hides it otherwise).
 pub fn progress_bar(len: u64, show: bool, what: &str) -> indicatif::ProgressBar {
@@ -128,16 +135,8 @@ pub fn parse_canvas_size(text: &str) -> Result<(u32, u32)> {
     Ok((w as u32, h as u32))
 }
 
-/// Most pixels of a raster the CLI computes point by point (`field`, `warp --mesh` pictures).
-pub const MAX_RASTER_PIXELS: u64 = 100_000_000;
-
-/// Whether a `w` x `h` raster is non-empty and within [`MAX_RASTER_PIXELS`].
-pub fn raster_fits(w: u32, h: u32) -> bool {
-    w != 0 && h != 0 && (w as u64) * (h as u64) <= MAX_RASTER_PIXELS
-}
-
 /// A raster size `W,H` in whole pixels (`field --size`, `warp --mesh --size`); the limits are
-/// checked by the caller with [`raster_fits`], whose message names the file.
+/// checked by the job with [`crate::jobs::raster_fits`], whose message names the file.
 pub fn parse_raster_size(text: &str) -> Result<(u32, u32)> {
     let (a, b) = text.split_once(',').ok_or_else(|| anyhow!("--size: expected W,H"))?;
     Ok((
@@ -183,6 +182,7 @@ mod tests {
         assert_eq!(parse_canvas_size("800,600").unwrap(), (800, 600));
         assert!(parse_canvas_size("15,600").is_err());
         assert_eq!(parse_raster_size("0,0").unwrap(), (0, 0));
+        use crate::jobs::raster_fits;
         assert!(!raster_fits(0, 0) && raster_fits(10_000, 10_000) && !raster_fits(10_001, 10_000));
         assert!(parse_raster_size("12").is_err() && parse_raster_size("a,2").is_err());
     }

@@ -3,6 +3,9 @@
 //! here, dispatched by `cli::run` to [`super::fit_cmd`] and [`super::fit_batch`].
 
 use super::{fit_batch, fit_cmd};
+use crate::fit::objective::{Barrier, Loss};
+use crate::fit::solve::{Bend, FitOptions};
+use anyhow::anyhow;
 use std::path::PathBuf;
 
 /// The command line of `trimorph fit`.
@@ -107,81 +110,34 @@ impl FitCli {
     /// Runs `trimorph fit`: one fit ([`fit_cmd::run_single`]) or a sequence
     /// ([`fit_batch::run`]), by which of DEF, --size and --model/--frames are given.
     pub fn run(self) -> anyhow::Result<()> {
-        let FitCli {
-            deformation,
-            landmarks,
-            output,
-            report,
-            loss,
-            loss_scale,
-            bend,
-            hard,
-            holdout,
-            seed,
-            radius,
-            pin,
-            min_det,
-            no_barrier,
-            max_iters,
-            model,
-            model_file,
-            frames,
-            track,
-            anchor,
-            key_every,
-            background,
-            shard,
-            size,
-            margin,
-            max_edge,
-            min_angle,
-        } = self;
-        let solver = fit_cmd::SolverArgs {
-            loss: &loss,
-            loss_scale,
-            bend: &bend,
-            hard,
-            radius,
-            min_det,
-            no_barrier,
-            max_iters,
-        };
-        let frame =
-            size.as_deref().map(|sz| fit_cmd::FrameArgs { size: sz, margin, max_edge, min_angle });
-        match (deformation, model, frames) {
-            (d, None, None) if d.is_some() != frame.is_some() => fit_cmd::run_single(
-                match (&d, &frame) {
-                    (Some(d), _) => fit_cmd::Start::Deformation(d),
-                    (None, Some(f)) => fit_cmd::Start::Frame(f),
-                    (None, None) => unreachable!("the guard requires one of them"),
-                },
-                &landmarks,
-                &output,
-                report.as_deref(),
-                holdout,
-                seed,
-                pin.as_deref(),
-                &solver,
-            ),
-            (d, Some(scene), Some(fr)) if d.is_none() => fit_batch::run(fit_batch::BatchArgs {
-                scene: &scene,
-                model: model_file.as_deref(),
-                frames: &fr,
-                landmarks: &landmarks,
-                track,
-                anchor: anchor.as_deref(),
-                key_every,
-                holdout,
-                seed,
-                background,
-                output: &output,
-                report: report.as_deref(),
-                shard: shard.as_deref(),
-                solver,
-            }),
+        match (&self.deformation, &self.model, &self.frames) {
+            (d, None, None) if d.is_some() != self.size.is_some() => fit_cmd::run_single(&self),
+            (None, Some(scene), Some(frames)) => fit_batch::run(&self, scene, frames),
             _ => Err(anyhow::anyhow!(
                 "give DEF.json (one fit), or --size W,H instead of DEF (one fit over a mesh adapted to the landmarks), or --model SCENE.json with --frames (a sequence)"
             )),
         }
+    }
+
+    /// The library's fit options, through the library's parsers (so the CLI and the
+    /// library accept the same values).
+    pub fn fit_options(&self) -> anyhow::Result<FitOptions> {
+        let loss =
+            Loss::from_name(&self.loss, self.loss_scale).map_err(|e| anyhow!("--loss: {e}"))?;
+        let barrier = if self.no_barrier {
+            None
+        } else {
+            Some(Barrier::with_floor(self.min_det).map_err(|e| anyhow!("--min-det: {e}"))?)
+        };
+        let bend: Bend = self.bend.parse().map_err(|e| anyhow!("--bend: {e}"))?;
+        Ok(FitOptions {
+            loss,
+            bend,
+            barrier,
+            radius: self.radius,
+            max_iters: self.max_iters,
+            hard: self.hard,
+            ..FitOptions::default()
+        })
     }
 }

@@ -26,133 +26,59 @@
 //!   cluster split a sequence with no coordination (tracking always starts from the first
 //!   frame, which is cheap).
 
-use super::fit_cmd::{fit_error, summary, SolverArgs};
-use crate::fit::sequence::{Action, Anchor, Event, Frame, SequenceError};
-use crate::io::write_atomic;
-use crate::render::sequence::{choose_anchor, SequenceInputs};
-use anyhow::{Context, Result};
-use std::io::Write;
+use super::common::{progress_bar, say};
+use super::fit_args::FitCli;
+use super::fit_cmd::fit_error;
+use crate::jobs::fit::{SequenceJob, SequenceJobError};
+use crate::render::sequence::choose_anchor;
+use anyhow::Result;
 use std::path::Path;
-use std::time::Instant;
-
-/// Arguments of the batch fit.
-pub struct BatchArgs<'a> {
-    pub scene: &'a Path,
-    pub model: Option<&'a Path>,
-    pub frames: &'a Path,
-    pub landmarks: &'a Path,
-    pub track: bool,
-    /// `chain`, `first` or `keyframes` (`None`: chain).
-    pub anchor: Option<&'a str>,
-    /// Key frame spacing of `--anchor keyframes`.
-    pub key_every: Option<usize>,
-    pub holdout: usize,
-    pub seed: u64,
-    /// Registered frames' value outside the map (sample units).
-    pub background: f64,
-    pub output: &'a Path,
-    /// Sequence summary (JSON).
-    pub report: Option<&'a Path>,
-    pub shard: Option<&'a str>,
-    pub solver: SolverArgs<'a>,
-}
 
 /// A library error as the CLI reports it (fit errors keep their exit code).
-fn sequence_error(e: SequenceError, a: &BatchArgs, frames: &[Frame]) -> anyhow::Error {
+fn sequence_error(e: SequenceJobError) -> anyhow::Error {
     match e {
-        SequenceError::Fit { index, source, .. } => fit_error(source).context(format!(
-            "frame {} ({}; landmarks {}{})",
-            frames[index].name,
-            frames[index].source,
-            a.landmarks.display(),
-            if a.track && !a.landmarks.is_dir() { ", tracked from the first frame" } else { "" }
-        )),
-        SequenceError::Store { index, source, .. } => {
-            anyhow::Error::from_boxed(source).context(format!("frame {}", frames[index].name))
-        }
+        SequenceJobError::Fit { frame, error } => fit_error(error).context(frame.to_string()),
         other => anyhow::Error::new(other),
     }
 }
 
-/// Runs the batch fit; see the module docs.
-pub fn run(a: BatchArgs) -> Result<()> {
-    let t0 = Instant::now();
-    let fit_opts = a.solver.options()?;
-    let shard = a.shard.map(super::common::parse_shard).transpose()?;
-    let track = choose_anchor(a.track, a.anchor, a.key_every)?;
-    let inputs =
-        SequenceInputs::load(a.scene, a.model, a.frames, a.landmarks, track, a.background)?;
-    let frames = &inputs.frames[..];
-    let anchor = inputs.anchor();
-    let seq = inputs
-        .sequence(fit_opts, a.holdout, a.seed, shard)
-        .map_err(|e| sequence_error(e, &a, frames))?;
-    let (lo, hi) = seq.range();
-    std::fs::create_dir_all(a.output)
-        .with_context(|| format!("cannot create {}", a.output.display()))?;
-    // Leftovers of an earlier run that was killed mid-write.
-    crate::io::remove_stale_temps(a.output, crate::io::STALE_AFTER);
-    let store = inputs.files(a.output);
-    let bar = super::common::progress_bar((hi - lo) as u64, hi - lo > 1, "fit");
-    let on_event = |e: Event<'_>| {
-        if let Event::Frame(_) = e {
-            bar.inc(1)
-        }
+/// Runs the batch fit of `scene` over `frames`; see the module docs.
+pub fn run(a: &FitCli, scene: &Path, frames: &Path) -> Result<()> {
+    let fit = a.fit_options()?;
+    let shard = a.shard.as_deref().map(super::common::parse_shard).transpose()?;
+    let track = choose_anchor(a.track, a.anchor.as_deref(), a.key_every)?;
+    let job = SequenceJob {
+        scene: scene.into(),
+        model: a.model_file.clone(),
+        frames: frames.into(),
+        landmarks: a.landmarks.clone(),
+        track,
+        background: a.background,
+        fit,
+        holdout: a.holdout,
+        seed: a.seed,
+        shard,
+        output: a.output.clone(),
+        report: a.report.clone(),
     };
-    let result = seq.run(&store, &on_event);
-    bar.finish_and_clear();
-    let sum = result.map_err(|e| sequence_error(e, &a, frames))?;
-    let mut stdout = std::io::stdout();
-    for f in &sum.frames {
-        let drift = f
-            .drift
-            .map(|d| format!("; drift {:.3} px ({} points)", d.rms, d.points))
-            .unwrap_or_default();
-        match (&f.action, &f.report) {
-            (Action::Skipped, _) => writeln!(stdout, "{}: done before, skipped", f.name)?,
-            (Action::Fitted(crate::fit::sequence::Reason::New), Some(r)) => {
-                writeln!(stdout, "{}: {}{drift}", f.name, summary(r))?
+    let bar = std::sync::OnceLock::new();
+    let outcome = job.run(
+        &mut |n| {
+            let _ = bar.set(progress_bar(n as u64, n > 1, "fit"));
+        },
+        &|| {
+            if let Some(b) = bar.get() {
+                b.inc(1)
             }
-            (Action::Fitted(why), Some(r)) => {
-                writeln!(stdout, "{}: {why}; {}{drift}", f.name, summary(r))?
-            }
-            (Action::Fitted(why), None) => writeln!(stdout, "{}: {why}", f.name)?,
-        }
+        },
+    );
+    if let Some(b) = bar.get() {
+        b.finish_and_clear();
     }
-    let fitted = sum.fitted();
-    writeln!(
-        stdout,
-        "{fitted} frames fitted, {} skipped, frames {lo}..{hi} of {} (landmarks{} in {:.0} ms; total {:.1} s) -> {}",
-        sum.frames.len() - fitted,
-        frames.len(),
-        if anchor.is_some() { " tracked" } else { "" },
-        sum.track_ms,
-        t0.elapsed().as_secs_f64(),
-        a.output.display()
-    )?;
-    if let Some(t) = &sum.tre {
-        writeln!(
-            stdout,
-            "held-out TRE over {} frames: rms {:.3} px, max {:.3} px ({} residuals; held out: {})",
-            t.frames,
-            t.rms,
-            t.max,
-            t.count,
-            seq.held_out().iter().cloned().collect::<Vec<_>>().join(", ")
-        )?;
+    let outcome = outcome.map_err(sequence_error)?;
+    for line in &outcome.lines {
+        say(line)?;
     }
-    if let (Some(an), Some(d)) = (anchor, &sum.drift_max) {
-        let vs =
-            if an == Anchor::Chain { "tracking from the first frame" } else { "chained tracking" };
-        writeln!(
-            stdout,
-            "tracking ({an}): largest drift against {vs} {:.3} px RMS, {:.3} px max ({} points)",
-            d.rms, d.max, d.points
-        )?;
-    }
-    if let Some(p) = a.report {
-        let text = serde_json::to_string_pretty(&sum.to_json(anchor))?;
-        write_atomic(p, text.as_bytes())?;
-    }
+    job.write_report(&outcome)?;
     Ok(())
 }

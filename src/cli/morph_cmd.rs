@@ -2,43 +2,19 @@
 //! and the fitted deformations `phi_ab.json` (A's pixels -> B's pixels) and `phi_ba.json`
 //! (B's pixels -> A's pixels), readable by `--phi-ab` / `--phi-ba`.
 
+use super::args::MorphCli;
 use super::common::progress_bar;
 use crate::io::landmarks::read_landmarks;
 use crate::io::raster::read_stack;
 use crate::io::{deformation, read_text};
 use crate::morph::align::{Similarity, SIMILARITY_KEY};
-use crate::morph::{Morph, MorphOptions, Schedule};
+use crate::morph::{Morph, MorphOptions};
 use crate::render::morph_files::{check_frames, write_morph, MorphFileOptions, MAX_TIME};
 use crate::spline::Spline;
 use crate::timing::Phases;
-use crate::warp::Interp;
 use anyhow::{anyhow, bail, Context, Result};
 use image::DynamicImage;
 use std::path::Path;
-
-/// Options of `trimorph morph`.
-pub struct MorphArgs<'a> {
-    pub a: &'a Path,
-    pub b: &'a Path,
-    pub landmarks: Option<&'a Path>,
-    pub phi_ab: Option<&'a Path>,
-    pub phi_ba: Option<&'a Path>,
-    pub cells: usize,
-    pub align: bool,
-    pub timings: bool,
-    pub background: f64,
-    pub frames: usize,
-    pub range: &'a str,
-    pub output: &'a Path,
-    pub gif: Option<&'a Path>,
-    pub apng: Option<&'a Path>,
-    pub shape: Schedule,
-    pub color: Schedule,
-    pub interp: Interp,
-    pub preview: Option<u32>,
-    pub delay_ms: u32,
-    pub quiet: bool,
-}
 
 fn first_page(path: &Path, which: &str) -> Result<DynamicImage> {
     let stack = read_stack(path)
@@ -51,10 +27,11 @@ fn first_page(path: &Path, which: &str) -> Result<DynamicImage> {
 const MAX_CELLS: usize = 48;
 
 /// Runs the command.
-pub fn run(a: MorphArgs<'_>) -> Result<()> {
+pub fn run(a: &MorphCli) -> Result<()> {
     let mut ph = Phases::new();
     check_frames(a.frames)?;
-    let (shape, color, interp) = (a.shape, a.color, a.interp);
+    let (shape, color, interp) = (a.shape.into(), a.color.into(), a.interp.into());
+    let align = !a.no_align;
     let (t0, t1) = a
         .range
         .split_once(',')
@@ -65,7 +42,7 @@ pub fn run(a: MorphArgs<'_>) -> Result<()> {
     if t0.abs() > MAX_TIME || t1.abs() > MAX_TIME {
         bail!("--range: times must lie within -{MAX_TIME}..{MAX_TIME}, got `{}`", a.range);
     }
-    let (img_a, img_b) = rayon::join(|| first_page(a.a, "A"), || first_page(a.b, "B"));
+    let (img_a, img_b) = rayon::join(|| first_page(&a.a, "A"), || first_page(&a.b, "B"));
     let (img_a, img_b) = (img_a?, img_b?);
     ph.mark("read");
     if a.cells == 0 || a.cells > MAX_CELLS {
@@ -79,7 +56,7 @@ pub fn run(a: MorphArgs<'_>) -> Result<()> {
         color,
         interp,
         cells: a.cells,
-        align: a.align,
+        align,
         background: a.background,
         ..MorphOptions::default()
     };
@@ -88,7 +65,7 @@ pub fn run(a: MorphArgs<'_>) -> Result<()> {
             .with_context(|| format!("cannot read deformation {}", p.display()))?;
         Ok(s)
     };
-    let morph = match (a.landmarks, a.phi_ab) {
+    let morph = match (&a.landmarks, &a.phi_ab) {
         (Some(l), _) => {
             let lms = read_landmarks(l)
                 .with_context(|| format!("cannot read landmarks {}", l.display()))?;
@@ -124,8 +101,8 @@ pub fn run(a: MorphArgs<'_>) -> Result<()> {
             let text = read_text(p)?;
             let (phi_ab, _) = deformation::from_str(&text)
                 .with_context(|| format!("cannot read deformation {}", p.display()))?;
-            let stored = if a.align { stored_similarity(&text, p)? } else { None };
-            let phi_ba = a.phi_ba.map(load).transpose()?;
+            let stored = if align { stored_similarity(&text, p)? } else { None };
+            let phi_ba = a.phi_ba.as_deref().map(load).transpose()?;
             let given = stored.is_some();
             let m = Morph::from_deformations_with(&img_a, &img_b, phi_ab, phi_ba, stored, &opts)?;
             if given && !a.quiet {
@@ -144,7 +121,7 @@ pub fn run(a: MorphArgs<'_>) -> Result<()> {
         (None, None) => bail!("give --landmarks L.csv or --phi-ab DEF.json"),
     };
     if !a.quiet {
-        if a.align {
+        if align {
             eprintln!("B aligned to A by the similarity: {}", morph.similarity());
         } else {
             eprintln!("B kept in its raw pixel coordinates (--no-align)");
@@ -152,14 +129,14 @@ pub fn run(a: MorphArgs<'_>) -> Result<()> {
     }
     ph.mark("fits");
     let files = MorphFileOptions {
-        output: a.output.to_path_buf(),
-        gif: a.gif.map(Path::to_path_buf),
-        apng: a.apng.map(Path::to_path_buf),
+        output: a.output.clone(),
+        gif: a.gif.clone(),
+        apng: a.apng.clone(),
         frames: a.frames,
         range: (t0, t1),
         preview: a.preview,
         background: a.background,
-        delay_ms: a.delay_ms,
+        delay_ms: a.delay,
     };
     let bar = progress_bar(a.frames as u64, !a.quiet, "morph");
     let rep = write_morph(&morph, &files, &|| bar.inc(1))?;

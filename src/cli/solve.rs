@@ -1,4 +1,4 @@
-//! `trimorph solve` and `trimorph demo`.
+//! `trimorph solve`: an ECLES problem ([`crate::ecles::problem`]) solved, errors as JSON.
 
 use super::{Exit, EXIT_INPUT, EXIT_UNSOLVABLE};
 use crate::ecles::problem::{error_json, Problem, ProblemError, Solution};
@@ -14,10 +14,6 @@ fn fail(code: i32, obj: serde_json::Value) -> anyhow::Error {
     eprintln!("{obj}");
     let message = obj["message"].as_str().unwrap_or("error").to_string();
     Exit { code, message, printed: true }.into()
-}
-
-pub(super) fn solve_text(text: &str, source: &str) -> Result<serde_json::Value> {
-    Ok(solve_problem(text, source)?.to_json())
 }
 
 /// Reads and solves a problem, mapping errors to the CLI's exits (JSON object on stderr).
@@ -57,11 +53,6 @@ fn trace(msg: &str) {
     }
 }
 
-/// JSON with one key per line and one row per line for arrays of rows.
-pub fn compact_pretty(v: &serde_json::Value) -> String {
-    crate::io::json_rows(v)
-}
-
 /// `trimorph solve SYSTEM [-o OUT]`.
 pub fn run(system: &Path, output: Option<&Path>) -> Result<()> {
     let text = read_text(system).map_err(|e| {
@@ -78,7 +69,3 @@ pub fn run(system: &Path, output: Option<&Path>) -> Result<()> {
     trace(&format!("written after {:.3} s", t0.elapsed().as_secs_f64()));
     Ok(())
 }
-
-pub(super) const PUMP: &str = include_str!("../../examples/pump.json");
-pub(super) const THESIS: &str = include_str!("../../examples/thesis_8_3.json");
-pub(super) const PARALLELOGRAM: &str = include_str!("../../examples/parallelogram_2d.json");

@@ -29,6 +29,7 @@ pub mod landmarks;
 pub mod newton;
 pub mod objective;
 pub mod param;
+mod report;
 mod rng;
 pub mod sequence;
 pub mod smooth;

@@ -34,11 +34,7 @@ use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-/// Largest accepted absolute coordinate (mesh units = pixels) of an edit's arguments, of a
-/// control point after an edit, and of a loaded file's control points (and z values).
-/// Frames are at most a few 10^4 pixels wide: anything beyond this is a typing error or an
-/// attack, and beyond ~10^308 the page would see `null` coordinates.
-pub const MAX_COORD: f64 = 1e6;
+pub use crate::spline::check::{absurd_point, MAX_COORD};
 
 /// Range of an accepted scale factor.
 pub const SCALE_RANGE: [f64; 2] = [1e-3, 1e3];
@@ -624,10 +620,7 @@ impl Doc {
     }
 }
 
-/// `x` is finite and at most [`MAX_COORD`] in absolute value.
-fn within(x: f64) -> bool {
-    x.is_finite() && x.abs() <= MAX_COORD
-}
+use crate::spline::check::within_coord as within;
 
 /// Refuses arguments beyond [`MAX_COORD`] or outside [`SCALE_RANGE`] (422).
 fn check_op(op: &Op) -> Result<(), ServerError> {
@@ -661,24 +654,6 @@ fn check_op(op: &Op) -> Result<(), ServerError> {
             Ok(())
         }
     }
-}
-
-/// The first control point (or z value) of `s` beyond [`MAX_COORD`] or not finite.
-pub fn absurd_point(s: &Spline) -> Option<String> {
-    let bad = |x: f64| !within(x);
-    if let Some(i) = (0..s.num_points()).find(|&i| s.point_f64(i).into_iter().any(bad)) {
-        return Some(format!("control point {i} is at {:?}", s.point_f64(i)));
-    }
-    let z = s.z_layers()?;
-    for (name, vals) in [("z0", &z.z0), ("z1", &z.z1)] {
-        if let Some(i) = vals.iter().position(|v| bad(crate::exact::rat_to_f64(v))) {
-            return Some(format!(
-                "{name} of control point {i} is {}",
-                crate::exact::rat_to_f64(&vals[i])
-            ));
-        }
-    }
-    None
 }
 
 /// Adds the certificate's keys to a JSON object: `fold_free` (certified), `folding_triangles`,

@@ -56,6 +56,7 @@
 pub mod doc;
 pub mod http;
 pub mod paths;
+pub mod start;
 pub mod views;
 
 #[cfg(test)]

@@ -35,3 +35,55 @@ impl SequenceSummary {
         })
     }
 }
+
+impl SequenceSummary {
+    /// One line per frame of the run: skipped (done before), or fitted (with the reason
+    /// when it is not new) with its fit summary ([`crate::fit::solve::FitReport::summary_line`])
+    /// and drift.
+    pub fn frame_lines(&self) -> Vec<String> {
+        self.frames
+            .iter()
+            .map(|f| {
+                let drift = f
+                    .drift
+                    .map(|d| format!("; drift {:.3} px ({} points)", d.rms, d.points))
+                    .unwrap_or_default();
+                match (&f.action, &f.report) {
+                    (Action::Skipped, _) => format!("{}: done before, skipped", f.name),
+                    (Action::Fitted(super::Reason::New), Some(r)) => {
+                        format!("{}: {}{drift}", f.name, r.summary_line())
+                    }
+                    (Action::Fitted(why), Some(r)) => {
+                        format!("{}: {why}; {}{drift}", f.name, r.summary_line())
+                    }
+                    (Action::Fitted(why), None) => format!("{}: {why}", f.name),
+                }
+            })
+            .collect()
+    }
+
+    /// The pooled held-out TRE (`held`: the names held out), when landmarks were held out.
+    pub fn tre_line(&self, held: &std::collections::BTreeSet<String>) -> Option<String> {
+        self.tre.as_ref().map(|t| {
+            format!(
+                "held-out TRE over {} frames: rms {:.3} px, max {:.3} px ({} residuals; held out: {})",
+                t.frames,
+                t.rms,
+                t.max,
+                t.count,
+                held.iter().cloned().collect::<Vec<_>>().join(", ")
+            )
+        })
+    }
+
+    /// The largest drift of a tracked run against the other way of tracking.
+    pub fn drift_line(&self, anchor: Option<Anchor>) -> Option<String> {
+        let (an, d) = (anchor?, self.drift_max.as_ref()?);
+        let vs =
+            if an == Anchor::Chain { "tracking from the first frame" } else { "chained tracking" };
+        Some(format!(
+            "tracking ({an}): largest drift against {vs} {:.3} px RMS, {:.3} px max ({} points)",
+            d.rms, d.max, d.points
+        ))
+    }
+}

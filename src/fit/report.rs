@@ -1,0 +1,74 @@
+//! The text of a fit's report ([`FitReport`]): the one-line summary every fit prints, and
+//! the warnings for a result that is not certified fold-free or whose landmarks cross.
+
+use super::solve::FitReport;
+
+impl FitReport {
+    /// One line per fit: landmark residuals, held-out TRE, the bending weight (when chosen
+    /// by GCV), `det J` (sampled and certified), the solver and its termination, and
+    /// whether C1 holds exactly.
+    pub fn summary_line(&self) -> String {
+        let r = self;
+        let mut s =
+            format!("{} landmarks: rms {:.3} px, max {:.3} px", r.fit.count, r.fit.rms, r.fit.max);
+        if let Some(h) = &r.holdout {
+            s += &format!(
+                "; held-out TRE rms {:.3} px, max {:.3} px ({})",
+                h.tre.rms, h.tre.max, h.tre.count
+            );
+        }
+        if r.bend_auto {
+            s += &format!("; bend {:.2e} (auto", r.bend);
+            if let Some(l) = r.loo_rms {
+                s += &format!(", leave-one-out {l:.3} px");
+            }
+            s += ")";
+        }
+        s += &format!(
+            "; min det J {:.3}{}, certified >= {:.3}{}; {} ({} iterations, {}, {} variables) in \
+             {:.1} ms; C1 exact: {}",
+            r.min_det_j,
+            if r.folds { " (FOLDS)" } else { "" },
+            r.det_j_lower_bound,
+            if r.fold_free { " (fold-free)" } else { "" },
+            r.method,
+            r.iterations,
+            r.termination,
+            r.variables,
+            r.time_ms,
+            if r.exact_c1 { "yes" } else { "NO" }
+        );
+        s
+    }
+
+    /// The warnings of a fit: landmark pairs that cross (they demand a fold), and a result
+    /// that folds or is not certified fold-free, with what to do (`barrier`: whether the
+    /// fold barrier was on).
+    pub fn warnings(&self, barrier: bool) -> Vec<String> {
+        let mut out = Vec::new();
+        if !self.conflicts.is_empty() {
+            let pairs: Vec<String> =
+                self.conflicts.iter().map(|[a, b]| format!("{a} and {b}")).collect();
+            out.push(format!(
+                "these landmark pairs cross (the targets reverse their order), which demands a \
+                 fold between them: {}; check or remove one of each pair",
+                pairs.join(", ")
+            ));
+        }
+        if self.fold_free {
+            return out;
+        }
+        let what = if self.folds { "folds" } else { "is not certified fold-free" };
+        let hint = if !barrier {
+            "turn the fold barrier on (drop --no-barrier) or raise --bend"
+        } else {
+            "the landmarks demand a fold (crossing pairs?) or a very strong bend: check the \
+             landmarks with the largest residuals, or raise --bend"
+        };
+        out.push(format!(
+            "the fit {what} (sampled min det J {:.3}, certified lower bound {:.3}); {hint}",
+            self.min_det_j, self.det_j_lower_bound
+        ));
+        out
+    }
+}
