@@ -7,7 +7,10 @@
 //! * `solve_process/select_all_1000`: the same over 1,000 triangles (target < 10 s; far
 //!   slower today, so it runs only with `EXACT_BENCH_ONLY=select_all_1000`);
 //! * `solve_process/sparse_400x800`: 400 x 800 banded random matrix (4 nonzeros per row,
-//!   entries in [-20, 20]), one anchor, every other parameter derived.
+//!   entries in [-20, 20]), one anchor, every other parameter derived;
+//! * `edit_process/select_all_edit_1000`: `trimorph edit` of a 1,000-triangle spline, one
+//!   anchor translated with every other point derived, in the default bounded mode (the
+//!   determining-set path; target < 10 s, goal 1 s).
 //!
 //! The FLINT comparison is `benches/flint_fflu.py` (needs python-flint), the scaling series
 //! `benches/exact_scaling.sh`.
@@ -22,7 +25,9 @@ use trimorph::exact::rat_to_string;
 use trimorph::mesh::{Mesh, MeshOptions};
 use trimorph::spline::Spline;
 
-fn select_all(triangles: usize) -> String {
+/// The identity spline of degree 5 over a random Delaunay mesh of at least `triangles`
+/// triangles in [0, 200]^2 (the mesh of `examples/c1_select_all.rs`, seed 7).
+fn select_all_spline(triangles: usize) -> Spline {
     let mut k = 3 + triangles / 2;
     let mesh = loop {
         let mut rng = SmallRng::seed_from_u64(7);
@@ -34,7 +39,11 @@ fn select_all(triangles: usize) -> String {
         }
         k += 1;
     };
-    let s = Spline::identity(mesh, 5).unwrap();
+    Spline::identity(mesh, 5).unwrap()
+}
+
+fn select_all(triangles: usize) -> String {
+    let s = select_all_spline(triangles);
     let rows: Vec<Vec<(usize, i64)>> = (0..s.c1_matrix().rows())
         .map(|i| {
             s.c1_matrix().row(i).iter().map(|(j, v)| (*j, v.to_string().parse().unwrap())).collect()
@@ -163,5 +172,34 @@ fn bench(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench);
+/// `trimorph edit` of a 1,000-triangle spline: a select-all translation in the default
+/// bounded mode (the determining-set path, `edit::global`), as a whole process.
+fn bench_edit(c: &mut Criterion) {
+    let dir = tempfile::tempdir().unwrap();
+    let s = select_all_spline(1000);
+    let def = dir.path().join("mesh1000.json");
+    std::fs::write(&def, trimorph::io::deformation::to_string(&s, None)).unwrap();
+    let script = dir.path().join("all.json");
+    std::fs::write(
+        &script,
+        r#"[{"op": "translate", "anchors": {"near": [[100, 100]]}, "neighborhood": "all", "by": [3, "-2"]}]"#,
+    )
+    .unwrap();
+    let out = dir.path().join("edited.json");
+    let mut g = c.benchmark_group("edit_process");
+    g.sample_size(10);
+    g.bench_function("select_all_edit_1000", |b| {
+        b.iter(|| {
+            let o = Command::new(env!("CARGO_BIN_EXE_trimorph"))
+                .args(["edit", def.to_str().unwrap(), "--script", script.to_str().unwrap()])
+                .args(["-o", out.to_str().unwrap()])
+                .output()
+                .unwrap();
+            assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        })
+    });
+    g.finish();
+}
+
+criterion_group!(benches, bench, bench_edit);
 criterion_main!(benches);
