@@ -43,10 +43,13 @@
 //! (relative `1e-12`-ish for these well-conditioned systems, see the tests), far below the
 //! `2^-24` grid; tests compare the two paths point by point.
 
-use crate::exact::rat_to_f64;
+use super::select::{rel_magnitude, Neighborhood};
+use super::{exact, EditError, Editor, Mode, Selection};
+use crate::exact::{rat_to_f64, Rat};
 use crate::sparse::{Factor, Pattern};
 use crate::spline::mds::{Mds, Role};
 use faer::{Mat, Side};
+use std::sync::Arc;
 
 /// Fewest control points for which a select-all edit in bounded mode takes this path
 /// (below, the general path is fast enough and reports ECLES's exact diagnostics).
@@ -283,6 +286,31 @@ impl GlobalSolve {
         free
     }
 
+    /// The drag preview of a select-all selection over `n` points: positions are affine in
+    /// the translation `v`, `p(v) = p0 + v_x gx + v_y gy`, for the derived points in order
+    /// (two entries each). Returns `(p0, gx, gy)`.
+    pub(super) fn preview_basis(
+        &self,
+        sel: &Selection,
+        n: usize,
+    ) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+        let base_a: Vec<[f64; 2]> =
+            sel.base_anchors.iter().map(|a| [rat_to_f64(&a[0]), rat_to_f64(&a[1])]).collect();
+        let eval = |v: [f64; 2]| -> Vec<f64> {
+            let af: Vec<[f64; 2]> = base_a.iter().map(|a| [a[0] + v[0], a[1] + v[1]]).collect();
+            let mut hf = vec![[0.0; 2]; n];
+            for ((&p, b), th) in sel.derived.iter().zip(&sel.base_derived).zip(&sel.theta) {
+                hf[p] = [rat_to_f64(&b[0]) + th * v[0], rat_to_f64(&b[1]) + th * v[1]];
+            }
+            let pos = self.positions(&self.solve_free(&af, &hf));
+            sel.derived.iter().flat_map(|&p| pos[p]).collect()
+        };
+        let p0 = eval([0.0, 0.0]);
+        let sub = |g: Vec<f64>| -> Vec<f64> { g.iter().zip(&p0).map(|(a, b)| a - b).collect() };
+        let (gx, gy) = (sub(eval([1.0, 0.0])), sub(eval([0.0, 1.0])));
+        (p0, gx, gy)
+    }
+
     /// Every point's position from the free points' values (as [`GlobalSolve::solve_free`]
     /// returns them).
     pub fn positions(&self, free: &[[f64; 2]]) -> Vec<[f64; 2]> {
@@ -293,5 +321,94 @@ impl GlobalSolve {
                     .fold([0.0; 2], |s, &(f, c)| [s[0] + c * free[f][0], s[1] + c * free[f][1]])
             })
             .collect()
+    }
+}
+
+/// The select-all path inside the editor.
+impl Editor {
+    /// The select-all path's selection, when it applies ([`self`]): every point but the
+    /// anchors derived, xy mode, bounded, no extra constraints, a large enough spline, and
+    /// independent anchor equations. `None` sends the caller to the general path.
+    pub(super) fn select_global(
+        &self,
+        anchors: &[usize],
+        hood: &Neighborhood,
+        mode: Mode,
+    ) -> Option<Selection> {
+        let n = self.spline.num_points();
+        let (mds, _) = self.bounded.as_ref()?;
+        let applies = matches!(hood, Neighborhood::All)
+            && mode == Mode::Xy
+            && self.extras.is_empty()
+            && self.global_min.is_some_and(|m| n >= m);
+        if !applies {
+            return None;
+        }
+        let solve = GlobalSolve::new(mds, n, anchors).ok()?;
+        let mut is_anchor = vec![false; n];
+        for &a in anchors {
+            is_anchor[a] = true;
+        }
+        let derived: Vec<usize> = (0..n).filter(|&p| !is_anchor[p]).collect();
+        let theta = rel_magnitude(&self.index, anchors, &derived);
+        let c1 = self.spline.c1_matrix();
+        let relevant =
+            (0..c1.rows()).filter(|&r| c1.row(r).iter().any(|(p, _)| !is_anchor[*p])).count();
+        let params = self.spline.points();
+        Some(Selection {
+            anchors: anchors.to_vec(),
+            base_anchors: anchors.iter().map(|&a| params[a].clone()).collect(),
+            base_derived: derived.iter().map(|&p| params[p].clone()).collect(),
+            derived,
+            theta,
+            strong: true,
+            mode,
+            sessions: Vec::new(),
+            global: Some(Arc::new(solve)),
+            relevant,
+            rank: n - mds.num_free(),
+            preview: None,
+        })
+    }
+
+    /// The select-all path's operation: the `f64` minimizer in determining-set coordinates,
+    /// its free points rounded to the bounded grid, the dependents recomputed exactly.
+    pub(super) fn apply_global(
+        &mut self,
+        solve: &GlobalSolve,
+        anchors: &[Vec<Rat>],
+        hints: &[Vec<Rat>],
+    ) -> Result<(), EditError> {
+        let sel = self.selection.as_ref().ok_or(EditError::NoSelection)?;
+        let n = self.spline.num_points();
+        let af: Vec<[f64; 2]> =
+            anchors.iter().map(|a| [rat_to_f64(&a[0]), rat_to_f64(&a[1])]).collect();
+        let mut hf = vec![[0.0; 2]; n];
+        for (&p, h) in sel.derived.iter().zip(hints) {
+            hf[p] = [rat_to_f64(&h[0]), rat_to_f64(&h[1])];
+        }
+        let free = solve.solve_free(&af, &hf);
+        let mut exact_anchor: Vec<Option<&Vec<Rat>>> = vec![None; n];
+        for (&a, v) in sel.anchors.iter().zip(anchors) {
+            exact_anchor[a] = Some(v);
+        }
+        let (mut idx, mut vals, mut approx) = (Vec::new(), Vec::new(), Vec::new());
+        for (p, f) in free.iter().enumerate() {
+            if f[0].is_nan() && f[1].is_nan() {
+                continue; // a dependent point
+            }
+            let v = match exact_anchor[p] {
+                Some(a) => a.clone(),
+                None => vec![exact(f[0])?, exact(f[1])?],
+            };
+            idx.push(p);
+            vals.push(v);
+            approx.push(*f);
+        }
+        let (mds, bits) = self.bounded.as_ref().expect("the select-all path is bounded");
+        // Nothing has changed yet: the writes below cannot fail.
+        self.spline.write_points(&idx, vals, &approx);
+        self.spline.bound_region(mds, &vec![true; n], *bits);
+        Ok(())
     }
 }
