@@ -1,11 +1,14 @@
 #!/usr/bin/env python3
 """SVG plot of the exact-core scaling series (no dependencies).
 
-    python3 benches/plot_scaling.py docs/exact_scaling.csv docs/img/exact_scaling.svg
+    python3 benches/plot_scaling.py docs/exact_scaling.csv docs/img/exact_scaling.svg \
+        [docs/edit_scaling.csv]
 
 Reads the CSV of benches/exact_scaling.sh (triangles,rows,cols,seconds,path,rank[,flint_s])
 and draws seconds against triangles on log-log axes: trimorph's whole `solve` process and,
-where the column is present, FLINT's dense fflu of the same matrix.
+where the column is present, FLINT's dense fflu of the same matrix. A third argument, the
+CSV of `benches/exact_scaling.sh --edit` (triangles,points,seconds,c1), adds the bounded
+select-all `trimorph edit` series.
 """
 import csv
 import math
@@ -15,12 +18,15 @@ import sys
 def main():
     src, dst = sys.argv[1], sys.argv[2]
     rows = list(csv.DictReader(open(src)))
-    series = [("trimorph solve (modular)", "seconds", "#1f77b4")]
+    series = [("trimorph solve, exact (modular)", "seconds", "#1f77b4", rows)]
     if any(r.get("flint_s") for r in rows):
-        series.append(("FLINT fmpz_mat fflu", "flint_s", "#d62728"))
+        series.append(("FLINT fmpz_mat fflu", "flint_s", "#d62728", rows))
+    if len(sys.argv) > 3:
+        edits = list(csv.DictReader(open(sys.argv[3])))
+        series.append(("trimorph edit, bounded (determining set)", "seconds", "#2ca02c", edits))
     pts = {}
-    for name, key, _ in series:
-        pts[name] = [(float(r["triangles"]), float(r[key])) for r in rows if r.get(key)]
+    for name, key, _, rs in series:
+        pts[name] = [(float(r["triangles"]), float(r[key])) for r in rs if r.get(key)]
     xs = [x for v in pts.values() for x, _ in v]
     ys = [y for v in pts.values() for _, y in v]
     x0, x1 = math.floor(math.log10(min(xs))), math.ceil(math.log10(max(xs)))
@@ -50,7 +56,7 @@ def main():
     out.append(f'<text x="{(w + ml) / 2}" y="{h - 12}" text-anchor="middle">triangles</text>')
     out.append(f'<text x="14" y="{(h - mb) / 2}" text-anchor="middle" '
                f'transform="rotate(-90 14 {(h - mb) / 2})">seconds (whole process)</text>')
-    for k, (name, _, color) in enumerate(series):
+    for k, (name, _, color, _) in enumerate(series):
         p = pts[name]
         d = " ".join(f"{px(x):.1f},{py(y):.1f}" for x, y in p)
         out.append(f'<polyline points="{d}" fill="none" stroke="{color}" stroke-width="2"/>')

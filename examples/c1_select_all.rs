@@ -2,11 +2,13 @@
 //! random Delaunay mesh (thesis ch. 13): one control point (the one nearest the centre) moves
 //! by (1/2, 1/3); every other control point is derived; `R` is the C1 matrix.
 //!
-//! `cargo run --release --example c1_select_all -- TRIANGLES SEED OUT.json [dense|sparse]`
+//! `cargo run --release --example c1_select_all -- TRIANGLES SEED OUT.json [dense|sparse|spline]`
 //!
 //! The mesh has the smallest number of random points (uniform in a 200 x 200 square, snapped
 //! to 1/16) whose Delaunay triangulation has at least `TRIANGLES` triangles. `dense` writes
 //! `R` as rows of `n` integers, `sparse` (the default) as `{"rows": [[[col, val], ...], ...]}`.
+//! `spline` writes instead the identity deformation over that mesh (`trimorph edit`'s input;
+//! the scaling series of bounded select-all edits in `benches/exact_scaling.sh`).
 //!
 //! `cargo run --release --example c1_select_all -- banded OUT.json` writes instead the sparse
 //! 400 x 800 benchmark of `benches/exact.rs` (`solve_process/sparse_400x800`): 4 nonzeros per
@@ -100,6 +102,11 @@ fn main() {
     let mesh = mesh_with(tris, seed);
     let ntri = mesh.num_triangles();
     let s = Spline::identity(mesh, 5).expect("degree 5");
+    if args.get(4).is_some_and(|a| a == "spline") {
+        std::fs::write(&out, trimorph::io::deformation::to_string(&s, None)).expect("write");
+        eprintln!("{out}: {ntri} triangles, {} control points", s.points().len());
+        return;
+    }
     let r = s.c1_matrix();
     let (m, n) = (r.rows(), r.cols());
     let pts = s.points();

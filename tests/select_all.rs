@@ -42,6 +42,8 @@ fn a_select_all_edit_of_a_600_triangle_mesh_is_exactly_c1_and_moves_the_anchor()
         stdout.contains("strongly solvable") && stdout.contains("C1 holds exactly"),
         "{stdout}"
     );
+    // The line says which path ran; `--unbounded` keeps the ECLES sessions.
+    assert!(stdout.contains("(solved in determining-set coordinates)"), "{stdout}");
     let (after, _) =
         trimorph::io::deformation::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
     after.check_c1().expect("C1 exactly, checked in rationals");

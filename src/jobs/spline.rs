@@ -222,11 +222,12 @@ fn progress_line(k: usize, r: &OpReport) -> String {
         OpReport::Constrained { in_force, .. } => {
             format!("operation {k}: {in_force} constraints in force")
         }
-        OpReport::Moved { anchors, derived, relevant, rank, strong } => format!(
-            "operation {k}: {} anchors, {} derived, {relevant} relevant conditions (rank {rank}), {}",
+        OpReport::Moved { anchors, derived, relevant, rank, strong, determining_set } => format!(
+            "operation {k}: {} anchors, {} derived, {relevant} relevant conditions (rank {rank}), {}{}",
             anchors.len(),
             derived.len(),
-            if *strong { "strongly solvable" } else { "weakly solvable" }
+            if *strong { "strongly solvable" } else { "weakly solvable" },
+            if *determining_set { " (solved in determining-set coordinates)" } else { "" }
         ),
     }
 }

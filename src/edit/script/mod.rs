@@ -456,6 +456,9 @@ pub enum OpReport {
         rank: usize,
         /// Strongly solvable (otherwise weakly).
         strong: bool,
+        /// Solved in the coordinates of the minimal determining set ([`super::Selection::is_global`]:
+        /// a large bounded select-all edit) rather than by ECLES sessions.
+        determining_set: bool,
     },
     /// A constrain operation.
     Constrained {
@@ -540,6 +543,7 @@ fn apply_op(ed: &mut Editor, op: &Op, index: usize) -> Result<OpReport, ScriptEr
                 relevant: sel.relevant(),
                 rank: sel.rank(),
                 strong: sel.strong,
+                determining_set: sel.is_global(),
             })
         }
         Op::Constrain(c) => {
