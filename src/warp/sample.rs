@@ -6,10 +6,10 @@
 //! clamps the result to the range of the 2x2 neighbourhood, so it never rings beyond the
 //! data.
 //!
-//! Bilinear resampling of 8- and 16-bit gray images (`sample_simd`) and of 8-bit RGB and
-//! RGBA images (`sample_simd_color`) takes a vector path where the CPU has one (AVX2 on
-//! x86_64, detected at run time), bit-identical to the scalar arithmetic here; the other
-//! types and interpolations use the scalar path.
+//! Bilinear resampling of 8- and 16-bit gray images (`sample_simd`) and of 8-bit gray +
+//! alpha, RGB and RGBA images (`sample_simd_color`) takes a vector path where the CPU has
+//! one (AVX2 on x86_64, detected at run time), bit-identical to the scalar arithmetic here;
+//! the other types and interpolations use the scalar path.
 
 use super::{sample_simd, sample_simd_color, Interp};
 
@@ -260,7 +260,7 @@ pub fn fill_pixels<T: Texel, const NC: usize>(
                     }
                 }
             }
-            if NC == 3 || NC == 4 {
+            if NC >= 2 {
                 if let (Some(d8), Some(o8)) = (T::as_bytes(d), T::as_bytes_mut(out)) {
                     let one = |p: &[f64; 2], dst: &mut [u8]| {
                         let mut px = [T::from_f32(0.0); NC];

@@ -97,7 +97,7 @@ pub(super) fn bilinear_gray16(
 }
 
 #[cfg(target_arch = "x86_64")]
-mod avx2 {
+pub(super) mod avx2 {
     use std::arch::x86_64::*;
 
     /// See [`super::bilinear_gray8`].
@@ -202,7 +202,7 @@ mod avx2 {
     /// The CPU supports AVX2; `pp` points to 16 readable `f64`.
     #[target_feature(enable = "avx2")]
     #[inline]
-    unsafe fn lanes8(
+    pub(in crate::warp) unsafe fn lanes8(
         pp: *const f64,
         xmax: __m256i,
         ymax: __m256i,
@@ -235,6 +235,33 @@ mod avx2 {
             _mm256_cvtpd_ps(_mm256_sub_pd(ya, fya)),
         );
         (x0, y0, ok, fx, fy)
+    }
+
+    /// The scalar path's interpolation on eight lanes: `t = a + (b - a) fx`,
+    /// `u = e + (f - e) fx`, `v = t + (u - t) fy`, each operation rounded to `f32` (separate
+    /// multiplies and adds, no fused multiply-add).
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub(in crate::warp) fn bilerp(
+        a: __m256,
+        b: __m256,
+        e: __m256,
+        f: __m256,
+        fx: __m256,
+        fy: __m256,
+    ) -> __m256 {
+        let t = _mm256_add_ps(a, _mm256_mul_ps(_mm256_sub_ps(b, a), fx));
+        let u = _mm256_add_ps(e, _mm256_mul_ps(_mm256_sub_ps(f, e), fx));
+        _mm256_add_ps(t, _mm256_mul_ps(_mm256_sub_ps(u, t), fy))
+    }
+
+    /// `Texel::from_f32` for integer samples on eight lanes: `trunc(clamp(v + 0.5, 0, top))`
+    /// as i32 (a `NaN` lane gives 0, as `NaN as u8` does: `max` returns its second operand).
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub(in crate::warp) fn round_clamp(v: __m256, top: __m256) -> __m256i {
+        let v = _mm256_max_ps(_mm256_add_ps(v, _mm256_set1_ps(0.5)), _mm256_setzero_ps());
+        _mm256_cvttps_epi32(_mm256_min_ps(v, top))
     }
 
     /// See [`super::bilinear_gray16`].
