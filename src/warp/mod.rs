@@ -35,6 +35,7 @@ pub mod remap;
 pub mod sample;
 mod sample_simd;
 mod sample_simd_color;
+mod sample_simd_color16;
 pub mod tiles;
 
 use crate::spline::Spline;

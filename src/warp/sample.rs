@@ -6,12 +6,12 @@
 //! clamps the result to the range of the 2x2 neighbourhood, so it never rings beyond the
 //! data.
 //!
-//! Bilinear resampling of 8- and 16-bit gray images (`sample_simd`) and of 8-bit gray +
-//! alpha, RGB and RGBA images (`sample_simd_color`) takes a vector path where the CPU has
-//! one (AVX2 on x86_64, detected at run time), bit-identical to the scalar arithmetic here;
-//! the other types and interpolations use the scalar path.
+//! Bilinear resampling of 8- and 16-bit gray images (`sample_simd`) and of 8- and 16-bit
+//! gray + alpha, RGB and RGBA images (`sample_simd_color`, `sample_simd_color16`) takes a
+//! vector path where the CPU has one (AVX2 on x86_64, detected at run time), bit-identical
+//! to the scalar arithmetic here; the other types and interpolations use the scalar path.
 
-use super::{sample_simd, sample_simd_color, Interp};
+use super::{sample_simd, sample_simd_color, sample_simd_color16, Interp};
 
 /// A channel value: `u8`, `u16` or `f32`.
 pub trait Texel: Copy + Send + Sync + 'static {
@@ -270,6 +270,18 @@ pub fn fill_pixels<T: Texel, const NC: usize>(
                         }
                     };
                     if sample_simd_color::bilinear_color8::<NC>(d8, w, h, pos, o8, one) {
+                        return;
+                    }
+                }
+                if let (Some(d16), Some(o16)) = (T::as_u16s(d), T::as_u16s_mut(out)) {
+                    let one = |p: &[f64; 2], dst: &mut [u16]| {
+                        let mut px = [T::from_f32(0.0); NC];
+                        pixel(&mut px, p);
+                        if let Some(b) = T::as_u16s(&px) {
+                            dst.copy_from_slice(b);
+                        }
+                    };
+                    if sample_simd_color16::bilinear_color16::<NC>(d16, w, h, pos, o16, one) {
                         return;
                     }
                 }

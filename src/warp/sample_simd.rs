@@ -237,6 +237,40 @@ pub(super) mod avx2 {
         (x0, y0, ok, fx, fy)
     }
 
+    /// Four positions: `x0`, `y0` (i32), the lanes that may take the vector path (all bits
+    /// set where `0 <= x0 <= xmax` and `0 <= y0 <= ymax`), and `fx`, `fy` (f32), as
+    /// [`lanes8`] does for eight.
+    ///
+    /// # Safety
+    ///
+    /// The CPU supports AVX2; `pp` points to 8 readable `f64`.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub(in crate::warp) unsafe fn lanes4(
+        pp: *const f64,
+        xmax: __m128i,
+        ymax: __m128i,
+    ) -> (__m128i, __m128i, __m128i, __m128, __m128) {
+        let minus1 = _mm_set1_epi32(-1);
+        // SAFETY: 8 f64 readable at pp (caller); unaligned loads.
+        let (v0, v1) = (_mm256_loadu_pd(pp), _mm256_loadu_pd(pp.add(4)));
+        // [x0 x2 x1 x3] -> [x0 x1 x2 x3], likewise for y.
+        let xs = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpacklo_pd(v0, v1));
+        let ys = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpackhi_pd(v0, v1));
+        let (fxs, fys) = (_mm256_floor_pd(xs), _mm256_floor_pd(ys));
+        let (x0, y0) = (_mm256_cvttpd_epi32(fxs), _mm256_cvttpd_epi32(fys));
+        let ok = _mm_and_si128(
+            _mm_and_si128(_mm_cmpgt_epi32(x0, minus1), _mm_cmpgt_epi32(y0, minus1)),
+            _mm_andnot_si128(
+                _mm_or_si128(_mm_cmpgt_epi32(x0, xmax), _mm_cmpgt_epi32(y0, ymax)),
+                minus1,
+            ),
+        );
+        let fx = _mm256_cvtpd_ps(_mm256_sub_pd(xs, fxs));
+        let fy = _mm256_cvtpd_ps(_mm256_sub_pd(ys, fys));
+        (x0, y0, ok, fx, fy)
+    }
+
     /// The scalar path's interpolation on eight lanes: `t = a + (b - a) fx`,
     /// `u = e + (f - e) fx`, `v = t + (u - t) fy`, each operation rounded to `f32` (separate
     /// multiplies and adds, no fused multiply-add).
