@@ -19,7 +19,7 @@
 //! a time in `f64` (`vroundpd`, exact subtraction, one rounding to `f32` as `as f32` does),
 //! so the output is bit-identical to the scalar path's.
 //!
-//! **Taps.** With `k = y0 w + x0` (the image is `w x h`, `NC` = 3 or 4 bytes per pixel,
+//! **Taps.** With `k = y0 w + x0` (the image is `w x h`, `NC` = 2, 3 or 4 bytes per pixel,
 //! row-major, `n = NC w h` bytes), the taps `a, b` are the `2 NC` bytes from `NC k` and
 //! `e, f` the `2 NC` bytes from `NC (k + w)`. RGB and RGBA load eight bytes of each row per
 //! pixel, gray + alpha gathers four:
