@@ -6,8 +6,14 @@
 //! * `warp_4096_gray8_bilinear_mild`: the same with drags of 1% of the image size.
 //! * `preimages_4096`: the inverse map alone (into one full-size buffer).
 //! * `forward_1e6`: 10^6 points forward; target 20 M points/s.
-//! * `warp_2048_{gray8,rgb8,rgba8,gray16,rgb32f}_bilinear`: every pixel type through the
-//!   mild deformation at 2048 x 2048 (inverse map included).
+//! * `warp_2048_{gray8,la8,rgb8,rgba8,gray16,la16,rgb16,rgba16,rgb32f,rgba32f}_bilinear`:
+//!   every pixel type of `image::DynamicImage` the warp takes, through the mild deformation
+//!   at 2048 x 2048 (inverse map included).
+//! * `resample_1024_{u8,u16,f32}x{1,2,3,4}`: bilinear resampling alone
+//!   (`warp::sample::fill_pixels`, one thread) of a 1024 x 1024 image at the positions of a
+//!   small rotation, for every sample type and channel count (the vector paths of
+//!   `sample_simd*`; f32 gray and gray + alpha are reachable only through
+//!   `warp_samples_into` and tiles).
 //! * `warp_2048_gray8_bent` and `warp_2048_gray8_mild`: the strongly bent map of
 //!   `tests/data/warp_bent_2048.json` (60 landmarks, displacements up to 40 px) against a mild
 //!   one; target: bent within 2x of mild (issue 18).
@@ -19,7 +25,7 @@
 //!   (issue 21).
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use image::{DynamicImage, GrayImage, ImageBuffer, Luma, Rgb, Rgba};
+use image::{DynamicImage, GrayImage, ImageBuffer, Luma, LumaA, Rgb, Rgba};
 use std::hint::black_box;
 use trimorph::edit::select::Neighborhood;
 use trimorph::edit::{Editor, Mode};
@@ -27,8 +33,9 @@ use trimorph::exact::rat_int;
 use trimorph::mesh::{Mesh, MeshOptions};
 use trimorph::spline::Spline;
 use trimorph::warp::remap::{preimage_grid, RemapOptions};
+use trimorph::warp::sample::{fill_pixels, Source, Texel};
 use trimorph::warp::tiles::{warp_tile_into, Rect, TileLayout, TilePlanner};
-use trimorph::warp::{forward, warp_pages, Samples, SamplesMut, WarpOptions};
+use trimorph::warp::{forward, warp_pages, Interp, Samples, SamplesMut, WarpOptions};
 
 /// A 10 x 10 grid (200 triangles) over `[0, size-1]^2`, degree 5, with two interior vertices
 /// dragged by a few percent of the image size.
@@ -131,6 +138,12 @@ fn by_type_and_hard_maps(c: &mut Criterion) {
     let images = [
         ("gray8", gray.clone()),
         (
+            "la8",
+            DynamicImage::ImageLumaA8(ImageBuffer::from_fn(n, n, |x, y| {
+                LumaA([v(x, y), 255 - v(x, y) / 4])
+            })),
+        ),
+        (
             "rgb8",
             DynamicImage::ImageRgb8(ImageBuffer::from_fn(n, n, |x, y| {
                 Rgb([v(x, y), v(x, y) / 2 + 60, 255 - v(x, y)])
@@ -149,10 +162,37 @@ fn by_type_and_hard_maps(c: &mut Criterion) {
             })),
         ),
         (
+            "la16",
+            DynamicImage::ImageLumaA16(ImageBuffer::from_fn(n, n, |x, y| {
+                LumaA([v(x, y) as u16 * 257, 65535 - v(x, y) as u16 * 64])
+            })),
+        ),
+        (
+            "rgb16",
+            DynamicImage::ImageRgb16(ImageBuffer::from_fn(n, n, |x, y| {
+                let g = v(x, y) as u16 * 257;
+                Rgb([g, g / 2 + 9000, 65535 - g])
+            })),
+        ),
+        (
+            "rgba16",
+            DynamicImage::ImageRgba16(ImageBuffer::from_fn(n, n, |x, y| {
+                let g = v(x, y) as u16 * 257;
+                Rgba([g, g / 2 + 9000, 65535 - g, 52000])
+            })),
+        ),
+        (
             "rgb32f",
             DynamicImage::ImageRgb32F(ImageBuffer::from_fn(n, n, |x, y| {
                 let f = v(x, y) as f32 / 255.0;
                 Rgb([f, 0.5 * f, 1.0 - f])
+            })),
+        ),
+        (
+            "rgba32f",
+            DynamicImage::ImageRgba32F(ImageBuffer::from_fn(n, n, |x, y| {
+                let f = v(x, y) as f32 / 255.0;
+                Rgba([f, 0.5 * f, 1.0 - f, 0.8])
             })),
         ),
     ];
@@ -182,6 +222,58 @@ fn by_type_and_hard_maps(c: &mut Criterion) {
     g.bench_function("warp_150x225_gray8_folded", |b| {
         b.iter(|| black_box(warp_pages(&folded, std::slice::from_ref(&small), &opts, &|_| {})))
     });
+    g.finish();
+    resample_by_type(c);
+}
+
+/// Bilinear resampling alone, every sample type and channel count: a 1024 x 1024 image at
+/// the positions of a 2-degree rotation about its centre (a few pixels near the corners
+/// fall outside and take the scalar path, as in a warp).
+fn resample_by_type(c: &mut Criterion) {
+    let n = 1024usize;
+    let (s, co) = (2f64.to_radians().sin(), 2f64.to_radians().cos());
+    let m = (n - 1) as f64 / 2.0;
+    let pos: Vec<[f64; 2]> = (0..n * n)
+        .map(|k| {
+            let (x, y) = ((k % n) as f64 - m, (k / n) as f64 - m);
+            [m + co * x - s * y, m + s * x + co * y]
+        })
+        .collect();
+    let v = |k: usize| ((k / 7 + k / 5000) % 2 * 200 + k % 50) as f32;
+    let mut g = c.benchmark_group("resample");
+    g.sample_size(10);
+    g.throughput(Throughput::Elements((n * n) as u64));
+    fn one<T: Texel, const NC: usize>(
+        g: &mut criterion::BenchmarkGroup<'_, criterion::measurement::WallTime>,
+        name: &str,
+        data: &[T],
+        n: usize,
+        pos: &[[f64; 2]],
+    ) {
+        let src = Source { data, w: n, h: n, nc: NC };
+        let mut out = vec![T::from_f32(0.0); NC * pos.len()];
+        g.bench_function(format!("resample_{n}_{name}x{NC}"), |b| {
+            b.iter(|| {
+                fill_pixels::<T, NC>(&src, pos, &mut out, Interp::Bilinear, 0.0);
+                black_box(&out);
+            })
+        });
+    }
+    let u8s: Vec<u8> = (0..4 * n * n).map(|k| v(k) as u8).collect();
+    let u16s: Vec<u16> = (0..4 * n * n).map(|k| v(k) as u16 * 257).collect();
+    let f32s: Vec<f32> = (0..4 * n * n).map(|k| v(k) / 255.0).collect();
+    one::<u8, 1>(&mut g, "u8", &u8s[..n * n], n, &pos);
+    one::<u8, 2>(&mut g, "u8", &u8s[..2 * n * n], n, &pos);
+    one::<u8, 3>(&mut g, "u8", &u8s[..3 * n * n], n, &pos);
+    one::<u8, 4>(&mut g, "u8", &u8s, n, &pos);
+    one::<u16, 1>(&mut g, "u16", &u16s[..n * n], n, &pos);
+    one::<u16, 2>(&mut g, "u16", &u16s[..2 * n * n], n, &pos);
+    one::<u16, 3>(&mut g, "u16", &u16s[..3 * n * n], n, &pos);
+    one::<u16, 4>(&mut g, "u16", &u16s, n, &pos);
+    one::<f32, 1>(&mut g, "f32", &f32s[..n * n], n, &pos);
+    one::<f32, 2>(&mut g, "f32", &f32s[..2 * n * n], n, &pos);
+    one::<f32, 3>(&mut g, "f32", &f32s[..3 * n * n], n, &pos);
+    one::<f32, 4>(&mut g, "f32", &f32s, n, &pos);
     g.finish();
 }
 

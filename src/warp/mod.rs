@@ -35,6 +35,8 @@ pub mod remap;
 pub mod sample;
 mod sample_simd;
 mod sample_simd_color;
+mod sample_simd_color16;
+mod sample_simd_float;
 pub mod tiles;
 
 use crate::spline::Spline;

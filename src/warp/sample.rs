@@ -6,12 +6,15 @@
 //! clamps the result to the range of the 2x2 neighbourhood, so it never rings beyond the
 //! data.
 //!
-//! Bilinear resampling of 8- and 16-bit gray images (`sample_simd`) and of 8-bit RGB and
-//! RGBA images (`sample_simd_color`) takes a vector path where the CPU has one (AVX2 on
-//! x86_64, detected at run time), bit-identical to the scalar arithmetic here; the other
-//! types and interpolations use the scalar path.
+//! Bilinear resampling takes a vector path where the CPU has one (AVX2 on x86_64, detected
+//! at run time) for every sample type and channel count: 8- and 16-bit gray
+//! (`sample_simd`), 8-bit gray + alpha, RGB and RGBA (`sample_simd_color`), 16-bit gray +
+//! alpha, RGB and RGBA (`sample_simd_color16`) and `f32` with 1 to 4 channels
+//! (`sample_simd_float`), each bit-identical to the scalar arithmetic here (the `pixel`
+//! closure of [`fill_pixels`], which also does the positions the vector paths leave:
+//! `NaN`, borders, tails). Nearest and bicubic use the scalar path.
 
-use super::{sample_simd, sample_simd_color, Interp};
+use super::{sample_simd, sample_simd_color, sample_simd_color16, sample_simd_float, Interp};
 
 /// A channel value: `u8`, `u16` or `f32`.
 pub trait Texel: Copy + Send + Sync + 'static {
@@ -36,6 +39,16 @@ pub trait Texel: Copy + Send + Sync + 'static {
     }
     /// The samples as mutable `u16` when `Self` is `u16`, else `None`.
     fn as_u16s_mut(s: &mut [Self]) -> Option<&mut [u16]> {
+        let _ = s;
+        None
+    }
+    /// The samples as `f32` when `Self` is `f32` (for the vector paths), else `None`.
+    fn as_f32s(s: &[Self]) -> Option<&[f32]> {
+        let _ = s;
+        None
+    }
+    /// The samples as mutable `f32` when `Self` is `f32`, else `None`.
+    fn as_f32s_mut(s: &mut [Self]) -> Option<&mut [f32]> {
         let _ = s;
         None
     }
@@ -83,6 +96,12 @@ impl Texel for f32 {
     #[inline]
     fn from_f32(v: f32) -> Self {
         v
+    }
+    fn as_f32s(s: &[f32]) -> Option<&[f32]> {
+        Some(s)
+    }
+    fn as_f32s_mut(s: &mut [f32]) -> Option<&mut [f32]> {
+        Some(s)
     }
 }
 
@@ -260,7 +279,7 @@ pub fn fill_pixels<T: Texel, const NC: usize>(
                     }
                 }
             }
-            if NC == 3 || NC == 4 {
+            if NC >= 2 {
                 if let (Some(d8), Some(o8)) = (T::as_bytes(d), T::as_bytes_mut(out)) {
                     let one = |p: &[f64; 2], dst: &mut [u8]| {
                         let mut px = [T::from_f32(0.0); NC];
@@ -272,6 +291,30 @@ pub fn fill_pixels<T: Texel, const NC: usize>(
                     if sample_simd_color::bilinear_color8::<NC>(d8, w, h, pos, o8, one) {
                         return;
                     }
+                }
+                if let (Some(d16), Some(o16)) = (T::as_u16s(d), T::as_u16s_mut(out)) {
+                    let one = |p: &[f64; 2], dst: &mut [u16]| {
+                        let mut px = [T::from_f32(0.0); NC];
+                        pixel(&mut px, p);
+                        if let Some(b) = T::as_u16s(&px) {
+                            dst.copy_from_slice(b);
+                        }
+                    };
+                    if sample_simd_color16::bilinear_color16::<NC>(d16, w, h, pos, o16, one) {
+                        return;
+                    }
+                }
+            }
+            if let (Some(df), Some(of)) = (T::as_f32s(d), T::as_f32s_mut(out)) {
+                let one = |p: &[f64; 2], dst: &mut [f32]| {
+                    let mut px = [T::from_f32(0.0); NC];
+                    pixel(&mut px, p);
+                    if let Some(b) = T::as_f32s(&px) {
+                        dst.copy_from_slice(b);
+                    }
+                };
+                if sample_simd_float::bilinear_f32::<NC>(df, w, h, pos, of, one) {
+                    return;
                 }
             }
             for (px, p) in out.chunks_exact_mut(NC).zip(pos) {
@@ -309,6 +352,82 @@ mod tests {
         assert_eq!(o[0], 7000);
         s.sample_into([0.6, 0.4], Interp::Nearest, &mut o);
         assert_eq!(o[0], 1000);
+    }
+
+    /// `fill_pixels` against `sample_into` (bilinear; background and alpha 0 at `NaN`) bit
+    /// for bit, `bits` giving a sample's bit pattern.
+    fn check_fill<T: Texel, const NC: usize>(
+        data: &[T],
+        w: usize,
+        h: usize,
+        pos: &[[f64; 2]],
+        bits: fn(T) -> u32,
+    ) {
+        let src = Source { data, w, h, nc: NC };
+        let mut out = vec![T::from_f32(0.0); NC * pos.len()];
+        fill_pixels::<T, NC>(&src, pos, &mut out, Interp::Bilinear, 3.0);
+        let mut want = [T::from_f32(0.0); NC];
+        for (k, p) in pos.iter().enumerate() {
+            if p[0].is_nan() {
+                want.fill(T::from_f32(3.0));
+                if NC.is_multiple_of(2) {
+                    want[NC - 1] = T::from_f32(0.0);
+                }
+            } else {
+                src.sample_into(*p, Interp::Bilinear, &mut want);
+            }
+            let got: Vec<u32> = out[NC * k..NC * k + NC].iter().map(|&v| bits(v)).collect();
+            let want: Vec<u32> = want.iter().map(|&v| bits(v)).collect();
+            assert_eq!(got, want, "NC {NC}, {w}x{h} at {p:?}");
+        }
+    }
+
+    /// Every sample type and channel count through `fill_pixels`, which takes the vector
+    /// paths where the CPU has them: the same bits as the scalar path, for runs of inside,
+    /// border, outside and `NaN` positions and every tail length.
+    #[test]
+    fn fill_pixels_is_bit_identical_to_the_scalar_path_for_every_type() {
+        use super::super::sample_simd::tests::positions;
+        use rand::rngs::SmallRng;
+        use rand::{Rng, SeedableRng};
+        fn all<T: Texel, const NC: usize>(
+            rng: &mut SmallRng,
+            sample: fn(&mut SmallRng) -> T,
+            bits: fn(T) -> u32,
+        ) {
+            for (w, h) in [(37usize, 23usize), (2, 2), (1, 9), (300, 5)] {
+                let data: Vec<T> = (0..NC * w * h).map(|_| sample(rng)).collect();
+                let pos = positions(rng, w, h, 1000);
+                for len in (0..=17).chain([pos.len() - 3]) {
+                    check_fill::<T, NC>(&data, w, h, &pos[3..3 + len], bits);
+                }
+            }
+        }
+        let mut rng = SmallRng::seed_from_u64(18);
+        let r = &mut rng;
+        let b8: fn(u8) -> u32 = |v| v as u32;
+        let b16: fn(u16) -> u32 = |v| v as u32;
+        let bf: fn(f32) -> u32 = f32::to_bits;
+        let s8: fn(&mut SmallRng) -> u8 = |r| r.gen();
+        let s16: fn(&mut SmallRng) -> u16 = |r| if r.gen_bool(0.2) { u16::MAX } else { r.gen() };
+        let sf: fn(&mut SmallRng) -> f32 = |r| match r.gen_range(0..4) {
+            0 => r.gen_range(-1e4..1e4),
+            1 => f32::from_bits(r.gen_range(1..0x0080_0000)) * if r.gen() { 1.0 } else { -1.0 },
+            2 => r.gen_range(-1.0..1.0) * 3e38,
+            _ => r.gen(),
+        };
+        all::<u8, 1>(r, s8, b8);
+        all::<u8, 2>(r, s8, b8);
+        all::<u8, 3>(r, s8, b8);
+        all::<u8, 4>(r, s8, b8);
+        all::<u16, 1>(r, s16, b16);
+        all::<u16, 2>(r, s16, b16);
+        all::<u16, 3>(r, s16, b16);
+        all::<u16, 4>(r, s16, b16);
+        all::<f32, 1>(r, sf, bf);
+        all::<f32, 2>(r, sf, bf);
+        all::<f32, 3>(r, sf, bf);
+        all::<f32, 4>(r, sf, bf);
     }
 
     #[test]

@@ -1,7 +1,10 @@
 //! Bilinear resampling of 8- and 16-bit gray images, eight pixels at a time (x86_64 AVX2).
 //!
 //! The 16-bit path ([`bilinear_gray16`]) is the same arithmetic with 16-bit taps and the
-//! clamp at 65535; its tap layout is in its docs. Colour images: [`super::sample_simd_color`].
+//! clamp at 65535; its tap layout is in its docs. Gray + alpha and colour images:
+//! [`super::sample_simd_color`] (8-bit), [`super::sample_simd_color16`] (16-bit); `f32`
+//! images: [`super::sample_simd_float`]. The lane helpers they share ([`avx2::lanes8`],
+//! [`avx2::lanes4`], [`avx2::bilerp`], [`avx2::round_clamp`]) are in this module.
 //!
 //! The scalar path ([`super::sample::fill_pixels`]) computes, for a position `(x, y)` with
 //! `x0 = floor(x)`, `y0 = floor(y)`, `fx = (x - x0) as f32`, `fy = (y - y0) as f32` and the
@@ -97,7 +100,7 @@ pub(super) fn bilinear_gray16(
 }
 
 #[cfg(target_arch = "x86_64")]
-mod avx2 {
+pub(super) mod avx2 {
     use std::arch::x86_64::*;
 
     /// See [`super::bilinear_gray8`].
@@ -202,7 +205,7 @@ mod avx2 {
     /// The CPU supports AVX2; `pp` points to 16 readable `f64`.
     #[target_feature(enable = "avx2")]
     #[inline]
-    unsafe fn lanes8(
+    pub(in crate::warp) unsafe fn lanes8(
         pp: *const f64,
         xmax: __m256i,
         ymax: __m256i,
@@ -235,6 +238,67 @@ mod avx2 {
             _mm256_cvtpd_ps(_mm256_sub_pd(ya, fya)),
         );
         (x0, y0, ok, fx, fy)
+    }
+
+    /// Four positions: `x0`, `y0` (i32), the lanes that may take the vector path (all bits
+    /// set where `0 <= x0 <= xmax` and `0 <= y0 <= ymax`), and `fx`, `fy` (f32), as
+    /// [`lanes8`] does for eight.
+    ///
+    /// # Safety
+    ///
+    /// The CPU supports AVX2; `pp` points to 8 readable `f64`.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub(in crate::warp) unsafe fn lanes4(
+        pp: *const f64,
+        xmax: __m128i,
+        ymax: __m128i,
+    ) -> (__m128i, __m128i, __m128i, __m128, __m128) {
+        let minus1 = _mm_set1_epi32(-1);
+        // SAFETY: 8 f64 readable at pp (caller); unaligned loads.
+        let (v0, v1) = (_mm256_loadu_pd(pp), _mm256_loadu_pd(pp.add(4)));
+        // [x0 x2 x1 x3] -> [x0 x1 x2 x3], likewise for y.
+        let xs = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpacklo_pd(v0, v1));
+        let ys = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpackhi_pd(v0, v1));
+        let (fxs, fys) = (_mm256_floor_pd(xs), _mm256_floor_pd(ys));
+        let (x0, y0) = (_mm256_cvttpd_epi32(fxs), _mm256_cvttpd_epi32(fys));
+        let ok = _mm_and_si128(
+            _mm_and_si128(_mm_cmpgt_epi32(x0, minus1), _mm_cmpgt_epi32(y0, minus1)),
+            _mm_andnot_si128(
+                _mm_or_si128(_mm_cmpgt_epi32(x0, xmax), _mm_cmpgt_epi32(y0, ymax)),
+                minus1,
+            ),
+        );
+        let fx = _mm256_cvtpd_ps(_mm256_sub_pd(xs, fxs));
+        let fy = _mm256_cvtpd_ps(_mm256_sub_pd(ys, fys));
+        (x0, y0, ok, fx, fy)
+    }
+
+    /// The scalar path's interpolation on eight lanes: `t = a + (b - a) fx`,
+    /// `u = e + (f - e) fx`, `v = t + (u - t) fy`, each operation rounded to `f32` (separate
+    /// multiplies and adds, no fused multiply-add).
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub(in crate::warp) fn bilerp(
+        a: __m256,
+        b: __m256,
+        e: __m256,
+        f: __m256,
+        fx: __m256,
+        fy: __m256,
+    ) -> __m256 {
+        let t = _mm256_add_ps(a, _mm256_mul_ps(_mm256_sub_ps(b, a), fx));
+        let u = _mm256_add_ps(e, _mm256_mul_ps(_mm256_sub_ps(f, e), fx));
+        _mm256_add_ps(t, _mm256_mul_ps(_mm256_sub_ps(u, t), fy))
+    }
+
+    /// `Texel::from_f32` for integer samples on eight lanes: `trunc(clamp(v + 0.5, 0, top))`
+    /// as i32 (a `NaN` lane gives 0, as `NaN as u8` does: `max` returns its second operand).
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub(in crate::warp) fn round_clamp(v: __m256, top: __m256) -> __m256i {
+        let v = _mm256_max_ps(_mm256_add_ps(v, _mm256_set1_ps(0.5)), _mm256_setzero_ps());
+        _mm256_cvttps_epi32(_mm256_min_ps(v, top))
     }
 
     /// See [`super::bilinear_gray16`].

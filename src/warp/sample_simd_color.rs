@@ -1,4 +1,5 @@
-//! Bilinear resampling of 8-bit RGB and RGBA images, two pixels per vector (x86_64 AVX2).
+//! Bilinear resampling of 8-bit gray + alpha, RGB and RGBA images (x86_64 AVX2): RGB and
+//! RGBA two pixels per vector, gray + alpha eight pixels per vector and channel.
 //!
 //! The scalar path ([`super::sample::fill_pixels`]) computes, for each channel `c` of a
 //! position `(x, y)` with `x0 = floor(x)`, `y0 = floor(y)`, `fx = (x - x0) as f32`,
@@ -11,16 +12,21 @@
 //! ```
 //!
 //! in `f32`, each operation rounded (no fused multiply-add). The vector path does the same
-//! operations in the same order, one `f32` lane per channel: a 256-bit vector holds two
-//! pixels of four lanes each (RGB: the fourth lane is zero and its result dropped). The
-//! floors and fractions are computed four positions at a time in `f64` (`vroundpd`, exact
-//! subtraction, one rounding to `f32` as `as f32` does), so the output is bit-identical to
-//! the scalar path's.
+//! operations in the same order, one `f32` lane per channel: for RGB and RGBA a 256-bit
+//! vector holds two pixels of four lanes each (RGB: the fourth lane is zero and its result
+//! dropped); for gray + alpha one vector holds channel 0 of eight pixels and another their
+//! channel 1. The floors and fractions are computed four (gray + alpha: eight) positions at
+//! a time in `f64` (`vroundpd`, exact subtraction, one rounding to `f32` as `as f32` does),
+//! so the output is bit-identical to the scalar path's.
 //!
-//! **Taps.** With `k = y0 w + x0` (the image is `w x h`, `NC` = 3 or 4 bytes per pixel,
+//! **Taps.** With `k = y0 w + x0` (the image is `w x h`, `NC` = 2, 3 or 4 bytes per pixel,
 //! row-major, `n = NC w h` bytes), the taps `a, b` are the `2 NC` bytes from `NC k` and
-//! `e, f` the `2 NC` bytes from `NC (k + w)`. Each pixel loads eight bytes of each row:
+//! `e, f` the `2 NC` bytes from `NC (k + w)`. RGB and RGBA load eight bytes of each row per
+//! pixel, gray + alpha gathers four:
 //!
+//! * gray + alpha (`NC` = 2): each lane gathers the 32-bit word at byte `2 k` (`a, b`) and the
+//!   word at byte `2 (k + w)` (`e, f`); the last byte read is
+//!   `2 (k + w) + 3 <= 2 ((h - 2) w + (w - 2) + w) + 3 = 2 h w - 1`.
 //! * RGBA: from `4 k` and from `4 (k + w)`; the last byte read is
 //!   `4 (k + w) + 7 <= 4 ((h - 2) w + (w - 2) + w) + 7 = 4 h w - 1`.
 //! * RGB: from `3 k` (taps in bytes 0..6) and from `3 (k + w) - 2` (taps in bytes 2..8), so
@@ -29,15 +35,16 @@
 //!   `3 k + 7 <= 3 ((h - 2) w + w - 2) + 7 = 3 (h - 1) w + 1 <= 3 h w - 1` (`w >= 2`).
 //!
 //! for every lane with `0 <= x0 <= w - 2` and `0 <= y0 <= h - 2` (so `w, h >= 2`). A group
-//! of four positions is taken on the vector path only when all four lanes pass; any other
-//! group (outside the mesh, `NaN`, a neighbourhood across the image border) and the tail of
-//! fewer than four are done pixel by pixel by the scalar path.
+//! of four (gray + alpha: eight) positions is taken on the vector path only when all its
+//! lanes pass; any other group (outside the mesh, `NaN`, a neighbourhood across the image
+//! border) and the tail of fewer than four (eight) are done pixel by pixel by the scalar
+//! path.
 
 /// Fills the `NC`-byte pixels `out[NC i ..]` for every position `pos[i]`
-/// (`i < min(pos.len(), out.len() / NC)`) of a `w x h` image `data` (`NC` = 3 or 4
+/// (`i < min(pos.len(), out.len() / NC)`) of a `w x h` image `data` (`NC` = 2, 3 or 4
 /// interleaved 8-bit channels) by bilinear interpolation, with `scalar(p, px)` writing the
 /// pixels the vector path does not take. Returns `false` (and writes nothing) when the
-/// vector path is not available: not x86_64, no AVX2, `NC` not 3 or 4, or an image too
+/// vector path is not available: not x86_64, no AVX2, `NC` not 2, 3 or 4, or an image too
 /// large for 32-bit offsets.
 pub(super) fn bilinear_color8<const NC: usize>(
     data: &[u8],
@@ -53,11 +60,18 @@ pub(super) fn bilinear_color8<const NC: usize>(
             .checked_mul(h)
             .and_then(|n| n.checked_mul(NC))
             .is_some_and(|n| n <= data.len() && n < i32::MAX as usize);
-        if (NC == 3 || NC == 4) && fits && std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: AVX2 is available and `NC` is 3 or 4 (checked just above); `data`
-            // holds at least `NC w h < 2^31` bytes (checked just above), as
-            // `avx2::bilinear_color8` requires.
-            unsafe { avx2::bilinear_color8::<NC>(data, w, h, pos, out, &scalar) };
+        if (2..=4).contains(&NC) && fits && std::arch::is_x86_feature_detected!("avx2") {
+            if NC == 2 {
+                // SAFETY: AVX2 is available (checked just above); `data` holds at least
+                // `2 w h < 2^31` bytes (checked just above), as `avx2::bilinear_la8`
+                // requires.
+                unsafe { avx2::bilinear_la8(data, w, h, pos, out, &scalar) };
+            } else {
+                // SAFETY: AVX2 is available and `NC` is 3 or 4 (checked just above); `data`
+                // holds at least `NC w h < 2^31` bytes (checked just above), as
+                // `avx2::bilinear_color8` requires.
+                unsafe { avx2::bilinear_color8::<NC>(data, w, h, pos, out, &scalar) };
+            }
             return true;
         }
     }
@@ -67,6 +81,7 @@ pub(super) fn bilinear_color8<const NC: usize>(
 
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
+    use crate::warp::sample_simd::avx2::{bilerp, lanes8, round_clamp};
     use std::arch::x86_64::*;
 
     /// Zero byte for `_mm_shuffle_epi8`.
@@ -179,6 +194,84 @@ mod avx2 {
             scalar(&pos[k], &mut out[NC * k..NC * k + NC]);
         }
     }
+
+    /// See [`super::bilinear_color8`] with `NC = 2` (gray + alpha): eight positions at a
+    /// time, one vector per channel.
+    ///
+    /// # Safety
+    ///
+    /// The CPU supports AVX2; `data.len() >= 2 w h` and `2 w h < 2^31`.
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn bilinear_la8(
+        data: &[u8],
+        w: usize,
+        h: usize,
+        pos: &[[f64; 2]],
+        out: &mut [u8],
+        scalar: &impl Fn(&[f64; 2], &mut [u8]),
+    ) {
+        let n = pos.len().min(out.len() / 2);
+        let groups = n / 8;
+        // Lane bounds as in the module docs; -1 when w or h is 1 (every lane rejected).
+        let xmax = _mm256_set1_epi32(w as i32 - 2);
+        let ymax = _mm256_set1_epi32(h as i32 - 2);
+        let wv = _mm256_set1_epi32(w as i32);
+        let byte = _mm256_set1_epi32(0xff);
+        let top = _mm256_set1_ps(255.0);
+        let base = data.as_ptr() as *const i32;
+        for g in 0..groups {
+            let i = 8 * g;
+            // SAFETY: i + 8 <= n <= pos.len(): 16 f64 for 8 contiguous positions.
+            let (x0, y0, ok, fx, fy) = lanes8(pos.as_ptr().add(i) as *const f64, xmax, ymax);
+            if _mm256_movemask_ps(_mm256_castsi256_ps(ok)) != 0xff {
+                for k in i..i + 8 {
+                    scalar(&pos[k], &mut out[2 * k..2 * k + 2]);
+                }
+                continue;
+            }
+            let k = _mm256_add_epi32(_mm256_mullo_epi32(y0, wv), x0);
+            // SAFETY: every lane passed 0 <= x0 <= w - 2, 0 <= y0 <= h - 2; the words read
+            // are bytes 2 k .. 2 k + 3 and 2 (k + w) .. 2 (k + w) + 3, inside
+            // 0 .. 2 w h <= data.len() by the bounds in the module docs; byte offsets 2 k
+            // (scale 2), k + w < w h < 2^31.
+            let wt = _mm256_i32gather_epi32::<2>(base, k);
+            let wb = _mm256_i32gather_epi32::<2>(base, _mm256_add_epi32(k, wv));
+            // Word [c0 c1 c0' c1']: channel 0 of the left and right taps in bytes 0 and 2,
+            // channel 1 in bytes 1 and 3.
+            let ch = |x: __m256i| _mm256_cvtepi32_ps(_mm256_and_si256(x, byte));
+            let v0 = bilerp(
+                ch(wt),
+                ch(_mm256_srli_epi32::<16>(wt)),
+                ch(wb),
+                ch(_mm256_srli_epi32::<16>(wb)),
+                fx,
+                fy,
+            );
+            let v1 = bilerp(
+                ch(_mm256_srli_epi32::<8>(wt)),
+                ch(_mm256_srli_epi32::<24>(wt)),
+                ch(_mm256_srli_epi32::<8>(wb)),
+                ch(_mm256_srli_epi32::<24>(wb)),
+                fx,
+                fy,
+            );
+            // Per lane the pixel's two bytes as one u16 (0..=65535, kept by the unsigned
+            // pack); per 128-bit lane r0..r3 (r4..r7) in the low 64 bits, gathered into the
+            // low 128 bits.
+            let r =
+                _mm256_or_si256(round_clamp(v0, top), _mm256_slli_epi32::<8>(round_clamp(v1, top)));
+            let r16 = _mm256_permute4x64_epi64::<0b11_01_10_00>(_mm256_packus_epi32(r, r));
+            // SAFETY: i + 8 <= n <= out.len() / 2: sixteen bytes writable at out[2 i..];
+            // unaligned.
+            _mm_storeu_si128(
+                out.as_mut_ptr().add(2 * i) as *mut __m128i,
+                _mm256_castsi256_si128(r16),
+            );
+        }
+        for k in 8 * groups..n {
+            scalar(&pos[k], &mut out[2 * k..2 * k + 2]);
+        }
+    }
 }
 
 #[cfg(test)]
@@ -233,6 +326,23 @@ mod tests {
         }
     }
 
+    #[test]
+    fn gray_alpha_vector_path_matches_the_scalar_path_bit_for_bit() {
+        let mut rng = SmallRng::seed_from_u64(28);
+        for (w, h) in [(37usize, 23usize), (2, 2), (1, 9), (64, 1), (300, 5), (3, 2)] {
+            let d2: Vec<u8> = (0..2 * w * h).map(|_| rng.gen()).collect();
+            let pos = positions(&mut rng, w, h, 4000);
+            // Every start and remainder length modulo 8.
+            for len in (0..=24).chain([pos.len() - 5]) {
+                for start in [0, 1, 5] {
+                    if !check::<2>(&d2, w, h, &pos[start..start + len]) {
+                        return;
+                    }
+                }
+            }
+        }
+    }
+
     /// The loads end exactly on the last byte of the image (module docs): an image in a
     /// buffer of exactly `NC w h` bytes, sampled at its bottom-right interior cell.
     #[test]
@@ -240,10 +350,12 @@ mod tests {
         for (w, h) in [(2usize, 2usize), (5, 3), (2, 7)] {
             let d3: Vec<u8> = (0..3 * w * h).map(|v| (v * 29 % 256) as u8).collect();
             let d4: Vec<u8> = (0..4 * w * h).map(|v| (v * 31 % 256) as u8).collect();
+            let d2: Vec<u8> = (0..2 * w * h).map(|v| (v * 23 % 256) as u8).collect();
             let p = [(w - 2) as f64 + 0.75, (h - 2) as f64 + 0.25];
-            let pos = vec![p; 9];
+            let pos = vec![p; 17];
             check::<3>(&d3, w, h, &pos);
             check::<4>(&d4, w, h, &pos);
+            check::<2>(&d2, w, h, &pos);
         }
     }
 
@@ -270,10 +382,33 @@ mod tests {
         }
     }
 
+    #[test]
+    fn interior_groups_of_eight_take_the_gray_alpha_vector_path() {
+        let (w, h) = (16usize, 16usize);
+        let data: Vec<u8> = (0..2 * w * h).map(|v| (v * 37 % 256) as u8).collect();
+        let src = Source { data: &data, w, h, nc: 2 };
+        let pos: Vec<[f64; 2]> =
+            (0..19).map(|k| [0.3 + 0.7 * k as f64, 14.9 - 0.6 * k as f64]).collect();
+        let mut out = vec![0u8; 2 * pos.len()];
+        let calls = Cell::new(0);
+        let scalar = |p: &[f64; 2], px: &mut [u8]| {
+            calls.set(calls.get() + 1);
+            reference(&src, p, px)
+        };
+        if bilinear_color8::<2>(&data, w, h, &pos, &mut out, scalar) {
+            assert_eq!(calls.get(), 3, "two groups of eight vectorized, a tail of three");
+        }
+        let mut want = [0u8; 2];
+        for (k, p) in pos.iter().enumerate() {
+            reference(&src, p, &mut want);
+            assert_eq!(out[2 * k..2 * k + 2], want);
+        }
+    }
+
     proptest::proptest! {
         #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
-        /// Random RGB and RGBA images (extreme values included) and random positions,
-        /// borders and outside included.
+        /// Random gray + alpha, RGB and RGBA images (extreme values included) and random
+        /// positions, borders and outside included.
         #[test]
         fn color8_bit_identical_on_random_images(
             w in 1usize..40, h in 1usize..40, seed in 0u64..1_000_000, extreme in 0u8..3,
@@ -286,9 +421,11 @@ mod tests {
             };
             let d3: Vec<u8> = (0..3 * w * h).map(|_| byte(&mut rng)).collect();
             let d4: Vec<u8> = (0..4 * w * h).map(|_| byte(&mut rng)).collect();
+            let d2: Vec<u8> = (0..2 * w * h).map(|_| byte(&mut rng)).collect();
             let pos = positions(&mut rng, w, h, 200);
             check::<3>(&d3, w, h, &pos);
             check::<4>(&d4, w, h, &pos);
+            check::<2>(&d2, w, h, &pos);
         }
     }
 }
