@@ -13,7 +13,7 @@ use pyo3::types::PyList;
 use trimorph::fit::frame::{fit_frame, FrameFitOptions};
 use trimorph::fit::landmarks::Landmark;
 use trimorph::fit::objective::{Barrier, Loss};
-use trimorph::fit::solve::{fit as fit_on, with_holdout, Bend, FitError, FitOptions};
+use trimorph::fit::solve::{fit as fit_on, with_holdout, Bend, BendError, FitError, FitOptions};
 use trimorph::mesh::AdaptOptions;
 use trimorph::morph::{times_between, Morph, MorphError, MorphOptions, Schedule};
 use trimorph::warp::Interp;
@@ -91,7 +91,7 @@ pub fn fit_options(
             Ok(w) => w.to_string().parse(),
             Err(_) => b.extract::<String>()?.parse(),
         }
-        .map_err(|e: String| value_error(format!("bend: {e}")))?,
+        .map_err(|e: BendError| value_error(format!("bend: {e}")))?,
     };
     Ok(FitOptions {
         loss: Loss::from_name(loss, loss_scale).map_err(|e| value_error(format!("loss: {e}")))?,

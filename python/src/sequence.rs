@@ -24,7 +24,9 @@ use pyo3::types::{PyDict, PyTuple};
 use std::path::{Path, PathBuf};
 use trimorph::fit::sequence::{Action, SequenceError};
 use trimorph::fit::solve::FitOptions;
-use trimorph::render::sequence::{choose_anchor, SequenceInputs, SequenceInputsError};
+use trimorph::render::sequence::{
+    choose_anchor, AnchorChoiceError, AnchorKind, SequenceInputs, SequenceInputsError,
+};
 
 /// A sequence's input error as a Python exception: unreadable files `OSError`, the rest
 /// `ValueError` (the library's message names the file and the element).
@@ -135,7 +137,13 @@ impl FrameSequence {
             max_iters,
             radius,
         )?;
-        let anchor = choose_anchor(track, anchor.as_deref(), key_every).map_err(value_error)?;
+        let anchor = anchor
+            .as_deref()
+            .map(str::parse::<AnchorKind>)
+            .transpose()
+            .map_err(AnchorChoiceError::from)
+            .and_then(|kind| choose_anchor(track, kind, key_every))
+            .map_err(value_error)?;
         let paths = [absolute(model)?, absolute(frames)?, absolute(landmarks)?, absolute(out_dir)?];
         let inputs = py
             .detach(|| {

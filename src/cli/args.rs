@@ -1,7 +1,9 @@
 //! The options of the subcommands (clap), one struct each; `cli::run` hands each to its
 //! command module. The subcommand's help text is the doc comment of its `Command` variant.
 
+use super::common::{parse_canvas_size, parse_extent, parse_grid, parse_raster_size, text};
 use super::{editor_cmd, model_cmd, morph_cmd, spline_cmds, warp_cmd};
+use crate::render::deformation::Layers;
 use std::path::PathBuf;
 
 /// The command line of `trimorph mesh`.
@@ -14,11 +16,12 @@ pub struct MeshCli {
     #[arg(long)]
     pub outline: Option<PathBuf>,
     /// A regular grid of COLSxROWS cells (e.g. 6x4), with --size.
-    #[arg(long)]
-    pub grid: Option<String>,
-    /// Width and height covered by --grid, e.g. 640,480 (pixels).
-    #[arg(long)]
-    pub size: Option<String>,
+    #[arg(long, value_parser = text(parse_grid))]
+    pub grid: Option<(usize, usize)>,
+    /// Width and height covered by --grid, e.g. 640,480 (pixels; with --landmarks the
+    /// frame, whole pixels).
+    #[arg(long, value_parser = text(parse_extent))]
+    pub size: Option<[f64; 2]>,
     /// A 2D reference mesh in OBJ (`v` and `f` lines).
     #[arg(long)]
     pub obj: Option<PathBuf>,
@@ -86,11 +89,11 @@ pub struct RenderCli {
     #[arg(long)]
     pub background: Option<PathBuf>,
     /// Layers: comma list of mesh, net, constraints, points, reference, all.
-    #[arg(long, default_value = "mesh,points")]
-    pub show: String,
+    #[arg(long, default_value = "mesh,points", value_parser = text(str::parse::<Layers>))]
+    pub show: Layers,
     /// Output size without a background, e.g. 800,600.
-    #[arg(long, default_value = "800,600")]
-    pub size: String,
+    #[arg(long, default_value = "800,600", value_parser = text(parse_canvas_size))]
+    pub size: (u32, u32),
     /// A 3D model (OBJ, OFF, PLY, XYZ) to draw through a 2.5D deformation.
     #[arg(long)]
     pub model: Option<PathBuf>,
@@ -127,8 +130,8 @@ pub struct WarpCli {
     #[arg(short, long)]
     pub output: PathBuf,
     /// Size W,H of the picture drawn from --mesh (default: the undeformed mesh's extent).
-    #[arg(long)]
-    pub size: Option<String>,
+    #[arg(long, value_parser = text(parse_raster_size))]
+    pub size: Option<(u32, u32)>,
     /// Points: map q -> phi^-1(q) instead of p -> phi(p).
     #[arg(long)]
     pub inverse: bool,
@@ -262,8 +265,8 @@ pub struct FieldCli {
     #[arg(long)]
     pub jacobian: Option<PathBuf>,
     /// Grid size W,H in pixels (default: the mesh's extent from 0).
-    #[arg(long)]
-    pub size: Option<String>,
+    #[arg(long, value_parser = text(parse_raster_size))]
+    pub size: Option<(u32, u32)>,
 }
 
 /// The command line of `trimorph model bind`.
@@ -316,12 +319,12 @@ impl RenderCli {
     /// Runs `trimorph render` (through a 2.5D deformation with --model).
     pub fn run(&self) -> anyhow::Result<()> {
         let bg = self.background.as_deref();
-        let (def, out, size) = (&self.deformation, &self.output, &self.size);
+        let (def, out, size) = (&self.deformation, &self.output, self.size);
         match &self.model {
             Some(m) => self.marks.refuse_with_model().and_then(|()| {
                 model_cmd::render_model(def, m, out, bg, self.view.into(), size, self.up.up)
             }),
-            None => spline_cmds::render(def, out, bg, &self.show, size, &self.marks),
+            None => spline_cmds::render(def, out, bg, self.show, size, &self.marks),
         }
     }
 }
@@ -379,6 +382,6 @@ impl FieldCli {
             both: self.both,
             jacobian: self.jacobian.clone(),
         };
-        warp_cmd::field(&self.deformation, &opts, self.size.as_deref())
+        warp_cmd::field(&self.deformation, &opts, self.size)
     }
 }

@@ -1,8 +1,8 @@
 //! What every subcommand shares: the exit codes and the [`Exit`] error, the mapping of a
 //! command's result to the process exit code, the progress bar, and the value parsers of
-//! options that several subcommands take (sizes `W,H`, shards `i/n`, memory sizes).
-
-use anyhow::{anyhow, bail, Result};
+//! options whose values are not a plain number or path (sizes `W,H` and their limits,
+//! grids, shards `i/n`, memory sizes), with [`TextParser`], which hands clap a library
+//! type's parser and words a refused value `--flag: reason`.
 
 /// Exit code for bad input and I/O errors.
 pub const EXIT_INPUT: i32 = 1;
@@ -37,8 +37,16 @@ pub(super) fn error_text(e: &anyhow::Error) -> String {
 
 /// Prints a command-line parse failure (or `--help` / `--version`) and returns its exit code:
 /// 0 for `--help` and `--version`, [`EXIT_INPUT`] for a malformed or missing command line. clap's own default
-/// (2) would be mistaken for [`EXIT_UNSOLVABLE`] by scripts.
+/// (2) would be mistaken for [`EXIT_UNSOLVABLE`] by scripts. A value refused by a
+/// [`TextParser`] is printed as `error: --flag: reason`.
 pub(super) fn usage_exit(e: &clap::Error) -> i32 {
+    use std::error::Error as _;
+    if e.kind() == clap::error::ErrorKind::ValueValidation {
+        if let Some(bad) = e.source().and_then(|s| s.downcast_ref::<BadValue>()) {
+            eprintln!("error: {bad}");
+            return EXIT_INPUT;
+        }
+    }
     // Printing can fail only on a closed stream; the exit code is what matters then.
     let _ = e.print();
     // clap prints help and version to stdout and errors (including bare `trimorph`) to stderr.
@@ -74,6 +82,73 @@ pub(super) fn exit_code(result: anyhow::Result<()>) -> i32 {
     }
 }
 
+/// A boxed error: why a [`TextParser`] refused a value.
+pub(super) type BoxError = Box<dyn std::error::Error + Send + Sync + 'static>;
+
+/// An option value refused by its parser: printed `--flag: reason` (see [`usage_exit`]), the
+/// way the command line words every bad option.
+#[derive(Debug, thiserror::Error)]
+#[error("{flag}: {reason}")]
+pub(super) struct BadValue {
+    /// The option, e.g. `--size`.
+    flag: String,
+    /// Why its value was refused.
+    #[source]
+    reason: BoxError,
+}
+
+/// A clap value parser from a function of the text (usually a library type's `FromStr`):
+/// the typed value reaches the command, and a refused value is a [`BadValue`] naming the
+/// option. Choices list their names in `--help` (`[possible values: ...]`).
+#[derive(Clone)]
+pub(super) struct TextParser<T> {
+    parse: std::sync::Arc<dyn Fn(&str) -> Result<T, BoxError> + Send + Sync>,
+    names: &'static [&'static str],
+}
+
+/// A [`TextParser`] through `parse`.
+pub(super) fn text<T: 'static, E>(parse: fn(&str) -> Result<T, E>) -> TextParser<T>
+where
+    E: Into<BoxError> + 'static,
+{
+    TextParser { parse: std::sync::Arc::new(move |t| parse(t).map_err(Into::into)), names: &[] }
+}
+
+/// A [`TextParser`] of a closed choice through `T`'s `FromStr`, listing `names` in the help.
+pub(super) fn choice<T>(names: &'static [&'static str]) -> TextParser<T>
+where
+    T: std::str::FromStr + 'static,
+    T::Err: std::error::Error + Send + Sync + 'static,
+{
+    TextParser { parse: std::sync::Arc::new(|t| t.parse::<T>().map_err(Into::into)), names }
+}
+
+impl<T: Clone + Send + Sync + 'static> clap::builder::TypedValueParser for TextParser<T> {
+    type Value = T;
+
+    fn parse_ref(
+        &self,
+        cmd: &clap::Command,
+        arg: Option<&clap::Arg>,
+        value: &std::ffi::OsStr,
+    ) -> Result<T, clap::Error> {
+        let flag = arg.and_then(|a| a.get_long()).map(|l| format!("--{l}")).unwrap_or_default();
+        let parse = self.parse.clone();
+        clap::builder::StringValueParser::new()
+            .try_map(move |t| parse(&t).map_err(|reason| BadValue { flag: flag.clone(), reason }))
+            .parse_ref(cmd, arg, value)
+    }
+
+    fn possible_values(
+        &self,
+    ) -> Option<Box<dyn Iterator<Item = clap::builder::PossibleValue> + '_>> {
+        if self.names.is_empty() {
+            return None;
+        }
+        Some(Box::new(self.names.iter().map(|&n| clap::builder::PossibleValue::new(n))))
+    }
+}
+
 /// `--max-memory SIZE` (e.g. 4G, 512M), through [`crate::memory::parse_size`].
 pub(super) fn parse_memory(s: &str) -> Result<u64, String> {
     crate::memory::parse_size(s).map_err(|e| e.to_string())
@@ -102,55 +177,110 @@ pub fn progress_bar(len: u64, show: bool, what: &str) -> indicatif::ProgressBar 
     bar
 }
 
-/// Two finite numbers `A<sep>B` (e.g. `640,480` or `6x4`); errors name the option `what`.
-pub fn pair(text: &str, what: &str, sep: char) -> Result<(f64, f64)> {
+/// Two finite numbers `A<sep>B` (e.g. `640,480` or `6x4`); the error says what is wrong with
+/// the text (a [`TextParser`] names the option).
+fn pair(text: &str, sep: char) -> Result<(f64, f64), String> {
     let (a, b) = text
         .split_once(sep)
-        .ok_or_else(|| anyhow!("{what}: expected two numbers as A{sep}B, found `{text}`"))?;
+        .ok_or_else(|| format!("expected two numbers as A{sep}B, found `{text}`"))?;
     let (a, b): (f64, f64) = (
-        a.trim().parse().map_err(|_| anyhow!("{what}: `{a}` is not a number"))?,
-        b.trim().parse().map_err(|_| anyhow!("{what}: `{b}` is not a number"))?,
+        a.trim().parse().map_err(|_| format!("`{a}` is not a number"))?,
+        b.trim().parse().map_err(|_| format!("`{b}` is not a number"))?,
     );
     if !a.is_finite() || !b.is_finite() {
-        bail!("{what}: values must be finite");
+        return Err("values must be finite".into());
     }
     Ok((a, b))
 }
 
-/// A frame size `W,H` in whole pixels (1 to 1,000,000 each): `mesh --landmarks`, `fit --size`.
-pub fn parse_frame_size(text: &str) -> Result<[f64; 2]> {
-    let (w, h) = pair(text, "--size", ',')?;
-    if w < 1.0 || h < 1.0 || w > 1e6 || h > 1e6 || w.fract() != 0.0 || h.fract() != 0.0 {
-        bail!("--size: width and height must be whole numbers of pixels from 1 to 1000000");
+/// Smallest side of a frame ([`parse_frame_size`]): one whole pixel.
+pub const MIN_FRAME_SIDE: f64 = 1.0;
+/// Largest side of a frame ([`parse_frame_size`]): 10^6 pixels, beyond any camera or
+/// microscope frame, so that a typo (an extra digit or two) is refused before the
+/// landmark-adapted mesh is built over it.
+pub const MAX_FRAME_SIDE: f64 = 1e6;
+/// Largest number of cells of `mesh --grid` ([`parse_grid`]): the mesh has two triangles
+/// per cell, and a spline of degree 5 over 2 * 10^6 triangles is already beyond memory.
+pub const MAX_GRID_CELLS: f64 = 1e6;
+
+/// A frame size `W,H` in whole pixels, [`MIN_FRAME_SIDE`] to [`MAX_FRAME_SIDE`] each:
+/// `fit --size`, and `mesh --size` with `--landmarks` (through [`check_frame_size`]).
+pub fn parse_frame_size(text: &str) -> Result<[f64; 2], String> {
+    let (w, h) = pair(text, ',')?;
+    check_frame_size([w, h])
+}
+
+/// `size` if it is a frame size ([`parse_frame_size`]'s limits).
+pub fn check_frame_size([w, h]: [f64; 2]) -> Result<[f64; 2], String> {
+    let side = |v: f64| (MIN_FRAME_SIDE..=MAX_FRAME_SIDE).contains(&v) && v.fract() == 0.0;
+    if !side(w) || !side(h) {
+        return Err("width and height must be whole numbers of pixels from 1 to 1000000".into());
     }
     Ok([w, h])
 }
 
-/// The width and height of a drawn canvas `W,H`, whole numbers from 16 to 16384 (`render`).
-pub fn parse_canvas_size(text: &str) -> Result<(u32, u32)> {
-    let (w, h) = pair(text, "--size", ',')?;
-    if w < 16.0 || h < 16.0 || w > 16384.0 || h > 16384.0 || w.fract() != 0.0 || h.fract() != 0.0 {
-        bail!("--size: width and height must be whole numbers from 16 to 16384");
+/// The size `W,H` that a reference mesh covers (`mesh --size`): two finite numbers. Its
+/// limits depend on the mesh: with `--grid` [`check_extent`], with `--landmarks`
+/// [`check_frame_size`].
+pub fn parse_extent(text: &str) -> Result<[f64; 2], String> {
+    let (w, h) = pair(text, ',')?;
+    Ok([w, h])
+}
+
+/// `size` if both sides are above 0 (`mesh --grid`: no upper limit, the mesh is a grid of
+/// `--grid` cells whatever their size).
+pub fn check_extent([w, h]: [f64; 2]) -> Result<[f64; 2], String> {
+    if w <= 0.0 || h <= 0.0 {
+        return Err("width and height must be positive".into());
+    }
+    Ok([w, h])
+}
+
+/// The cells `COLSxROWS` of `mesh --grid`: whole numbers from 1, at most [`MAX_GRID_CELLS`]
+/// cells in all.
+pub fn parse_grid(text: &str) -> Result<(usize, usize), String> {
+    let (c, r) = pair(text, 'x')?;
+    if c < 1.0 || r < 1.0 || c.fract() != 0.0 || r.fract() != 0.0 || c * r > MAX_GRID_CELLS {
+        return Err("expected COLSxROWS with whole numbers of cells, e.g. 6x4".into());
+    }
+    Ok((c as usize, r as usize))
+}
+
+/// The width and height of a drawn canvas `W,H`, whole numbers from
+/// [`MIN_SIZE`](crate::render::deformation::MIN_SIZE) to
+/// [`MAX_SIZE`](crate::render::deformation::MAX_SIZE) (16 to 16384, the limits of the
+/// renderer): `render --size`, with or without `--model`.
+pub fn parse_canvas_size(text: &str) -> Result<(u32, u32), String> {
+    use crate::render::deformation::{MAX_SIZE, MIN_SIZE};
+    let (w, h) = pair(text, ',')?;
+    let side = |v: f64| (MIN_SIZE as f64..=MAX_SIZE as f64).contains(&v) && v.fract() == 0.0;
+    if !side(w) || !side(h) {
+        return Err(format!(
+            "width and height must be whole numbers from {MIN_SIZE} to {MAX_SIZE}"
+        ));
     }
     Ok((w as u32, h as u32))
 }
 
-/// A raster size `W,H` in whole pixels (`field --size`, `warp --mesh --size`); the limits are
-/// checked by the job with [`crate::jobs::raster_fits`], whose message names the file.
-pub fn parse_raster_size(text: &str) -> Result<(u32, u32)> {
-    let (a, b) = text.split_once(',').ok_or_else(|| anyhow!("--size: expected W,H"))?;
+/// A raster size `W,H` in whole pixels: `field --size` and `warp --mesh --size`. Only the
+/// form is checked here; the limits (not empty, at most
+/// [`MAX_RASTER_PIXELS`](crate::jobs::MAX_RASTER_PIXELS)) are the job's, checked with
+/// [`crate::jobs::raster_fits`], whose message names the file (the library refuses the same
+/// sizes whoever calls it).
+pub fn parse_raster_size(text: &str) -> Result<(u32, u32), String> {
+    let (a, b) = text.split_once(',').ok_or("expected W,H")?;
     Ok((
-        a.trim().parse().map_err(|_| anyhow!("--size: `{a}` is not a whole number"))?,
-        b.trim().parse().map_err(|_| anyhow!("--size: `{b}` is not a whole number"))?,
+        a.trim().parse().map_err(|_| format!("`{a}` is not a whole number"))?,
+        b.trim().parse().map_err(|_| format!("`{b}` is not a whole number"))?,
     ))
 }
 
 /// `i/n` -> `(i, n)` with `0 <= i < n` (`fit --shard`).
-pub fn parse_shard(spec: &str) -> Result<(usize, usize)> {
+pub fn parse_shard(spec: &str) -> Result<(usize, usize), String> {
     spec.split_once('/')
         .and_then(|(i, n)| Some((i.trim().parse::<usize>().ok()?, n.trim().parse::<usize>().ok()?)))
         .filter(|&(i, n)| n >= 1 && i < n)
-        .ok_or_else(|| anyhow!("--shard: expected i/n with 0 <= i < n, e.g. 0/4"))
+        .ok_or_else(|| "expected i/n with 0 <= i < n, e.g. 0/4".into())
 }
 
 #[cfg(test)]

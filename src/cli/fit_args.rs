@@ -2,9 +2,12 @@
 //! `--size W,H` instead of DEF), or a sequence (`--model SCENE.json --frames DIR`). Parsed
 //! here, dispatched by `cli::run` to [`super::fit_cmd`] and [`super::fit_batch`].
 
+use super::common::{choice, parse_frame_size, parse_shard, text};
 use super::{fit_batch, fit_cmd};
-use crate::fit::objective::{Barrier, Loss};
+use crate::fit::objective::{Barrier, Loss, LossKind};
 use crate::fit::solve::{Bend, FitOptions};
+use crate::jobs::fit::Pin;
+use crate::render::sequence::AnchorKind;
 use anyhow::anyhow;
 use std::path::PathBuf;
 
@@ -24,17 +27,17 @@ pub struct FitCli {
     /// (with --frames: a summary of the sequence; every frame has its own report).
     #[arg(long)]
     pub report: Option<PathBuf>,
-    /// Data loss: squares, huber or cauchy.
-    #[arg(long, default_value = "squares")]
-    pub loss: String,
+    /// Data loss: squares (also `l2`), huber or cauchy.
+    #[arg(long, default_value = "squares", value_parser = choice::<LossKind>(&LossKind::NAMES))]
+    pub loss: LossKind,
     /// Scale of the huber / cauchy loss (pixels).
     #[arg(long, default_value_t = 2.0)]
     pub loss_scale: f64,
     /// Weight of the bending (thin-plate) energy: `auto` (chosen by generalized
     /// cross-validation on the landmarks) or a scale-free number (lambda = bend * sum of
     /// landmark weights * mesh area; 1e-4 is close to interpolation, 1 is very stiff).
-    #[arg(long, default_value = "auto")]
-    pub bend: String,
+    #[arg(long, default_value = "auto", value_parser = text(str::parse::<Bend>))]
+    pub bend: Bend,
     /// Landmarks become hard constraints phi(s) = t (exact, through ECLES).
     #[arg(long)]
     pub hard: bool,
@@ -51,8 +54,8 @@ pub struct FitCli {
     /// Control points held exactly at their values in DEF: a comma list of indices, or
     /// `edited` for the points corrected by hand in `trimorph editor` (DEF's "pinned"
     /// key). With --hard, the landmarks are exact too.
-    #[arg(long, value_name = "LIST")]
-    pub pin: Option<String>,
+    #[arg(long, value_name = "LIST", value_parser = text(str::parse::<Pin>))]
+    pub pin: Option<Pin>,
     /// Floor that the fold barrier keeps det J above.
     #[arg(long, default_value_t = 0.1)]
     pub min_det: f64,
@@ -78,8 +81,9 @@ pub struct FitCli {
     /// default), first (the first frame: no drift over long sequences) or keyframes
     /// (every --key-every N frames a key frame tracked from the first, the others from
     /// their key frame).
-    #[arg(long, value_name = "chain|first|keyframes")]
-    pub anchor: Option<String>,
+    #[arg(long, value_name = "chain|first|keyframes",
+          value_parser = choice::<AnchorKind>(&AnchorKind::NAMES))]
+    pub anchor: Option<AnchorKind>,
     /// Key frame spacing of --anchor keyframes.
     #[arg(long, value_name = "N")]
     pub key_every: Option<usize>,
@@ -88,12 +92,12 @@ pub struct FitCli {
     #[arg(long, default_value_t = 0.0)]
     pub background: f64,
     /// Only the i-th of n contiguous frame ranges (e.g. 0/4), for cluster array jobs.
-    #[arg(long)]
-    pub shard: Option<String>,
+    #[arg(long, value_parser = text(parse_shard))]
+    pub shard: Option<(usize, usize)>,
     /// With no DEF: the frame W,H in pixels; the fit builds a mesh adapted to the
     /// landmarks over it (see `trimorph mesh --landmarks`) and covers the whole frame.
-    #[arg(long)]
-    pub size: Option<String>,
+    #[arg(long, value_parser = text(parse_frame_size))]
+    pub size: Option<[f64; 2]>,
     /// With --size: pixels added around the frame (default: enough for full coverage,
     /// at least a tenth of the larger side).
     #[arg(long)]
@@ -122,17 +126,15 @@ impl FitCli {
     /// The library's fit options, through the library's parsers (so the CLI and the
     /// library accept the same values).
     pub fn fit_options(&self) -> anyhow::Result<FitOptions> {
-        let loss =
-            Loss::from_name(&self.loss, self.loss_scale).map_err(|e| anyhow!("--loss: {e}"))?;
+        let loss = Loss::new(self.loss, self.loss_scale).map_err(|e| anyhow!("--loss: {e}"))?;
         let barrier = if self.no_barrier {
             None
         } else {
             Some(Barrier::with_floor(self.min_det).map_err(|e| anyhow!("--min-det: {e}"))?)
         };
-        let bend: Bend = self.bend.parse().map_err(|e| anyhow!("--bend: {e}"))?;
         Ok(FitOptions {
             loss,
-            bend,
+            bend: self.bend,
             barrier,
             radius: self.radius,
             max_iters: self.max_iters,

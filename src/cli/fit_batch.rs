@@ -45,8 +45,7 @@ fn sequence_error(e: SequenceJobError) -> anyhow::Error {
 /// Runs the batch fit of `scene` over `frames`; see the module docs.
 pub fn run(a: &FitCli, scene: &Path, frames: &Path) -> Result<()> {
     let fit = a.fit_options()?;
-    let shard = a.shard.as_deref().map(super::common::parse_shard).transpose()?;
-    let track = choose_anchor(a.track, a.anchor.as_deref(), a.key_every)?;
+    let track = choose_anchor(a.track, a.anchor, a.key_every)?;
     let job = SequenceJob {
         scene: scene.into(),
         model: a.model_file.clone(),
@@ -57,7 +56,7 @@ pub fn run(a: &FitCli, scene: &Path, frames: &Path) -> Result<()> {
         fit,
         holdout: a.holdout,
         seed: a.seed,
-        shard,
+        shard: a.shard,
         output: a.output.clone(),
         report: a.report.clone(),
     };

@@ -2,7 +2,7 @@
 //! ([`crate::jobs::fit::FitJob`]); this layer parses the options, maps errors to exit codes
 //! and prints.
 
-use super::common::{error_text, parse_frame_size, say};
+use super::common::{error_text, say};
 use super::fit_args::FitCli;
 use super::{Exit, EXIT_UNSOLVABLE};
 use crate::fit::solve::FitError;
@@ -22,7 +22,7 @@ pub fn fit_error(e: FitError) -> anyhow::Error {
 /// `trimorph fit (DEF | --size W,H) --landmarks L -o OUT [--report R] [--holdout k]`.
 pub fn run_single(a: &FitCli) -> Result<()> {
     let fit = a.fit_options()?;
-    let start = match (&a.deformation, a.size.as_deref()) {
+    let start = match (&a.deformation, a.size) {
         (Some(d), _) => FitStart::Deformation(d.clone()),
         (None, size) => {
             if a.pin.is_some() {
@@ -35,7 +35,9 @@ pub fn run_single(a: &FitCli) -> Result<()> {
                 grid: 0,
                 extra_points: Vec::new(),
             };
-            FitStart::Frame { size: parse_frame_size(size.unwrap_or_default())?, adapt }
+            // `run` comes here only with --size when DEF is absent.
+            let size = size.ok_or_else(|| anyhow!("give DEF.json or --size W,H"))?;
+            FitStart::Frame { size, adapt }
         }
     };
     let barrier = fit.barrier.is_some();

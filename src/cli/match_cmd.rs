@@ -1,6 +1,7 @@
 //! `trimorph match`: automatic landmarks between two images (ORB, ratio + cross check, then
 //! an affine, homography or local model), written as CSV, BigWarp or JSON.
 
+use super::common::choice;
 use super::{Exit, EXIT_INPUT};
 use crate::fit::features::{
     gray8, match_images, FeatureError, LocalOptions, MatchOptions, ModelKind, MIN_SIDE,
@@ -52,9 +53,9 @@ pub(crate) struct MatchCli {
     /// Most ORB keypoints per image.
     #[arg(long, default_value_t = 1000)]
     features: usize,
-    /// Output format: csv, bigwarp or json.
-    #[arg(long, default_value = "csv")]
-    format: String,
+    /// Output format: csv, bigwarp or json (any case).
+    #[arg(long, default_value = "csv", value_parser = choice::<LandmarkFormat>(&LandmarkFormat::NAMES))]
+    format: LandmarkFormat,
     /// The model: affine (one map of the image), homography, or local (each match agrees
     /// with its neighbours, for objects that move independently).
     #[arg(long, value_enum, default_value_t = ModelArg::Affine)]
@@ -108,7 +109,6 @@ fn explain(args: &MatchCli, e: &FeatureError) -> String {
 
 /// Runs `trimorph match`: landmarks with `src` in A's pixel coordinates and `dst` in B's.
 pub(super) fn run(args: MatchCli) -> Result<()> {
-    let format: LandmarkFormat = args.format.parse().map_err(|e| input_error(format!("{e}")))?;
     let a = load(&args.a)?;
     let b = load(&args.b)?;
     let mut opts = MatchOptions {
@@ -124,7 +124,7 @@ pub(super) fn run(args: MatchCli) -> Result<()> {
     };
     opts.ransac.threshold = args.threshold;
     let r = match_images(&a, &b, &opts).map_err(|e| input_error(explain(&args, &e)))?;
-    write_landmarks(&args.output, &r.landmarks, format)?;
+    write_landmarks(&args.output, &r.landmarks, args.format)?;
     let st = &r.stats;
     println!(
         "keypoints {} / {}, matches {}, inliers {} (rms {:.3} px), {}",

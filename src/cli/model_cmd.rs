@@ -69,12 +69,11 @@ pub fn render_model(
     output: &Path,
     background: Option<&Path>,
     view: crate::render::model::View,
-    size: &str,
+    size: (u32, u32),
     up: UpAxis,
 ) -> Result<()> {
     let (s, _) = read_deformation(def)?;
     let model = job::load_model(model_path, up)?;
-    let size = super::common::parse_canvas_size(size)?;
     let ((w, h), outside) = job::render_model(&s, &model, output, background, view, size)?;
     say(format_args!("{w}x{h} -> {}", output.display()))?;
     warn_outside(&outside);

@@ -3,7 +3,7 @@
 //! prints.
 
 use super::args::MeshCli;
-use super::common::{pair, parse_canvas_size, parse_frame_size, say};
+use super::common::{check_extent, check_frame_size, say};
 use super::{Exit, EXIT_INPUT, EXIT_UNSOLVABLE};
 use crate::exact::parse_rat;
 use crate::io::deformation;
@@ -13,6 +13,7 @@ use crate::jobs::spline::{
     build_mesh, edit_file, render_file, write_identity, EditFileError, EditLog, MeshSource,
 };
 use crate::mesh::{AdaptOptions, MeshOptions};
+use crate::render::deformation::{Layers, RenderOptions};
 use anyhow::{anyhow, bail, Context, Result};
 use serde_json::json;
 use std::io::Write;
@@ -27,12 +28,10 @@ pub fn mesh(a: &MeshCli) -> Result<()> {
     if a.landmarks.is_none() && (a.margin.is_some() || a.max_edge.is_some()) {
         bail!("--margin and --max-edge go with --landmarks");
     }
-    let source = match (&a.points, a.grid.as_deref(), &a.obj, &a.landmarks) {
+    let source = match (&a.points, a.grid, &a.obj, &a.landmarks) {
         (None, None, None, Some(l)) => {
-            let size = a
-                .size
-                .as_deref()
-                .ok_or_else(|| anyhow!("--landmarks needs --size W,H (the frame)"))?;
+            let size = a.size.ok_or_else(|| anyhow!("--landmarks needs --size W,H (the frame)"))?;
+            let size = check_frame_size(size).map_err(|e| anyhow!("--size: {e}"))?;
             let adapt = AdaptOptions {
                 margin: a.margin,
                 max_edge: a.max_edge,
@@ -40,25 +39,15 @@ pub fn mesh(a: &MeshCli) -> Result<()> {
                 grid: a.snap.unwrap_or(0),
                 extra_points: Vec::new(),
             };
-            MeshSource::Landmarks { path: l.clone(), size: parse_frame_size(size)?, adapt }
+            MeshSource::Landmarks { path: l.clone(), size, adapt }
         }
         (Some(p), None, None, None) => {
             MeshSource::Points { points: p.clone(), outline: a.outline.clone() }
         }
-        (None, Some(g), None, None) => {
-            let (c, r) = pair(g, "--grid", 'x')?;
-            if c < 1.0 || r < 1.0 || c.fract() != 0.0 || r.fract() != 0.0 || c * r > 1e6 {
-                bail!("--grid: expected COLSxROWS with whole numbers of cells, e.g. 6x4");
-            }
-            let (w, h) = pair(
-                a.size.as_deref().ok_or_else(|| anyhow!("--grid needs --size W,H"))?,
-                "--size",
-                ',',
-            )?;
-            if w <= 0.0 || h <= 0.0 {
-                bail!("--size: width and height must be positive");
-            }
-            MeshSource::Grid { cols: c as usize, rows: r as usize, width: w, height: h }
+        (None, Some((cols, rows)), None, None) => {
+            let size = a.size.ok_or_else(|| anyhow!("--grid needs --size W,H"))?;
+            let [width, height] = check_extent(size).map_err(|e| anyhow!("--size: {e}"))?;
+            MeshSource::Grid { cols, rows, width, height }
         }
         (None, None, Some(o), None) => MeshSource::Obj(o.clone()),
         _ => bail!("give exactly one of --points, --grid, --obj or --landmarks"),
@@ -176,17 +165,17 @@ pub fn render(
     def: &Path,
     output: &Path,
     background: Option<&Path>,
-    show: &str,
-    size: &str,
+    show: Layers,
+    size: (u32, u32),
     marks: &RenderMarks,
 ) -> Result<()> {
     let (s, last) = read_deformation(def)?;
-    let mut opts = crate::render::deformation::RenderOptions::parse_show(show)?;
+    let mut opts = RenderOptions::with_layers(show);
     if let Some(l) = &marks.landmarks {
         opts.landmarks = crate::io::landmarks::read_landmarks(l)
             .with_context(|| format!("cannot read landmarks {}", l.display()))?;
     }
-    (opts.width, opts.height) = parse_canvas_size(size)?;
+    (opts.width, opts.height) = size;
     let (w, h) = render_file(&s, last.as_ref(), output, background, &opts)?;
     say(format_args!("{w}x{h} -> {}", output.display()))?;
     Ok(())

@@ -3,7 +3,7 @@
 //! [`crate::jobs::field`]; this layer checks the options, shows progress and prints.
 
 use super::args::WarpCli;
-use super::common::{parse_raster_size, progress_bar};
+use super::common::progress_bar;
 use crate::jobs::field::{default_size, write_field, write_jacobian_map, FieldOptions};
 use crate::jobs::read_deformation;
 use crate::jobs::warp::{warp_points, ImageInput, MeshInput};
@@ -73,10 +73,7 @@ pub fn run(a: &WarpCli) -> Result<()> {
             if let Some(w) = mesh.dropped_warning(m) {
                 eprintln!("warning: {w}");
             }
-            let size = match a.size.as_deref() {
-                Some(sz) if MeshInput::draws(output) => Some(parse_raster_size(sz)?),
-                _ => None,
-            };
+            let size = a.size.filter(|_| MeshInput::draws(output));
             writeln!(out, "{}", mesh.save(output, size, a.background)?)?;
         }
         (None, Some(p), None) => {
@@ -93,13 +90,10 @@ pub fn run(a: &WarpCli) -> Result<()> {
 
 /// `trimorph field DEF -o FIELD.(tif|npy|h5|zarr) [--inverse] [--both] [--jacobian JAC.png]
 /// [--size W,H]`.
-pub fn field(def: &Path, opts: &FieldOptions, size: Option<&str>) -> Result<()> {
+pub fn field(def: &Path, opts: &FieldOptions, size: Option<(u32, u32)>) -> Result<()> {
     opts.check_paths()?;
     let (s, _) = read_deformation(def)?;
-    let size = match size {
-        Some(sz) => parse_raster_size(sz)?,
-        None => default_size(&s),
-    };
+    let size = size.unwrap_or_else(|| default_size(&s));
     let mut out = std::io::stdout().lock();
     for line in write_field(&s, def, size, opts)? {
         writeln!(out, "{line}")?;

@@ -180,6 +180,9 @@ pub enum LandmarkFormat {
 }
 
 impl LandmarkFormat {
+    /// The names its `from_str` accepts (in any case), in the order of the variants.
+    pub const NAMES: [&'static str; 3] = ["csv", "bigwarp", "json"];
+
     /// The format of a file from its extension (without the dot, any case) and its text:
     /// `json` -> [`Json`](Self::Json); otherwise [`BigWarp`](Self::BigWarp) when the first
     /// non-empty line starts with a double quote and has 6 (2D) or 8 (3D) fields whose second

@@ -39,22 +39,92 @@ pub enum Loss {
     Cauchy(f64),
 }
 
+/// The kind of a [`Loss`], without its scale: what `--loss` and the Python `loss=` keyword
+/// name (`squares` or `l2`, `huber`, `cauchy`; see [`LossKind::from_str`](std::str::FromStr)).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum LossKind {
+    /// [`Loss::Squares`].
+    Squares,
+    /// [`Loss::Huber`].
+    Huber,
+    /// [`Loss::Cauchy`].
+    Cauchy,
+}
+
+impl LossKind {
+    /// The names of the kinds, in the order of the variants
+    /// ([`LossKind::from_str`](std::str::FromStr) also takes `l2` for `squares`).
+    pub const NAMES: [&'static str; 3] = ["squares", "huber", "cauchy"];
+
+    /// The name used in reports and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            LossKind::Squares => "squares",
+            LossKind::Huber => "huber",
+            LossKind::Cauchy => "cauchy",
+        }
+    }
+}
+
+impl std::str::FromStr for LossKind {
+    type Err = LossError;
+    /// `squares` (or `l2`), `huber` or `cauchy`, exactly.
+    fn from_str(name: &str) -> Result<LossKind, LossError> {
+        match name {
+            "squares" | "l2" => Ok(LossKind::Squares),
+            "huber" => Ok(LossKind::Huber),
+            "cauchy" => Ok(LossKind::Cauchy),
+            other => Err(LossError::Unknown(other.to_string())),
+        }
+    }
+}
+
+/// Why a loss could not be made from a name and a scale.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum LossError {
+    /// The name is none of [`LossKind::NAMES`] (nor `l2`).
+    #[error("unknown loss `{0}` (use squares, huber or cauchy)")]
+    Unknown(String),
+    /// Huber and Cauchy need a finite scale `> 0`.
+    #[error("the {} loss needs a finite scale > 0 (pixels), got {scale}", kind.name())]
+    Scale {
+        /// The loss.
+        kind: LossKind,
+        /// The scale given.
+        scale: f64,
+    },
+}
+
 impl Loss {
-    /// The loss named `name` (`squares` or `l2`, `huber`, `cauchy`) with scale `scale`
-    /// (pixels; used by Huber and Cauchy, which need it finite and positive).
-    pub fn from_name(name: &str, scale: f64) -> Result<Loss, String> {
+    /// The loss of kind `kind` with scale `scale` (pixels; used by Huber and Cauchy, which
+    /// need it finite and positive).
+    pub fn new(kind: LossKind, scale: f64) -> Result<Loss, LossError> {
         let scaled = |f: fn(f64) -> Loss| {
             if scale.is_finite() && scale > 0.0 {
                 Ok(f(scale))
             } else {
-                Err(format!("the {name} loss needs a finite scale > 0 (pixels), got {scale}"))
+                Err(LossError::Scale { kind, scale })
             }
         };
-        match name {
-            "squares" | "l2" => Ok(Loss::Squares),
-            "huber" => scaled(Loss::Huber),
-            "cauchy" => scaled(Loss::Cauchy),
-            other => Err(format!("unknown loss `{other}` (use squares, huber or cauchy)")),
+        match kind {
+            LossKind::Squares => Ok(Loss::Squares),
+            LossKind::Huber => scaled(Loss::Huber),
+            LossKind::Cauchy => scaled(Loss::Cauchy),
+        }
+    }
+
+    /// The loss named `name` (`squares` or `l2`, `huber`, `cauchy`) with scale `scale`
+    /// ([`Loss::new`] of the [`LossKind`] named).
+    pub fn from_name(name: &str, scale: f64) -> Result<Loss, LossError> {
+        Loss::new(name.parse()?, scale)
+    }
+
+    /// Its kind.
+    pub fn kind(self) -> LossKind {
+        match self {
+            Loss::Squares => LossKind::Squares,
+            Loss::Huber(_) => LossKind::Huber,
+            Loss::Cauchy(_) => LossKind::Cauchy,
         }
     }
 
@@ -79,13 +149,14 @@ impl Loss {
 
     /// The name used in reports and on the command line.
     pub fn name(self) -> &'static str {
-        match self {
-            Loss::Squares => "squares",
-            Loss::Huber(_) => "huber",
-            Loss::Cauchy(_) => "cauchy",
-        }
+        self.kind().name()
     }
 }
+
+/// A determinant floor that is not a finite number below 1 (the floor given).
+#[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
+#[error("the determinant floor must be a number below 1, got {0}")]
+pub struct FloorError(pub f64);
 
 /// The fold barrier's parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -104,9 +175,9 @@ impl Barrier {
 
     /// The barrier keeping `det J` above `floor` (a number below 1), active from
     /// `floor + BAND`, with unit weight.
-    pub fn with_floor(floor: f64) -> Result<Barrier, String> {
+    pub fn with_floor(floor: f64) -> Result<Barrier, FloorError> {
         if !(floor.is_finite() && floor < 1.0) {
-            return Err(format!("the determinant floor must be a number below 1, got {floor}"));
+            return Err(FloorError(floor));
         }
         Ok(Barrier { floor, tau: floor + Self::BAND, mu: 1.0 })
     }

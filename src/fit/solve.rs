@@ -73,18 +73,24 @@ pub enum Bend {
 }
 
 impl std::str::FromStr for Bend {
-    type Err = String;
-    /// `auto` or a finite weight `>= 0`.
-    fn from_str(t: &str) -> Result<Bend, String> {
+    type Err = BendError;
+    /// `auto` or a finite weight `>= 0` (surrounding spaces ignored).
+    fn from_str(t: &str) -> Result<Bend, BendError> {
         match t.trim() {
             "auto" => Ok(Bend::Auto),
             t => match t.parse::<f64>() {
                 Ok(w) if w.is_finite() && w >= 0.0 => Ok(Bend::Weight(w)),
-                _ => Err(format!("`{t}` is neither `auto` nor a finite number >= 0")),
+                _ => Err(BendError(t.to_string())),
             },
         }
     }
 }
+
+/// A bending weight that is neither `auto` nor a finite number `>= 0` (the text given,
+/// trimmed).
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("`{0}` is neither `auto` nor a finite number >= 0")]
+pub struct BendError(pub String);
 
 impl Default for FitOptions {
     fn default() -> Self {

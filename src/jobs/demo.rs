@@ -20,7 +20,7 @@ use super::warp::{colormesh, ImageInput, MeshInput};
 use super::{read_deformation, JobError, JobResult};
 use crate::ecles::problem::Problem;
 use crate::fit::objective::{Barrier, Loss};
-use crate::fit::solve::FitOptions;
+use crate::fit::solve::{Bend, FitOptions};
 use crate::io::model::{save_model, UpAxis};
 use crate::io::{deformation, write_atomic};
 use crate::mesh::MeshOptions;
@@ -315,9 +315,10 @@ fn fit_part(dir: &Path, log: &mut Log) -> JobResult<()> {
         s.mesh().num_triangles()
     ))?;
     let fit = FitOptions {
-        loss: Loss::from_name("squares", 2.0).map_err(JobError::Options)?,
-        bend: "1e-6".parse().map_err(JobError::Options)?,
-        barrier: Some(Barrier::with_floor(0.1).map_err(JobError::Options)?),
+        loss: Loss::Squares,
+        bend: Bend::Weight(1e-6),
+        // 0.1 is a valid floor: always `Some`.
+        barrier: Barrier::with_floor(0.1).ok(),
         radius: None,
         max_iters: 200,
         hard: false,

@@ -232,12 +232,41 @@ pub struct FitJob {
     pub holdout: usize,
     /// Seed of the hold-out choice.
     pub seed: u64,
-    /// Control points held exactly (a deformation start only): a comma list of indices, or
-    /// `edited` for the points the deformation file records as corrected by hand.
-    pub pin: Option<String>,
+    /// Control points held exactly (a deformation start only).
+    pub pin: Option<Pin>,
     /// The fit's options.
     pub fit: FitOptions,
 }
+
+/// The control points a fit holds exactly at their values in the input deformation
+/// (`--pin`). Parsed from `edited` or a comma list of control point indices.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Pin {
+    /// The points the deformation file records as corrected by hand in the editor (its
+    /// `"pinned"` key).
+    Edited,
+    /// These control points.
+    Points(Vec<usize>),
+}
+
+impl std::str::FromStr for Pin {
+    type Err = PinError;
+    /// `edited`, or a comma list of control point indices (surrounding spaces ignored).
+    fn from_str(list: &str) -> Result<Pin, PinError> {
+        if list.trim() == "edited" {
+            return Ok(Pin::Edited);
+        }
+        list.split(',')
+            .map(|t| t.trim().parse::<usize>().map_err(|_| PinError(t.trim().to_string())))
+            .collect::<Result<_, _>>()
+            .map(Pin::Points)
+    }
+}
+
+/// A `--pin` item that is not a control point index (the text given, trimmed).
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("`{0}` is not a control point index")]
+pub struct PinError(pub String);
 
 /// Why a single fit failed.
 #[derive(Debug, thiserror::Error)]
@@ -328,8 +357,8 @@ impl FitJob {
             ))
             .into());
         }
-        if let Some(list) = &self.pin {
-            opts.pinned = pinned(list, &text, def)?;
+        if let Some(pin) = &self.pin {
+            opts.pinned = pinned(pin, &text, def)?;
         }
         let (fitted, held) = self.read_split(warn)?;
         // A fit too large for the solver is the deformation's doing (its mesh and degree);
@@ -402,25 +431,20 @@ impl FitJob {
     }
 }
 
-/// The control points `--pin` names: `edited` (the file's recorded corrections) or a comma
-/// list of indices.
-fn pinned(list: &str, text: &str, def: &Path) -> Result<Vec<usize>, JobError> {
-    if list.trim() == "edited" {
-        let p = deformation::pinned_from_str(text)
-            .map_err(|e| JobError::context(format!("--pin edited: {}", def.display()), e))?;
-        if p.is_empty() {
-            return Err(JobError::Options(format!(
-                "--pin edited: {} records no corrected points (save it from the editor after an edit)",
-                def.display()
-            )));
+/// The control points `pin` names (`edited`: the file's recorded corrections).
+fn pinned(pin: &Pin, text: &str, def: &Path) -> Result<Vec<usize>, JobError> {
+    match pin {
+        Pin::Points(p) => Ok(p.clone()),
+        Pin::Edited => {
+            let p = deformation::pinned_from_str(text)
+                .map_err(|e| JobError::context(format!("--pin edited: {}", def.display()), e))?;
+            if p.is_empty() {
+                return Err(JobError::Options(format!(
+                    "--pin edited: {} records no corrected points (save it from the editor after an edit)",
+                    def.display()
+                )));
+            }
+            Ok(p)
         }
-        return Ok(p);
     }
-    list.split(',')
-        .map(|t| {
-            t.trim().parse::<usize>().map_err(|_| {
-                JobError::Options(format!("--pin: `{}` is not a control point index", t.trim()))
-            })
-        })
-        .collect()
 }

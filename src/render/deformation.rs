@@ -107,28 +107,39 @@ impl Default for RenderOptions {
     }
 }
 
-impl RenderOptions {
-    /// Layer names accepted by [`parse_show`](Self::parse_show).
-    pub const LAYERS: [&'static str; 6] =
-        ["mesh", "net", "constraints", "points", "reference", "all"];
+/// The layers of a picture (`--show`): which of the deformed mesh, the control net, the C1
+/// conditions, the control points and the reference mesh are drawn. Parsed from a comma
+/// list of [`RenderOptions::LAYERS`] (case-insensitive, surrounding spaces ignored); an
+/// unknown word, or an empty list, is a [`RenderError::UnknownLayer`] naming it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Layers {
+    /// [`RenderOptions::show_mesh`].
+    pub mesh: bool,
+    /// [`RenderOptions::show_net`].
+    pub net: bool,
+    /// [`RenderOptions::show_constraints`].
+    pub constraints: bool,
+    /// [`RenderOptions::show_points`].
+    pub points: bool,
+    /// [`RenderOptions::show_reference`].
+    pub reference: bool,
+}
 
-    /// Default options with exactly the layers in the comma-separated `list` switched on:
-    /// `mesh`, `net`, `constraints`, `points`, `reference` or `all` (case-insensitive,
-    /// surrounding spaces ignored). An unknown word, or an empty list, is an error naming it.
-    pub fn parse_show(list: &str) -> Result<RenderOptions, RenderError> {
-        let mut o =
-            RenderOptions { show_mesh: false, show_points: false, ..RenderOptions::default() };
+impl std::str::FromStr for Layers {
+    type Err = RenderError;
+    fn from_str(list: &str) -> Result<Layers, RenderError> {
+        let mut l = Layers::default();
         let mut any = false;
         for word in list.split(',').map(str::trim).filter(|w| !w.is_empty()) {
             match word.to_ascii_lowercase().as_str() {
-                "mesh" => o.show_mesh = true,
-                "net" => o.show_net = true,
-                "constraints" => o.show_constraints = true,
-                "points" => o.show_points = true,
-                "reference" => o.show_reference = true,
+                "mesh" => l.mesh = true,
+                "net" => l.net = true,
+                "constraints" => l.constraints = true,
+                "points" => l.points = true,
+                "reference" => l.reference = true,
                 "all" => {
-                    (o.show_mesh, o.show_net, o.show_constraints) = (true, true, true);
-                    (o.show_points, o.show_reference) = (true, true);
+                    (l.mesh, l.net, l.constraints, l.points, l.reference) =
+                        (true, true, true, true, true)
                 }
                 _ => return Err(RenderError::UnknownLayer(word.to_string())),
             }
@@ -137,7 +148,32 @@ impl RenderOptions {
         if !any {
             return Err(RenderError::UnknownLayer(String::new()));
         }
-        Ok(o)
+        Ok(l)
+    }
+}
+
+impl RenderOptions {
+    /// Layer names accepted by [`parse_show`](Self::parse_show) and by [`Layers`].
+    pub const LAYERS: [&'static str; 6] =
+        ["mesh", "net", "constraints", "points", "reference", "all"];
+
+    /// Default options with exactly the layers `layers` switched on.
+    pub fn with_layers(layers: Layers) -> RenderOptions {
+        RenderOptions {
+            show_mesh: layers.mesh,
+            show_net: layers.net,
+            show_constraints: layers.constraints,
+            show_points: layers.points,
+            show_reference: layers.reference,
+            ..RenderOptions::default()
+        }
+    }
+
+    /// Default options with exactly the layers in the comma-separated `list` switched on:
+    /// `mesh`, `net`, `constraints`, `points`, `reference` or `all` (case-insensitive,
+    /// surrounding spaces ignored). An unknown word, or an empty list, is an error naming it.
+    pub fn parse_show(list: &str) -> Result<RenderOptions, RenderError> {
+        list.parse().map(RenderOptions::with_layers)
     }
 }
 

@@ -167,16 +167,51 @@ pub enum AnchorChoiceError {
     /// A spacing with another anchor.
     #[error("--key-every goes with --anchor keyframes")]
     KeyEveryWithout,
-    /// An unknown anchor name.
-    #[error("--anchor: unknown anchor `{0}` (use chain, first or keyframes)")]
-    Unknown(String),
+    /// An unknown anchor name (from [`AnchorKind`]'s `from_str`).
+    #[error("--anchor: {0}")]
+    Unknown(#[from] UnknownAnchor),
 }
+
+/// Which frame each frame is tracked from, without the key frame spacing: what `--anchor`
+/// and the Python `anchor=` keyword name (`chain`, `first` or `keyframes`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum AnchorKind {
+    /// [`Anchor::Chain`]: the previous frame (the default).
+    Chain,
+    /// [`Anchor::First`]: the first frame.
+    First,
+    /// [`Anchor::KeyFrames`]: key frames every `key_every` frames.
+    KeyFrames,
+}
+
+impl AnchorKind {
+    /// The names `from_str` accepts, in the order of the variants.
+    pub const NAMES: [&'static str; 3] = ["chain", "first", "keyframes"];
+}
+
+impl std::str::FromStr for AnchorKind {
+    type Err = UnknownAnchor;
+    /// `chain`, `first` or `keyframes`, exactly.
+    fn from_str(name: &str) -> Result<AnchorKind, UnknownAnchor> {
+        match name {
+            "chain" => Ok(AnchorKind::Chain),
+            "first" => Ok(AnchorKind::First),
+            "keyframes" => Ok(AnchorKind::KeyFrames),
+            other => Err(UnknownAnchor(other.to_string())),
+        }
+    }
+}
+
+/// An anchor name that is none of [`AnchorKind::NAMES`] (the text given).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("unknown anchor `{0}` (use chain, first or keyframes)")]
+pub struct UnknownAnchor(pub String);
 
 /// How a sequence is tracked: `None` without `track`; with it, `anchor` (`chain`, the default,
 /// `first` or `keyframes`, which needs `key_every >= 1`).
 pub fn choose_anchor(
     track: bool,
-    anchor: Option<&str>,
+    anchor: Option<AnchorKind>,
     key_every: Option<usize>,
 ) -> Result<Option<Anchor>, AnchorChoiceError> {
     if !track {
@@ -186,14 +221,13 @@ pub fn choose_anchor(
             Ok(None)
         };
     }
-    match (anchor.unwrap_or("chain"), key_every) {
-        ("chain", None) => Ok(Some(Anchor::Chain)),
-        ("first", None) => Ok(Some(Anchor::First)),
-        ("keyframes", Some(n)) if n >= 1 => Ok(Some(Anchor::KeyFrames(n))),
-        ("keyframes", Some(_)) => Err(AnchorChoiceError::KeyEveryZero),
-        ("keyframes", None) => Err(AnchorChoiceError::NoKeyEvery),
-        ("chain" | "first", Some(_)) => Err(AnchorChoiceError::KeyEveryWithout),
-        (other, _) => Err(AnchorChoiceError::Unknown(other.to_string())),
+    match (anchor.unwrap_or(AnchorKind::Chain), key_every) {
+        (AnchorKind::Chain, None) => Ok(Some(Anchor::Chain)),
+        (AnchorKind::First, None) => Ok(Some(Anchor::First)),
+        (AnchorKind::KeyFrames, Some(n)) if n >= 1 => Ok(Some(Anchor::KeyFrames(n))),
+        (AnchorKind::KeyFrames, Some(_)) => Err(AnchorChoiceError::KeyEveryZero),
+        (AnchorKind::KeyFrames, None) => Err(AnchorChoiceError::NoKeyEvery),
+        (AnchorKind::Chain | AnchorKind::First, Some(_)) => Err(AnchorChoiceError::KeyEveryWithout),
     }
 }
 
@@ -360,21 +394,22 @@ mod tests {
 
     #[test]
     fn anchors_are_chosen_as_the_command_line_spells_them() {
+        let kind = |name: &str| Some(name.parse::<AnchorKind>().unwrap());
         assert_eq!(choose_anchor(false, None, None), Ok(None));
         assert_eq!(choose_anchor(true, None, None), Ok(Some(Anchor::Chain)));
-        assert_eq!(choose_anchor(true, Some("first"), None), Ok(Some(Anchor::First)));
-        assert_eq!(choose_anchor(true, Some("keyframes"), Some(3)), Ok(Some(Anchor::KeyFrames(3))));
-        assert_eq!(choose_anchor(false, Some("first"), None), Err(AnchorChoiceError::NoTrack));
+        assert_eq!(choose_anchor(true, kind("first"), None), Ok(Some(Anchor::First)));
+        assert_eq!(choose_anchor(true, kind("keyframes"), Some(3)), Ok(Some(Anchor::KeyFrames(3))));
+        assert_eq!(choose_anchor(false, kind("first"), None), Err(AnchorChoiceError::NoTrack));
         assert_eq!(
-            choose_anchor(true, Some("keyframes"), Some(0)),
+            choose_anchor(true, kind("keyframes"), Some(0)),
             Err(AnchorChoiceError::KeyEveryZero)
         );
         assert_eq!(
-            choose_anchor(true, Some("keyframes"), None),
+            choose_anchor(true, kind("keyframes"), None),
             Err(AnchorChoiceError::NoKeyEvery)
         );
         assert_eq!(choose_anchor(true, None, Some(2)), Err(AnchorChoiceError::KeyEveryWithout));
-        let e = choose_anchor(true, Some("middle"), None).unwrap_err();
+        let e = AnchorChoiceError::from("middle".parse::<AnchorKind>().unwrap_err());
         assert_eq!(
             e.to_string(),
             "--anchor: unknown anchor `middle` (use chain, first or keyframes)"
