@@ -8,7 +8,7 @@ use trimorph::jobs::fit::{FitJob, FitStart};
 use trimorph::jobs::model::{bind_model, warp_model, write_worm, BindOptions};
 use trimorph::jobs::spline::{build_mesh, edit_file, write_identity, EditLog, MeshSource};
 use trimorph::jobs::warp::{colormesh, warp_points, ImageInput, MeshInput};
-use trimorph::jobs::{read_deformation, JobError};
+use trimorph::jobs::{read_deformation, JobError, OptionError};
 use trimorph::mesh::{AdaptOptions, MeshOptions};
 use trimorph::warp::{Interp, WarpOptions};
 
@@ -113,7 +113,7 @@ fn image_points_mesh_and_field_through_the_identity() {
     assert!(jac[0].contains("min det J 1.0000; 0 of"), "{}", jac[0]);
     // Wrong file types are refused before anything is computed.
     let bad = FieldOptions { output: dir.path().join("f.txt"), ..Default::default() };
-    assert!(matches!(bad.check_paths(), Err(JobError::Options(_))));
+    assert!(matches!(bad.check_paths(), Err(JobError::Option(OptionError::OutputType { .. }))));
 }
 
 #[test]

@@ -2,6 +2,7 @@
 //! files (`trimorph bench bitgrowth`): `bitgrowth.csv` and one line plot `<id>.png` per
 //! experiment ([`crate::exact::bitgrowth`], [`crate::render::plot`]).
 
+use super::OptionError;
 use super::{JobError, JobResult};
 use crate::exact::bitgrowth::{experiments, run, to_csv, Point};
 use crate::exact::Simplification;
@@ -39,17 +40,14 @@ pub fn write_bitgrowth(
     log: &mut dyn FnMut(StudyLog) -> std::io::Result<()>,
 ) -> JobResult<()> {
     if trials == 0 {
-        return Err(JobError::Options("--trials must be at least 1".into()));
+        return Err(OptionError::OutOfRange { flag: "--trials", rule: "must be at least 1" }.into());
     }
     std::fs::create_dir_all(dir)
         .map_err(|e| JobError::context(format!("cannot create {}", dir.display()), e))?;
     let exps: Vec<_> =
         experiments(quick).into_iter().filter(|e| only.is_none_or(|o| e.id.contains(o))).collect();
     if exps.is_empty() {
-        return Err(JobError::Options(format!(
-            "no experiment id contains {:?}",
-            only.unwrap_or_default()
-        )));
+        return Err(OptionError::NoExperiment(only.unwrap_or_default().to_string()).into());
     }
     let mut log = |l: StudyLog| log(l).map_err(JobError::Output);
     let mut all: Vec<Point> = Vec::new();

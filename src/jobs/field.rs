@@ -4,6 +4,7 @@
 //! `displacements` store (`.zarr`, [`crate::io::ngff`]; one direction or a `bijection`
 //! holding both); and the Jacobian-determinant map as a PNG with its colour bar.
 
+use super::OptionError;
 use super::{ext_of, raster_fits, JobError, JobResult};
 use crate::io::itk::{self, displacement_transform, write_h5, FieldDirection};
 use crate::io::ngff;
@@ -32,22 +33,26 @@ impl FieldOptions {
     pub fn check_paths(&self) -> JobResult<()> {
         let (output, ext) = (&self.output, ext_of(&self.output));
         if !itk::is_h5_path(output) && !matches!(ext.as_str(), "npy" | "tif" | "tiff" | "zarr") {
-            return Err(JobError::Options(format!(
-                "{}: use a .npy or .tif output (or .h5 for an ITK transform, .zarr for an OME-Zarr store)",
-                output.display()
-            )));
+            return Err(OptionError::OutputType {
+                path: output.clone(),
+                expected: "use a .npy or .tif output (or .h5 for an ITK transform, .zarr for an OME-Zarr store)",
+            }
+            .into());
         }
         if self.both && ext != "zarr" {
-            return Err(JobError::Options(format!(
-                "{}: --both writes an NGFF bijection, which only an OME-Zarr (.zarr) store holds",
-                output.display()
-            )));
+            return Err(OptionError::OutputType {
+                path: output.clone(),
+                expected:
+                    "--both writes an NGFF bijection, which only an OME-Zarr (.zarr) store holds",
+            }
+            .into());
         }
         if let Some(jp) = self.jacobian.as_ref().filter(|jp| ext_of(jp) != "png") {
-            return Err(JobError::Options(format!(
-                "{}: the Jacobian map is a PNG picture; name it .png",
-                jp.display()
-            )));
+            return Err(OptionError::OutputType {
+                path: jp.clone(),
+                expected: "the Jacobian map is a PNG picture; name it .png",
+            }
+            .into());
         }
         Ok(())
     }
@@ -71,10 +76,11 @@ pub fn write_field(
 ) -> JobResult<Vec<String>> {
     opts.check_paths()?;
     if !raster_fits(w, h) {
-        return Err(JobError::Options(format!(
-            "{}: field size {w}x{h} is empty or too large (at most 10^8 pixels); give --size W,H",
-            deformation.display()
-        )));
+        return Err(OptionError::FieldSize {
+            deformation: deformation.to_path_buf(),
+            size: (w, h),
+        }
+        .into());
     }
     // Two f64 components per pixel, and their encoded copy.
     let field_bytes = crate::memory::bytes_of(w as u64 * h as u64, 2 * 8 * 2);
@@ -150,9 +156,7 @@ fn field_zarr(
     both: bool,
 ) -> JobResult<Vec<String>> {
     if both && other_way {
-        return Err(JobError::Options(
-            "--both writes both directions; leave out --inverse".to_string(),
-        ));
+        return Err(OptionError::BothWithInverse.into());
     }
     let forward = (both || other_way).then(|| wf::forward_field_f64(s, w, h));
     let inverse =

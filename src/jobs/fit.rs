@@ -8,6 +8,7 @@
 //!   into one folder ([`crate::render::sequence::FrameFiles`]) and the summary lines
 //!   returned.
 
+use super::OptionError;
 use super::{BoxError, JobError};
 use crate::fit::frame::{fit_frame, FrameFitOptions, FrameReport};
 use crate::fit::landmarks::{holdout, Landmark};
@@ -17,7 +18,7 @@ use crate::io::landmarks::read_landmarks_with_notes;
 use crate::io::{deformation, read_text, write_atomic};
 use crate::mesh::AdaptOptions;
 use crate::render::sequence::{SequenceInputs, SequenceInputsError};
-use crate::spline::check::{absurd_point, MAX_COORD};
+use crate::spline::check::absurd_point;
 use crate::spline::Spline;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -334,10 +335,7 @@ impl FitJob {
             FitStart::Deformation(d) => d,
             FitStart::Frame { size, adapt } => {
                 if self.pin.is_some() {
-                    return Err(JobError::Options(
-                        "--pin needs a deformation (DEF) whose control points it names".into(),
-                    )
-                    .into());
+                    return Err(JobError::from(OptionError::PinWithoutDeformation).into());
                 }
                 let (fitted, held) = self.read_split(warn)?;
                 let fopts = FrameFitOptions { mesh: adapt.clone(), degree: 5, fit: opts };
@@ -351,11 +349,7 @@ impl FitJob {
         // Far points (a file translated by 1e160, say) lose every digit of their position in
         // f64, so the fit's system is singular; that is the file's doing, not the landmarks'.
         if let Some(what) = absurd_point(&s) {
-            return Err(JobError::Options(format!(
-                "{}: {what}, beyond {MAX_COORD} pixels: the fit works in pixel coordinates; correct that point",
-                def.display()
-            ))
-            .into());
+            return Err(JobError::FarPoint { file: def.clone(), point: what }.into());
         }
         if let Some(pin) = &self.pin {
             opts.pinned = pinned(pin, &text, def)?;
@@ -366,14 +360,14 @@ impl FitJob {
         let in_file = |e: FitError| -> FitJobError {
             match e {
                 FitError::TooLarge { .. } => {
-                    JobError::Options(format!("{}: {e}", def.display())).into()
+                    JobError::TooLarge { deformation: def.clone(), source: e }.into()
                 }
                 // Options come from the command line, not from the landmark file: `--pin`
                 // names the deformation's control points.
                 FitError::Options(_) if self.pin.is_some() && e.to_string().contains("pinned") => {
-                    JobError::Options(format!("--pin: {}: {e}", def.display())).into()
+                    JobError::from(OptionError::Pin { deformation: def.clone(), source: e }).into()
                 }
-                FitError::Options(_) => JobError::Options(e.to_string()).into(),
+                FitError::Options(_) => JobError::from(OptionError::Fit(e)).into(),
                 e => in_landmarks(e),
             }
         };
@@ -403,10 +397,7 @@ impl FitJob {
             return Ok((lms, Vec::new()));
         }
         if k >= lms.len() {
-            return Err(JobError::Options(format!(
-                "--holdout {k}: only {} landmarks, at least one must be fitted",
-                lms.len()
-            )));
+            return Err(OptionError::Holdout { holdout: k, landmarks: lms.len() }.into());
         }
         holdout(&lms, k, self.seed).map_err(|e| JobError::context(e.to_string(), e))
     }
@@ -439,10 +430,7 @@ fn pinned(pin: &Pin, text: &str, def: &Path) -> Result<Vec<usize>, JobError> {
             let p = deformation::pinned_from_str(text)
                 .map_err(|e| JobError::context(format!("--pin edited: {}", def.display()), e))?;
             if p.is_empty() {
-                return Err(JobError::Options(format!(
-                    "--pin edited: {} records no corrected points (save it from the editor after an edit)",
-                    def.display()
-                )));
+                return Err(OptionError::NoEditedPoints { deformation: def.to_path_buf() }.into());
             }
             Ok(p)
         }

@@ -23,13 +23,15 @@ pub mod demo;
 pub mod field;
 pub mod fit;
 pub mod model;
+pub mod options;
 pub mod spline;
 pub mod warp;
 
 use crate::io::deformation::{self, DeformationError, LastEdit};
 use crate::io::IoError;
 use crate::spline::Spline;
-use std::path::Path;
+pub use options::OptionError;
+use std::path::{Path, PathBuf};
 
 /// A boxed error (the cause of a [`JobError::Context`]).
 pub type BoxError = Box<dyn std::error::Error + Send + Sync + 'static>;
@@ -39,8 +41,68 @@ pub type BoxError = Box<dyn std::error::Error + Send + Sync + 'static>;
 #[derive(Debug, thiserror::Error)]
 pub enum JobError {
     /// A bad option value or combination of options (the text names the option).
-    #[error("{0}")]
-    Options(String),
+    #[error(transparent)]
+    Option(#[from] OptionError),
+    /// A control point of the deformation file `file` lies beyond
+    /// [`MAX_COORD`](crate::spline::check::MAX_COORD) pixels, where `f64` keeps none of the
+    /// mesh's digits (`point` says which and where).
+    #[error(
+        "{}: {point}, beyond {} pixels: the fit works in pixel coordinates; correct that point",
+        file.display(),
+        crate::spline::check::MAX_COORD
+    )]
+    FarPoint {
+        /// The deformation file.
+        file: PathBuf,
+        /// The point and its position.
+        point: String,
+    },
+    /// The edits of the script `script` moved a control point beyond
+    /// [`MAX_COORD`](crate::spline::check::MAX_COORD) pixels (nothing is written).
+    #[error(
+        "{}: after the edits {point}, beyond {} pixels: refused (nothing written)",
+        script.display(),
+        crate::spline::check::MAX_COORD
+    )]
+    FarAfterEdits {
+        /// The edit script.
+        script: PathBuf,
+        /// The point and its position.
+        point: String,
+    },
+    /// The deformed mesh misses the image entirely: every output pixel would be background.
+    #[error(
+        "{}: the deformed mesh does not overlap the {}x{} image {} at all (every output pixel would be background); mesh coordinates are the image's pixels: use the deformation made for this image",
+        deformation.display(),
+        size.0,
+        size.1,
+        image.display()
+    )]
+    NoOverlap {
+        /// The deformation file.
+        deformation: PathBuf,
+        /// The image file.
+        image: PathBuf,
+        /// The image's size, `(w, h)`.
+        size: (u32, u32),
+    },
+    /// The fit is too large for the solver: the deformation's doing (its mesh and degree).
+    #[error("{}: {source}", deformation.display())]
+    TooLarge {
+        /// The deformation file.
+        deformation: PathBuf,
+        /// The fit's refusal ([`FitError::TooLarge`](crate::fit::solve::FitError::TooLarge)).
+        #[source]
+        source: crate::fit::solve::FitError,
+    },
+    /// A scene file's up axis is not `x`, `y` or `z`.
+    #[error("{}: {reason}", scene.display())]
+    SceneUp {
+        /// The scene file.
+        scene: PathBuf,
+        /// What is wrong with its key.
+        reason: String,
+    },
     /// A failure about one input or output: `context` names it (and what was being done);
     /// `source` is the cause.
     #[error("{context}")]

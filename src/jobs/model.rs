@@ -7,6 +7,7 @@
 //! * [`render_model`]: the top or oblique view of a deformed model;
 //! * [`write_worm`]: the bundled organism-like model, its landmarks and a reference mesh.
 
+use super::OptionError;
 use super::{read_deformation, JobError, JobResult};
 use crate::exact::{parse_rat, rat_to_f64, Rat};
 use crate::io::model::{load_model_up, save_landmarks, save_model, save_model_up, UpAxis};
@@ -115,9 +116,11 @@ pub fn load_model(path: &Path, up: UpAxis) -> JobResult<Model> {
 pub fn bind_model(o: &BindOptions) -> JobResult<BindReport> {
     let grid = o.snap.unwrap_or(16);
     if !(1..=MAX_SNAP).contains(&grid) {
-        return Err(JobError::Options(
-            "--snap must be between 1 and 1048576 (grid steps per unit)".into(),
-        ));
+        return Err(OptionError::OutOfRange {
+            flag: "--snap",
+            rule: "must be between 1 and 1048576 (grid steps per unit)",
+        }
+        .into());
     }
     let model = load_model(&o.model, o.up)?;
     let (mesh, range) = match (&o.mesh, o.auto) {
@@ -144,33 +147,35 @@ pub fn bind_model(o: &BindOptions) -> JobResult<BindReport> {
                     Some((c.trim().parse::<usize>().ok()?, r.trim().parse::<usize>().ok()?))
                 })
                 .filter(|&(c, r)| c >= 1 && r >= 1 && c.checked_mul(r).is_some_and(|n| n <= 10_000))
-                .ok_or_else(|| JobError::Options("--grid: expected COLSxROWS, e.g. 4x2".into()))?;
+                .ok_or(OptionError::Malformed {
+                    flag: "--grid",
+                    expected: "COLSxROWS, e.g. 4x2",
+                })?;
             if !(o.margin >= 0.0 && o.margin <= 10.0) {
-                return Err(JobError::Options(
-                    "--margin is a fraction of the model's size, between 0 and 10".into(),
-                ));
+                return Err(OptionError::OutOfRange {
+                    flag: "--margin",
+                    rule: "is a fraction of the model's size, between 0 and 10",
+                }
+                .into());
             }
             let (m, ab) = auto_mesh_on(&model, c, r, o.margin, MeshOptions { grid })
                 .map_err(|e| JobError::context(o.model.display().to_string(), e))?;
             (m, Some(ab))
         }
-        _ => return Err(JobError::Options("give exactly one of --mesh T.obj or --auto".into())),
+        _ => return Err(OptionError::MeshOrAuto.into()),
     };
     let (lo, hi) = match (&o.range, range) {
         (Some(r), _) => {
             let (x, y) = r
                 .split_once(',')
-                .ok_or_else(|| JobError::Options("--range: expected A,B".into()))?;
-            let rat =
-                |t: &str| parse_rat(t).map_err(|e| JobError::Options(format!("--range: {e}")));
+                .ok_or(OptionError::Malformed { flag: "--range", expected: "A,B" })?;
+            let rat = |t: &str| {
+                parse_rat(t).map_err(|source| OptionError::Value { flag: "--range", source })
+            };
             (rat(x)?, rat(y)?)
         }
         (None, Some([x, y])) => (snap_to(x, grid, false), snap_to(y, grid, true)),
-        (None, None) => {
-            return Err(JobError::Options(
-                "the reference mesh has no z = b > 0 on its vertices: give --range A,B".into(),
-            ))
-        }
+        (None, None) => return Err(OptionError::NoRange.into()),
     };
     let mut s = Spline::identity(mesh, o.degree)?;
     let z = identity_layers(&s, lo, hi)?;

@@ -6,6 +6,7 @@
 //!   exactly, coordinates within [`MAX_COORD`], the det J certificate) and written;
 //! * [`render_file`]: the picture of a deformation.
 
+use super::OptionError;
 use super::{read_deformation, JobError, JobResult};
 use crate::edit::script::{self, OpReport, Script, ScriptError};
 use crate::edit::Editor;
@@ -14,7 +15,7 @@ use crate::io::deformation::{self, LastEdit};
 use crate::io::points::read_points;
 use crate::io::{read_text, write_atomic};
 use crate::mesh::{AdaptOptions, Mesh, MeshOptions};
-use crate::spline::check::{absurd_point, MAX_COORD};
+use crate::spline::check::absurd_point;
 use crate::spline::jacobian::{certify, CertifyOptions, DetJ};
 use crate::spline::{Spline, ZLayers};
 use std::path::{Path, PathBuf};
@@ -261,7 +262,8 @@ pub fn edit_file(
     log: &mut dyn FnMut(EditLog) -> std::io::Result<()>,
 ) -> Result<EditReport, EditFileError> {
     if bounded.is_some_and(|b| !(8..=62).contains(&b)) {
-        return Err(JobError::Options("--bounded-bits must be between 8 and 62".into()).into());
+        let rule = "must be between 8 and 62";
+        return Err(JobError::from(OptionError::OutOfRange { flag: "--bounded-bits", rule }).into());
     }
     let (spline, _) = read_deformation(def)?;
     let extras =
@@ -294,11 +296,7 @@ pub fn edit_file(
         .map_err(|e| JobError::context("internal error: the edit broke C1", e))?;
     // The editor's bound on coordinates (`trimorph editor` refuses the same with 422).
     if let Some(what) = absurd_point(ed.spline()) {
-        return Err(JobError::Options(format!(
-            "{}: after the edits {what}, beyond {MAX_COORD} pixels: refused (nothing written)",
-            script.display()
-        ))
-        .into());
+        return Err(JobError::FarAfterEdits { script: script.to_path_buf(), point: what }.into());
     }
     write_atomic(
         output,

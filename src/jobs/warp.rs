@@ -7,6 +7,7 @@
 //! * points (CSV): forward `p -> phi(p)` or inverse `q -> phi^-1(q)` ([`warp_points`]);
 //! * an image as a fine colored triangle mesh ([`colormesh`]).
 
+use super::OptionError;
 use super::{raster_fits, JobError, JobResult};
 use crate::io::ngff::{self, NgffImage, SampleType};
 use crate::io::points::{optional_points_csv, read_optional_points};
@@ -96,11 +97,11 @@ impl ImageInput {
         let (warped, warp) = warp_pages(s, pages, opts, &|n| progress(n * pages.len() as u64))?;
         let warp_ms = t_warp.elapsed().as_secs_f64() * 1e3;
         if warp.pixels > 0 && warp.outside == warp.pixels {
-            return Err(JobError::Options(format!(
-                "{}: the deformed mesh does not overlap the {w}x{h} image {} at all (every output pixel would be background); mesh coordinates are the image's pixels: use the deformation made for this image",
-                deformation.display(),
-                self.path.display()
-            )));
+            return Err(JobError::NoOverlap {
+                deformation: deformation.to_path_buf(),
+                image: self.path.clone(),
+                size: (w, h),
+            });
         }
         let out_stack = Stack { pages: warped, gray_float: self.stack.gray_float };
         let t_encode = Instant::now();
@@ -127,10 +128,11 @@ pub fn write_image_output(path: &Path, stack: &Stack, like: Option<&NgffImage>) 
         return Ok(());
     }
     let Some(like) = like else {
-        return Err(JobError::Options(format!(
-            "{}: an OME-Zarr output copies the axes and metadata of an OME-Zarr input; give --image IN.zarr, or write .tif",
-            path.display()
-        )));
+        return Err(OptionError::OutputType {
+            path: path.to_path_buf(),
+            expected: "an OME-Zarr output copies the axes and metadata of an OME-Zarr input; give --image IN.zarr, or write .tif",
+        }
+        .into());
     };
     ngff::write_image(path, like, &stack.pages)?;
     Ok(())
@@ -273,7 +275,7 @@ impl MeshInput {
                 let (w, h) = match size {
                     Some((w, h)) => {
                         if !raster_fits(w, h) {
-                            return Err(JobError::Options(format!("--size {w},{h}: each side must be positive and the area at most 10^8 pixels")));
+                            return Err(OptionError::PictureSize { size: (w, h) }.into());
                         }
                         (w, h)
                     }
@@ -293,11 +295,7 @@ impl MeshInput {
                         let g = v.round() as u8;
                         Some([g, g, g, 255])
                     }
-                    Some(v) => {
-                        return Err(JobError::Options(format!(
-                            "--background for a mesh picture is a gray level 0..255, not {v}"
-                        )))
-                    }
+                    Some(v) => return Err(OptionError::MeshBackground(v).into()),
                 };
                 let pix = crate::render::colormesh::rasterize(moved, w, h, bg)?;
                 crate::render::deformation::save_png(&pix, output)?;
@@ -315,10 +313,11 @@ impl MeshInput {
                     output.display()
                 ))
             }
-            _ => Err(JobError::Options(format!(
-                "{}: a warped mesh is saved as .obj or .ply, or drawn as .png",
-                output.display()
-            ))),
+            _ => Err(OptionError::OutputType {
+                path: output.to_path_buf(),
+                expected: "a warped mesh is saved as .obj or .ply, or drawn as .png",
+            }
+            .into()),
         }
     }
 }

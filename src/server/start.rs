@@ -73,7 +73,7 @@ pub fn initial_doc(a: &StartOptions, root: &Path) -> Result<Doc, StartError> {
             if model_path.is_none() {
                 model_path = key("model");
                 up = UpAxis::of_scene(&v)
-                    .map_err(|e| JobError::Options(format!("{}: {e}", d.display())))?;
+                    .map_err(|reason| JobError::SceneUp { scene: d.clone(), reason })?;
             }
             image_path = image_path.or_else(|| key("image"));
             pairs = super::doc::pairs::pairs_from_scene(&v, &d.display().to_string())?;
