@@ -22,7 +22,7 @@ fn bench(c: &mut Criterion) {
         let mut doc = Doc::new(s.clone(), &dir);
         doc.set_model("worm.obj".into(), model.clone()).unwrap();
         doc.set_frame("frame.png".into(), frame.clone()).unwrap();
-        let p = doc.editor().nearest_points(&[[255.5, 255.5]])[0];
+        let p = doc.editor().nearest_points(&[[255.5, 255.5]])[0].index();
         let sel = json!({"anchors": [p], "radius": radius}).to_string();
         let r = handle(&mut doc, "POST", "/api/select", sel.as_bytes());
         assert_eq!(r.status, 200);

@@ -37,7 +37,7 @@ pub mod select;
 
 use crate::ecles::{ConstraintSystem, EclesError, InitOptions, Session};
 use crate::exact::{rat_from_f64, rat_to_f64, Int, Rat};
-use crate::spline::Spline;
+use crate::spline::{ControlPoint, Spline};
 use extra::{axis_system, Extra};
 use global::GlobalSolve;
 use num_traits::{One, Zero};
@@ -398,7 +398,7 @@ impl Editor {
 
     /// The control points nearest to the given positions in the *deformed* plane (the
     /// current control points), one per position.
-    pub fn nearest_points(&self, pos: &[[f64; 2]]) -> Vec<usize> {
+    pub fn nearest_points(&self, pos: &[[f64; 2]]) -> Vec<ControlPoint> {
         pos.iter()
             .map(|p| {
                 (0..self.spline.num_points())
@@ -408,6 +408,7 @@ impl Editor {
                         let db = (qb[0] - p[0]).powi(2) + (qb[1] - p[1]).powi(2);
                         da.total_cmp(&db)
                     })
+                    .map(ControlPoint)
                     .expect("a spline has control points")
             })
             .collect()

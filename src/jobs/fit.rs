@@ -19,7 +19,7 @@ use crate::io::{deformation, read_text, write_atomic};
 use crate::mesh::AdaptOptions;
 use crate::render::sequence::{SequenceInputs, SequenceInputsError};
 use crate::spline::check::absurd_point;
-use crate::spline::Spline;
+use crate::spline::{ControlPoint, Spline};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -247,7 +247,7 @@ pub enum Pin {
     /// `"pinned"` key).
     Edited,
     /// These control points.
-    Points(Vec<usize>),
+    Points(Vec<ControlPoint>),
 }
 
 impl std::str::FromStr for Pin {
@@ -258,7 +258,12 @@ impl std::str::FromStr for Pin {
             return Ok(Pin::Edited);
         }
         list.split(',')
-            .map(|t| t.trim().parse::<usize>().map_err(|_| PinError(t.trim().to_string())))
+            .map(|t| {
+                t.trim()
+                    .parse::<usize>()
+                    .map(ControlPoint)
+                    .map_err(|_| PinError(t.trim().to_string()))
+            })
             .collect::<Result<_, _>>()
             .map(Pin::Points)
     }
@@ -425,7 +430,7 @@ impl FitJob {
 /// The control points `pin` names (`edited`: the file's recorded corrections).
 fn pinned(pin: &Pin, text: &str, def: &Path) -> Result<Vec<usize>, JobError> {
     match pin {
-        Pin::Points(p) => Ok(p.clone()),
+        Pin::Points(p) => Ok(p.iter().map(|c| c.index()).collect()),
         Pin::Edited => {
             let p = deformation::pinned_from_str(text)
                 .map_err(|e| JobError::context(format!("--pin edited: {}", def.display()), e))?;

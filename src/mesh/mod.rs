@@ -6,6 +6,14 @@
 //! computational methods for modeling and editing deformations*), ch. 13 (data structure) and
 //! section 18.2 (reference mesh input).
 //!
+//! # Indices
+//!
+//! Vertices are named by their index in [`Mesh::vertices`], triangles by their index in
+//! [`Mesh::triangles`] and edges by their index in the edge list ([`Mesh::triangle_edges`]).
+//! None of them is a spline control point index
+//! ([`ControlPoint`](crate::spline::ControlPoint)), which numbers the Bezier control points of
+//! a spline over this mesh.
+//!
 //! # Units
 //!
 //! Mesh coordinates are in the same units as the input (for images: pixels). Nothing is

@@ -304,7 +304,7 @@ fn route(
             let b = parse()?;
             let p = [num(&b, "x")?, num(&b, "y")?];
             let max = b.get("max_dist").and_then(Value::as_f64).unwrap_or(f64::INFINITY);
-            let i = doc.editor().nearest_points(&[p])[0];
+            let i = doc.editor().nearest_points(&[p])[0].index();
             let q = doc.spline().point_f64(i);
             if (q[0] - p[0]).hypot(q[1] - p[1]) > max {
                 return Ok(Json(json!({ "index": null })));

@@ -13,6 +13,14 @@
 //!
 //! 2.5D deformations (thesis Part III) add two scalar splines `sigma0`, `sigma1` on the same
 //! layout ([`ZLayers`]); they obey the same C1 conditions with one coordinate.
+//!
+//! # Indices
+//!
+//! A control point is named by its index in [`Spline::points`] ([`ControlPoint`] where a
+//! public entry point takes or returns one: edit anchors, pinned points, picking). It is not
+//! a mesh vertex index ([`crate::mesh`]): a spline of degree `d` over `V` vertices and `T`
+//! triangles has about `V + (d - 1) E + T (d - 1)(d - 2) / 2` control points, and the
+//! control point at a vertex generally has another index than the vertex.
 
 mod affine;
 pub mod c1;
@@ -103,6 +111,41 @@ pub enum SplineError {
         /// y.
         y: f64,
     },
+}
+
+/// The index of a control point of a [`Spline`] (its position in [`Spline::points`] and in
+/// every per-point array: edit anchors, pinned points, the `"points"` of a deformation file).
+/// Not a mesh vertex index; see the module docs.
+#[derive(
+    Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize, serde::Deserialize,
+)]
+#[serde(transparent)]
+pub struct ControlPoint(pub usize);
+
+impl ControlPoint {
+    /// The index as a `usize`.
+    pub fn index(self) -> usize {
+        self.0
+    }
+}
+
+impl From<usize> for ControlPoint {
+    fn from(i: usize) -> ControlPoint {
+        ControlPoint(i)
+    }
+}
+
+impl From<ControlPoint> for usize {
+    fn from(c: ControlPoint) -> usize {
+        c.0
+    }
+}
+
+impl std::fmt::Display for ControlPoint {
+    /// The index, as the command line and reports write it.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        self.0.fmt(f)
+    }
 }
 
 /// A spline deformation of the plane; see the module docs.

@@ -39,6 +39,7 @@ use super::select::Neighborhood;
 use super::{exact, EditError, Editor, LastEdit, Mode};
 use crate::ecles::EclesError;
 use crate::exact::Rat;
+use crate::spline::ControlPoint;
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
@@ -59,7 +60,8 @@ impl Anchors {
         match self {
             Anchors::Points(p) => p.clone(),
             Anchors::Near(pos) => {
-                let mut idx = ed.nearest_points(pos);
+                let mut idx: Vec<usize> =
+                    ed.nearest_points(pos).into_iter().map(ControlPoint::index).collect();
                 idx.dedup();
                 idx
             }

@@ -16,7 +16,7 @@ fn editor() -> Editor {
 
 /// A point in the middle of the grid (an interior vertex).
 fn centre(ed: &Editor) -> usize {
-    ed.nearest_points(&[[4.0, 4.0]])[0]
+    ed.nearest_points(&[[4.0, 4.0]])[0].index()
 }
 
 fn parse_err(v: Value) -> String {
