@@ -97,12 +97,15 @@ pub(super) struct BadValue {
     reason: BoxError,
 }
 
+/// What a [`TextParser`] calls.
+type ParseFn<T> = dyn Fn(&str) -> Result<T, BoxError> + Send + Sync;
+
 /// A clap value parser from a function of the text (usually a library type's `FromStr`):
 /// the typed value reaches the command, and a refused value is a [`BadValue`] naming the
 /// option. Choices list their names in `--help` (`[possible values: ...]`).
 #[derive(Clone)]
 pub(super) struct TextParser<T> {
-    parse: std::sync::Arc<dyn Fn(&str) -> Result<T, BoxError> + Send + Sync>,
+    parse: std::sync::Arc<ParseFn<T>>,
     names: &'static [&'static str],
 }
 
