@@ -46,29 +46,20 @@ pub(super) trait Family<T> {
 /// `family!(Name, T, kernel)`: a unit struct `Name` whose [`Family::run`] is
 /// `kernel::<NC>` (a function taking `scalar` as `impl Fn(&[f64; 2], &mut [T])`);
 /// `family!(Name, T, kernel, gray)`: the same for a one-channel kernel taking `scalar` as
-/// `impl Fn(&[f64; 2]) -> T`.
+/// `impl Fn(&[f64; 2]) -> T` (through [`one_channel`]).
 macro_rules! family {
     ($name:ident, $t:ty, $kernel:ident, gray) => {
-        struct $name;
-        impl $crate::warp::simd_harness::Family<$t> for $name {
-            fn run<const NC: usize>(
-                data: &[$t],
-                w: usize,
-                h: usize,
-                pos: &[[f64; 2]],
-                out: &mut [$t],
-                scalar: &dyn Fn(&[f64; 2], &mut [$t]),
-            ) -> bool {
-                assert_eq!(NC, 1, "a gray kernel");
-                $kernel(data, w, h, pos, out, |p: &[f64; 2]| {
-                    let mut px = [<$t>::default()];
-                    scalar(p, &mut px);
-                    px[0]
-                })
-            }
-        }
+        $crate::warp::simd_harness::family!(
+            $name,
+            $t,
+            $kernel,
+            $crate::warp::simd_harness::one_channel
+        );
     };
     ($name:ident, $t:ty, $kernel:ident) => {
+        $crate::warp::simd_harness::family!($name, $t, $kernel::<NC>, std::convert::identity);
+    };
+    ($name:ident, $t:ty, $kernel:expr, $wrap:path) => {
         struct $name;
         impl $crate::warp::simd_harness::Family<$t> for $name {
             fn run<const NC: usize>(
@@ -79,12 +70,23 @@ macro_rules! family {
                 out: &mut [$t],
                 scalar: &dyn Fn(&[f64; 2], &mut [$t]),
             ) -> bool {
-                $kernel::<NC>(data, w, h, pos, out, scalar)
+                $kernel(data, w, h, pos, out, $wrap(scalar))
             }
         }
     };
 }
 pub(super) use family;
+
+/// A one-channel `scalar(p, px)` as `scalar(p) -> T` (for the gray kernels).
+pub(super) fn one_channel<T: Texel>(
+    scalar: &dyn Fn(&[f64; 2], &mut [T]),
+) -> impl Fn(&[f64; 2]) -> T + '_ {
+    move |p| {
+        let mut px = [T::from_f32(0.0)];
+        scalar(p, &mut px);
+        px[0]
+    }
+}
 
 /// `bit_identity_proptest!(name, T, Family, interp, [NC, ...], doc)`: a proptest `name`
 /// running [`random_image`] on 64 random images (1 to 39 pixels a side, every kind of
