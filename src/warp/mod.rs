@@ -36,6 +36,7 @@ pub mod sample;
 mod sample_simd;
 mod sample_simd_color;
 mod sample_simd_color16;
+mod sample_simd_cubic;
 mod sample_simd_float;
 #[cfg(test)]
 mod simd_harness;

@@ -14,7 +14,10 @@
 //! closure of [`fill_pixels`], which also does the positions the vector paths leave:
 //! `NaN`, borders, tails). Nearest and bicubic use the scalar path.
 
-use super::{sample_simd, sample_simd_color, sample_simd_color16, sample_simd_float, Interp};
+use super::{
+    sample_simd, sample_simd_color, sample_simd_color16, sample_simd_cubic, sample_simd_float,
+    Interp,
+};
 
 /// A channel value: `u8`, `u16` or `f32`.
 pub trait Texel: Copy + Send + Sync + 'static {
@@ -321,12 +324,36 @@ pub fn fill_pixels<T: Texel, const NC: usize>(
                 pixel(px, p);
             }
         }
-        other => {
+        Interp::Bicubic => {
+            let pixel = |px: &mut [T], p: &[f64; 2]| {
+                if p[0].is_nan() {
+                    outside(px);
+                } else {
+                    src.sample_into(*p, Interp::Bicubic, px);
+                }
+            };
+            if let (Some(d8), Some(o8)) = (T::as_bytes(d), T::as_bytes_mut(out)) {
+                let one = |p: &[f64; 2], dst: &mut [u8]| {
+                    let mut px = [T::from_f32(0.0); NC];
+                    pixel(&mut px, p);
+                    if let Some(b) = T::as_bytes(&px) {
+                        dst.copy_from_slice(b);
+                    }
+                };
+                if sample_simd_cubic::bicubic8::<NC>(d8, w, h, pos, o8, one) {
+                    return;
+                }
+            }
+            for (px, p) in out.chunks_exact_mut(NC).zip(pos) {
+                pixel(px, p);
+            }
+        }
+        Interp::Nearest => {
             for (px, p) in out.chunks_exact_mut(NC).zip(pos) {
                 if p[0].is_nan() {
                     outside(px);
                 } else {
-                    src.sample_into(*p, other, px);
+                    src.sample_into(*p, Interp::Nearest, px);
                 }
             }
         }
