@@ -12,7 +12,16 @@
 //! alpha, RGB and RGBA (`sample_simd_color16`) and `f32` with 1 to 4 channels
 //! (`sample_simd_float`), each bit-identical to the scalar arithmetic here (the `pixel`
 //! closure of [`fill_pixels`], which also does the positions the vector paths leave:
-//! `NaN`, borders, tails). Nearest and bicubic use the scalar path.
+//! `NaN`, borders, tails).
+//!
+//! Bicubic resampling of 8-bit images (gray, gray + alpha, RGB, RGBA) takes an AVX2 path
+//! too (`sample_simd_cubic`: Keys' weights, the sixteen taps per channel and the clamp to
+//! the 2x2 range in the same `f32` operations and order as [`Source::sample_into`], for
+//! positions whose 4x4 neighbourhood lies inside the image); 16-bit and `f32` bicubic use
+//! the scalar path. Nearest keeps the scalar path: it does no arithmetic on the samples (a
+//! rounding, a clamp and a copy of `NC` samples per pixel), so a vector path could only
+//! replace the index arithmetic with gathers of the same loads, which is unlikely to pay
+//! (not measured).
 
 use super::{
     sample_simd, sample_simd_color, sample_simd_color16, sample_simd_cubic, sample_simd_float,

@@ -3,7 +3,9 @@
 //! The 16-bit path ([`bilinear_gray16`]) is the same arithmetic with 16-bit taps and the
 //! clamp at 65535; its tap layout is in its docs. Gray + alpha and colour images:
 //! [`super::sample_simd_color`] (8-bit), [`super::sample_simd_color16`] (16-bit); `f32`
-//! images: [`super::sample_simd_float`]. The lane helpers they share ([`avx2::lanes8`],
+//! images: [`super::sample_simd_float`]; bicubic (8-bit, 1 to 4 channels):
+//! [`super::sample_simd_cubic`]. Their tests share `simd_harness`. The lane
+//! helpers they share ([`avx2::lanes8`],
 //! [`avx2::lanes4`], [`avx2::bilerp`], [`avx2::round_clamp`]) are in this module.
 //!
 //! The scalar path ([`super::sample::fill_pixels`]) computes, for a position `(x, y)` with
