@@ -14,6 +14,8 @@
 //!   small rotation, for every sample type and channel count (the vector paths of
 //!   `sample_simd*`; f32 gray and gray + alpha are reachable only through
 //!   `warp_samples_into` and tiles).
+//! * `resample_1024_u8x{1,2,3,4}_bicubic`: the same, bicubic (the AVX2 kernels of
+//!   `sample_simd_cubic`).
 //! * `warp_2048_gray8_bent` and `warp_2048_gray8_mild`: the strongly bent map of
 //!   `tests/data/warp_bent_2048.json` (60 landmarks, displacements up to 40 px) against a mild
 //!   one; target: bent within 2x of mild (issue 18).
@@ -226,9 +228,9 @@ fn by_type_and_hard_maps(c: &mut Criterion) {
     resample_by_type(c);
 }
 
-/// Bilinear resampling alone, every sample type and channel count: a 1024 x 1024 image at
-/// the positions of a 2-degree rotation about its centre (a few pixels near the corners
-/// fall outside and take the scalar path, as in a warp).
+/// Bilinear resampling alone, every sample type and channel count, and bicubic for 8-bit
+/// samples: a 1024 x 1024 image at the positions of a 2-degree rotation about its centre
+/// (a few pixels near the corners fall outside and take the scalar path, as in a warp).
 fn resample_by_type(c: &mut Criterion) {
     let n = 1024usize;
     let (s, co) = (2f64.to_radians().sin(), 2f64.to_radians().cos());
@@ -249,12 +251,14 @@ fn resample_by_type(c: &mut Criterion) {
         data: &[T],
         n: usize,
         pos: &[[f64; 2]],
+        interp: Interp,
     ) {
         let src = Source { data, w: n, h: n, nc: NC };
         let mut out = vec![T::from_f32(0.0); NC * pos.len()];
-        g.bench_function(format!("resample_{n}_{name}x{NC}"), |b| {
+        let suffix = if interp == Interp::Bicubic { "_bicubic" } else { "" };
+        g.bench_function(format!("resample_{n}_{name}x{NC}{suffix}"), |b| {
             b.iter(|| {
-                fill_pixels::<T, NC>(&src, pos, &mut out, Interp::Bilinear, 0.0);
+                fill_pixels::<T, NC>(&src, pos, &mut out, interp, 0.0);
                 black_box(&out);
             })
         });
@@ -262,18 +266,21 @@ fn resample_by_type(c: &mut Criterion) {
     let u8s: Vec<u8> = (0..4 * n * n).map(|k| v(k) as u8).collect();
     let u16s: Vec<u16> = (0..4 * n * n).map(|k| v(k) as u16 * 257).collect();
     let f32s: Vec<f32> = (0..4 * n * n).map(|k| v(k) / 255.0).collect();
-    one::<u8, 1>(&mut g, "u8", &u8s[..n * n], n, &pos);
-    one::<u8, 2>(&mut g, "u8", &u8s[..2 * n * n], n, &pos);
-    one::<u8, 3>(&mut g, "u8", &u8s[..3 * n * n], n, &pos);
-    one::<u8, 4>(&mut g, "u8", &u8s, n, &pos);
-    one::<u16, 1>(&mut g, "u16", &u16s[..n * n], n, &pos);
-    one::<u16, 2>(&mut g, "u16", &u16s[..2 * n * n], n, &pos);
-    one::<u16, 3>(&mut g, "u16", &u16s[..3 * n * n], n, &pos);
-    one::<u16, 4>(&mut g, "u16", &u16s, n, &pos);
-    one::<f32, 1>(&mut g, "f32", &f32s[..n * n], n, &pos);
-    one::<f32, 2>(&mut g, "f32", &f32s[..2 * n * n], n, &pos);
-    one::<f32, 3>(&mut g, "f32", &f32s[..3 * n * n], n, &pos);
-    one::<f32, 4>(&mut g, "f32", &f32s, n, &pos);
+    for interp in [Interp::Bilinear, Interp::Bicubic] {
+        one::<u8, 1>(&mut g, "u8", &u8s[..n * n], n, &pos, interp);
+        one::<u8, 2>(&mut g, "u8", &u8s[..2 * n * n], n, &pos, interp);
+        one::<u8, 3>(&mut g, "u8", &u8s[..3 * n * n], n, &pos, interp);
+        one::<u8, 4>(&mut g, "u8", &u8s, n, &pos, interp);
+    }
+    let lin = Interp::Bilinear;
+    one::<u16, 1>(&mut g, "u16", &u16s[..n * n], n, &pos, lin);
+    one::<u16, 2>(&mut g, "u16", &u16s[..2 * n * n], n, &pos, lin);
+    one::<u16, 3>(&mut g, "u16", &u16s[..3 * n * n], n, &pos, lin);
+    one::<u16, 4>(&mut g, "u16", &u16s, n, &pos, lin);
+    one::<f32, 1>(&mut g, "f32", &f32s[..n * n], n, &pos, lin);
+    one::<f32, 2>(&mut g, "f32", &f32s[..2 * n * n], n, &pos, lin);
+    one::<f32, 3>(&mut g, "f32", &f32s[..3 * n * n], n, &pos, lin);
+    one::<f32, 4>(&mut g, "f32", &f32s, n, &pos, lin);
     g.finish();
 }
 

@@ -36,7 +36,10 @@ pub mod sample;
 mod sample_simd;
 mod sample_simd_color;
 mod sample_simd_color16;
+mod sample_simd_cubic;
 mod sample_simd_float;
+#[cfg(test)]
+mod simd_harness;
 pub mod tiles;
 
 use crate::spline::Spline;

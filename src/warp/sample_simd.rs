@@ -3,7 +3,9 @@
 //! The 16-bit path ([`bilinear_gray16`]) is the same arithmetic with 16-bit taps and the
 //! clamp at 65535; its tap layout is in its docs. Gray + alpha and colour images:
 //! [`super::sample_simd_color`] (8-bit), [`super::sample_simd_color16`] (16-bit); `f32`
-//! images: [`super::sample_simd_float`]. The lane helpers they share ([`avx2::lanes8`],
+//! images: [`super::sample_simd_float`]; bicubic (8-bit, 1 to 4 channels):
+//! [`super::sample_simd_cubic`]. Their tests share `simd_harness`. The lane
+//! helpers they share ([`avx2::lanes8`],
 //! [`avx2::lanes4`], [`avx2::bilerp`], [`avx2::round_clamp`]) are in this module.
 //!
 //! The scalar path ([`super::sample::fill_pixels`]) computes, for a position `(x, y)` with
@@ -361,174 +363,52 @@ pub(super) mod avx2 {
 }
 
 #[cfg(test)]
-pub(super) mod tests {
+mod tests {
     use super::*;
-    use crate::warp::sample::Source;
-    use crate::warp::Interp;
-    use rand::rngs::SmallRng;
-    use rand::{Rng, SeedableRng};
-    use std::cell::Cell;
+    use crate::warp::simd_harness::{self as harness, bit_identity_proptest, family};
+    use crate::warp::Interp::Bilinear;
 
-    /// The scalar reference: `Source::sample_into` (bilinear), 7 outside.
-    fn reference(src: &Source<'_, u8>, p: &[f64; 2]) -> u8 {
-        if p[0].is_nan() {
-            return 7;
-        }
-        let mut o = [0u8];
-        src.sample_into(*p, Interp::Bilinear, &mut o);
-        o[0]
-    }
+    family!(Gray8, u8, bilinear_gray8, gray);
+    family!(Gray16, u16, bilinear_gray16, gray);
 
     #[test]
     fn vector_path_matches_the_scalar_path_bit_for_bit() {
-        let mut rng = SmallRng::seed_from_u64(5);
-        for (w, h) in [(37usize, 23usize), (2, 2), (1, 9), (64, 1), (300, 5)] {
-            let data: Vec<u8> = (0..w * h).map(|_| rng.gen()).collect();
-            let src = Source { data: &data, w, h, nc: 1 };
-            // Runs of 1 to 24 positions of one kind, so that many groups of eight are all
-            // inside (vector path) and others mix kinds (scalar path).
-            let mut pos = Vec::new();
-            while pos.len() < 4000 {
-                let (kind, run) = (rng.gen_range(0..10), rng.gen_range(1..25));
-                for _ in 0..run {
-                    pos.push(match kind {
-                        // Inside, near the right and bottom edges, on integer coordinates.
-                        0 => {
-                            [(w as f64 - 1.0) * rng.gen::<f64>(), h as f64 - 1.0 - rng.gen::<f64>()]
-                        }
-                        1 => [(w - 1) as f64, rng.gen_range(0.0..h as f64)],
-                        2 => [rng.gen_range(0..w) as f64, rng.gen_range(0..h) as f64],
-                        // Outside, NaN, huge.
-                        3 => [
-                            rng.gen_range(-3.0..w as f64 + 3.0),
-                            rng.gen_range(-3.0..h as f64 + 3.0),
-                        ],
-                        4 => [f64::NAN, f64::NAN],
-                        5 => [1e12 * rng.gen::<f64>() - 5e11, 0.5],
-                        _ => [(w - 1) as f64 * rng.gen::<f64>(), (h - 1) as f64 * rng.gen::<f64>()],
-                    });
-                }
-            }
-            // Every start and remainder length modulo 8.
-            for len in (0..=24).chain([pos.len() - 5]) {
-                for start in [0, 1, 5] {
-                    let ps = &pos[start..start + len];
-                    let mut out = vec![0u8; len];
-                    if !bilinear_gray8(&data, w, h, ps, &mut out, |p| reference(&src, p)) {
-                        return; // no vector path on this machine: nothing to compare
-                    }
-                    for (k, p) in ps.iter().enumerate() {
-                        assert_eq!(out[k], reference(&src, p), "{w}x{h} at {p:?}");
-                    }
-                }
-            }
-        }
-    }
-
-    /// The scalar reference for 16-bit gray: `Source::sample_into` (bilinear), 7 outside.
-    fn reference16(src: &Source<'_, u16>, p: &[f64; 2]) -> u16 {
-        if p[0].is_nan() {
-            return 7;
-        }
-        let mut o = [0u16];
-        src.sample_into(*p, Interp::Bilinear, &mut o);
-        o[0]
-    }
-
-    /// Positions for the bit-identity tests: runs of one kind (inside, on the right and
-    /// bottom edges, on integers, outside, NaN, huge), so that some groups of eight are all
-    /// inside and others mix kinds.
-    pub(in crate::warp) fn positions(
-        rng: &mut SmallRng,
-        w: usize,
-        h: usize,
-        n: usize,
-    ) -> Vec<[f64; 2]> {
-        let mut pos = Vec::new();
-        while pos.len() < n {
-            let (kind, run) = (rng.gen_range(0..10), rng.gen_range(1..25));
-            for _ in 0..run {
-                pos.push(match kind {
-                    0 => [(w as f64 - 1.0) * rng.gen::<f64>(), h as f64 - 1.0 - rng.gen::<f64>()],
-                    1 => [(w - 1) as f64, rng.gen_range(0.0..h as f64)],
-                    2 => [rng.gen_range(0..w) as f64, rng.gen_range(0..h) as f64],
-                    3 => [rng.gen_range(-3.0..w as f64 + 3.0), rng.gen_range(-3.0..h as f64 + 3.0)],
-                    4 => [f64::NAN, f64::NAN],
-                    5 => [1e12 * rng.gen::<f64>() - 5e11, 0.5],
-                    _ => [(w - 1) as f64 * rng.gen::<f64>(), (h - 1) as f64 * rng.gen::<f64>()],
-                });
-            }
-        }
-        pos.truncate(n);
-        pos
+        harness::sweep::<u8, Gray8>(Bilinear, &[1], 5, 2000);
     }
 
     #[test]
     fn gray16_vector_path_matches_the_scalar_path_bit_for_bit() {
-        let mut rng = SmallRng::seed_from_u64(16);
-        for (w, h) in [(37usize, 23usize), (2, 2), (1, 9), (64, 1), (300, 5)] {
-            let data: Vec<u16> = (0..w * h).map(|_| rng.gen()).collect();
-            let src = Source { data: &data, w, h, nc: 1 };
-            let pos = positions(&mut rng, w, h, 4000);
-            for len in (0..=24).chain([pos.len() - 5]) {
-                for start in [0, 1, 5] {
-                    let ps = &pos[start..start + len];
-                    let mut out = vec![0u16; len];
-                    if !bilinear_gray16(&data, w, h, ps, &mut out, |p| reference16(&src, p)) {
-                        return; // no vector path on this machine: nothing to compare
-                    }
-                    for (k, p) in ps.iter().enumerate() {
-                        assert_eq!(out[k], reference16(&src, p), "{w}x{h} at {p:?}");
-                    }
-                }
-            }
-        }
+        harness::sweep::<u16, Gray16>(Bilinear, &[1], 16, 2000);
     }
 
-    proptest::proptest! {
-        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
-        /// Random 16-bit images (extreme values included) and random positions.
-        #[test]
-        fn gray16_bit_identical_on_random_images(
-            w in 1usize..40, h in 1usize..40, seed in 0u64..1_000_000, extreme in 0u8..3,
-        ) {
-            let mut rng = SmallRng::seed_from_u64(seed);
-            let data: Vec<u16> = (0..w * h)
-                .map(|_| match extreme {
-                    0 => rng.gen(),
-                    1 => if rng.gen() { 0 } else { u16::MAX },
-                    _ => rng.gen_range(65000..=u16::MAX),
-                })
-                .collect();
-            let src = Source { data: &data, w, h, nc: 1 };
-            let pos = positions(&mut rng, w, h, 200);
-            let mut out = vec![0u16; pos.len()];
-            if bilinear_gray16(&data, w, h, &pos, &mut out, |p| reference16(&src, p)) {
-                for (k, p) in pos.iter().enumerate() {
-                    proptest::prop_assert_eq!(out[k], reference16(&src, p), "{}x{} at {:?}", w, h, p);
-                }
-            }
-        }
+    /// The last bytes (samples) read are the image's last (module docs).
+    #[test]
+    fn loads_at_the_bottom_right_cell_stay_inside_the_image() {
+        harness::bottom_right::<u8, Gray8>(Bilinear, &[1]);
+        harness::bottom_right::<u16, Gray16>(Bilinear, &[1]);
     }
 
     #[test]
     fn interior_groups_take_the_vector_path() {
-        let (w, h) = (16usize, 16usize);
-        let data: Vec<u8> = (0..w * h).map(|v| (v * 37 % 256) as u8).collect();
-        let src = Source { data: &data, w, h, nc: 1 };
-        let pos: Vec<[f64; 2]> =
-            (0..19).map(|k| [0.3 + 0.7 * k as f64, 14.9 - 0.6 * k as f64]).collect();
-        let mut out = vec![0u8; pos.len()];
-        let calls = Cell::new(0);
-        let scalar = |p: &[f64; 2]| {
-            calls.set(calls.get() + 1);
-            reference(&src, p)
-        };
-        if bilinear_gray8(&data, w, h, &pos, &mut out, scalar) {
-            assert_eq!(calls.get(), 3, "two groups of eight vectorized, a tail of three");
-        }
-        for (k, p) in pos.iter().enumerate() {
-            assert_eq!(out[k], reference(&src, p));
-        }
+        harness::assert_vectorized::<u8, Gray8>(Bilinear, &[1]);
+        harness::assert_vectorized::<u16, Gray16>(Bilinear, &[1]);
     }
+
+    bit_identity_proptest!(
+        gray16_bit_identical_on_random_images,
+        u16,
+        Gray16,
+        Bilinear,
+        [1],
+        "Random 16-bit images (extreme values included) and random positions."
+    );
+
+    bit_identity_proptest!(
+        gray8_bit_identical_on_random_images,
+        u8,
+        Gray8,
+        Bilinear,
+        [1],
+        "Random 8-bit images (extreme values included) and random positions."
+    );
 }

@@ -277,155 +277,45 @@ mod avx2 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::warp::sample::Source;
-    use crate::warp::sample_simd::tests::positions;
-    use crate::warp::Interp;
-    use rand::rngs::SmallRng;
-    use rand::{Rng, SeedableRng};
-    use std::cell::Cell;
+    use crate::warp::simd_harness::{self as harness, bit_identity_proptest, family};
+    use crate::warp::Interp::Bilinear;
 
-    /// The scalar reference: `Source::sample_into` (bilinear), 7 in every channel outside.
-    fn reference(src: &Source<'_, u8>, p: &[f64; 2], px: &mut [u8]) {
-        if p[0].is_nan() {
-            px.fill(7);
-        } else {
-            src.sample_into(*p, Interp::Bilinear, px);
-        }
-    }
-
-    fn check<const NC: usize>(data: &[u8], w: usize, h: usize, pos: &[[f64; 2]]) -> bool {
-        let src = Source { data, w, h, nc: NC };
-        let mut out = vec![0u8; NC * pos.len()];
-        if !bilinear_color8::<NC>(data, w, h, pos, &mut out, |p, px| reference(&src, p, px)) {
-            return false; // no vector path on this machine: nothing to compare
-        }
-        let mut want = [0u8; NC];
-        for (k, p) in pos.iter().enumerate() {
-            reference(&src, p, &mut want);
-            assert_eq!(out[NC * k..NC * k + NC], want, "NC {NC}, {w}x{h} at {p:?}");
-        }
-        true
-    }
+    family!(Color8, u8, bilinear_color8);
 
     #[test]
     fn rgb_and_rgba_vector_paths_match_the_scalar_path_bit_for_bit() {
-        let mut rng = SmallRng::seed_from_u64(34);
-        for (w, h) in [(37usize, 23usize), (2, 2), (1, 9), (64, 1), (300, 5), (3, 2)] {
-            let d3: Vec<u8> = (0..3 * w * h).map(|_| rng.gen()).collect();
-            let d4: Vec<u8> = (0..4 * w * h).map(|_| rng.gen()).collect();
-            let pos = positions(&mut rng, w, h, 4000);
-            // Every start and remainder length modulo 4.
-            for len in (0..=13).chain([pos.len() - 5]) {
-                for start in [0, 1, 3] {
-                    let ps = &pos[start..start + len];
-                    if !check::<3>(&d3, w, h, ps) || !check::<4>(&d4, w, h, ps) {
-                        return;
-                    }
-                }
-            }
-        }
+        harness::sweep::<u8, Color8>(Bilinear, &[3, 4], 34, 2000);
     }
 
     #[test]
     fn gray_alpha_vector_path_matches_the_scalar_path_bit_for_bit() {
-        let mut rng = SmallRng::seed_from_u64(28);
-        for (w, h) in [(37usize, 23usize), (2, 2), (1, 9), (64, 1), (300, 5), (3, 2)] {
-            let d2: Vec<u8> = (0..2 * w * h).map(|_| rng.gen()).collect();
-            let pos = positions(&mut rng, w, h, 4000);
-            // Every start and remainder length modulo 8.
-            for len in (0..=24).chain([pos.len() - 5]) {
-                for start in [0, 1, 5] {
-                    if !check::<2>(&d2, w, h, &pos[start..start + len]) {
-                        return;
-                    }
-                }
-            }
-        }
+        harness::sweep::<u8, Color8>(Bilinear, &[2], 28, 2000);
     }
 
-    /// The loads end exactly on the last byte of the image (module docs): an image in a
-    /// buffer of exactly `NC w h` bytes, sampled at its bottom-right interior cell.
+    /// The loads end exactly on the last byte of the image (module docs).
     #[test]
     fn loads_at_the_bottom_right_cell_stay_inside_the_image() {
-        for (w, h) in [(2usize, 2usize), (5, 3), (2, 7)] {
-            let d3: Vec<u8> = (0..3 * w * h).map(|v| (v * 29 % 256) as u8).collect();
-            let d4: Vec<u8> = (0..4 * w * h).map(|v| (v * 31 % 256) as u8).collect();
-            let d2: Vec<u8> = (0..2 * w * h).map(|v| (v * 23 % 256) as u8).collect();
-            let p = [(w - 2) as f64 + 0.75, (h - 2) as f64 + 0.25];
-            let pos = vec![p; 17];
-            check::<3>(&d3, w, h, &pos);
-            check::<4>(&d4, w, h, &pos);
-            check::<2>(&d2, w, h, &pos);
-        }
+        harness::bottom_right::<u8, Color8>(Bilinear, &[2, 3, 4]);
     }
 
+    /// Groups of four (RGB, RGBA).
     #[test]
     fn interior_groups_take_the_vector_path() {
-        let (w, h) = (16usize, 16usize);
-        let data: Vec<u8> = (0..3 * w * h).map(|v| (v * 37 % 256) as u8).collect();
-        let src = Source { data: &data, w, h, nc: 3 };
-        let pos: Vec<[f64; 2]> =
-            (0..11).map(|k| [0.3 + 1.3 * k as f64, 14.9 - 1.1 * k as f64]).collect();
-        let mut out = vec![0u8; 3 * pos.len()];
-        let calls = Cell::new(0);
-        let scalar = |p: &[f64; 2], px: &mut [u8]| {
-            calls.set(calls.get() + 1);
-            reference(&src, p, px)
-        };
-        if bilinear_color8::<3>(&data, w, h, &pos, &mut out, scalar) {
-            assert_eq!(calls.get(), 3, "two groups of four vectorized, a tail of three");
-        }
-        let mut want = [0u8; 3];
-        for (k, p) in pos.iter().enumerate() {
-            reference(&src, p, &mut want);
-            assert_eq!(out[3 * k..3 * k + 3], want);
-        }
+        harness::assert_vectorized::<u8, Color8>(Bilinear, &[3, 4]);
     }
 
     #[test]
     fn interior_groups_of_eight_take_the_gray_alpha_vector_path() {
-        let (w, h) = (16usize, 16usize);
-        let data: Vec<u8> = (0..2 * w * h).map(|v| (v * 37 % 256) as u8).collect();
-        let src = Source { data: &data, w, h, nc: 2 };
-        let pos: Vec<[f64; 2]> =
-            (0..19).map(|k| [0.3 + 0.7 * k as f64, 14.9 - 0.6 * k as f64]).collect();
-        let mut out = vec![0u8; 2 * pos.len()];
-        let calls = Cell::new(0);
-        let scalar = |p: &[f64; 2], px: &mut [u8]| {
-            calls.set(calls.get() + 1);
-            reference(&src, p, px)
-        };
-        if bilinear_color8::<2>(&data, w, h, &pos, &mut out, scalar) {
-            assert_eq!(calls.get(), 3, "two groups of eight vectorized, a tail of three");
-        }
-        let mut want = [0u8; 2];
-        for (k, p) in pos.iter().enumerate() {
-            reference(&src, p, &mut want);
-            assert_eq!(out[2 * k..2 * k + 2], want);
-        }
+        harness::assert_vectorized::<u8, Color8>(Bilinear, &[2]);
     }
 
-    proptest::proptest! {
-        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
-        /// Random gray + alpha, RGB and RGBA images (extreme values included) and random
-        /// positions, borders and outside included.
-        #[test]
-        fn color8_bit_identical_on_random_images(
-            w in 1usize..40, h in 1usize..40, seed in 0u64..1_000_000, extreme in 0u8..3,
-        ) {
-            let mut rng = SmallRng::seed_from_u64(seed);
-            let byte = |rng: &mut SmallRng| match extreme {
-                0 => rng.gen::<u8>(),
-                1 => if rng.gen() { 0 } else { 255 },
-                _ => rng.gen_range(250..=255),
-            };
-            let d3: Vec<u8> = (0..3 * w * h).map(|_| byte(&mut rng)).collect();
-            let d4: Vec<u8> = (0..4 * w * h).map(|_| byte(&mut rng)).collect();
-            let d2: Vec<u8> = (0..2 * w * h).map(|_| byte(&mut rng)).collect();
-            let pos = positions(&mut rng, w, h, 200);
-            check::<3>(&d3, w, h, &pos);
-            check::<4>(&d4, w, h, &pos);
-            check::<2>(&d2, w, h, &pos);
-        }
-    }
+    bit_identity_proptest!(
+        color8_bit_identical_on_random_images,
+        u8,
+        Color8,
+        Bilinear,
+        [2, 3, 4],
+        "Random gray + alpha, RGB and RGBA images (extreme values included) and random \
+         positions, borders and outside included."
+    );
 }

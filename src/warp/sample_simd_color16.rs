@@ -249,141 +249,35 @@ mod avx2 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::warp::sample::Source;
-    use crate::warp::sample_simd::tests::positions;
-    use crate::warp::Interp;
-    use rand::rngs::SmallRng;
-    use rand::{Rng, SeedableRng};
-    use std::cell::Cell;
+    use crate::warp::simd_harness::{self as harness, bit_identity_proptest, family};
+    use crate::warp::Interp::Bilinear;
 
-    /// The scalar reference: `Source::sample_into` (bilinear), 7 in every channel outside.
-    fn reference(src: &Source<'_, u16>, p: &[f64; 2], px: &mut [u16]) {
-        if p[0].is_nan() {
-            px.fill(7);
-        } else {
-            src.sample_into(*p, Interp::Bilinear, px);
-        }
-    }
-
-    fn check<const NC: usize>(data: &[u16], w: usize, h: usize, pos: &[[f64; 2]]) -> bool {
-        let src = Source { data, w, h, nc: NC };
-        let mut out = vec![0u16; NC * pos.len()];
-        if !bilinear_color16::<NC>(data, w, h, pos, &mut out, |p, px| reference(&src, p, px)) {
-            return false; // no vector path on this machine: nothing to compare
-        }
-        let mut want = [0u16; NC];
-        for (k, p) in pos.iter().enumerate() {
-            reference(&src, p, &mut want);
-            assert_eq!(out[NC * k..NC * k + NC], want, "NC {NC}, {w}x{h} at {p:?}");
-        }
-        true
-    }
-
-    /// Samples: uniform, only 0 and 65535, or near 65535 (the clamp).
-    fn sample(rng: &mut SmallRng, extreme: u8) -> u16 {
-        match extreme {
-            0 => rng.gen(),
-            1 => {
-                if rng.gen() {
-                    0
-                } else {
-                    u16::MAX
-                }
-            }
-            _ => rng.gen_range(65000..=u16::MAX),
-        }
-    }
+    family!(Color16, u16, bilinear_color16);
 
     #[test]
     fn la16_rgb16_and_rgba16_vector_paths_match_the_scalar_path_bit_for_bit() {
-        let mut rng = SmallRng::seed_from_u64(48);
-        for (w, h) in [(37usize, 23usize), (2, 2), (1, 9), (64, 1), (300, 5), (3, 2)] {
-            for extreme in 0..3 {
-                let d2: Vec<u16> = (0..2 * w * h).map(|_| sample(&mut rng, extreme)).collect();
-                let d3: Vec<u16> = (0..3 * w * h).map(|_| sample(&mut rng, extreme)).collect();
-                let d4: Vec<u16> = (0..4 * w * h).map(|_| sample(&mut rng, extreme)).collect();
-                let pos = positions(&mut rng, w, h, 2000);
-                // Every start and remainder length modulo 8 (gray + alpha) and 4.
-                for len in (0..=24).chain([pos.len() - 5]) {
-                    for start in [0, 1, 3, 5] {
-                        let ps = &pos[start..start + len];
-                        if !check::<2>(&d2, w, h, ps)
-                            || !check::<3>(&d3, w, h, ps)
-                            || !check::<4>(&d4, w, h, ps)
-                        {
-                            return;
-                        }
-                    }
-                }
-            }
-        }
+        harness::sweep::<u16, Color16>(Bilinear, &[2, 3, 4], 48, 2000);
     }
 
-    /// The loads end exactly on the last sample of the image (module docs): an image in a
-    /// buffer of exactly `NC w h` samples, sampled at its bottom-right interior cell.
+    /// The loads end exactly on the last sample of the image (module docs).
     #[test]
     fn loads_at_the_bottom_right_cell_stay_inside_the_image() {
-        for (w, h) in [(2usize, 2usize), (5, 3), (2, 7)] {
-            let d2: Vec<u16> = (0..2 * w * h).map(|v| (v * 2311 % 65536) as u16).collect();
-            let d3: Vec<u16> = (0..3 * w * h).map(|v| (v * 7919 % 65536) as u16).collect();
-            let d4: Vec<u16> = (0..4 * w * h).map(|v| (v * 4099 % 65536) as u16).collect();
-            let p = [(w - 2) as f64 + 0.75, (h - 2) as f64 + 0.25];
-            let pos = vec![p; 17];
-            check::<2>(&d2, w, h, &pos);
-            check::<3>(&d3, w, h, &pos);
-            check::<4>(&d4, w, h, &pos);
-        }
+        harness::bottom_right::<u16, Color16>(Bilinear, &[2, 3, 4]);
     }
 
-    /// Samples 19 inside positions of a 16 x 16 image, checks them against the reference
-    /// and returns how many the scalar path did (`None` without a vector path).
-    fn scalar_calls<const NC: usize>() -> Option<usize> {
-        let (w, h) = (16usize, 16usize);
-        let data: Vec<u16> = (0..NC * w * h).map(|v| (v * 3779 % 65536) as u16).collect();
-        let src = Source { data: &data, w, h, nc: NC };
-        let pos: Vec<[f64; 2]> =
-            (0..19).map(|k| [0.3 + 0.7 * k as f64, 14.9 - 0.6 * k as f64]).collect();
-        let mut out = vec![0u16; NC * pos.len()];
-        let calls = Cell::new(0);
-        let scalar = |p: &[f64; 2], px: &mut [u16]| {
-            calls.set(calls.get() + 1);
-            reference(&src, p, px)
-        };
-        let vector = bilinear_color16::<NC>(&data, w, h, &pos, &mut out, scalar);
-        let mut want = [0u16; NC];
-        for (k, p) in pos.iter().enumerate() {
-            reference(&src, p, &mut want);
-            assert_eq!(out[NC * k..NC * k + NC], want);
-        }
-        vector.then(|| calls.get())
-    }
-
+    /// Groups of eight (gray + alpha) and four (RGB, RGBA).
     #[test]
     fn interior_groups_take_the_vector_path() {
-        if let Some(calls) = scalar_calls::<2>() {
-            assert_eq!(calls, 3, "two groups of eight vectorized, a tail of three");
-        }
-        for calls in [scalar_calls::<3>(), scalar_calls::<4>()].into_iter().flatten() {
-            assert_eq!(calls, 3, "four groups of four vectorized, a tail of three");
-        }
+        harness::assert_vectorized::<u16, Color16>(Bilinear, &[2, 3, 4]);
     }
 
-    proptest::proptest! {
-        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
-        /// Random 16-bit gray + alpha, RGB and RGBA images (extreme values included) and
-        /// random positions, borders and outside included.
-        #[test]
-        fn color16_bit_identical_on_random_images(
-            w in 1usize..40, h in 1usize..40, seed in 0u64..1_000_000, extreme in 0u8..3,
-        ) {
-            let mut rng = SmallRng::seed_from_u64(seed);
-            let d2: Vec<u16> = (0..2 * w * h).map(|_| sample(&mut rng, extreme)).collect();
-            let d3: Vec<u16> = (0..3 * w * h).map(|_| sample(&mut rng, extreme)).collect();
-            let d4: Vec<u16> = (0..4 * w * h).map(|_| sample(&mut rng, extreme)).collect();
-            let pos = positions(&mut rng, w, h, 200);
-            check::<2>(&d2, w, h, &pos);
-            check::<3>(&d3, w, h, &pos);
-            check::<4>(&d4, w, h, &pos);
-        }
-    }
+    bit_identity_proptest!(
+        color16_bit_identical_on_random_images,
+        u16,
+        Color16,
+        Bilinear,
+        [2, 3, 4],
+        "Random 16-bit gray + alpha, RGB and RGBA images (extreme values included) and \
+         random positions, borders and outside included."
+    );
 }

@@ -307,163 +307,37 @@ mod avx2 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::warp::sample::Source;
-    use crate::warp::sample_simd::tests::positions;
-    use crate::warp::Interp;
-    use rand::rngs::SmallRng;
-    use rand::{Rng, SeedableRng};
-    use std::cell::Cell;
+    use crate::warp::simd_harness::{self as harness, bit_identity_proptest, family};
+    use crate::warp::Interp::Bilinear;
 
-    /// The scalar reference: `Source::sample_into` (bilinear), 7 in every channel outside.
-    fn reference(src: &Source<'_, f32>, p: &[f64; 2], px: &mut [f32]) {
-        if p[0].is_nan() {
-            px.fill(7.0);
-        } else {
-            src.sample_into(*p, Interp::Bilinear, px);
-        }
-    }
+    family!(Float, f32, bilinear_f32);
 
-    fn check<const NC: usize>(data: &[f32], w: usize, h: usize, pos: &[[f64; 2]]) -> bool {
-        let src = Source { data, w, h, nc: NC };
-        let mut out = vec![0f32; NC * pos.len()];
-        if !bilinear_f32::<NC>(data, w, h, pos, &mut out, |p, px| reference(&src, p, px)) {
-            return false; // no vector path on this machine: nothing to compare
-        }
-        let mut want = [0f32; NC];
-        for (k, p) in pos.iter().enumerate() {
-            reference(&src, p, &mut want);
-            let got: Vec<u32> = out[NC * k..NC * k + NC].iter().map(|v| v.to_bits()).collect();
-            let bits = want.map(f32::to_bits);
-            assert_eq!(got, bits, "NC {NC}, {w}x{h} at {p:?}: {:?} vs {want:?}", &out[NC * k..]);
-        }
-        true
-    }
-
-    /// Samples: ordinary, extremes (signed zeros, the largest and smallest normals,
-    /// infinities), subnormals, large of either sign, or in 0..1.
-    fn sample(rng: &mut SmallRng, kind: u8) -> f32 {
-        let sign = if rng.gen() { 1.0 } else { -1.0 };
-        match kind {
-            0 => rng.gen_range(-1000.0..1000.0),
-            1 => {
-                let e = [
-                    0.0,
-                    -0.0,
-                    1.0,
-                    f32::MAX,
-                    f32::MIN_POSITIVE,
-                    f32::from_bits(1),
-                    1e30,
-                    f32::INFINITY,
-                    rng.gen(),
-                ];
-                sign * e[rng.gen_range(0..e.len())]
-            }
-            2 => sign * f32::from_bits(rng.gen_range(1..0x0080_0000)),
-            3 => sign * 10f32.powf(rng.gen_range(20.0..38.5)),
-            _ => rng.gen(),
-        }
-    }
-
-    fn image(rng: &mut SmallRng, len: usize, kind: u8) -> Vec<f32> {
-        (0..len).map(|_| sample(rng, kind)).collect()
-    }
-
+    /// Bit for bit (`to_bits`), with every kind of float sample (negative, huge,
+    /// subnormal, infinite, signed zeros) and all kinds mixed.
     #[test]
     fn float_vector_paths_match_the_scalar_path_bit_for_bit() {
-        let mut rng = SmallRng::seed_from_u64(32);
-        for (w, h) in [(37usize, 23usize), (2, 2), (1, 9), (64, 1), (300, 5), (3, 2)] {
-            for kind in 0..5 {
-                let d1 = image(&mut rng, w * h, kind);
-                let d2 = image(&mut rng, 2 * w * h, kind);
-                let d3 = image(&mut rng, 3 * w * h, kind);
-                let d4 = image(&mut rng, 4 * w * h, kind);
-                let pos = positions(&mut rng, w, h, 1500);
-                // Every start and remainder length modulo 8 and 4.
-                for len in (0..=24).chain([pos.len() - 5]) {
-                    for start in [0, 1, 3, 5] {
-                        let ps = &pos[start..start + len];
-                        if !check::<1>(&d1, w, h, ps)
-                            || !check::<2>(&d2, w, h, ps)
-                            || !check::<3>(&d3, w, h, ps)
-                            || !check::<4>(&d4, w, h, ps)
-                        {
-                            return;
-                        }
-                    }
-                }
-            }
-        }
+        harness::sweep::<f32, Float>(Bilinear, &[1, 2, 3, 4], 32, 1500);
     }
 
-    /// The loads end exactly on the last float of the image (module docs): an image in a
-    /// buffer of exactly `NC w h` floats, sampled at its bottom-right interior cell.
+    /// The loads end exactly on the last float of the image (module docs).
     #[test]
     fn loads_at_the_bottom_right_cell_stay_inside_the_image() {
-        for (w, h) in [(2usize, 2usize), (5, 3), (2, 7)] {
-            let img = |nc: usize| -> Vec<f32> {
-                (0..nc * w * h).map(|v| (v * 37 % 101) as f32 - 50.25).collect()
-            };
-            let p = [(w - 2) as f64 + 0.75, (h - 2) as f64 + 0.25];
-            let pos = vec![p; 17];
-            check::<1>(&img(1), w, h, &pos);
-            check::<2>(&img(2), w, h, &pos);
-            check::<3>(&img(3), w, h, &pos);
-            check::<4>(&img(4), w, h, &pos);
-        }
+        harness::bottom_right::<f32, Float>(Bilinear, &[1, 2, 3, 4]);
     }
 
-    /// Samples 19 inside positions of a 16 x 16 image, checks them against the reference
-    /// and returns how many the scalar path did (`None` without a vector path).
-    fn scalar_calls<const NC: usize>() -> Option<usize> {
-        let (w, h) = (16usize, 16usize);
-        let data: Vec<f32> = (0..NC * w * h).map(|v| (v * 37 % 256) as f32 * 0.1).collect();
-        let src = Source { data: &data, w, h, nc: NC };
-        let pos: Vec<[f64; 2]> =
-            (0..19).map(|k| [0.3 + 0.7 * k as f64, 14.9 - 0.6 * k as f64]).collect();
-        let mut out = vec![0f32; NC * pos.len()];
-        let calls = Cell::new(0);
-        let scalar = |p: &[f64; 2], px: &mut [f32]| {
-            calls.set(calls.get() + 1);
-            reference(&src, p, px)
-        };
-        let vector = bilinear_f32::<NC>(&data, w, h, &pos, &mut out, scalar);
-        let mut want = [0f32; NC];
-        for (k, p) in pos.iter().enumerate() {
-            reference(&src, p, &mut want);
-            assert_eq!(out[NC * k..NC * k + NC], want);
-        }
-        vector.then(|| calls.get())
-    }
-
+    /// Groups of eight (gray) and four (the others).
     #[test]
     fn interior_groups_take_the_vector_path() {
-        if let Some(calls) = scalar_calls::<1>() {
-            assert_eq!(calls, 3, "two groups of eight vectorized, a tail of three");
-        }
-        for calls in
-            [scalar_calls::<2>(), scalar_calls::<3>(), scalar_calls::<4>()].into_iter().flatten()
-        {
-            assert_eq!(calls, 3, "four groups of four vectorized, a tail of three");
-        }
+        harness::assert_vectorized::<f32, Float>(Bilinear, &[1, 2, 3, 4]);
     }
 
-    proptest::proptest! {
-        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
-        /// Random float images of 1 to 4 channels (negative, huge, subnormal and infinite
-        /// values included) and random positions, borders and outside included.
-        #[test]
-        fn float_bit_identical_on_random_images(
-            w in 1usize..40, h in 1usize..40, seed in 0u64..1_000_000, kind in 0u8..5,
-        ) {
-            let mut rng = SmallRng::seed_from_u64(seed);
-            let (d1, d2) = (image(&mut rng, w * h, kind), image(&mut rng, 2 * w * h, kind));
-            let (d3, d4) = (image(&mut rng, 3 * w * h, kind), image(&mut rng, 4 * w * h, kind));
-            let pos = positions(&mut rng, w, h, 200);
-            check::<1>(&d1, w, h, &pos);
-            check::<2>(&d2, w, h, &pos);
-            check::<3>(&d3, w, h, &pos);
-            check::<4>(&d4, w, h, &pos);
-        }
-    }
+    bit_identity_proptest!(
+        float_bit_identical_on_random_images,
+        f32,
+        Float,
+        Bilinear,
+        [1, 2, 3, 4],
+        "Random float images of 1 to 4 channels (negative, huge, subnormal and infinite \
+         values included) and random positions, borders and outside included."
+    );
 }
