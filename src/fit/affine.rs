@@ -102,10 +102,21 @@ pub fn crossing_pairs(lms: &[Landmark]) -> Vec<(usize, usize)> {
             .iter()
             .enumerate()
             .filter(|&(j, _)| j != i)
-            .map(|(j, lj)| ((lj.src[0] - li.src[0]).hypot(lj.src[1] - li.src[1]), j))
+            .map(|(j, lj)| {
+                // Squared distance: the same order as the distance, without a square root.
+                let d = [lj.src[0] - li.src[0], lj.src[1] - li.src[1]];
+                (d[0] * d[0] + d[1] * d[1], j)
+            })
             .collect();
-        near.sort_by(|x, y| x.0.total_cmp(&y.0));
-        for &(dist, j) in near.iter().take(CROSSING_NEIGHBOURS) {
+        // The nearest few only: a partial selection, then those few sorted (O(n) per
+        // landmark rather than a full sort; ties broken by index, as a stable sort would).
+        let by_dist = |x: &(f64, usize), y: &(f64, usize)| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1));
+        if near.len() > CROSSING_NEIGHBOURS {
+            near.select_nth_unstable_by(CROSSING_NEIGHBOURS, by_dist);
+            near.truncate(CROSSING_NEIGHBOURS);
+        }
+        near.sort_by(by_dist);
+        for &(dist, j) in &near {
             if dist == 0.0 {
                 continue;
             }
@@ -144,6 +155,64 @@ mod tests {
         lms[1].dst = [245.0, 121.0];
         lms[0].dst = [203.0, 119.0];
         assert!(crossing_pairs(&lms).is_empty());
+    }
+
+    /// The partial selection of the nearest neighbours finds the pairs a full sort by
+    /// distance finds (the implementation before it), on noisy landmarks with swapped
+    /// targets and on a lattice, where many distances tie.
+    #[test]
+    fn nearest_neighbour_selection_matches_a_full_sort() {
+        use rand::{rngs::SmallRng, Rng, SeedableRng};
+        let reference = |lms: &[Landmark]| {
+            let Ok(mut a) = affine_ls(lms) else { return Vec::new() };
+            if a[0][0] * a[1][1] - a[0][1] * a[1][0] <= 0.0 {
+                a = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+            }
+            let mut out = Vec::new();
+            for (i, li) in lms.iter().enumerate() {
+                let mut near: Vec<(f64, usize)> = lms
+                    .iter()
+                    .enumerate()
+                    .filter(|&(j, _)| j != i)
+                    .map(|(j, lj)| ((lj.src[0] - li.src[0]).hypot(lj.src[1] - li.src[1]), j))
+                    .collect();
+                near.sort_by(|x, y| x.0.total_cmp(&y.0));
+                for &(dist, j) in near.iter().take(CROSSING_NEIGHBOURS) {
+                    let lj = &lms[j];
+                    let ds = [lj.src[0] - li.src[0], lj.src[1] - li.src[1]];
+                    let ls = [a[0][0] * ds[0] + a[0][1] * ds[1], a[1][0] * ds[0] + a[1][1] * ds[1]];
+                    let dt = [lj.dst[0] - li.dst[0], lj.dst[1] - li.dst[1]];
+                    if dist != 0.0 && dt[0] * ls[0] + dt[1] * ls[1] < 0.0 {
+                        out.push((i.min(j), i.max(j)));
+                    }
+                }
+            }
+            out.sort_unstable();
+            out.dedup();
+            out
+        };
+        let mut rng = SmallRng::seed_from_u64(9);
+        for trial in 0..20 {
+            let n = 3 + trial * 7;
+            let lattice = trial % 2 == 1;
+            let mut lms: Vec<Landmark> = (0..n)
+                .map(|i| {
+                    let s = if lattice {
+                        [(i % 6) as f64 * 10.0, (i / 6) as f64 * 10.0]
+                    } else {
+                        [rng.gen_range(0.0..300.0), rng.gen_range(0.0..200.0)]
+                    };
+                    lm(s, [s[0] + rng.gen_range(-4.0..4.0), s[1] + rng.gen_range(-4.0..4.0)])
+                })
+                .collect();
+            for _ in 0..n / 5 {
+                let (i, j) = (rng.gen_range(0..n), rng.gen_range(0..n));
+                let t = lms[i].dst;
+                lms[i].dst = lms[j].dst;
+                lms[j].dst = t;
+            }
+            assert_eq!(crossing_pairs(&lms), reference(&lms), "trial {trial}");
+        }
     }
 
     #[test]

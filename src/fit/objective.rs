@@ -28,6 +28,9 @@ use super::param::Param;
 use crate::spline::Spline;
 use rayon::prelude::*;
 
+mod assembly;
+pub use assembly::{lower_entries, BendingSystem, BendingValues};
+
 /// The robust loss of the data term.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Loss {
@@ -526,118 +529,6 @@ impl Objective {
                 touched.clear();
                 (row, r0, r.target)
             })
-            .collect()
-    }
-
-    /// The bending energy over the variables, `E(x) = x^T K x + 2 b^T x + const` per
-    /// coordinate: `K`'s entries (row, column, value; duplicates to be summed, both
-    /// triangles listed) and `b` per coordinate.
-    #[allow(clippy::type_complexity)]
-    pub fn bending_system(&self) -> (Vec<(usize, usize)>, Vec<f64>, [Vec<f64>; 2]) {
-        let nv = self.param.nv();
-        let (mut entries, mut values) = (Vec::new(), Vec::new());
-        self.bending_entries(|a, b, v| {
-            if a >= b {
-                entries.push((a, b));
-                values.push(v);
-            }
-        });
-        // b = S^T K_T q0 summed over triangles, q0 the points at x = 0.
-        let n = self.param.var_of.len();
-        let mut p0 = vec![[0.0f64; 2]; n];
-        self.param.points_into(&vec![0.0; 2 * nv], &mut p0);
-        let mut g = vec![[0.0f64; 2]; n];
-        for tri in &self.tris {
-            let m = tri.patch.len();
-            for r in 0..m {
-                let mut kq = [0.0; 2];
-                for c in 0..m {
-                    let kv = tri.k[r * m + c];
-                    kq[0] += kv * p0[tri.patch[c]][0];
-                    kq[1] += kv * p0[tri.patch[c]][1];
-                }
-                g[tri.patch[r]][0] += kq[0];
-                g[tri.patch[r]][1] += kq[1];
-            }
-        }
-        let mut gx = vec![0.0; 2 * nv];
-        self.param.backprop(&mut g, &mut gx);
-        let by = gx.split_off(nv);
-        (entries, values, [gx, by])
-    }
-
-    /// Calls `emit(a, b, v)` for every contribution `v` to `K[a][b]` of the bending matrix
-    /// over the variables (`K = sum_T S_T^T K_T S_T`, both triangles, without `lambda`).
-    fn bending_entries(&self, mut emit: impl FnMut(usize, usize, f64)) {
-        for blk in self.triangle_blocks() {
-            let u = blk.local.len();
-            for z1 in 0..u {
-                for z2 in 0..u {
-                    let v = blk.bend[z1 * u + z2];
-                    if v != 0.0 {
-                        emit(blk.local[z1], blk.local[z2], v);
-                    }
-                }
-            }
-        }
-    }
-
-    /// Per triangle, the variables its patch depends on, `S_T` (patch points x those
-    /// variables) and `S_T^T K_T S_T`.
-    pub(super) fn triangle_blocks(&self) -> Vec<TriangleBlock> {
-        let nv = self.param.nv();
-        let rows = self.param.rows();
-        // Independent per triangle: in parallel, in order, one position map per worker.
-        self.tris
-            .par_iter()
-            .map_init(
-                || vec![usize::MAX; nv],
-                |pos, tri| {
-                    let mut local = Vec::new();
-                    for &j in &tri.patch {
-                        for &(k, _) in &rows[j] {
-                            if pos[k] == usize::MAX {
-                                pos[k] = local.len();
-                                local.push(k);
-                            }
-                        }
-                    }
-                    let (m, u) = (tri.patch.len(), local.len());
-                    // S_T (m x u), then K S_T (m x u), then S_T^T (K S_T) (u x u).
-                    let mut st = vec![0.0; m * u];
-                    for (a, &j) in tri.patch.iter().enumerate() {
-                        for &(k, v) in &rows[j] {
-                            st[a * u + pos[k]] += v;
-                        }
-                    }
-                    let mut ks = vec![0.0; m * u];
-                    for r in 0..m {
-                        for c in 0..m {
-                            let kv = tri.k[r * m + c];
-                            if kv != 0.0 {
-                                for z in 0..u {
-                                    ks[r * u + z] += kv * st[c * u + z];
-                                }
-                            }
-                        }
-                    }
-                    let mut bend = vec![0.0; u * u];
-                    for a in 0..m {
-                        for z1 in 0..u {
-                            let sv = st[a * u + z1];
-                            if sv != 0.0 {
-                                for z2 in 0..u {
-                                    bend[z1 * u + z2] += sv * ks[a * u + z2];
-                                }
-                            }
-                        }
-                    }
-                    for &k in &local {
-                        pos[k] = usize::MAX;
-                    }
-                    TriangleBlock { local, st, bend }
-                },
-            )
             .collect()
     }
 

@@ -41,6 +41,8 @@ pub struct Param {
     deps: Vec<(usize, Vec<(usize, f64)>)>,
     /// Current values of all points (the fixed free points are read from here).
     base: Vec<[f64; 2]>,
+    /// [`Param::rows`], computed on first use.
+    rows: std::sync::OnceLock<Vec<Vec<(usize, f64)>>>,
 }
 
 impl Param {
@@ -67,7 +69,7 @@ impl Param {
                 Role::Free => unreachable!("the order lists dependents only"),
             })
             .collect();
-        Param { vars, var_of, deps, base }
+        Param { vars, var_of, deps, base, rows: std::sync::OnceLock::new() }
     }
 
     /// Number of variable points (`x` has `2 nv` entries).
@@ -123,8 +125,13 @@ impl Param {
     }
 
     /// The linear part of the map, row by row: for each control point, its sparse
-    /// coefficients on the variables (empty for fixed points).
-    pub fn rows(&self) -> Vec<Vec<(usize, f64)>> {
+    /// coefficients on the variables (empty for fixed points). Computed once (the objective,
+    /// the smoother and Newton's structure all read it).
+    pub fn rows(&self) -> &[Vec<(usize, f64)>] {
+        self.rows.get_or_init(|| self.compute_rows())
+    }
+
+    fn compute_rows(&self) -> Vec<Vec<(usize, f64)>> {
         let n = self.base.len();
         let mut rows: Vec<Vec<(usize, f64)>> = vec![Vec::new(); n];
         for (k, &p) in self.vars.iter().enumerate() {

@@ -44,7 +44,7 @@
 //! keeps it definite: the affine part is then effectively unpenalized (`M` gets very large
 //! eigenvalues there), and the warm start's cost still bounds the result's.
 
-use super::objective::Objective;
+use super::objective::{lower_entries, BendingValues, Objective};
 use super::solve::FitError;
 use super::sparse::{Factor, Pattern};
 use faer::{Mat, Side};
@@ -107,28 +107,22 @@ impl Smoother {
         if nv.saturating_mul(k.max(1)) > MAX_SMOOTHER_ENTRIES {
             return Err(FitError::TooLarge { variables: nv });
         }
-        let (entries, values, b) = obj.bending_system();
-        let mean_diag = {
-            let (mut s, mut c) = (0.0, 0usize);
-            for (&(r, cc), &v) in entries.iter().zip(&values) {
-                if r == cc {
-                    s += v;
-                    c += 1;
-                }
-            }
-            if c == 0 {
-                1.0
-            } else {
-                (s / nv as f64).max(f64::MIN_POSITIVE)
-            }
-        };
-        let mut entries = entries;
-        let mut values = values;
-        for i in 0..nv {
-            entries.push((i, i));
-            values.push(RIDGE * mean_diag);
-        }
-        let pattern = Pattern::new(nv, &entries).map_err(|e| FitError::Solver(e.to_string()))?;
+        // The structure of K first; then its symbolic analysis (one thread) beside the
+        // numeric assembly (the others).
+        let locals = obj.bending_locals();
+        let (pattern, bv) = rayon::join(
+            || {
+                let mut entries = lower_entries(&locals);
+                entries.extend((0..nv).map(|i| (i, i)));
+                Pattern::new(nv, &entries)
+            },
+            || obj.bending_values(&locals),
+        );
+        let pattern = pattern.map_err(|e| FitError::Solver(e.to_string()))?;
+        let BendingValues { mut values, b, diag } = bv;
+        let mean_diag = if diag.1 == 0 { 1.0 } else { (diag.0 / nv as f64).max(f64::MIN_POSITIVE) };
+        // The ridge on the diagonal (the last nv entries of the pattern).
+        values.extend(std::iter::repeat_n(RIDGE * mean_diag, nv));
         let factor: Factor = pattern.factor(&values).map_err(|_| FitError::Singular(0))?;
         // The ridge penalizes the distance to the warm start (not to the origin), so the
         // warm start's cost bounds the result's: x0 = -(K + r I)^-1 (b - r x_warm).

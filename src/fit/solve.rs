@@ -544,7 +544,9 @@ pub(super) fn fit_with_terms(
     if opts.hard || !opts.pinned.is_empty() {
         return super::hard::fit_hard(s, mds, lms, opts, start);
     }
-    fit_soft_terms(s, mds, lms, opts, start, terms)
+    // The exact evaluation plan of the determining set is needed only at the end (the
+    // fitted points in rationals): built on another thread while the fit solves.
+    rayon::join(|| fit_soft_terms(s, mds, lms, opts, start, terms), || mds.prepare()).0
 }
 
 /// The soft fit (no landmark rows, no ECLES step; pinned free points do not vary).
@@ -582,11 +584,12 @@ fn fit_soft_terms(
     } else {
         solve(&mut obj, s, &x0, opts)?
     };
-    let cost_initial = obj.eval(&x0, None).total;
-    let cost_final = obj.eval(&out.x, None).total;
-    let pts = obj.param.exact_points(s, mds, &out.x, opts.grid_bits);
-    let mut fitted = s.clone();
-    fitted.set_points(pts)?;
+    // The costs (floating point) beside the exact points and their C1 check.
+    let ((cost_initial, cost_final), fitted) = rayon::join(
+        || (obj.eval(&x0, None).total, obj.eval(&out.x, None).total),
+        || s.with_points(obj.param.exact_points(s, mds, &out.x, opts.grid_bits)),
+    );
+    let fitted = fitted?;
     let mut rep = report(
         &fitted,
         lms,

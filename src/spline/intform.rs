@@ -145,7 +145,11 @@ impl IntPlan {
     /// Recomputes every dependent from the current values of the free points (`values[p]`
     /// has one entry per coordinate), exactly: the same reduced fractions as evaluating the
     /// formulas in rational arithmetic.
-    pub(crate) fn recompute(&self, values: &mut [Vec<Rat>], is_free: impl Fn(usize) -> bool) {
+    pub(crate) fn recompute(
+        &self,
+        values: &mut [Vec<Rat>],
+        is_free: impl Fn(usize) -> bool + Sync,
+    ) {
         let n = values.len();
         let dim = values.first().map_or(0, |v| v.len());
         // D: the lcm of the free values' denominators.
@@ -159,30 +163,34 @@ impl IntPlan {
                 }
             }
         }
-        let mut num = vec![Int::from(0); n * dim];
-        for (p, v) in values.iter().enumerate() {
-            if is_free(p) {
-                for (a, x) in v.iter().enumerate() {
-                    num[p * dim + a] = x.numer() * &dd.div_exact(x.denom());
+        // The coordinates are independent: one numerator sweep per coordinate, in parallel
+        // (the sweep itself follows the evaluation order).
+        let num: Vec<Vec<Int>> = (0..dim)
+            .into_par_iter()
+            .map(|a| {
+                let mut num = vec![Int::from(0); n];
+                for (p, v) in values.iter().enumerate() {
+                    if is_free(p) {
+                        num[p] = v[a].numer() * &dd.div_exact(v[a].denom());
+                    }
                 }
-            }
-        }
-        for (p, row) in &self.terms {
-            for a in 0..dim {
-                let mut acc = Int::from(0);
-                for (j, m) in row {
-                    acc += &(m * &num[j * dim + a]);
+                for (p, row) in &self.terms {
+                    let mut acc = Int::from(0);
+                    for (j, m) in row {
+                        acc += &(m * &num[*j]);
+                    }
+                    num[*p] = acc;
                 }
-                num[p * dim + a] = acc;
-            }
-        }
+                num
+            })
+            .collect();
         // The reductions (one gcd per value) are independent: in parallel.
         let reduced: Vec<Vec<Rat>> = self
             .terms
             .par_iter()
             .map(|(p, _)| {
                 let d = &dd * &self.den[*p];
-                (0..dim).map(|a| Rat::new(num[p * dim + a].clone(), d.clone())).collect()
+                num.iter().map(|num| Rat::new(num[*p].clone(), d.clone())).collect()
             })
             .collect();
         for ((p, _), v) in self.terms.iter().zip(reduced) {

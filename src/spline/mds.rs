@@ -51,8 +51,8 @@ pub struct Mds {
     order: Vec<usize>,
     /// For each point, the dependents whose formula uses it.
     used_by: Vec<Vec<usize>>,
-    /// The formulas on common denominators ([`IntPlan`]).
-    plan: IntPlan,
+    /// The formulas on common denominators ([`IntPlan`]), built on first use.
+    plan: std::sync::OnceLock<IntPlan>,
 }
 
 /// Why no MDS could be built.
@@ -120,6 +120,80 @@ fn rref(rows: &mut [Vec<Rat>], ncand: usize) -> Vec<(usize, usize)> {
         r += 1;
     }
     pivots
+}
+
+/// [`rref`] of an integer matrix by fraction-free Gauss-Jordan elimination: each step
+/// replaces every other row by `(p row_i - a_i row_r) / p_prev` (`p` the pivot, `a_i` the
+/// row's entry in the pivot column, `p_prev` the previous pivot), an exact division, since
+/// every entry is then a minor of the matrix (Bareiss 1968). Pivots are chosen as [`rref`]
+/// chooses them (first nonzero row, columns in order among the first `ncand`), and the
+/// reduced row echelon form is unique, so dividing each pivot row by its pivot gives
+/// exactly [`rref`]'s rows, with integer operations instead of a gcd per operation.
+/// Returns the pivots, or `None` when a number does not fit in `i128` or a division is not
+/// exact (the caller then runs [`rref`]); the rows are left as they are then.
+fn rref_int(rows: &mut [Vec<i128>], ncand: usize) -> Option<Vec<(usize, usize)>> {
+    let mut pivots = Vec::new();
+    let mut prev: i128 = 1;
+    let mut r = 0;
+    let mut work: Vec<Vec<i128>> = rows.to_vec();
+    for c in 0..ncand {
+        let Some(p) = (r..work.len()).find(|&i| work[i][c] != 0) else { continue };
+        work.swap(r, p);
+        let piv = work[r][c];
+        let (before, rest) = work.split_at_mut(r);
+        let (pivot_row, after) = rest.split_first_mut().expect("row r exists");
+        for row in before.iter_mut().chain(after.iter_mut()) {
+            let a = row[c];
+            for (x, &y) in row.iter_mut().zip(pivot_row.iter()) {
+                let t = piv.checked_mul(*x)?.checked_sub(a.checked_mul(y)?)?;
+                if t % prev != 0 {
+                    return None;
+                }
+                *x = t / prev;
+            }
+        }
+        prev = piv;
+        pivots.push((r, c));
+        r += 1;
+    }
+    rows.clone_from_slice(&work);
+    Some(pivots)
+}
+
+/// The fractions of a [`rref_int`] result: pivot rows divided by their pivot, other rows
+/// as they are (they are zero exactly where [`rref`]'s are).
+fn rref_to_rat(rows: &[Vec<i128>], pivots: &[(usize, usize)]) -> Vec<Vec<Rat>> {
+    rows.iter()
+        .enumerate()
+        .map(|(i, row)| {
+            let den = pivots.iter().find(|&&(r, _)| r == i).map_or(1, |&(r, c)| rows[r][c]);
+            row.iter()
+                .map(|&x| {
+                    if x == 0 {
+                        Rat::zero()
+                    } else {
+                        Rat::new(Int::from_i128(x), Int::from_i128(den))
+                    }
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// The quadrilateral conditions `quads` as rows of fractions over the points `all`.
+fn irows_to_rat(quads: &[usize], s: &Spline, all: &[usize]) -> Vec<Vec<Rat>> {
+    quads
+        .iter()
+        .map(|&qi| {
+            let q = s.quads()[qi];
+            let mut row = vec![Rat::zero(); all.len()];
+            for (m, c) in q.members().into_iter().zip(q.coef) {
+                let j = all.iter().position(|&x| x == m).expect("member listed");
+                row[j] += Rat::from_integer(Int::from(c));
+            }
+            row
+        })
+        .collect()
 }
 
 impl Mds {
@@ -193,7 +267,7 @@ impl Mds {
             let _ = ncorners;
             // Parameter columns: ring-1 members.
             let mut params: Vec<usize> = Vec::new();
-            let mut rows: Vec<Vec<Rat>> = Vec::new();
+            let mut rows: Vec<Vec<Rat>>;
             let col_of = |p: usize, cols: &Vec<usize>| cols.iter().position(|&c| c == p);
             for &qi in &quads {
                 let q = s.quads()[qi];
@@ -204,16 +278,27 @@ impl Mds {
                 }
             }
             let all: Vec<usize> = cols.iter().chain(&params).copied().collect();
+            let mut irows: Vec<Vec<i128>> = Vec::with_capacity(quads.len());
             for &qi in &quads {
                 let q = s.quads()[qi];
-                let mut row = vec![Rat::zero(); all.len()];
+                let mut row = vec![0i128; all.len()];
                 for (m, c) in q.members().into_iter().zip(q.coef) {
                     let j = all.iter().position(|&x| x == m).expect("member listed");
-                    row[j] += Rat::from_integer(Int::from(c));
+                    row[j] += i128::from(c);
                 }
-                rows.push(row);
+                irows.push(row);
             }
-            let pivots = rref(&mut rows, ncand);
+            let pivots = match rref_int(&mut irows, ncand) {
+                Some(pivots) => {
+                    rows = rref_to_rat(&irows, &pivots);
+                    pivots
+                }
+                None => {
+                    // Too large for i128: the same elimination in fractions.
+                    rows = irows_to_rat(&quads, s, &all);
+                    rref(&mut rows, ncand)
+                }
+            };
             for (i, row) in rows.iter().enumerate() {
                 if !pivots.iter().any(|&(r, _)| r == i) && row.iter().any(|x| !x.is_zero()) {
                     return Err(MdsError::Singular(v));
@@ -259,11 +344,25 @@ impl Mds {
                 }
             }
         }
-        let plan = IntPlan::new(n, &order, |p| match &roles[p] {
-            Role::Dependent(f) => f.as_slice(),
-            Role::Free => &[],
-        });
-        Ok(Mds { roles, order, used_by, plan })
+        Ok(Mds { roles, order, used_by, plan: std::sync::OnceLock::new() })
+    }
+
+    /// Builds the integer form of the formulas ([`IntPlan`], used by
+    /// [`recompute`](Self::recompute)) now rather than on first use: a caller with an idle
+    /// thread (the fit, while it solves in floating point) runs it there.
+    pub fn prepare(&self) {
+        self.plan();
+    }
+
+    /// The integer form of the formulas, built on first use (sequential: each dependent's
+    /// denominator is built from those of the points before it).
+    fn plan(&self) -> &IntPlan {
+        self.plan.get_or_init(|| {
+            IntPlan::new(self.roles.len(), &self.order, |p| match &self.roles[p] {
+                Role::Dependent(f) => f.as_slice(),
+                Role::Free => &[],
+            })
+        })
     }
 
     /// The role of point `p`.
@@ -314,7 +413,7 @@ impl Mds {
     /// [`recompute_rational`](Self::recompute_rational), which serves partial updates.
     pub fn recompute(&self, values: &mut [Vec<Rat>], which: &[bool]) {
         if self.order.iter().all(|&p| which[p]) {
-            self.plan.recompute(values, |p| matches!(self.roles[p], Role::Free));
+            self.plan().recompute(values, |p| matches!(self.roles[p], Role::Free));
         } else {
             self.recompute_rational(values, which);
         }
@@ -349,4 +448,76 @@ pub fn round_to_grid(x: &Rat, bits: u32) -> Rat {
         (y + Rat::new(1.into(), 2.into())).floor()
     };
     r / scale
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn to_rat(rows: &[Vec<i128>]) -> Vec<Vec<Rat>> {
+        rows.iter()
+            .map(|r| r.iter().map(|&x| Rat::from_integer(Int::from_i128(x))).collect())
+            .collect()
+    }
+
+    #[test]
+    fn fraction_free_rref_of_a_rank_deficient_matrix_matches_fractions() {
+        // Row 3 = row 1 + row 2, and column 1 = 2 * column 0: pivots skip column 1.
+        let m = vec![
+            vec![2, 4, 1, 0, 3],
+            vec![1, 2, 0, 5, -1],
+            vec![3, 6, 1, 5, 2],
+            vec![0, 0, 7, 1, 1],
+        ];
+        let mut ints = m.clone();
+        let pivots = rref_int(&mut ints, 4).expect("small numbers fit");
+        let mut rats = to_rat(&m);
+        assert_eq!(pivots, rref(&mut rats, 4));
+        assert_eq!(pivots, vec![(0, 0), (1, 2), (2, 3)]);
+        assert_eq!(rref_to_rat(&ints, &pivots), rats);
+    }
+
+    #[test]
+    fn fraction_free_rref_reports_overflow() {
+        let big = i128::MAX / 3;
+        let mut m = vec![vec![big, 1, 2], vec![3, big, 5]];
+        let before = m.clone();
+        assert_eq!(rref_int(&mut m, 2), None);
+        assert_eq!(m, before, "rows untouched on overflow");
+    }
+
+    proptest! {
+        /// Random small integer matrices, often rank deficient (rows repeated with a
+        /// multiple): the fraction-free elimination gives the same pivots and the same reduced
+        /// rows as the elimination in fractions.
+        #[test]
+        fn fraction_free_rref_equals_rational_rref(
+            base in proptest::collection::vec(proptest::collection::vec(-9i64..10, 7), 1..6),
+            dup in proptest::option::of((0usize..6, -3i64..4)),
+            ncand in 1usize..8,
+        ) {
+            let mut m: Vec<Vec<i128>> =
+                base.iter().map(|r| r.iter().map(|&x| i128::from(x)).collect()).collect();
+            if let Some((i, k)) = dup {
+                let r: Vec<i128> = m[i % m.len()].iter().map(|&x| x * i128::from(k)).collect();
+                m.push(r);
+            }
+            let mut ints = m.clone();
+            let pivots = rref_int(&mut ints, ncand.min(7)).expect("small numbers fit");
+            let mut rats = to_rat(&m);
+            prop_assert_eq!(&pivots, &rref(&mut rats, ncand.min(7)));
+            let got = rref_to_rat(&ints, &pivots);
+            for &(r, _) in &pivots {
+                prop_assert_eq!(&got[r], &rats[r]);
+            }
+            for i in 0..m.len() {
+                if !pivots.iter().any(|&(r, _)| r == i) {
+                    let zero_int = got[i].iter().all(|x| x.is_zero());
+                    let zero_rat = rats[i].iter().all(|x| x.is_zero());
+                    prop_assert_eq!(zero_int, zero_rat);
+                }
+            }
+        }
+    }
 }

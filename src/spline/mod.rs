@@ -242,7 +242,7 @@ impl Spline {
     fn xy_cache(&self, points: &[Vec<Rat>]) -> EvalCache {
         // Each control point converted once (a vertex's point is in every patch around it).
         let per_point: Vec<[f64; 2]> =
-            points.iter().map(|q| [rat_to_f64(&q[0]), rat_to_f64(&q[1])]).collect();
+            points.par_iter().map(|q| [rat_to_f64(&q[0]), rat_to_f64(&q[1])]).collect();
         let pts: Vec<[f64; 2]> =
             self.layout.patches().iter().flatten().map(|&p| per_point[p]).collect();
         let tris: Vec<[[f64; 2]; 3]> =
@@ -367,6 +367,20 @@ impl Spline {
         Ok(())
     }
 
+    /// A spline on this mesh and degree with the control points `points`, after the exact C1
+    /// check of [`set_points`](Self::set_points): the same as cloning `self` and setting
+    /// them, without copying `self`'s control points first.
+    pub fn with_points(&self, points: Vec<Vec<Rat>>) -> Result<Spline, SplineError> {
+        if points.len() != self.points.len() {
+            return Err(SplineError::PointCount {
+                expected: self.points.len(),
+                found: points.len(),
+            });
+        }
+        self.check_c1_of(&points)?;
+        self.with_points_c1_by_construction(points)
+    }
+
     /// A spline on this mesh and degree with the control points `points`, C1 by construction
     /// as for [`Spline::set_points_c1_by_construction`]; the same as cloning `self` and
     /// setting them, without copying `self`'s control points first.
@@ -452,9 +466,14 @@ impl Spline {
     /// in `i128` when the numbers fit, else in reduced fractions (same exact answer, see
     /// `intform`); the first violated condition is reported.
     pub fn check_c1(&self) -> Result<(), SplineError> {
+        self.check_c1_of(&self.points)
+    }
+
+    /// [`check_c1`](Self::check_c1) of other control points on this mesh and degree.
+    fn check_c1_of(&self, points: &[Vec<Rat>]) -> Result<(), SplineError> {
         let bad = self.quads.par_iter().position_first(|q| {
             (0..2).any(|a| {
-                let terms = q.members().map(|m| &self.points[m][a]);
+                let terms = q.members().map(|m| &points[m][a]);
                 let t = [
                     (q.coef[0], terms[0]),
                     (q.coef[1], terms[1]),

@@ -328,6 +328,34 @@ mod determining_set {
     }
 
     #[test]
+    fn with_points_checks_c1_like_set_points() {
+        let m = random_mesh(8, 13);
+        let s = Spline::identity(m, 5).unwrap();
+        // An affine image of the identity is C1: the same spline as set_points gives.
+        let moved: Vec<Vec<Rat>> = s
+            .points()
+            .iter()
+            .map(|p| vec![&p[0] * Rat::new(Int::from(3), Int::from(2)) + &p[1], p[1].clone()])
+            .collect();
+        let built = s.with_points(moved.clone()).unwrap();
+        let mut set = s.clone();
+        set.set_points(moved).unwrap();
+        assert_eq!(built.points(), set.points());
+        let c = s.mesh().triangle(0).map(|v| s.mesh().vertex(v));
+        let mid = [(c[0][0] + c[1][0] + c[2][0]) / 3.0, (c[0][1] + c[1][1] + c[2][1]) / 3.0];
+        assert!(built.eval(mid, None).is_some());
+        assert_eq!(built.eval(mid, None), set.eval(mid, None));
+        // One point off: refused with the first violated condition, as set_points does.
+        let q = s.quads()[s.quads().len() / 3];
+        let mut bad = s.points().to_vec();
+        bad[q.l][0] += Rat::new(Int::from(1), Int::from(7));
+        let e1 = s.with_points(bad.clone()).unwrap_err();
+        let e2 = s.clone().set_points(bad).unwrap_err();
+        assert_eq!(format!("{e1:?}"), format!("{e2:?}"));
+        assert!(matches!(e1, SplineError::NotC1 { .. }));
+    }
+
+    #[test]
     fn grid_meshes_and_low_degree() {
         let g = Mesh::grid(4, 3, 40.0, 30.0, MeshOptions::default()).unwrap();
         let s = Spline::identity(g, 5).unwrap();
