@@ -6,6 +6,7 @@ use crate::ecles::ConstraintSystem;
 use crate::exact::rat_int;
 use crate::mesh::{Mesh, MeshOptions};
 use crate::spline::ZLayers;
+use num_traits::One;
 use proptest::prelude::*;
 
 fn two_triangles() -> Mesh {
