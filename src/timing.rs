@@ -65,3 +65,41 @@ impl Phases {
         format!("{}; total {:.1}", parts.join(", "), self.total_ms())
     }
 }
+
+/// Phase lines on stderr for profiling a library call, printed only when the environment
+/// variable `TRIMORPH_TRACE` is set (as `trimorph solve` does): `trace <what>: <phase> <ms>`,
+/// the wall time since the previous mark. Costs one environment look-up when off.
+///
+/// ```
+/// use trimorph::timing::Trace;
+/// let mut t = Trace::new("example");
+/// t.mark("first phase"); // prints only with TRIMORPH_TRACE set
+/// assert_eq!(t.enabled(), std::env::var_os("TRIMORPH_TRACE").is_some());
+/// ```
+#[derive(Debug)]
+pub struct Trace {
+    what: &'static str,
+    last: Option<Instant>,
+}
+
+impl Trace {
+    /// Starts the clock if `TRIMORPH_TRACE` is set.
+    pub fn new(what: &'static str) -> Trace {
+        let last = std::env::var_os("TRIMORPH_TRACE").map(|_| Instant::now());
+        Trace { what, last }
+    }
+
+    /// Whether lines are printed.
+    pub fn enabled(&self) -> bool {
+        self.last.is_some()
+    }
+
+    /// Prints the time since the previous mark (or the start) as the phase `phase`.
+    pub fn mark(&mut self, phase: &str) {
+        if let Some(last) = self.last {
+            let now = Instant::now();
+            eprintln!("trace {}: {phase} {:.2} ms", self.what, (now - last).as_secs_f64() * 1e3);
+            self.last = Some(now);
+        }
+    }
+}

@@ -150,7 +150,9 @@ pub fn fit_frame(
     let mut doublings = 0;
     loop {
         let (adapted, f) = fit_on_mesh(lms, size, &a, margin, grid, opts)?;
+        let mut trace = crate::timing::Trace::new("fit_frame");
         let covered = covers_frame(&f.spline, [-0.5, -0.5], [w - 0.5, h - 0.5]);
+        trace.mark("coverage check");
         if covered || opts.mesh.margin.is_some() || doublings == MAX_MARGIN_DOUBLINGS {
             let frame = FrameReport {
                 size,
@@ -182,6 +184,7 @@ fn fit_on_mesh(
     let mut mesh_opts = AdaptOptions { margin: Some(margin), grid, ..opts.mesh.clone() };
     let mut tries = 0;
     let start = std::time::Instant::now();
+    let mut trace = crate::timing::Trace::new("fit_frame");
     let (adapted, spline, mds, terms) = loop {
         let adapted = Mesh::landmark_adapted(&sources, size, &mesh_opts).map_err(|e| match e {
             MeshError::OutsideFrame { index, x, y, w, h } => FitError::BadLandmark {
@@ -194,7 +197,9 @@ fn fit_on_mesh(
             },
             e => FitError::Options(e.to_string()),
         })?;
+        trace.mark("adapted mesh");
         let spline = affine_spline(adapted.mesh.clone(), opts.degree, a)?;
+        trace.mark("affine spline");
         // The determining set (exact eliminations) and the triangles' objective terms
         // (floating point) depend on the spline only: built side by side.
         let level = opts.fit.det_level;
@@ -202,6 +207,7 @@ fn fit_on_mesh(
             || Mds::new(&spline),
             || (level > 0).then(|| TriangleTerms::new(&spline, level)),
         );
+        trace.mark("determining set | triangle terms");
         match mm {
             Ok(mds) => break (adapted, spline, mds, terms),
             Err(MdsError::Singular(v)) if tries < MAX_MDS_RETRIES => {

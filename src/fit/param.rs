@@ -163,13 +163,21 @@ impl Param {
     /// `2^-bits`, fixed free points kept, dependents recomputed exactly by the MDS formulas,
     /// so the result is C1 exactly whatever rounding happened in `f64`.
     pub fn exact_points(&self, s: &Spline, mds: &Mds, x: &[f64], bits: u32) -> Vec<Vec<Rat>> {
+        let mut vals = self.rounded_points(s, x, bits);
+        let all = vec![true; vals.len()];
+        mds.recompute(&mut vals, &all);
+        vals
+    }
+
+    /// `s`'s control points with the variables set to `x` rounded to multiples of
+    /// `2^-bits` (the first step of [`exact_points`](Self::exact_points); the dependents
+    /// are stale until recomputed, e.g. by [`Spline::with_determined_points`]).
+    pub fn rounded_points(&self, s: &Spline, x: &[f64], bits: u32) -> Vec<Vec<Rat>> {
         let nv = self.nv();
         let mut vals: Vec<Vec<Rat>> = s.points().to_vec();
         for (k, &p) in self.vars.iter().enumerate() {
             vals[p] = [x[k], x[nv + k]].iter().map(|&v| grid_rat(v, bits)).collect();
         }
-        let all = vec![true; vals.len()];
-        mds.recompute(&mut vals, &all);
         vals
     }
 }

@@ -109,7 +109,9 @@ impl Smoother {
         }
         // The structure of K first; then its symbolic analysis (one thread) beside the
         // numeric assembly (the others).
+        let mut trace = crate::timing::Trace::new("smoother");
         let locals = obj.bending_locals();
+        trace.mark("bending locals");
         let (pattern, bv) = rayon::join(
             || {
                 let mut entries = lower_entries(&locals);
@@ -118,12 +120,14 @@ impl Smoother {
             },
             || obj.bending_values(&locals),
         );
+        trace.mark("symbolic analysis | bending values");
         let pattern = pattern.map_err(|e| FitError::Solver(e.to_string()))?;
         let BendingValues { mut values, b, diag } = bv;
         let mean_diag = if diag.1 == 0 { 1.0 } else { (diag.0 / nv as f64).max(f64::MIN_POSITIVE) };
         // The ridge on the diagonal (the last nv entries of the pattern).
         values.extend(std::iter::repeat_n(RIDGE * mean_diag, nv));
         let factor: Factor = pattern.factor(&values).map_err(|_| FitError::Singular(0))?;
+        trace.mark("numeric Cholesky");
         // The ridge penalizes the distance to the warm start (not to the origin), so the
         // warm start's cost bounds the result's: x0 = -(K + r I)^-1 (b - r x_warm).
         let warm = obj.param.x0();
@@ -135,7 +139,9 @@ impl Smoother {
             v
         });
         let cols: Vec<Vec<(usize, f64)>> = rows.iter().map(|(row, _, _)| row.clone()).collect();
+        trace.mark("x0");
         let m = factor.inverse_gram(&cols);
+        trace.mark("landmark Gram");
         let gap = rows
             .iter()
             .map(|(row, r0, t)| {

@@ -569,7 +569,9 @@ fn fit_soft_terms(
     start: Instant,
     terms: Option<TriangleTerms>,
 ) -> Result<Fit, FitError> {
+    let mut trace = crate::timing::Trace::new("fit");
     let mut obj = objective_with_terms(s, mds, lms, opts, terms)?;
+    trace.mark("objective");
     let nv = obj.param.nv();
     let x0 = obj.param.x0();
     let out = if nv == 0 {
@@ -584,12 +586,14 @@ fn fit_soft_terms(
     } else {
         solve(&mut obj, s, &x0, opts)?
     };
+    trace.mark("solve");
     // The costs (floating point) beside the exact points and their C1 check.
     let ((cost_initial, cost_final), fitted) = rayon::join(
         || (obj.eval(&x0, None).total, obj.eval(&out.x, None).total),
-        || s.with_points(obj.param.exact_points(s, mds, &out.x, opts.grid_bits)),
+        || s.with_determined_points(mds, obj.param.rounded_points(s, &out.x, opts.grid_bits)),
     );
     let fitted = fitted?;
+    trace.mark("exact points + C1 check | costs");
     let mut rep = report(
         &fitted,
         lms,
@@ -606,6 +610,7 @@ fn fit_soft_terms(
     rep.gcv_rms = out.choice.map(|c| c.gcv_rms);
     rep.loo_rms = out.choice.map(|c| c.loo_rms);
     rep.termination = out.termination;
+    trace.mark("report (residuals, certificate)");
     if rep.method.contains("newton") || !rep.fold_free {
         rep.conflicts = super::affine::crossing_pairs(lms)
             .into_iter()
@@ -653,14 +658,18 @@ fn solve(
     if nv > MAX_FIT_VARIABLES {
         return Err(FitError::TooLarge { variables: nv });
     }
+    let mut trace = crate::timing::Trace::new("fit solve");
     let sm = Smoother::new(obj)?;
+    trace.mark("landmark-space smoother");
     let choice = match opts.bend {
         Bend::Auto => sm.choose()?,
         Bend::Weight(_) => None,
     };
+    trace.mark("GCV choice");
     let bend = choice.map_or(bend_weight(opts.bend), |c| c.bend);
     obj.bend = sm.lambda(bend);
     let mut x = sm.solve(bend, None)?;
+    trace.mark("squares solve");
     let mut iterations = 1u64;
     let mut method = "gauss-newton".to_string();
     if opts.loss != Loss::Squares {
@@ -762,8 +771,9 @@ pub(super) fn report(
         fold_free: cert.fold_free,
         det_j_lower_bound: cert.lower_bound,
         conflicts: Vec::new(),
-        // Every caller built `fitted` with `set_points` / `from_points`, which check each C1
-        // condition exactly and fail otherwise (a second check would only repeat it).
+        // Every caller built `fitted` with `with_points` / `with_determined_points` /
+        // `from_points`, which check each C1 condition exactly and fail otherwise (a second
+        // check would only repeat it).
         exact_c1: true,
         time_ms: start.elapsed().as_secs_f64() * 1e3,
     })

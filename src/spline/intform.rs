@@ -115,15 +115,22 @@ pub(crate) struct IntPlan {
     den: Vec<Int>,
     /// Per dependent, in evaluation order: the point and its `(j, m_j)`.
     terms: Vec<(usize, Vec<(usize, Int)>)>,
+    /// Per C1 condition `sum_k c_k x_(m_k) = 0` (the spline's quads, in order): its members
+    /// and the integer multipliers `c_k L / E_(m_k)`, `L = lcm_k E_(m_k)`, so that the
+    /// condition holds iff `sum_k c_k (L / E_(m_k)) N_(m_k) = 0` on the numerators (the
+    /// common factor `D L` dropped).
+    checks: Vec<[(usize, Int); 4]>,
 }
 
 impl IntPlan {
     /// The plan for dependents `order` (each using only free points and earlier dependents)
-    /// with formulas `formula(p)`.
+    /// with formulas `formula(p)`, and the checks of the conditions `sum_k coef_k x_(m_k) = 0`
+    /// given as `(members, coefficients)`.
     pub(crate) fn new<'a>(
         n: usize,
         order: &[usize],
         formula: impl Fn(usize) -> &'a [(usize, Rat)],
+        conditions: &[([usize; 4], [i64; 4])],
     ) -> IntPlan {
         let mut den = vec![Int::from(1); n];
         let mut terms = Vec::with_capacity(order.len());
@@ -139,7 +146,19 @@ impl IntPlan {
             den[p] = e;
             terms.push((p, row));
         }
-        IntPlan { den, terms }
+        let checks = conditions
+            .par_iter()
+            .map(|(m, c)| {
+                let mut l = Int::from(1);
+                for &j in m {
+                    if den[j] != l {
+                        l = l.lcm(&den[j]);
+                    }
+                }
+                [0, 1, 2, 3].map(|k| (m[k], &Int::from(c[k]) * &l.div_exact(&den[m[k]])))
+            })
+            .collect();
+        IntPlan { den, terms, checks }
     }
 
     /// Recomputes every dependent from the current values of the free points (`values[p]`
@@ -150,6 +169,42 @@ impl IntPlan {
         values: &mut [Vec<Rat>],
         is_free: impl Fn(usize) -> bool + Sync,
     ) {
+        let (dd, num) = self.numerators(values, is_free);
+        self.reduce(values, &dd, &num);
+    }
+
+    /// [`recompute`](Self::recompute), then every condition given to [`new`](Self::new)
+    /// checked exactly on the numerators (before the reduction): `Err(i)` names the first
+    /// condition that fails, and `values` is then left as it was.
+    pub(crate) fn recompute_verified(
+        &self,
+        values: &mut [Vec<Rat>],
+        is_free: impl Fn(usize) -> bool + Sync,
+    ) -> Result<(), usize> {
+        let (dd, num) = self.numerators(values, is_free);
+        let bad = self.checks.par_iter().position_first(|row| {
+            num.iter().any(|num| {
+                let mut acc = Int::from(0);
+                for (j, m) in row {
+                    acc += &(m * &num[*j]);
+                }
+                !acc.is_zero_int()
+            })
+        });
+        if let Some(i) = bad {
+            return Err(i);
+        }
+        self.reduce(values, &dd, &num);
+        Ok(())
+    }
+
+    /// The common denominator `D` of the free values and every point's numerator `N_p`
+    /// per coordinate (`x_p = N_p / (D E_p)`).
+    fn numerators(
+        &self,
+        values: &[Vec<Rat>],
+        is_free: impl Fn(usize) -> bool + Sync,
+    ) -> (Int, Vec<Vec<Int>>) {
         let n = values.len();
         let dim = values.first().map_or(0, |v| v.len());
         // D: the lcm of the free values' denominators.
@@ -184,12 +239,17 @@ impl IntPlan {
                 num
             })
             .collect();
+        (dd, num)
+    }
+
+    /// Writes the dependents' values `N_p / (D E_p)` in lowest terms.
+    fn reduce(&self, values: &mut [Vec<Rat>], dd: &Int, num: &[Vec<Int>]) {
         // The reductions (one gcd per value) are independent: in parallel.
         let reduced: Vec<Vec<Rat>> = self
             .terms
             .par_iter()
             .map(|(p, _)| {
-                let d = &dd * &self.den[*p];
+                let d = dd * &self.den[*p];
                 num.iter().map(|num| Rat::new(num[*p].clone(), d.clone())).collect()
             })
             .collect();
@@ -250,6 +310,37 @@ mod tests {
         assert!(comb_is_zero(&[(i64::MAX, &huge), (-i64::MAX, &huge)]));
         assert!(!comb_is_zero(&[(i64::MAX, &huge), (-i64::MAX + 1, &huge)]));
         assert!(comb_is_zero(&[]));
+    }
+
+    /// A plan for `x2 = x0 / 2 + x1 / 3` (points 0, 1 free) with the condition
+    /// `6 x2 - 3 x0 - 2 x1 + 0 x0 = 0`, which the formula satisfies, and one it does not.
+    fn plan_with(condition: [i64; 4]) -> IntPlan {
+        let formula = [(0usize, r(1, 2)), (1usize, r(1, 3))];
+        IntPlan::new(
+            3,
+            &[2],
+            |p| if p == 2 { &formula[..] } else { &[] },
+            &[([2, 0, 1, 0], [6, -3, -2, 0]), ([2, 0, 1, 0], condition)],
+        )
+    }
+
+    #[test]
+    fn verified_recompute_checks_every_condition_on_the_numerators() {
+        let start =
+            || vec![vec![r(5, 7), r(-1, 4)], vec![r(3, 11), r(9, 2)], vec![r(0, 1), r(0, 1)]];
+        // Both conditions hold: the same values as the plain recompute.
+        let good = plan_with([12, -6, -4, 0]);
+        let (mut a, mut b) = (start(), start());
+        good.recompute(&mut a, |p| p < 2);
+        assert_eq!(good.recompute_verified(&mut b, |p| p < 2), Ok(()));
+        assert_eq!(a, b);
+        assert_eq!(a[2][0], r(5, 14) + r(1, 11));
+        // A condition the formulas do not satisfy (a wrong coefficient, injected): reported
+        // by its index, and the values are left untouched.
+        let bad = plan_with([6, -3, -1, -1]);
+        let mut c = start();
+        assert_eq!(bad.recompute_verified(&mut c, |p| p < 2), Err(1));
+        assert_eq!(c, start());
     }
 
     proptest! {

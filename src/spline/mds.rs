@@ -23,6 +23,7 @@
 //! ring-2 system constrains ring 1, such as interior vertices where four edges lie on two
 //! lines (the `sigma` vertices of the dimension formula).
 
+use super::c1::Quad;
 use super::intform::IntPlan;
 use super::layout::Layout;
 use super::Spline;
@@ -53,6 +54,9 @@ pub struct Mds {
     used_by: Vec<Vec<usize>>,
     /// The formulas on common denominators ([`IntPlan`]), built on first use.
     plan: std::sync::OnceLock<IntPlan>,
+    /// The spline's C1 conditions (its quads, in order), checked by
+    /// [`recompute_verified`](Self::recompute_verified).
+    quads: Vec<Quad>,
 }
 
 /// Why no MDS could be built.
@@ -344,7 +348,13 @@ impl Mds {
                 }
             }
         }
-        Ok(Mds { roles, order, used_by, plan: std::sync::OnceLock::new() })
+        Ok(Mds {
+            roles,
+            order,
+            used_by,
+            plan: std::sync::OnceLock::new(),
+            quads: s.quads().to_vec(),
+        })
     }
 
     /// Builds the integer form of the formulas ([`IntPlan`], used by
@@ -358,10 +368,17 @@ impl Mds {
     /// denominator is built from those of the points before it).
     fn plan(&self) -> &IntPlan {
         self.plan.get_or_init(|| {
-            IntPlan::new(self.roles.len(), &self.order, |p| match &self.roles[p] {
-                Role::Dependent(f) => f.as_slice(),
-                Role::Free => &[],
-            })
+            let conditions: Vec<([usize; 4], [i64; 4])> =
+                self.quads.iter().map(|q| (q.members(), q.coef)).collect();
+            IntPlan::new(
+                self.roles.len(),
+                &self.order,
+                |p| match &self.roles[p] {
+                    Role::Dependent(f) => f.as_slice(),
+                    Role::Free => &[],
+                },
+                &conditions,
+            )
         })
     }
 
@@ -417,6 +434,22 @@ impl Mds {
         } else {
             self.recompute_rational(values, which);
         }
+    }
+
+    /// Recomputes every dependent from the free points' values, as
+    /// [`recompute`](Self::recompute) with every point marked, and then checks every C1
+    /// condition of the spline this set was built for, exactly: on the integer numerators
+    /// over the common denominator, before the reduction to lowest terms (`sum_k c_k (L /
+    /// E_(m_k)) N_(m_k) = 0`, see [`IntPlan`]), so without a gcd. `Err(quad)` names the first
+    /// condition that fails (a determining set that does not determine), and `values` is
+    /// then unchanged.
+    pub fn recompute_verified(&self, values: &mut [Vec<Rat>]) -> Result<(), usize> {
+        self.plan().recompute_verified(values, |p| matches!(self.roles[p], Role::Free))
+    }
+
+    /// Whether this set was built for a spline with these C1 conditions.
+    pub fn is_for(&self, quads: &[Quad]) -> bool {
+        self.quads == quads
     }
 
     /// [`recompute`](Self::recompute) in reduced-fraction arithmetic only (the reference).

@@ -111,6 +111,9 @@ pub enum SplineError {
         /// y.
         y: f64,
     },
+    /// A determining set built for another spline (other C1 conditions).
+    #[error("the determining set was built for another mesh or degree")]
+    ForeignDeterminingSet,
 }
 
 /// The index of a control point of a [`Spline`] (its position in [`Spline::points`] and in
@@ -378,6 +381,38 @@ impl Spline {
             });
         }
         self.check_c1_of(&points)?;
+        self.with_points_c1_by_construction(points)
+    }
+
+    /// A spline on this mesh and degree whose free points (in the determining set `mds`,
+    /// built for this spline) take their values from `points` and whose dependent points are
+    /// recomputed from them exactly ([`mds::Mds::recompute_verified`]); the dependents'
+    /// entries of `points` are overwritten. Every C1 condition is checked exactly, as by
+    /// [`with_points`](Self::with_points), but on the integer numerators of the recomputed
+    /// values (no gcd per condition), which is much cheaper for large splines.
+    ///
+    /// # Errors
+    /// [`SplineError::PointCount`], [`SplineError::ForeignDeterminingSet`], or
+    /// [`SplineError::NotC1`] if a condition fails (a set that does not determine the
+    /// spline; never for a set built by [`mds::Mds::new`] on this spline).
+    pub fn with_determined_points(
+        &self,
+        mds: &mds::Mds,
+        mut points: Vec<Vec<Rat>>,
+    ) -> Result<Spline, SplineError> {
+        if points.len() != self.points.len() {
+            return Err(SplineError::PointCount {
+                expected: self.points.len(),
+                found: points.len(),
+            });
+        }
+        if !mds.is_for(&self.quads) {
+            return Err(SplineError::ForeignDeterminingSet);
+        }
+        mds.recompute_verified(&mut points).map_err(|qi| {
+            let q = self.quads[qi];
+            SplineError::NotC1 { quad: qi, edge: q.edge, index: q.index }
+        })?;
         self.with_points_c1_by_construction(points)
     }
 

@@ -356,6 +356,48 @@ mod determining_set {
     }
 
     #[test]
+    fn determined_points_equal_recompute_then_with_points() {
+        for (seed, d) in [(9u64, 5usize), (10, 6)] {
+            let m = random_mesh(seed, 14);
+            let s = Spline::identity(m.clone(), d).unwrap();
+            let mds = Mds::new(&s).unwrap();
+            // Free values off the identity, with other denominators and a huge one (the
+            // numerators then overflow i128); the dependents' entries are garbage on purpose.
+            let huge = Rat::new(Int::from_i128(1i128 << 110), Int::from(3));
+            let vals: Vec<Vec<Rat>> = (0..s.num_points())
+                .map(|p| match mds.role(p) {
+                    Role::Free => vec![
+                        &s.points()[p][0] + Rat::new(Int::from((p % 5) as i64), Int::from(1024)),
+                        &s.points()[p][1] + if p == 3 { huge.clone() } else { rat_int(2) },
+                    ],
+                    Role::Dependent(_) => vec![rat_int(-77), rat_int(99)],
+                })
+                .collect();
+            let mut reference = vals.clone();
+            mds.recompute(&mut reference, &vec![true; s.num_points()]);
+            let want = s.with_points(reference).unwrap();
+            let got = s.with_determined_points(&mds, vals.clone()).unwrap();
+            assert_eq!(got.points(), want.points(), "seed {seed} degree {d}");
+            let c = m.triangle(1).map(|v| m.vertex(v));
+            let mid = [(c[0][0] + c[1][0] + c[2][0]) / 3.0, (c[0][1] + c[1][1] + c[2][1]) / 3.0];
+            assert_eq!(got.eval(mid, None), want.eval(mid, None));
+            // A set built for another spline is refused, not trusted.
+            let other = Spline::identity(random_mesh(seed + 100, 14), d).unwrap();
+            let foreign = Mds::new(&other).unwrap();
+            if !foreign.is_for(s.quads()) {
+                assert_eq!(
+                    s.with_determined_points(&foreign, vals.clone()).unwrap_err(),
+                    SplineError::ForeignDeterminingSet
+                );
+            }
+            assert!(matches!(
+                s.with_determined_points(&mds, vals[1..].to_vec()),
+                Err(SplineError::PointCount { .. })
+            ));
+        }
+    }
+
+    #[test]
     fn grid_meshes_and_low_degree() {
         let g = Mesh::grid(4, 3, 40.0, 30.0, MeshOptions::default()).unwrap();
         let s = Spline::identity(g, 5).unwrap();
