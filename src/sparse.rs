@@ -112,6 +112,100 @@ impl Pattern {
             }
             col_ptr.push(row_idx.len());
         }
+        Pattern::analyse(n, pos, col_ptr, row_idx)
+    }
+
+    /// The pattern of `sum_t S_t^T B_t S_t`-like matrices whose blocks are dense over
+    /// `cliques[t]`, given in the order of [`lower_clique_entries`] and, with
+    /// `diagonal`, the `n` diagonal entries after them: the same pattern (and the same
+    /// positions) as [`new`](Self::new) on those entries, built without listing them.
+    ///
+    /// Each clique must be strictly ascending, so that its lower-triangle pairs are
+    /// `(c[z1], c[z2])` for `z2 <= z1`. The compressed columns are built column by column
+    /// from the cliques that contain the column (a marker per row, rows sorted), and each
+    /// clique's entries get their positions from its columns in turn.
+    ///
+    /// # Panics
+    /// Panics if a clique is not strictly ascending or holds an index `>= n`.
+    pub fn from_cliques(
+        n: usize,
+        cliques: &[Vec<usize>],
+        diagonal: bool,
+    ) -> Result<Pattern, SparseError> {
+        // Offsets of each clique's entries, and the cliques of each column.
+        let mut offset = Vec::with_capacity(cliques.len() + 1);
+        let mut total = 0usize;
+        let mut count = vec![0usize; n + 1];
+        for c in cliques {
+            assert!(c.windows(2).all(|w| w[0] < w[1]), "clique not strictly ascending");
+            offset.push(total);
+            total += c.len() * (c.len() + 1) / 2;
+            for &v in c {
+                assert!(v < n, "clique index {v} outside a {n} x {n} matrix");
+                count[v + 1] += 1;
+            }
+        }
+        for v in 0..n {
+            count[v + 1] += count[v];
+        }
+        // (clique, position of the column in it), per column.
+        let mut member = vec![(0u32, 0u32); count[n]];
+        let mut fill = count.clone();
+        for (t, c) in cliques.iter().enumerate() {
+            for (z, &v) in c.iter().enumerate() {
+                member[fill[v]] = (t as u32, z as u32);
+                fill[v] += 1;
+            }
+        }
+        let mut pos = vec![0usize; total + if diagonal { n } else { 0 }];
+        let mut col_ptr = Vec::with_capacity(n + 1);
+        let mut row_idx: Vec<usize> = Vec::new();
+        let mut mark = vec![usize::MAX; n];
+        let mut slot = vec![0usize; n];
+        let mut rows: Vec<usize> = Vec::new();
+        col_ptr.push(0);
+        for col in 0..n {
+            rows.clear();
+            let here = &member[count[col]..count[col + 1]];
+            for &(t, z) in here {
+                for &r in &cliques[t as usize][z as usize..] {
+                    if mark[r] != col {
+                        mark[r] = col;
+                        rows.push(r);
+                    }
+                }
+            }
+            if diagonal && mark[col] != col {
+                mark[col] = col;
+                rows.push(col);
+            }
+            rows.sort_unstable();
+            for &r in &rows {
+                slot[r] = row_idx.len();
+                row_idx.push(r);
+            }
+            // Entry (c[z1], c[z2]) with z2 = z sits at offset + z1 (z1 + 1) / 2 + z2.
+            for &(t, z) in here {
+                let (c, z2) = (&cliques[t as usize], z as usize);
+                for (z1, &r) in c.iter().enumerate().skip(z2) {
+                    pos[offset[t as usize] + z1 * (z1 + 1) / 2 + z2] = slot[r];
+                }
+            }
+            if diagonal {
+                pos[total + col] = slot[col];
+            }
+            col_ptr.push(row_idx.len());
+        }
+        Pattern::analyse(n, pos, col_ptr, row_idx)
+    }
+
+    /// The symbolic analysis of compressed lower columns.
+    fn analyse(
+        n: usize,
+        pos: Vec<usize>,
+        col_ptr: Vec<usize>,
+        row_idx: Vec<usize>,
+    ) -> Result<Pattern, SparseError> {
         let symbolic = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
         let llt = factorize_symbolic_cholesky(
             symbolic.as_ref(),
@@ -168,6 +262,20 @@ impl Pattern {
             .map_err(|_| SparseError::NotPositiveDefinite)?;
         Ok(Factor { n: self.n, symbolic: Arc::clone(&self.llt), values })
     }
+}
+
+/// The lower-triangle entries of dense blocks over strictly ascending `cliques`, clique
+/// after clique: `(c[z1], c[z2])` for `z2 <= z1`, `z1` then `z2` ascending (the order
+/// [`Pattern::from_cliques`] expects its values in).
+pub fn lower_clique_entries(cliques: &[Vec<usize>]) -> Vec<(usize, usize)> {
+    let count: usize = cliques.iter().map(|c| c.len() * (c.len() + 1) / 2).sum();
+    let mut entries = Vec::with_capacity(count);
+    for c in cliques {
+        for (z1, &a) in c.iter().enumerate() {
+            entries.extend(c[..=z1].iter().map(|&b| (a, b)));
+        }
+    }
+    entries
 }
 
 /// A numeric factorization `A = L L^T`.
@@ -484,6 +592,46 @@ mod tests {
     }
 
     proptest::proptest! {
+        /// Random overlapping cliques: the pattern built from the cliques is the pattern
+        /// built from their listed entries (same columns, same positions), with and without
+        /// the diagonal, and factors the same values to the same factor.
+        #[test]
+        fn clique_patterns_equal_entry_patterns(
+            n in 1usize..30,
+            raw in proptest::collection::vec(proptest::collection::vec(0usize..30, 1..8), 0..12),
+            diagonal in proptest::bool::ANY,
+        ) {
+            let cliques: Vec<Vec<usize>> = raw
+                .iter()
+                .map(|c| {
+                    let mut c: Vec<usize> = c.iter().map(|&v| v % n).collect();
+                    c.sort_unstable();
+                    c.dedup();
+                    c
+                })
+                .collect();
+            let mut entries = lower_clique_entries(&cliques);
+            if diagonal {
+                entries.extend((0..n).map(|i| (i, i)));
+            }
+            let a = Pattern::from_cliques(n, &cliques, diagonal).unwrap();
+            let b = Pattern::new(n, &entries).unwrap();
+            proptest::prop_assert_eq!(&a.pos, &b.pos);
+            proptest::prop_assert_eq!(a.symbolic.col_ptr(), b.symbolic.col_ptr());
+            proptest::prop_assert_eq!(a.symbolic.row_idx(), b.symbolic.row_idx());
+            // Values that make the matrix positive definite: 1 off the diagonal, and a
+            // diagonal larger than any row sum.
+            if diagonal {
+                let vals: Vec<f64> = entries
+                    .iter()
+                    .enumerate()
+                    .map(|(i, &(r, c))| if i >= entries.len() - n { 100.0 } else if r == c { 2.0 } else { 0.5 })
+                    .collect();
+                let (fa, fb) = (a.factor(&vals).unwrap(), b.factor(&vals).unwrap());
+                proptest::prop_assert_eq!(fa.values, fb.values);
+            }
+        }
+
         /// Random diagonally dominant matrices given as shuffled, mirrored and repeated
         /// entries: the solve matches the matrix assembled densely.
         #[test]

@@ -44,7 +44,7 @@
 //! keeps it definite: the affine part is then effectively unpenalized (`M` gets very large
 //! eigenvalues there), and the warm start's cost still bounds the result's.
 
-use super::objective::{lower_entries, BendingValues, Objective};
+use super::objective::{BendingValues, Objective};
 use super::solve::FitError;
 use super::sparse::{Factor, Pattern};
 use faer::{Mat, Side};
@@ -107,17 +107,14 @@ impl Smoother {
         if nv.saturating_mul(k.max(1)) > MAX_SMOOTHER_ENTRIES {
             return Err(FitError::TooLarge { variables: nv });
         }
-        // The structure of K first; then its symbolic analysis (one thread) beside the
-        // numeric assembly (the others).
+        // The structure of K first (each triangle's variables, ascending: dense blocks); then
+        // its symbolic analysis (one thread) beside the numeric assembly (the others). The
+        // ridge's diagonal entries come last.
         let mut trace = crate::timing::Trace::new("smoother");
         let locals = obj.bending_locals();
         trace.mark("bending locals");
         let (pattern, bv) = rayon::join(
-            || {
-                let mut entries = lower_entries(&locals);
-                entries.extend((0..nv).map(|i| (i, i)));
-                Pattern::new(nv, &entries)
-            },
+            || Pattern::from_cliques(nv, &locals, true),
             || obj.bending_values(&locals),
         );
         trace.mark("symbolic analysis | bending values");

@@ -69,8 +69,7 @@ impl Objective {
         BendingSystem { entries, values }
     }
 
-    /// Per triangle, the variables its patch depends on (in order of first appearance along
-    /// the patch).
+    /// Per triangle, the variables its patch depends on, ascending.
     pub fn bending_locals(&self) -> Vec<Vec<usize>> {
         let nv = self.param.nv();
         let rows = self.param.rows();
@@ -91,6 +90,9 @@ impl Objective {
                     for &k in &local {
                         seen[k] = false;
                     }
+                    // Ascending, so that the lower-triangle pairs are z2 <= z1
+                    // (`sparse::Pattern::from_cliques`).
+                    local.sort_unstable();
                     local
                 },
             )
@@ -119,12 +121,9 @@ impl Objective {
                     let u = local.len();
                     let mut vals = Vec::with_capacity(u * (u + 1) / 2);
                     let (mut diag, mut count) = (0.0, 0);
+                    // `local` is ascending: local[z1] >= local[z2] iff z2 <= z1.
                     for z1 in 0..u {
-                        for z2 in 0..u {
-                            if local[z1] >= local[z2] {
-                                vals.push(blk.bend[z1 * u + z2]);
-                            }
-                        }
+                        vals.extend_from_slice(&blk.bend[z1 * u..z1 * u + z1 + 1]);
                         diag += blk.bend[z1 * u + z1];
                         count += 1;
                     }
