@@ -149,11 +149,19 @@ fn rref_int(rows: &mut [Vec<i128>], ncand: usize) -> Option<Vec<(usize, usize)>>
         for row in before.iter_mut().chain(after.iter_mut()) {
             let a = row[c];
             for (x, &y) in row.iter_mut().zip(pivot_row.iter()) {
-                let t = piv.checked_mul(*x)?.checked_sub(a.checked_mul(y)?)?;
-                if t % prev != 0 {
-                    return None;
+                // The rows are sparse: an entry with x = 0 and a y = 0 stays 0 (t = 0), and
+                // the first step divides by 1; both skip the i128 division.
+                if *x == 0 && (a == 0 || y == 0) {
+                    continue;
                 }
-                *x = t / prev;
+                let t = piv.checked_mul(*x)?.checked_sub(a.checked_mul(y)?)?;
+                if prev == 1 {
+                    *x = t;
+                } else if t % prev != 0 {
+                    return None;
+                } else {
+                    *x = t / prev;
+                }
             }
         }
         prev = piv;
@@ -162,6 +170,67 @@ fn rref_int(rows: &mut [Vec<i128>], ncand: usize) -> Option<Vec<(usize, usize)>>
     }
     rows.clone_from_slice(&work);
     Some(pivots)
+}
+
+/// [`rref_int`] in exact integers of any size (the same steps, each division checked):
+/// for eliminations whose minors do not fit in `i128`. Returns the pivots, or `None` when a
+/// division is not exact (the caller then runs [`rref`]); the rows are then unspecified.
+fn rref_big(rows: &mut [Vec<Int>], ncand: usize) -> Option<Vec<(usize, usize)>> {
+    let mut pivots = Vec::new();
+    let mut prev = Int::from(1);
+    let mut r = 0;
+    for c in 0..ncand {
+        let Some(p) = (r..rows.len()).find(|&i| !rows[i][c].is_zero_int()) else { continue };
+        rows.swap(r, p);
+        let piv = rows[r][c].clone();
+        let (before, rest) = rows.split_at_mut(r);
+        let (pivot_row, after) = rest.split_first_mut().expect("row r exists");
+        let first = pivots.is_empty();
+        for row in before.iter_mut().chain(after.iter_mut()) {
+            let a = row[c].clone();
+            for (x, y) in row.iter_mut().zip(pivot_row.iter()) {
+                if x.is_zero_int() && (a.is_zero_int() || y.is_zero_int()) {
+                    continue;
+                }
+                let t = &(&piv * &*x) - &(&a * y);
+                if first {
+                    *x = t;
+                } else if !(&t % &prev).is_zero_int() {
+                    return None;
+                } else {
+                    *x = t.div_exact(&prev);
+                }
+            }
+        }
+        prev = piv;
+        pivots.push((r, c));
+        r += 1;
+    }
+    Some(pivots)
+}
+
+/// The fractions of a [`rref_big`] result (as [`rref_to_rat`]).
+fn big_rref_to_rat(rows: &[Vec<Int>], pivots: &[(usize, usize)]) -> Vec<Vec<Rat>> {
+    rows.iter()
+        .enumerate()
+        .map(|(i, row)| {
+            let den = pivots
+                .iter()
+                .find(|&&(r, _)| r == i)
+                .map_or_else(|| Int::from(1), |&(r, c)| rows[r][c].clone());
+            row.iter()
+                .map(
+                    |x| {
+                        if x.is_zero_int() {
+                            Rat::zero()
+                        } else {
+                            Rat::new(x.clone(), den.clone())
+                        }
+                    },
+                )
+                .collect()
+        })
+        .collect()
 }
 
 /// The fractions of a [`rref_int`] result: pivot rows divided by their pivot, other rows
@@ -298,9 +367,22 @@ impl Mds {
                     pivots
                 }
                 None => {
-                    // Too large for i128: the same elimination in fractions.
-                    rows = irows_to_rat(&quads, s, &all);
-                    rref(&mut rows, ncand)
+                    // Too large for i128 (fine snapping grids): the same fraction-free
+                    // elimination in exact integers, else in fractions.
+                    let mut brows: Vec<Vec<Int>> = irows
+                        .iter()
+                        .map(|r| r.iter().map(|&x| Int::from_i128(x)).collect())
+                        .collect();
+                    match rref_big(&mut brows, ncand) {
+                        Some(pivots) => {
+                            rows = big_rref_to_rat(&brows, &pivots);
+                            pivots
+                        }
+                        None => {
+                            rows = irows_to_rat(&quads, s, &all);
+                            rref(&mut rows, ncand)
+                        }
+                    }
                 }
             };
             for (i, row) in rows.iter().enumerate() {
@@ -552,5 +634,56 @@ mod tests {
                 }
             }
         }
+
+        /// Matrices whose minors overflow `i128` (entries up to 2^45, as C1 conditions on a
+        /// fine snapping grid have): the elimination in exact integers gives the same pivots
+        /// and reduced rows as the one in fractions, while the `i128` one gives up.
+        #[test]
+        fn big_fraction_free_rref_equals_rational_rref(
+            base in proptest::collection::vec(proptest::collection::vec(-9i64..10, 7), 2..7),
+            scale in proptest::collection::vec(1i64..(1 << 45), 7),
+            dup in proptest::option::of((0usize..7, -3i64..4)),
+            ncand in 1usize..8,
+        ) {
+            let mut m: Vec<Vec<i128>> = base
+                .iter()
+                .map(|r| r.iter().zip(&scale).map(|(&x, &s)| i128::from(x) * i128::from(s) + i128::from(x.signum())).collect())
+                .collect();
+            if let Some((i, k)) = dup {
+                let r: Vec<i128> = m[i % m.len()].iter().map(|&x| x * i128::from(k)).collect();
+                m.push(r);
+            }
+            let ncand = ncand.min(7);
+            let mut big: Vec<Vec<Int>> =
+                m.iter().map(|r| r.iter().map(|&x| Int::from_i128(x)).collect()).collect();
+            let pivots = rref_big(&mut big, ncand).expect("fraction-free divisions are exact");
+            let mut rats = to_rat(&m);
+            prop_assert_eq!(&pivots, &rref(&mut rats, ncand));
+            let got = big_rref_to_rat(&big, &pivots);
+            for &(r, _) in &pivots {
+                prop_assert_eq!(&got[r], &rats[r]);
+            }
+            for i in 0..m.len() {
+                if !pivots.iter().any(|&(r, _)| r == i) {
+                    let zero_int = got[i].iter().all(|x| x.is_zero());
+                    let zero_rat = rats[i].iter().all(|x| x.is_zero());
+                    prop_assert_eq!(zero_int, zero_rat);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn fraction_free_rref_in_big_integers_takes_over_from_i128() {
+        // 3 x 3 minors of 2^44-sized entries exceed i128 (2^132).
+        let e = 1i128 << 44;
+        let m = vec![vec![e + 1, e - 3, 7, 1], vec![e - 5, e + 9, e, 2], vec![3, e + 1, e - 1, 3]];
+        assert_eq!(rref_int(&mut m.clone(), 3), None);
+        let mut big: Vec<Vec<Int>> =
+            m.iter().map(|r| r.iter().map(|&x| Int::from_i128(x)).collect()).collect();
+        let pivots = rref_big(&mut big, 3).unwrap();
+        let mut rats = to_rat(&m);
+        assert_eq!(pivots, rref(&mut rats, 3));
+        assert_eq!(big_rref_to_rat(&big, &pivots), rats);
     }
 }
