@@ -12,7 +12,7 @@
 
 use crate::exact::{parse_rat, rat_from_f64, rat_to_f64, rat_to_string, Int, Rat};
 use crate::mesh::{Mesh, MeshError, MeshOptions};
-use crate::spline::{Spline, SplineError, ZLayers};
+use crate::spline::{ControlPoint, Spline, SplineError, ZLayers};
 use num_integer::Integer;
 use num_traits::One;
 use serde_json::{json, Map, Value};
@@ -140,7 +140,7 @@ pub fn constraints_from_str(text: &str, s: &Spline) -> Result<Vec<Extra>, Deform
 
 /// The control points recorded as corrected by hand (key `"pinned"`, written by
 /// `trimorph editor`; an extra key that format v1 allows). Empty when absent.
-pub fn pinned_from_str(text: &str) -> Result<Vec<usize>, DeformationError> {
+pub fn pinned_from_str(text: &str) -> Result<Vec<ControlPoint>, DeformationError> {
     let doc: Value =
         serde_json::from_str(text).map_err(|e| DeformationError::Json(e.to_string()))?;
     match doc.get("pinned") {
@@ -149,7 +149,7 @@ pub fn pinned_from_str(text: &str) -> Result<Vec<usize>, DeformationError> {
             .iter()
             .enumerate()
             .map(|(i, v)| {
-                v.as_u64().map(|x| x as usize).ok_or_else(|| {
+                v.as_u64().map(|x| ControlPoint(x as usize)).ok_or_else(|| {
                     key(&format!("pinned[{i}]"), "expected a control point index (integer >= 0)")
                 })
             })

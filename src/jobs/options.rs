@@ -112,7 +112,7 @@ pub enum OptionError {
         #[source]
         source: FitError,
     },
-    /// The fit's options refused by the fit ([`FitError::Options`]).
+    /// The fit's options refused by the fit ([`FitError::is_option`]).
     #[error(transparent)]
     Fit(FitError),
 }

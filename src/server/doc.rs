@@ -27,7 +27,7 @@ use crate::io::{deformation, read_text, write_atomic};
 use crate::prism::{bind, deform, Binding, Model};
 use crate::render::overlay::SilhouetteEdges;
 use crate::spline::jacobian::{CertCache, CertifyOptions, DetJ};
-use crate::spline::Spline;
+use crate::spline::{ControlPoint, Spline};
 use image::DynamicImage;
 use serde_json::{json, Value};
 use std::collections::BTreeSet;
@@ -89,7 +89,7 @@ pub struct Doc {
     frame: Option<Frame>,
     undo: Vec<Step>,
     redo: Vec<Step>,
-    pinned: BTreeSet<usize>,
+    pinned: BTreeSet<ControlPoint>,
     /// Landmark pairs placed, moved or imported in the page ([`pairs`]).
     landmarks: Vec<Landmark>,
     before_drag: Option<Spline>,
@@ -208,9 +208,9 @@ impl Doc {
     }
 
     /// Marks control points as corrected by hand (e.g. read from a saved file).
-    pub fn add_pinned(&mut self, pts: &[usize]) {
+    pub fn add_pinned(&mut self, pts: &[ControlPoint]) {
         let n = self.editor.spline().num_points();
-        self.pinned.extend(pts.iter().copied().filter(|&p| p < n));
+        self.pinned.extend(pts.iter().copied().filter(|p| p.index() < n));
     }
 
     /// The spline.
@@ -230,7 +230,7 @@ impl Doc {
         self.frame.as_ref()
     }
     /// Points corrected by hand so far.
-    pub fn pinned(&self) -> &BTreeSet<usize> {
+    pub fn pinned(&self) -> &BTreeSet<ControlPoint> {
         &self.pinned
     }
     /// The folder file paths are confined to.
@@ -327,7 +327,7 @@ impl Doc {
             self.push_undo(before);
         }
         if let Some(sel) = self.editor.selection() {
-            self.pinned.extend(sel.anchors.iter().copied());
+            self.pinned.extend(sel.anchors.iter().copied().map(ControlPoint));
         }
         Ok(())
     }
