@@ -149,3 +149,19 @@ proptest! {
         prop_assert_eq!(ed.spline().points(), s.points());
     }
 }
+
+#[test]
+fn z_ranges_parse_exactly_and_refuse_bad_text() {
+    let r: ZRange = "-1/2, 3".parse().unwrap();
+    assert_eq!((r.lo(), r.hi()), (&Rat::new((-1).into(), 2.into()), &rat_int(3)));
+    assert_eq!("1,2.5".parse::<ZRange>().unwrap().hi(), &Rat::new(5.into(), 2.into()));
+    assert_eq!("1".parse::<ZRange>().unwrap_err(), ZRangeError::Malformed);
+    assert_eq!("1,1".parse::<ZRange>().unwrap_err().to_string(), "need A < B");
+    assert!(matches!("2,1".parse::<ZRange>(), Err(ZRangeError::Empty { .. })));
+    let e = "x,1".parse::<ZRange>().unwrap_err();
+    assert!(matches!(e, ZRangeError::Value(_)));
+    assert!(e.to_string().starts_with("`x` is not an exact number"), "{e}");
+    let s = scene(&small_worm());
+    let z = r.layers(&s);
+    assert_eq!(z, identity_layers(&s, r.lo().clone(), r.hi().clone()).unwrap());
+}
