@@ -324,8 +324,13 @@ fn pinned_points_keep_their_input_values_exactly() {
             (p[0] - 50.0).abs() < 1e-9 && (p[1] - 50.0).abs() < 1e-9
         })
         .unwrap();
-    ed.select(&[v], &[], &crate::edit::select::Neighborhood::Radius(3), crate::edit::Mode::Xy)
-        .unwrap();
+    ed.select(
+        &[ControlPoint(v)],
+        &[],
+        &crate::edit::select::Neighborhood::Radius(3),
+        crate::edit::Mode::Xy,
+    )
+    .unwrap();
     ed.translate(&[rat_int(3), rat_int(-2)]).unwrap();
     let corrected = ed.into_spline();
     let lms: Vec<Landmark> = [[20.0, 20.0], [80.0, 25.0], [30.0, 75.0], [70.0, 70.0], [50.0, 30.0]]

@@ -358,10 +358,15 @@ fn read(text: &str, require_c1: bool) -> Result<(Spline, Option<LastEdit>), Defo
     };
     let last = match doc.get("last_edit") {
         Some(Value::Object(o)) => {
-            let list = |k: &str| -> Vec<usize> {
+            let list = |k: &str| -> Vec<ControlPoint> {
                 o.get(k)
                     .and_then(Value::as_array)
-                    .map(|a| a.iter().filter_map(Value::as_u64).map(|u| u as usize).collect())
+                    .map(|a| {
+                        a.iter()
+                            .filter_map(Value::as_u64)
+                            .map(|u| ControlPoint(u as usize))
+                            .collect()
+                    })
                     .unwrap_or_default()
             };
             Some(LastEdit { anchors: list("anchors"), derived: list("derived") })
@@ -392,7 +397,10 @@ mod tests {
             z0: vec![rat_int(-1); n],
             z1: vec![Rat::new(3.into(), 7.into()); n],
         }));
-        let last = LastEdit { anchors: vec![1], derived: vec![2, 3] };
+        let last = LastEdit {
+            anchors: vec![ControlPoint(1)],
+            derived: ControlPoint::from_indices(&[2, 3]),
+        };
         let text = to_string(&s, Some(&last));
         let (back, l2) = from_str(&text).unwrap();
         assert_eq!(l2, Some(last.clone()));

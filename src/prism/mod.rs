@@ -170,7 +170,7 @@ impl ZRange {
     /// The range `[lo, hi]`, refused unless `lo < hi`.
     pub fn new(lo: Rat, hi: Rat) -> Result<ZRange, ZRangeError> {
         if lo >= hi {
-            return Err(ZRangeError::Empty { lo, hi });
+            return Err(ZRangeError::Empty { lo: Box::new(lo), hi: Box::new(hi) });
         }
         Ok(ZRange { lo, hi })
     }
@@ -219,9 +219,9 @@ pub enum ZRangeError {
     #[error("need A < B")]
     Empty {
         /// The bottom given.
-        lo: Rat,
+        lo: Box<Rat>,
         /// The top given.
-        hi: Rat,
+        hi: Box<Rat>,
     },
 }
 

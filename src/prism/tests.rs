@@ -7,6 +7,7 @@ use crate::ecles::ConstraintSystem;
 use crate::edit::select::Neighborhood;
 use crate::edit::{Editor, Mode};
 use crate::exact::{rat_int, Rat};
+use crate::spline::ControlPoint;
 use proptest::prelude::*;
 
 fn small_worm() -> Model {
@@ -52,7 +53,7 @@ fn z_edits_never_move_x_or_y_and_xy_edits_never_move_z() {
     let v = interior_vertex(&s);
     for mode in [Mode::Z0, Mode::Z1] {
         let mut ed = Editor::new(s.clone());
-        ed.select(&[v], &[], &Neighborhood::Radius(2), mode).unwrap();
+        ed.select(&[ControlPoint(v)], &[], &Neighborhood::Radius(2), mode).unwrap();
         ed.translate(&[rat_int(25)]).unwrap();
         let after = deform(&m, &b, ed.spline());
         let mut z_moved = false;
@@ -63,7 +64,7 @@ fn z_edits_never_move_x_or_y_and_xy_edits_never_move_z() {
         assert!(z_moved, "{mode:?} moved nothing");
     }
     let mut ed = Editor::new(s.clone());
-    ed.select(&[v], &[], &Neighborhood::Radius(2), Mode::Xy).unwrap();
+    ed.select(&[ControlPoint(v)], &[], &Neighborhood::Radius(2), Mode::Xy).unwrap();
     ed.translate(&[rat_int(30), rat_int(-20)]).unwrap();
     let after = deform(&m, &b, ed.spline());
     let mut xy_moved = false;
@@ -86,9 +87,9 @@ fn a_vertex_at_the_top_follows_sigma1_and_one_at_the_bottom_sigma0() {
     };
     let v = interior_vertex(&s);
     let mut ed = Editor::new(s.clone());
-    ed.select(&[v], &[], &Neighborhood::Radius(3), Mode::Z1).unwrap();
+    ed.select(&[ControlPoint(v)], &[], &Neighborhood::Radius(3), Mode::Z1).unwrap();
     ed.translate(&[rat_int(40)]).unwrap();
-    ed.select(&[v], &[], &Neighborhood::Radius(3), Mode::Z0).unwrap();
+    ed.select(&[ControlPoint(v)], &[], &Neighborhood::Radius(3), Mode::Z0).unwrap();
     ed.translate(&[rat_int(-15)]).unwrap();
     let e = ed.spline();
     let b = bind(&probe, e).unwrap();
@@ -137,7 +138,7 @@ proptest! {
         for (layer, by, pick) in ops {
             let v = inner[pick % inner.len()];
             let mode = if layer == 0 { Mode::Z0 } else { Mode::Z1 };
-            ed.select(&[v], &[], &Neighborhood::Radius(2), mode).unwrap();
+            ed.select(&[ControlPoint(v)], &[], &Neighborhood::Radius(2), mode).unwrap();
             ed.translate(&[rat_int(by)]).unwrap();
         }
         let z = ed.spline().z_layers().unwrap();

@@ -274,7 +274,7 @@ impl Doc {
     /// 2DSD.Select: anchors, a neighbourhood radius (`None`: all points) and the mode.
     pub fn select(
         &mut self,
-        anchors: &[usize],
+        anchors: &[ControlPoint],
         radius: Option<usize>,
         mode: Mode,
     ) -> Result<Value, ServerError> {
@@ -319,15 +319,15 @@ impl Doc {
         // Only the anchors and derived points moved (xy mode; z modes leave phi alone).
         if let Some(sel) = self.editor.selection().filter(|s| s.mode == Mode::Xy) {
             let s = self.editor.spline();
-            self.cert.refresh_points(s, &sel.anchors);
-            self.cert.refresh_points(s, &sel.derived);
+            self.cert.refresh_points(s, &ControlPoint::indices(&sel.anchors));
+            self.cert.refresh_points(s, &ControlPoint::indices(&sel.derived));
         }
         self.last_update_ms = t0.elapsed().as_secs_f64() * 1e3;
         if let Some(before) = self.before_drag.take() {
             self.push_undo(before);
         }
         if let Some(sel) = self.editor.selection() {
-            self.pinned.extend(sel.anchors.iter().copied().map(ControlPoint));
+            self.pinned.extend(sel.anchors.iter().copied());
         }
         Ok(())
     }
@@ -336,7 +336,7 @@ impl Doc {
     fn check_moved(&self) -> Result<(), ServerError> {
         let Some(sel) = self.editor.selection() else { return Ok(()) };
         let s = self.editor.spline();
-        for &i in sel.anchors.iter().chain(&sel.derived) {
+        for i in sel.anchors.iter().chain(&sel.derived).map(|p| p.index()) {
             let v: Vec<f64> = match (sel.mode, s.z_layers()) {
                 (Mode::Xy, _) | (_, None) => s.point_f64(i).to_vec(),
                 (Mode::Z0, Some(z)) => vec![crate::exact::rat_to_f64(&z.z0[i])],
