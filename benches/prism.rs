@@ -11,7 +11,7 @@ use trimorph::edit::{Editor, Mode};
 use trimorph::exact::{rat_int, Rat};
 use trimorph::prism::organism::{worm, WormOptions};
 use trimorph::prism::{auto_mesh, bind, deform, identity_layers};
-use trimorph::spline::Spline;
+use trimorph::spline::{ControlPoint, Spline};
 
 fn bench(c: &mut Criterion) {
     let model = worm(&WormOptions { rings: 950, around: 40, ..Default::default() });
@@ -23,9 +23,9 @@ fn bench(c: &mut Criterion) {
     s.set_z_layers(Some(z));
     let v = (0..mesh.num_vertices()).find(|&v| !mesh.is_border_vertex(v)).unwrap();
     let mut ed = Editor::new(s);
-    ed.select(&[v], &[], &Neighborhood::Radius(2), Mode::Z1).unwrap();
+    ed.select(&[ControlPoint(v)], &[], &Neighborhood::Radius(2), Mode::Z1).unwrap();
     ed.translate(&[rat_int(30)]).unwrap();
-    ed.select(&[v], &[], &Neighborhood::Radius(2), Mode::Xy).unwrap();
+    ed.select(&[ControlPoint(v)], &[], &Neighborhood::Radius(2), Mode::Xy).unwrap();
     ed.translate(&[rat_int(20), rat_int(-10)]).unwrap();
     let s = ed.into_spline();
     let mut g = c.benchmark_group("prism");

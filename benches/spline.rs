@@ -19,7 +19,7 @@ use trimorph::edit::{Editor, Mode};
 use trimorph::exact::{rat_int, Int, Rat};
 use trimorph::mesh::{Mesh, MeshOptions};
 use trimorph::spline::jacobian::{certify, Certifier, CertifyOptions, RAT_ROUNDING};
-use trimorph::spline::Spline;
+use trimorph::spline::{ControlPoint, Spline};
 
 fn mesh_1000() -> Mesh {
     let mut rng = SmallRng::seed_from_u64(5);
@@ -37,7 +37,7 @@ fn bench(c: &mut Criterion) {
         .unwrap_or(0);
     let mut ed = Editor::new(spline.clone());
     {
-        let sel = ed.select(&[v], &[], &Neighborhood::Radius(2), Mode::Xy).unwrap();
+        let sel = ed.select(&[ControlPoint(v)], &[], &Neighborhood::Radius(2), Mode::Xy).unwrap();
         eprintln!(
             "single vertex anchor: {} derived, {} relevant conditions, rank {}",
             sel.derived.len(),
@@ -53,7 +53,7 @@ fn bench(c: &mut Criterion) {
         b.iter_batched_ref(
             || fresh.clone(),
             |ed| {
-                ed.select(&[v], &[], &Neighborhood::Radius(2), Mode::Xy).unwrap();
+                ed.select(&[ControlPoint(v)], &[], &Neighborhood::Radius(2), Mode::Xy).unwrap();
                 ed.translate(&by).unwrap();
                 black_box(ed.spline().num_points())
             },
@@ -66,7 +66,7 @@ fn bench(c: &mut Criterion) {
         b.iter_batched_ref(
             || fresh.clone(),
             |ed| {
-                ed.select(&[e], &[], &Neighborhood::Radius(2), Mode::Xy).unwrap();
+                ed.select(&[ControlPoint(e)], &[], &Neighborhood::Radius(2), Mode::Xy).unwrap();
                 ed.translate(&by).unwrap();
                 black_box(ed.spline().num_points())
             },
@@ -77,7 +77,10 @@ fn bench(c: &mut Criterion) {
     // (issue 2's "typical single-anchor relevant system" target: 1 ms).
     for (name, anchor) in [("vertex", v), ("edge", e)] {
         let mut probe = fresh.clone();
-        let sel = probe.select(&[anchor], &[], &Neighborhood::Radius(2), Mode::Xy).unwrap().clone();
+        let sel = probe
+            .select(&[ControlPoint(anchor)], &[], &Neighborhood::Radius(2), Mode::Xy)
+            .unwrap()
+            .clone();
         eprintln!(
             "{name} anchor relevant system: {} x {} (rank {})",
             sel.relevant(),
@@ -88,20 +91,21 @@ fn bench(c: &mut Criterion) {
         let target: Vec<Vec<Rat>> = sel
             .anchors
             .iter()
-            .map(|&a| spline.points()[a].iter().zip(&by).map(|(p, d)| p + d).collect())
+            .map(|a| spline.points()[a.index()].iter().zip(&by).map(|(p, d)| p + d).collect())
             .collect();
+        let (anchors, derived) =
+            (ControlPoint::indices(&sel.anchors), ControlPoint::indices(&sel.derived));
         c.bench_function(&format!("ecles_2dsd_single_anchor/{name}_factor+update"), |b| {
             b.iter(|| {
                 let opts = InitOptions { strong: true, ..Default::default() };
-                let mut s =
-                    sys.initialize(spline.points(), &sel.anchors, &sel.derived, opts).unwrap();
+                let mut s = sys.initialize(spline.points(), &anchors, &derived, opts).unwrap();
                 s.update(&target, None, None).unwrap();
                 black_box(s.derived_scaled().len())
             })
         });
     }
     let mut ed = fresh.clone();
-    ed.select(&[v], &[], &Neighborhood::Radius(2), Mode::Xy).unwrap();
+    ed.select(&[ControlPoint(v)], &[], &Neighborhood::Radius(2), Mode::Xy).unwrap();
     let mut k = 0i64;
     c.bench_function("drag_update_1000/vertex_anchor", |b| {
         b.iter(|| {
@@ -144,7 +148,7 @@ fn dragged_200() -> Spline {
     let inner: Vec<usize> =
         (0..mesh.num_vertices()).filter(|&v| !mesh.is_border_vertex(v)).collect();
     for (k, &v) in [inner[20], inner[50]].iter().enumerate() {
-        ed.select(&[v], &[], &Neighborhood::Radius(2), Mode::Xy).unwrap();
+        ed.select(&[ControlPoint(v)], &[], &Neighborhood::Radius(2), Mode::Xy).unwrap();
         ed.translate(&[rat_int(12 * (k as i64 * 2 - 1)), rat_int(6)]).unwrap();
     }
     ed.into_spline()

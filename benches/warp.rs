@@ -33,7 +33,7 @@ use trimorph::edit::select::Neighborhood;
 use trimorph::edit::{Editor, Mode};
 use trimorph::exact::rat_int;
 use trimorph::mesh::{Mesh, MeshOptions};
-use trimorph::spline::Spline;
+use trimorph::spline::{ControlPoint, Spline};
 use trimorph::warp::remap::{preimage_grid, RemapOptions};
 use trimorph::warp::sample::{fill_pixels, Source, Texel};
 use trimorph::warp::tiles::{warp_tile_into, Rect, TileLayout, TilePlanner};
@@ -53,7 +53,7 @@ pub fn deformation_with(size: f64, div: f64) -> Spline {
         (0..mesh.num_vertices()).filter(|&v| !mesh.is_border_vertex(v)).collect();
     let step = (size / div) as i64;
     for (k, &v) in [inner[20], inner[50]].iter().enumerate() {
-        ed.select(&[v], &[], &Neighborhood::Radius(2), Mode::Xy).unwrap();
+        ed.select(&[ControlPoint(v)], &[], &Neighborhood::Radius(2), Mode::Xy).unwrap();
         ed.translate(&[rat_int(step * (k as i64 * 2 - 1)), rat_int(step / 2)]).unwrap();
     }
     ed.into_spline()

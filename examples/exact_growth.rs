@@ -17,7 +17,7 @@ use trimorph::edit::select::Neighborhood;
 use trimorph::edit::{Editor, Mode};
 use trimorph::exact::{Int, Rat};
 use trimorph::mesh::{Mesh, MeshOptions};
-use trimorph::spline::Spline;
+use trimorph::spline::{ControlPoint, Spline};
 
 fn sizes(s: &Spline) -> (u64, u64) {
     let (mut n, mut d) = (0, 0);
@@ -56,7 +56,7 @@ fn main() {
             while done < cp {
                 let a = rng.gen_range(0..n);
                 let hood = Neighborhood::Radius(rng.gen_range(0..4));
-                if ed.select(&[a], &[], &hood, Mode::Xy).is_err() {
+                if ed.select(&[ControlPoint(a)], &[], &hood, Mode::Xy).is_err() {
                     continue;
                 }
                 let q = ed.spline().points()[a].clone();

@@ -106,6 +106,48 @@ fn bad_model_inputs_exit_1() {
     assert!(String::from_utf8_lossy(&r.stderr).contains("no z layers"));
 }
 
+/// `model bind --grid` and `--range` are parsed by clap (`jobs::model::AutoGrid`,
+/// `prism::ZRange`): a bad value exits 1 with `error: --flag: reason` and writes nothing; a
+/// range may start with a minus sign.
+#[test]
+fn bad_bind_grids_and_ranges_are_refused_by_the_option_parser() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/models");
+    let (worm, prisms) = (data.join("worm.obj"), data.join("worm_prisms.obj"));
+    let out = dir.path().join("b.json");
+    for (flag, value, want) in [
+        ("--grid", "4", "error: --grid: expected COLSxROWS, e.g. 4x2"),
+        ("--grid", "0x2", "error: --grid: expected COLSxROWS, e.g. 4x2"),
+        ("--grid", "101x100", "error: --grid: expected COLSxROWS, e.g. 4x2"),
+        ("--range", "1", "error: --range: expected A,B"),
+        ("--range", "2,1", "error: --range: need A < B"),
+        ("--range", "x,1", "error: --range: `x` is not an exact number"),
+    ] {
+        let r =
+            trimorph(&["model", "bind", "--model", s(&worm), "--auto", flag, value, "-o", s(&out)]);
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert_eq!(r.status.code(), Some(1), "{flag} {value}: {err}");
+        assert!(err.starts_with(want), "{flag} {value}: {err}");
+        assert!(!out.exists());
+    }
+    let o = trimorph(&[
+        "model",
+        "bind",
+        "--model",
+        s(&worm),
+        "--mesh",
+        s(&prisms),
+        "--range",
+        "-100,100",
+        "-o",
+        s(&out),
+    ]);
+    ok(&o);
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    assert_eq!(v["z_range"], serde_json::json!([-100.0, 100.0]));
+}
+
 #[test]
 fn the_bundled_real_models_bind_and_warp() {
     let dir = tempfile::tempdir().unwrap();

@@ -129,6 +129,28 @@ fn bad_inputs_exit_1_with_a_message() {
     }
 }
 
+/// `morph --range` is parsed by clap (the library's `check_range` limits): a bad value
+/// exits 1 with `error: --range: reason` before any image is read, and nothing is written.
+#[test]
+fn bad_time_ranges_are_refused_by_the_option_parser() {
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b) = (dir.path().join("a.png"), dir.path().join("b.png"));
+    let (a, b) = (a.to_str().unwrap(), b.to_str().unwrap());
+    let out = dir.path().join("out");
+    for (value, want) in [
+        ("0", "error: --range: expected T0,T1 (two numbers), got `0`"),
+        ("0,nan", "error: --range: expected T0,T1 (two numbers), got `0,nan`"),
+        ("-0.5,101", "error: --range: times must lie within -100..100, got `-0.5,101`"),
+    ] {
+        let args = ["morph", a, b, "--landmarks", a, "--range", value, "-o", out.to_str().unwrap()];
+        let o = trimorph(&args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{value}: {err}");
+        assert!(err.starts_with(want), "{value}: {err}");
+        assert!(!out.exists());
+    }
+}
+
 #[test]
 fn preview_path_writes_colour_mesh_frames_starting_at_a() {
     let dir = tempfile::tempdir().unwrap();

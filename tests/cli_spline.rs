@@ -103,6 +103,30 @@ fn bad_mesh_inputs_exit_1() {
     assert!(String::from_utf8_lossy(&r.stderr).to_lowercase().contains("collinear"));
 }
 
+/// `mesh --z-range` is parsed by clap (`prism::ZRange`): a bad value exits 1 with
+/// `error: --z-range: reason` before any mesh is built, and nothing is written.
+#[test]
+fn bad_z_ranges_are_refused_by_the_option_parser() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("z.json");
+    let o = out.to_str().unwrap();
+    for (value, want) in [
+        ("1", "error: --z-range: expected A,B"),
+        ("1,0", "error: --z-range: need A < B"),
+        ("-1,-1", "error: --z-range: need A < B"),
+        ("a,1", "error: --z-range: `a` is not an exact number"),
+    ] {
+        let args = ["mesh", "--grid", "2x2", "--size", "10,10", "--z-range", value, "-o", o];
+        let r = trimorph(&args);
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert_eq!(r.status.code(), Some(1), "{value}: {err}");
+        assert!(err.starts_with(want), "{value}: {err}");
+        assert!(!out.exists());
+    }
+    ok(&trimorph(&["mesh", "--grid", "2x2", "--size", "10,10", "--z-range", "-1/2,3", "-o", o]));
+    assert_eq!(read(&out)["exact"]["z_range"], json!(["-1/2", "3"]));
+}
+
 #[test]
 fn edit_script_translate_rotate_scale() {
     let dir = tempfile::tempdir().unwrap();

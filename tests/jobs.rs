@@ -127,7 +127,7 @@ fn worm_bound_and_moved_through_psi() {
         model: worm.clone(),
         mesh: Some(dir.path().join("worm_prisms.obj")),
         auto: false,
-        grid: "4x2".into(),
+        grid: Default::default(),
         margin: 0.05,
         range: None,
         degree: 5,

@@ -264,7 +264,11 @@ fn write_morph_writes_the_folder_all_or_nothing_and_the_deformations_read_back()
     // A refused write (one frame) changes nothing.
     let before = std::fs::read(out.join("frame_001.png")).unwrap();
     let e = write_morph(&m, &MorphFileOptions::new(&out, 1), &|| {}).unwrap_err();
-    assert!(matches!(e, MorphFilesError::Options(_)) && e.to_string().contains("--frames"), "{e}");
+    assert!(
+        matches!(e, MorphFilesError::TooFewFrames { frames: 1 })
+            && e.to_string().contains("--frames"),
+        "{e}"
+    );
     assert_eq!(std::fs::read(out.join("frame_001.png")).unwrap(), before);
     assert_eq!(names(&out).len(), 8);
 }

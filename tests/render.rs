@@ -15,7 +15,7 @@ use trimorph::mesh::{Mesh, MeshOptions};
 use trimorph::render::deformation::{
     load_background, render, save_png, RenderError, RenderOptions,
 };
-use trimorph::spline::Spline;
+use trimorph::spline::{ControlPoint, Spline};
 
 /// The identity spline of degree 5 over the 3x2 grid on `[0, 300] x [0, 200]`.
 fn grid() -> Spline {
@@ -91,7 +91,10 @@ fn size_and_lines() {
 #[test]
 fn every_layer_renders_and_sizes_are_checked() {
     let all = RenderOptions::parse_show("all").unwrap();
-    let last = LastEdit { anchors: vec![5, 10_000], derived: vec![6, 9] };
+    let last = LastEdit {
+        anchors: ControlPoint::from_indices(&[5, 10_000]),
+        derived: ControlPoint::from_indices(&[6, 9]),
+    };
     let pm = render(&grid(), Some(&last), None, &all).unwrap();
     assert_eq!((pm.width(), pm.height()), (800, 600));
     // The constraint quads tint the area around interior edges (orange, translucent).
@@ -170,7 +173,7 @@ fn background_formats_and_errors() {
 fn anchors_are_red_after_an_edit() {
     let mut ed = Editor::new(grid());
     let anchor = 5; // mesh vertex 5 at (100, 100)
-    let sel = ed.select(&[anchor], &[], &Neighborhood::Radius(2), Mode::Xy).unwrap();
+    let sel = ed.select(&[ControlPoint(anchor)], &[], &Neighborhood::Radius(2), Mode::Xy).unwrap();
     let last = LastEdit { anchors: sel.anchors.clone(), derived: sel.derived.clone() };
     ed.translate(&[rat_int(20), rat_int(-10)]).unwrap();
     let s = ed.into_spline();
@@ -182,7 +185,7 @@ fn anchors_are_red_after_an_edit() {
     let at = to_px([120.0, 90.0]);
     assert!(red_near(&with, at, 8) >= 10, "no red circle around the anchor");
     assert_eq!(red_near(&without, at, 8), 0);
-    let derived = to_px(s.point_f64(last.derived[0]));
+    let derived = to_px(s.point_f64(last.derived[0].index()));
     let c = rgb(&with, derived.0.round() as u32, derived.1.round() as u32);
     assert!(c[2] > 150 && c[0] < 120, "derived point not blue: {c:?}");
     // With a background the anchor is at its mesh coordinates.

@@ -1,8 +1,12 @@
 //! The options of the subcommands (clap), one struct each; `cli::run` hands each to its
 //! command module. The subcommand's help text is the doc comment of its `Command` variant.
 
-use super::common::{parse_canvas_size, parse_extent, parse_grid, parse_raster_size, text};
+use super::common::{
+    parse_canvas_size, parse_extent, parse_grid, parse_raster_size, parse_time_range, text,
+};
 use super::{editor_cmd, model_cmd, morph_cmd, spline_cmds, warp_cmd};
+use crate::jobs::model::AutoGrid;
+use crate::prism::ZRange;
 use crate::render::deformation::Layers;
 use std::path::PathBuf;
 
@@ -47,9 +51,10 @@ pub struct MeshCli {
     /// is exact).
     #[arg(long)]
     pub snap: Option<i64>,
-    /// Make a 2.5D deformation with prisms over [A, B] (e.g. -10,10).
-    #[arg(long, allow_hyphen_values = true)]
-    pub z_range: Option<String>,
+    /// Make a 2.5D deformation with prisms over [A, B] (e.g. -10,10; exact decimals or
+    /// fractions, A < B).
+    #[arg(long, allow_hyphen_values = true, value_parser = text(str::parse::<ZRange>))]
+    pub z_range: Option<ZRange>,
     /// Output deformation (JSON).
     #[arg(short, long)]
     pub output: PathBuf,
@@ -191,8 +196,8 @@ pub struct MorphCli {
     pub frames: usize,
     /// Times T0,T1 of the first and last frame; outside 0,1 is a caricature
     /// (e.g. `-0.25,1.25`); times lie within -100..100.
-    #[arg(long, default_value = "0,1", allow_hyphen_values = true)]
-    pub range: String,
+    #[arg(long, default_value = "0,1", allow_hyphen_values = true, value_parser = text(parse_time_range))]
+    pub range: (f64, f64),
     /// Output folder.
     #[arg(short, long)]
     pub output: PathBuf,
@@ -281,15 +286,16 @@ pub struct BindCli {
     /// Fit a grid around the model's bounding box instead.
     #[arg(long)]
     pub auto: bool,
-    /// Grid of the automatic mesh, COLSxROWS.
-    #[arg(long, default_value = "4x2")]
-    pub grid: String,
+    /// Grid of the automatic mesh, COLSxROWS (at most 10000 cells).
+    #[arg(long, default_value = "4x2", value_parser = text(str::parse::<AutoGrid>))]
+    pub grid: AutoGrid,
     /// Margin of the automatic mesh, as a fraction of the model's largest side.
     #[arg(long, default_value_t = 0.05)]
     pub margin: f64,
-    /// Prism range A,B (exact decimals or fractions; default from the mesh or model).
-    #[arg(long)]
-    pub range: Option<String>,
+    /// Prism range A,B (exact decimals or fractions, A < B; default from the mesh or
+    /// model).
+    #[arg(long, allow_hyphen_values = true, value_parser = text(str::parse::<ZRange>))]
+    pub range: Option<ZRange>,
     /// Spline degree.
     #[arg(long, default_value_t = 5)]
     pub degree: usize,

@@ -1,8 +1,10 @@
 //! What every subcommand shares: the exit codes and the [`Exit`] error, the mapping of a
 //! command's result to the process exit code, the progress bar, and the value parsers of
 //! options whose values are not a plain number or path (sizes `W,H` and their limits,
-//! grids, shards `i/n`, memory sizes), with [`TextParser`], which hands clap a library
-//! type's parser and words a refused value `--flag: reason`.
+//! grids, shards `i/n`, time ranges, memory sizes), with [`TextParser`], which hands clap a
+//! library type's parser (e.g. [`crate::prism::ZRange`] for `--z-range`,
+//! [`crate::jobs::model::AutoGrid`] for `model bind --grid`) and words a refused value
+//! `--flag: reason`.
 
 /// Exit code for bad input and I/O errors.
 pub const EXIT_INPUT: i32 = 1;
@@ -278,6 +280,19 @@ pub fn parse_raster_size(text: &str) -> Result<(u32, u32), String> {
     ))
 }
 
+/// The times `T0,T1` of the first and last frame of `morph --range`: two finite numbers,
+/// each within [`MAX_TIME`](crate::render::morph_files::MAX_TIME) of 0 (the limit is the
+/// library's, [`check_range`](crate::render::morph_files::check_range)).
+pub fn parse_time_range(text: &str) -> Result<(f64, f64), String> {
+    use crate::render::morph_files::{check_range, MAX_TIME};
+    let range =
+        pair(text, ',').map_err(|_| format!("expected T0,T1 (two numbers), got `{text}`"))?;
+    // Far outside 0..1 the blended control points overflow f64 and the warp never ends.
+    check_range(range)
+        .map_err(|_| format!("times must lie within -{MAX_TIME}..{MAX_TIME}, got `{text}`"))?;
+    Ok(range)
+}
+
 /// `i/n` -> `(i, n)` with `0 <= i < n` (`fit --shard`).
 pub fn parse_shard(spec: &str) -> Result<(usize, usize), String> {
     spec.split_once('/')
@@ -318,6 +333,12 @@ mod tests {
         use crate::jobs::raster_fits;
         assert!(!raster_fits(0, 0) && raster_fits(10_000, 10_000) && !raster_fits(10_001, 10_000));
         assert!(parse_raster_size("12").is_err() && parse_raster_size("a,2").is_err());
+        assert_eq!(parse_time_range(" -0.25, 1.25").unwrap(), (-0.25, 1.25));
+        assert_eq!(parse_time_range("0").unwrap_err(), "expected T0,T1 (two numbers), got `0`");
+        assert_eq!(
+            parse_time_range("0,101").unwrap_err(),
+            "times must lie within -100..100, got `0,101`"
+        );
     }
 }
 

@@ -100,7 +100,7 @@ fn explain(args: &MatchCli, e: &FeatureError) -> String {
             args.a.display(),
             args.b.display()
         ),
-        FeatureError::Options(_) => {
+        e if e.is_option() => {
             format!("{} vs {}: {e}; see trimorph match --help", args.a.display(), args.b.display())
         }
         _ => format!("{} vs {}: {e}", args.a.display(), args.b.display()),

@@ -120,7 +120,7 @@ enum Command {
 #[derive(Subcommand, Debug)]
 enum ModelCommand {
     /// Writes an identity 2.5D deformation (format v1 with z_range, z0, z1) around a model.
-    Bind(args::BindCli),
+    Bind(Box<args::BindCli>),
     /// Writes the bundled C. elegans-like model (20,000 triangles), its landmarks and a
     /// reference prism mesh into a folder.
     Worm {
@@ -168,7 +168,7 @@ pub fn run() -> i32 {
             spline_cmds::check(&deformation, samples, report)
         }
         Command::Render(a) => a.run(),
-        Command::Model(ModelCommand::Bind(a)) => a.run(),
+        Command::Model(ModelCommand::Bind(a)) => (*a).run(),
         Command::Model(ModelCommand::Worm { output }) => model_cmd::worm_cmd(&output),
         Command::Colormesh { image, output, step, flat } => {
             warp_cmd::colormesh(&image, &output, step, flat)

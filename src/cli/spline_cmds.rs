@@ -5,7 +5,6 @@
 use super::args::MeshCli;
 use super::common::{check_extent, check_frame_size, say};
 use super::{Exit, EXIT_INPUT, EXIT_UNSOLVABLE};
-use crate::exact::parse_rat;
 use crate::io::deformation;
 use crate::io::read_text;
 use crate::jobs::read_deformation;
@@ -53,21 +52,7 @@ pub fn mesh(a: &MeshCli) -> Result<()> {
         _ => bail!("give exactly one of --points, --grid, --obj or --landmarks"),
     };
     let mesh = build_mesh(&source, opts)?;
-    let z_range = match a.z_range.as_deref() {
-        Some(z) => {
-            let (lo, hi) = z.split_once(',').ok_or_else(|| anyhow!("--z-range: expected A,B"))?;
-            let (lo, hi) = (
-                parse_rat(lo).map_err(|e| anyhow!("--z-range: {e}"))?,
-                parse_rat(hi).map_err(|e| anyhow!("--z-range: {e}"))?,
-            );
-            if lo >= hi {
-                bail!("--z-range: need A < B");
-            }
-            Some((lo, hi))
-        }
-        None => None,
-    };
-    say(write_identity(mesh, a.degree, z_range, &a.output)?)?;
+    say(write_identity(mesh, a.degree, a.z_range.clone(), &a.output)?)?;
     Ok(())
 }
 

@@ -48,6 +48,7 @@ use super::{exact, EditError, Editor, Mode, Selection};
 use crate::exact::{rat_to_f64, Rat};
 use crate::sparse::{Factor, Pattern};
 use crate::spline::mds::{Mds, Role};
+use crate::spline::ControlPoint;
 use faer::{Mat, Side};
 use std::sync::Arc;
 
@@ -299,11 +300,11 @@ impl GlobalSolve {
         let eval = |v: [f64; 2]| -> Vec<f64> {
             let af: Vec<[f64; 2]> = base_a.iter().map(|a| [a[0] + v[0], a[1] + v[1]]).collect();
             let mut hf = vec![[0.0; 2]; n];
-            for ((&p, b), th) in sel.derived.iter().zip(&sel.base_derived).zip(&sel.theta) {
-                hf[p] = [rat_to_f64(&b[0]) + th * v[0], rat_to_f64(&b[1]) + th * v[1]];
+            for ((p, b), th) in sel.derived.iter().zip(&sel.base_derived).zip(&sel.theta) {
+                hf[p.index()] = [rat_to_f64(&b[0]) + th * v[0], rat_to_f64(&b[1]) + th * v[1]];
             }
             let pos = self.positions(&self.solve_free(&af, &hf));
-            sel.derived.iter().flat_map(|&p| pos[p]).collect()
+            sel.derived.iter().flat_map(|p| pos[p.index()]).collect()
         };
         let p0 = eval([0.0, 0.0]);
         let sub = |g: Vec<f64>| -> Vec<f64> { g.iter().zip(&p0).map(|(a, b)| a - b).collect() };
@@ -356,10 +357,10 @@ impl Editor {
             (0..c1.rows()).filter(|&r| c1.row(r).iter().any(|(p, _)| !is_anchor[*p])).count();
         let params = self.spline.points();
         Some(Selection {
-            anchors: anchors.to_vec(),
+            anchors: ControlPoint::from_indices(anchors),
             base_anchors: anchors.iter().map(|&a| params[a].clone()).collect(),
             base_derived: derived.iter().map(|&p| params[p].clone()).collect(),
-            derived,
+            derived: ControlPoint::from_indices(&derived),
             theta,
             strong: true,
             mode,
@@ -384,13 +385,13 @@ impl Editor {
         let af: Vec<[f64; 2]> =
             anchors.iter().map(|a| [rat_to_f64(&a[0]), rat_to_f64(&a[1])]).collect();
         let mut hf = vec![[0.0; 2]; n];
-        for (&p, h) in sel.derived.iter().zip(hints) {
-            hf[p] = [rat_to_f64(&h[0]), rat_to_f64(&h[1])];
+        for (p, h) in sel.derived.iter().zip(hints) {
+            hf[p.index()] = [rat_to_f64(&h[0]), rat_to_f64(&h[1])];
         }
         let free = solve.solve_free(&af, &hf);
         let mut exact_anchor: Vec<Option<&Vec<Rat>>> = vec![None; n];
-        for (&a, v) in sel.anchors.iter().zip(anchors) {
-            exact_anchor[a] = Some(v);
+        for (a, v) in sel.anchors.iter().zip(anchors) {
+            exact_anchor[a.index()] = Some(v);
         }
         let (mut idx, mut vals, mut approx) = (Vec::new(), Vec::new(), Vec::new());
         for (p, f) in free.iter().enumerate() {

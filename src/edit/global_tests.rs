@@ -76,7 +76,13 @@ fn select_all_in_determining_set_coordinates_matches_the_general_path() {
                 // Each operation from the same spline, so differences do not compound.
                 let (mut g, mut e) = pair(mesh.clone());
                 for ed in [&mut g, &mut e] {
-                    ed.select(&anchors, &[], &Neighborhood::All, Mode::Xy).unwrap();
+                    ed.select(
+                        &ControlPoint::from_indices(&anchors),
+                        &[],
+                        &Neighborhood::All,
+                        Mode::Xy,
+                    )
+                    .unwrap();
                     match op {
                         0 => ed.translate(&[rat_int(3), Rat::new(Int::from(-7), Int::from(3))]),
                         1 => ed.rotate([rat_int(30), rat_int(30)], 0.2),
@@ -109,12 +115,12 @@ fn select_all_in_determining_set_coordinates_matches_the_general_path() {
 fn the_select_all_preview_is_the_translation_before_rounding() {
     let (mut g, _) = pair(random_mesh(5, 30));
     let anchor = nearest(g.spline(), [20.0, 40.0]);
-    g.select(&[anchor], &[], &Neighborhood::All, Mode::Xy).unwrap();
+    g.select(&[ControlPoint(anchor)], &[], &Neighborhood::All, Mode::Xy).unwrap();
     let preview = g.preview_translate([2.5, -1.25]).unwrap();
     g.translate(&[Rat::new(Int::from(5), Int::from(2)), Rat::new(Int::from(-5), Int::from(4))])
         .unwrap();
     let sel = g.selection().unwrap().clone();
-    for (k, &p) in sel.anchors.iter().chain(&sel.derived).enumerate() {
+    for (k, p) in sel.anchors.iter().chain(&sel.derived).map(|p| p.index()).enumerate() {
         let q = g.spline().point_f64(p);
         let d = (q[0] - preview[k][0]).abs().max((q[1] - preview[k][1]).abs());
         assert!(d < 1e-5, "point {p}: preview {:?} vs {q:?}", preview[k]);
@@ -130,7 +136,7 @@ fn free_anchors_land_on_the_grid_and_dependents_follow_exactly() {
         .unwrap();
     let v = [Rat::new(Int::from(1), Int::from(3)), rat_int(2)];
     let target: Vec<Rat> = (0..2).map(|c| &g.spline().points()[anchor][c] + &v[c]).collect();
-    g.select(&[anchor], &[], &Neighborhood::All, Mode::Xy).unwrap();
+    g.select(&[ControlPoint(anchor)], &[], &Neighborhood::All, Mode::Xy).unwrap();
     g.translate(&v).unwrap();
     g.spline().check_c1().unwrap();
     // A free anchor is rounded to the bounded grid like every free point.
@@ -146,13 +152,16 @@ fn small_splines_and_other_selections_keep_the_general_path() {
     let a = nearest(ed.spline(), [32.0, 32.0]);
     // The default threshold: this spline is smaller than GLOBAL_MIN_POINTS.
     assert!(ed.spline().num_points() < global::GLOBAL_MIN_POINTS);
-    assert!(!ed.select(&[a], &[], &Neighborhood::All, Mode::Xy).unwrap().is_global());
+    assert!(!ed.select(&[ControlPoint(a)], &[], &Neighborhood::All, Mode::Xy).unwrap().is_global());
     ed.set_global_path(Some(0));
-    assert!(!ed.select(&[a], &[], &Neighborhood::Radius(2), Mode::Xy).unwrap().is_global());
-    assert!(ed.select(&[a], &[], &Neighborhood::All, Mode::Xy).unwrap().is_global());
+    assert!(!ed
+        .select(&[ControlPoint(a)], &[], &Neighborhood::Radius(2), Mode::Xy)
+        .unwrap()
+        .is_global());
+    assert!(ed.select(&[ControlPoint(a)], &[], &Neighborhood::All, Mode::Xy).unwrap().is_global());
     // Unbounded edits stay exact: ECLES sessions.
     ed.set_bounded(None).unwrap();
-    assert!(!ed.select(&[a], &[], &Neighborhood::All, Mode::Xy).unwrap().is_global());
+    assert!(!ed.select(&[ControlPoint(a)], &[], &Neighborhood::All, Mode::Xy).unwrap().is_global());
 }
 
 #[test]
@@ -174,7 +183,8 @@ fn dependent_anchor_equations_fall_back_to_the_general_path() {
     }
     anchors.sort_unstable();
     anchors.dedup();
-    let sel = g.select(&anchors, &[], &Neighborhood::All, Mode::Xy).unwrap();
+    let sel = g.select(&ControlPoint::from_indices(&anchors), &[], &Neighborhood::All, Mode::Xy);
+    let sel = sel.unwrap();
     assert!(!sel.is_global(), "anchors {anchors:?}");
     // A motion of all of them together keeps their relation: solvable on the general path.
     g.translate(&[rat_int(1), rat_int(1)]).unwrap();

@@ -110,19 +110,19 @@ pub enum EditError {
 /// The anchors and derived points of an edit (saved in deformation files for rendering).
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct LastEdit {
-    /// Anchor point indices.
-    pub anchors: Vec<usize>,
-    /// Derived point indices.
-    pub derived: Vec<usize>,
+    /// Anchor control points.
+    pub anchors: Vec<ControlPoint>,
+    /// Derived control points.
+    pub derived: Vec<ControlPoint>,
 }
 
 /// The current selection: anchors, derived points, their weights and the ECLES session.
 #[derive(Clone, Debug)]
 pub struct Selection {
-    /// Anchor indices.
-    pub anchors: Vec<usize>,
-    /// Derived indices (after ExpandDerived).
-    pub derived: Vec<usize>,
+    /// The anchors.
+    pub anchors: Vec<ControlPoint>,
+    /// The derived points (after ExpandDerived).
+    pub derived: Vec<ControlPoint>,
     /// RelMagnitude of each derived point.
     pub theta: Vec<f64>,
     /// Whether strong solvability holds (otherwise only exactly affine motions are safe).
@@ -357,16 +357,18 @@ impl Editor {
     /// 2DSD.Select: anchors, initial derived set (`extra` plus the neighbourhood), mode.
     pub fn select(
         &mut self,
-        anchors: &[usize],
-        extra: &[usize],
+        anchors: &[ControlPoint],
+        extra: &[ControlPoint],
         hood: &Neighborhood,
         mode: Mode,
     ) -> Result<&Selection, EditError> {
+        let (anchor_idx, extra) = (ControlPoint::indices(anchors), ControlPoint::indices(extra));
+        let anchors = &anchor_idx[..];
         let n = self.spline.num_points();
         if anchors.is_empty() {
             return Err(EditError::NoAnchors);
         }
-        if let Some(&index) = anchors.iter().chain(extra).find(|&&p| p >= n) {
+        if let Some(&index) = anchors.iter().chain(&extra).find(|&&p| p >= n) {
             return Err(EditError::PointIndex { index, count: n });
         }
         let mut is_anchor = vec![false; n];
@@ -473,10 +475,10 @@ impl Editor {
         let theta = rel_magnitude(&self.index, anchors, &derived);
         let (relevant, rank) = (sessions[0].relevant().len(), sessions[0].rank());
         self.selection = Some(Selection {
-            anchors: anchors.to_vec(),
+            anchors: ControlPoint::from_indices(anchors),
             base_anchors: anchors.iter().map(|&a| params[a].clone()).collect(),
             base_derived: derived.iter().map(|&p| params[p].clone()).collect(),
-            derived,
+            derived: ControlPoint::from_indices(&derived),
             theta,
             strong,
             mode,
@@ -520,8 +522,7 @@ impl Editor {
                 xf.into_iter().zip(yf).map(|(a, b)| vec![a[0], b[0]]).collect(),
             )
         };
-        let mut idx = sel.anchors.clone();
-        idx.extend_from_slice(&sel.derived);
+        let idx: Vec<usize> = sel.anchors.iter().chain(&sel.derived).map(|p| p.index()).collect();
         let mut approx: Vec<[f64; 2]> =
             anchors.iter().map(|a| [rat_to_f64(&a[0]), a.get(1).map_or(0.0, rat_to_f64)]).collect();
         approx.extend(df.iter().map(|r| [r[0], r.get(1).copied().unwrap_or(0.0)]));

@@ -20,7 +20,10 @@ fn thesis_example_14_4() {
     let s = Spline::identity(two_triangles(), 5).unwrap();
     let anchor = s.layout().point(0, [0, 3, 2]);
     let mut ed = Editor::new(s);
-    let sel = ed.select(&[anchor], &[], &Neighborhood::Radius(0), Mode::Xy).unwrap().clone();
+    let sel = ed
+        .select(&[ControlPoint(anchor)], &[], &Neighborhood::Radius(0), Mode::Xy)
+        .unwrap()
+        .clone();
     assert_eq!(sel.derived.len(), 4, "derived {:?}", sel.derived);
     assert_eq!(sel.session().unwrap().relevant().len(), 2);
     assert_eq!(sel.session().unwrap().fixed_relevant().len(), 2);
@@ -32,7 +35,7 @@ fn thesis_example_14_4() {
     expect.push(lay.point(1, [1, 2, 2]));
     expect.push(lay.point(1, [1, 1, 3]));
     expect.sort_unstable();
-    assert_eq!(sel.derived, expect);
+    assert_eq!(sel.derived, ControlPoint::from_indices(&expect));
     ed.translate(&[rat_int(1), Rat::new(Int::from(-1), Int::from(3))]).unwrap();
     assert!(ed.spline().check_c1().is_ok());
     assert_eq!(ed.spline().points()[anchor][1], Rat::new(Int::from(-1), Int::from(3)));
@@ -87,11 +90,11 @@ fn single_anchor_edits_are_local() {
     let mut ed = Editor::new(s.clone());
     // An interior vertex.
     let v = (0..mesh.num_vertices()).find(|&v| !mesh.is_border_vertex(v)).unwrap();
-    ed.select(&[v], &[], &Neighborhood::Radius(2), Mode::Xy).unwrap();
+    ed.select(&[ControlPoint(v)], &[], &Neighborhood::Radius(2), Mode::Xy).unwrap();
     ed.translate(&[rat_int(2), rat_int(-1)]).unwrap();
     let sel = ed.selection().unwrap().clone();
-    let mut moved = sel.anchors.clone();
-    moved.extend(&sel.derived);
+    let mut moved = ControlPoint::indices(&sel.anchors);
+    moved.extend(ControlPoint::indices(&sel.derived));
     check_invariants(&s, ed.spline(), &moved);
     // Locality: every changed point lies in a triangle that shares a vertex with the star of v.
     let star: Vec<usize> = mesh.vertex_triangles(v).to_vec();
@@ -120,6 +123,7 @@ fn rotating_a_whole_vertex_disk_uses_the_exact_rotation() {
     let v = (0..mesh.num_vertices()).find(|&v| !mesh.is_border_vertex(v)).unwrap();
     let mut anchors = vec![v];
     anchors.extend(ed.index().disks[v].iter().copied());
+    let anchors = ControlPoint::from_indices(&anchors);
     let sel = ed.select(&anchors, &[], &Neighborhood::Radius(1), Mode::Xy).unwrap();
     // Many anchors share conditions: not strongly solvable, but exact rotations are affine.
     assert!(!sel.strong);
@@ -129,8 +133,8 @@ fn rotating_a_whole_vertex_disk_uses_the_exact_rotation() {
     assert_eq!(&cs * &cs + &sn * &sn, Rat::one());
     assert!(ed.spline().check_c1().is_ok());
     let sel = ed.selection().unwrap().clone();
-    let mut moved = sel.anchors.clone();
-    moved.extend(&sel.derived);
+    let mut moved = ControlPoint::indices(&sel.anchors);
+    moved.extend(ControlPoint::indices(&sel.derived));
     check_invariants(&s, ed.spline(), &moved);
 }
 
@@ -146,7 +150,7 @@ fn z_modes_edit_the_scalar_splines() {
     }));
     let mut ed = Editor::new(s.clone());
     let v = (0..mesh.num_vertices()).find(|&v| !mesh.is_border_vertex(v)).unwrap();
-    ed.select(&[v], &[], &Neighborhood::Radius(2), Mode::Z1).unwrap();
+    ed.select(&[ControlPoint(v)], &[], &Neighborhood::Radius(2), Mode::Z1).unwrap();
     ed.translate(&[rat_int(1)]).unwrap();
     let z = ed.spline().z_layers().unwrap();
     assert_eq!(z.z1[v], rat_int(3));
@@ -163,7 +167,7 @@ fn z_modes_edit_the_scalar_splines() {
     // z modes need layers.
     let mut plain = Editor::new(Spline::identity(mesh, 5).unwrap());
     assert!(matches!(
-        plain.select(&[v], &[], &Neighborhood::Radius(1), Mode::Z0),
+        plain.select(&[ControlPoint(v)], &[], &Neighborhood::Radius(1), Mode::Z0),
         Err(EditError::Mode(_))
     ));
 }
@@ -177,19 +181,19 @@ fn bad_selections_are_refused() {
         EditError::NoAnchors
     );
     assert!(matches!(
-        ed.select(&[n], &[], &Neighborhood::All, Mode::Xy),
+        ed.select(&[ControlPoint(n)], &[], &Neighborhood::All, Mode::Xy),
         Err(EditError::PointIndex { .. })
     ));
     assert!(matches!(
-        ed.select(&[1, 1], &[], &Neighborhood::All, Mode::Xy),
+        ed.select(&[ControlPoint(1), ControlPoint(1)], &[], &Neighborhood::All, Mode::Xy),
         Err(EditError::Ecles(_))
     ));
     assert!(matches!(
-        ed.select(&[1], &[1], &Neighborhood::All, Mode::Xy),
+        ed.select(&[ControlPoint(1)], &[ControlPoint(1)], &Neighborhood::All, Mode::Xy),
         Err(EditError::Ecles(_))
     ));
     assert_eq!(ed.translate(&[rat_int(1), rat_int(1)]).unwrap_err(), EditError::NoSelection);
-    ed.select(&[1], &[], &Neighborhood::Radius(1), Mode::Xy).unwrap();
+    ed.select(&[ControlPoint(1)], &[], &Neighborhood::Radius(1), Mode::Xy).unwrap();
     assert!(matches!(ed.rotate([rat_int(0), rat_int(0)], f64::NAN), Err(EditError::Argument(_))));
     assert!(matches!(
         ed.scale(&[rat_int(0), rat_int(0)], &rat_int(0)),
@@ -230,7 +234,7 @@ proptest! {
             a.dedup();
             let before = ed.spline().clone();
             let hood = if radius == 3 { Neighborhood::All } else { Neighborhood::Radius(radius) };
-            if ed.select(&a, &[], &hood, Mode::Xy).is_err() {
+            if ed.select(&ControlPoint::from_indices(&a), &[], &hood, Mode::Xy).is_err() {
                 prop_assert_eq!(ed.spline().points(), before.points());
                 continue;
             }
@@ -241,13 +245,13 @@ proptest! {
                 Op::Rotate(ang) => ed.rotate(c.clone(), ang),
                 Op::Scale(f) => ed.scale(&c, &Rat::new(Int::from(f), Int::from(16))),
             };
-            let mut moved = sel.anchors.clone();
-            moved.extend(&sel.derived);
+            let mut moved = ControlPoint::indices(&sel.anchors);
+            moved.extend(ControlPoint::indices(&sel.derived));
             match res {
                 Ok(()) => {
                     check_invariants(&before, ed.spline(), &moved);
                     if let Op::Translate(x, y) = op {
-                        for &p in &sel.anchors {
+                        for p in ControlPoint::indices(&sel.anchors) {
                             prop_assert_eq!(&ed.spline().points()[p][0], &(&before.points()[p][0] + Rat::new(Int::from(x), Int::from(4))));
                             prop_assert_eq!(&ed.spline().points()[p][1], &(&before.points()[p][1] + Rat::new(Int::from(y), Int::from(4))));
                         }
@@ -279,14 +283,14 @@ mod extras {
         let pinned = ed.index().disks[a][0];
         ed.add_constraint(Extra::pin(pinned, ed.spline().points()).unwrap()).unwrap();
         let before = ed.spline().clone();
-        ed.select(&[a], &[], &Neighborhood::Radius(2), Mode::Xy).unwrap();
+        ed.select(&[ControlPoint(a)], &[], &Neighborhood::Radius(2), Mode::Xy).unwrap();
         ed.translate(&[rat_int(3), rat_int(1)]).unwrap();
         assert_eq!(ed.spline().points()[pinned], before.points()[pinned]);
         assert!(ed.spline().check_c1().is_ok());
         // Pinning the anchor itself: any nonzero move is unsolvable, the spline unchanged.
         ed.add_constraint(Extra::pin(a, ed.spline().points()).unwrap()).unwrap();
         let before = ed.spline().clone();
-        ed.select(&[a], &[], &Neighborhood::Radius(2), Mode::Xy).unwrap();
+        ed.select(&[ControlPoint(a)], &[], &Neighborhood::Radius(2), Mode::Xy).unwrap();
         let err = ed.translate(&[rat_int(1), rat_int(0)]).unwrap_err();
         assert!(matches!(err, EditError::Ecles(EclesError::NotWeaklySolvable { .. })), "{err}");
         assert_eq!(ed.spline().points(), before.points());
@@ -301,7 +305,7 @@ mod extras {
         ed.add_constraint(Extra::line(row.clone(), 1, ed.spline().points()).unwrap()).unwrap();
         // A vertical line through points that are not aligned is refused.
         assert!(Extra::line(vec![row[0], row[1]], 0, ed.spline().points()).is_err());
-        ed.select(&[row[2]], &[], &Neighborhood::Radius(1), Mode::Xy).unwrap();
+        ed.select(&[ControlPoint(row[2])], &[], &Neighborhood::Radius(1), Mode::Xy).unwrap();
         ed.translate(&[rat_int(2), rat_int(5)]).unwrap();
         let y = &ed.spline().points()[row[0]][1];
         assert_eq!(y, &rat_int(25));
@@ -318,7 +322,7 @@ mod extras {
         let (a, b) = (vertex_at(&m, 20.0, 20.0), vertex_at(&m, 60.0, 40.0));
         let before = ed.spline().clone();
         ed.add_constraint(Extra::equal_displacement(a, b, ed.spline().points()).unwrap()).unwrap();
-        ed.select(&[a], &[], &Neighborhood::Radius(2), Mode::Xy).unwrap();
+        ed.select(&[ControlPoint(a)], &[], &Neighborhood::Radius(2), Mode::Xy).unwrap();
         ed.translate(&[Rat::new(Int::from(7), Int::from(3)), rat_int(-1)]).unwrap();
         for c in 0..2 {
             assert_eq!(
@@ -387,7 +391,13 @@ mod bounded {
             for k in 0..150 {
                 let a = next(n as u64) as usize;
                 let before = ed.spline().clone();
-                ed.select(&[a], &[], &Neighborhood::Radius(next(3) as usize), Mode::Xy).unwrap();
+                ed.select(
+                    &[ControlPoint(a)],
+                    &[],
+                    &Neighborhood::Radius(next(3) as usize),
+                    Mode::Xy,
+                )
+                .unwrap();
                 let sel = ed.selection().unwrap().clone();
                 let q = before.points()[a].clone();
                 let target: Vec<f64>;
@@ -411,8 +421,8 @@ mod bounded {
                             .unwrap();
                     }
                 }
-                let mut moved = sel.anchors.clone();
-                moved.extend(&sel.derived);
+                let mut moved = ControlPoint::indices(&sel.anchors);
+                moved.extend(ControlPoint::indices(&sel.derived));
                 check_invariants(&before, ed.spline(), &moved);
                 let got = ed.spline().point_f64(a);
                 worst_anchor =
@@ -434,12 +444,12 @@ fn preview_matches_the_exact_translation() {
     let mesh = random_mesh(8, 30);
     let mut ed = Editor::new(Spline::identity(mesh.clone(), 5).unwrap());
     let v = (0..mesh.num_vertices()).find(|&v| !mesh.is_border_vertex(v)).unwrap();
-    ed.select(&[v], &[], &Neighborhood::Radius(2), Mode::Xy).unwrap();
+    ed.select(&[ControlPoint(v)], &[], &Neighborhood::Radius(2), Mode::Xy).unwrap();
     let sel = ed.selection().unwrap().clone();
     let fast = ed.preview_translate([2.5, -1.25]).unwrap();
     ed.translate(&[Rat::new(Int::from(5), Int::from(2)), Rat::new(Int::from(-5), Int::from(4))])
         .unwrap();
-    let ids: Vec<usize> = sel.anchors.iter().chain(&sel.derived).copied().collect();
+    let ids: Vec<usize> = sel.anchors.iter().chain(&sel.derived).map(|p| p.index()).collect();
     for (p, f) in ids.iter().zip(&fast) {
         let e = ed.spline().point_f64(*p);
         for c in 0..2 {

@@ -195,7 +195,7 @@ fn fit_on_mesh(
                      run from 0 to width - 1 and height - 1); check --size and the columns"
                 ),
             },
-            e => FitError::Options(e.to_string()),
+            e => FitError::AdaptedMesh(e),
         })?;
         trace.mark("adapted mesh");
         let spline = affine_spline(adapted.mesh.clone(), opts.degree, a)?;

@@ -258,7 +258,7 @@ pub(super) fn fit_hard(
     let soft = fit_soft(s, mds, lms, &soft_opts, start)?;
     let n = s.num_points();
     let mut values: Vec<Vec<Rat>> = soft.spline.points().to_vec();
-    for &p in &opts.pinned {
+    for p in opts.pinned.iter().map(|p| p.index()) {
         values[p] = s.points()[p].clone();
     }
     // Exact landmark rows over control points (in control-point space, for the final check).
@@ -321,10 +321,10 @@ pub(super) fn fit_hard(
         rows.push(Row { coefs: expand.combination(row), rhs: dst.clone() });
     }
     let mut is_pinned = vec![false; n];
-    for &p in &opts.pinned {
+    let mut pinned: Vec<usize> = opts.pinned.iter().map(|p| p.index()).collect();
+    for &p in &pinned {
         is_pinned[p] = true;
     }
-    let mut pinned = opts.pinned.clone();
     pinned.sort_unstable();
     pinned.dedup();
     for &p in &pinned {
@@ -388,7 +388,7 @@ pub(super) fn fit_hard(
             }
         }
     }
-    if let Some(p) = opts.pinned.iter().find(|&&p| values[p] != s.points()[p]) {
+    if let Some(p) = opts.pinned.iter().find(|p| values[p.index()] != s.points()[p.index()]) {
         return Err(FitError::Internal(format!("pinned control point {p} moved in the solve")));
     }
     let spline = Spline::from_points(s.mesh().clone(), s.degree(), values, s.z_layers().cloned())?;

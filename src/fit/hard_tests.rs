@@ -7,7 +7,7 @@ use super::landmarks::Landmark;
 use super::solve::{fit, FitError, FitOptions};
 use crate::exact::{parse_rat, Rat};
 use crate::mesh::{Mesh, MeshOptions};
-use crate::spline::Spline;
+use crate::spline::{ControlPoint, Spline};
 use num_traits::Zero;
 use rand::rngs::SmallRng;
 use rand::{Rng, SeedableRng};
@@ -103,7 +103,8 @@ fn hard_fit_keeps_pinned_points_exactly_and_meets_the_landmarks() {
     let lms = landmarks4(30, 23, 50.0, 460.0);
     // A few corner points (free) and points beside them (often dependent).
     let pinned: Vec<usize> = vec![0, 13, 40, s.mesh().num_vertices() + 5, s.num_points() - 3];
-    let opts = FitOptions { hard: true, pinned: pinned.clone(), ..FitOptions::default() };
+    let pins = pinned.iter().copied().map(ControlPoint).collect();
+    let opts = FitOptions { hard: true, pinned: pins, ..FitOptions::default() };
     let f = fit(&s, &lms, &opts).unwrap();
     for &p in &pinned {
         assert_eq!(f.spline.points()[p], s.points()[p], "pinned {p}");

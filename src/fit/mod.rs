@@ -19,6 +19,7 @@
 
 pub mod affine;
 pub mod basis;
+mod error;
 pub mod features;
 pub mod frame;
 pub mod hard;

@@ -25,10 +25,12 @@ use super::param::Param;
 use super::smooth::{Smoother, DEFAULT_BEND};
 use crate::edit::select::{neighborhood, Neighborhood, SelectIndex};
 use crate::spline::jacobian::CertifyOptions;
-use crate::spline::mds::{Mds, MdsError};
-use crate::spline::{Spline, SplineError};
+use crate::spline::mds::Mds;
+use crate::spline::{ControlPoint, Spline};
 use serde::Serialize;
 use std::time::Instant;
+
+pub use super::error::FitError;
 
 /// Options of [`fit`].
 #[derive(Clone, Debug, PartialEq)]
@@ -56,7 +58,7 @@ pub struct FitOptions {
     /// by hand in the editor). They are held exactly: the soft fit does not vary them and
     /// an ECLES update ([`super::hard`]) makes the result exactly C1 with every pinned point
     /// at its input value (default: none).
-    pub pinned: Vec<usize>,
+    pub pinned: Vec<ControlPoint>,
     /// Hold the spline's border fixed: no free point that a control point of a border edge
     /// depends on varies, so `phi` on the border stays as in the warm start (default false;
     /// the landmark-adapted fit sets it, see [`super::frame`]).
@@ -106,103 +108,6 @@ impl Default for FitOptions {
             pinned: Vec::new(),
             pin_border: false,
         }
-    }
-}
-
-/// Why a fit failed. The input deformation is never changed.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum FitError {
-    /// No landmarks to fit.
-    #[error("no landmarks to fit; give at least one landmark pair")]
-    NoLandmarks,
-    /// A landmark with a non-finite coordinate or a weight that is not positive.
-    #[error("landmark {index} ({name}): {why}")]
-    BadLandmark {
-        /// Index in the input.
-        index: usize,
-        /// Its name or `-`.
-        name: String,
-        /// What is wrong.
-        why: String,
-    },
-    /// A source point outside the reference mesh.
-    #[error("landmark {index} ({name}): source point ({x}, {y}) lies outside the mesh; move it inside the reference mesh or use a mesh that covers it")]
-    OutsideMesh {
-        /// Index in the input.
-        index: usize,
-        /// Its name or `-`.
-        name: String,
-        /// Source x.
-        x: f64,
-        /// Source y.
-        y: f64,
-    },
-    /// No local determining set for this mesh.
-    #[error("fitting needs a minimal determining set of the spline: {0}")]
-    Mds(#[from] MdsError),
-    /// The normal matrix is singular.
-    #[error(
-        "the landmarks do not determine the fit (normal matrix singular at variable {0}): give \
-         at least 3 landmarks not on one line, or a positive bending weight"
-    )]
-    Singular(usize),
-    /// Invalid options.
-    #[error("invalid fit option: {0}")]
-    Options(String),
-    /// The landmarks as a whole cannot determine a fit (too few, all on one line, or
-    /// mirrored).
-    #[error("{0}")]
-    Landmarks(String),
-    /// More variable control points than the dense normal matrix can hold.
-    #[error(
-        "the fit has {variables} variable control points, more than the {max} the solver \
-         handles; use a coarser mesh or a --radius around the landmarks",
-        max = MAX_FIT_VARIABLES
-    )]
-    TooLarge {
-        /// The number of variable control points.
-        variables: usize,
-    },
-    /// The optimizer failed.
-    #[error("optimizer failed: {0}")]
-    Solver(String),
-    /// The exact result is not C1 (a bug if it ever happens).
-    #[error(transparent)]
-    Spline(#[from] SplineError),
-    /// Two landmarks with the same source (exactly, as written) and different targets.
-    #[error("{first} and {second} have the same source ({x}, {y}) but different targets, so no deformation can meet both; correct or remove one of them, or fit without hard constraints")]
-    Conflicting {
-        /// `landmark i (name)` of the first.
-        first: String,
-        /// `landmark j (name)` of the second.
-        second: String,
-        /// Source x.
-        x: f64,
-        /// Source y.
-        y: f64,
-    },
-    /// More hard constraints than the spline's local freedom.
-    #[error("too many constraints for the mesh: {detail}; a degree-{degree} triangle takes at most {per_triangle} landmarks in general position (fewer on one line, at most degree + 1 on a segment); use a finer mesh, fewer landmarks, or the soft fit (without --hard)")]
-    TooManyConstraints {
-        /// Which landmarks (and pinned points) are involved.
-        detail: String,
-        /// The spline's degree.
-        degree: usize,
-        /// `(d + 1)(d + 2) / 2`.
-        per_triangle: usize,
-    },
-    /// An internal invariant failed (a bug, never the input's fault): reported as such,
-    /// not as unsolvable constraints.
-    #[error("internal error (please report it): {0}")]
-    Internal(String),
-}
-
-impl FitError {
-    /// Whether no deformation can meet the hard constraints as given (conflicting targets,
-    /// more constraints than the spline can hold): the command line exits 2 for these, the
-    /// Python bindings raise `UnsolvableError`. Every other error is about the input.
-    pub fn is_unsolvable(&self) -> bool {
-        matches!(self, FitError::Conflicting { .. } | FitError::TooManyConstraints { .. })
     }
 }
 
@@ -368,34 +273,31 @@ pub fn residuals(s: &Spline, lms: &[Landmark]) -> Result<Vec<Residual>, FitError
 }
 
 fn check_options(o: &FitOptions) -> Result<(), FitError> {
-    let bad = |s: String| Err(FitError::Options(s));
-    if let Bend::Weight(w) = o.bend {
-        if !(w.is_finite() && w >= 0.0) {
-            return bad(format!("bending weight {w} must be finite and >= 0"));
+    if let Bend::Weight(weight) = o.bend {
+        if !(weight.is_finite() && weight >= 0.0) {
+            return Err(FitError::BendWeight { weight });
         }
     }
     match o.loss {
-        Loss::Huber(d) | Loss::Cauchy(d) if !(d.is_finite() && d > 0.0) => {
-            return bad(format!("loss scale {d} must be finite and > 0"));
+        Loss::Huber(scale) | Loss::Cauchy(scale) if !(scale.is_finite() && scale > 0.0) => {
+            return Err(FitError::LossScale { scale });
         }
         _ => {}
     }
     if let Some(b) = o.barrier {
         if !(b.floor.is_finite() && b.tau.is_finite() && b.tau > b.floor && b.mu > 0.0) {
-            return bad("barrier needs floor < threshold and a positive weight".into());
+            return Err(FitError::BarrierShape { barrier: b });
         }
     }
     if o.det_level == 0 || o.grid_bits == 0 || o.grid_bits > 60 {
-        return bad("det level and grid bits must be positive (grid bits at most 60)".into());
+        return Err(FitError::Sampling { det_level: o.det_level, grid_bits: o.grid_bits });
     }
     Ok(())
 }
 
 fn check_pinned(o: &FitOptions, n: usize) -> Result<(), FitError> {
-    match o.pinned.iter().find(|&&p| p >= n) {
-        Some(p) => Err(FitError::Options(format!(
-            "pinned control point {p} does not exist (the spline has {n})"
-        ))),
+    match o.pinned.iter().find(|p| p.index() >= n) {
+        Some(&point) => Err(FitError::NoSuchPinned { point, points: n }),
         None => Ok(()),
     }
 }
@@ -462,8 +364,8 @@ fn objective_with_terms(
         }
     };
     let mut is_var = is_var;
-    for &p in &opts.pinned {
-        is_var[p] = false;
+    for p in &opts.pinned {
+        is_var[p.index()] = false;
     }
     let param =
         if opts.pin_border { border_closed(s, mds, is_var) } else { Param::new(s, mds, &is_var) };

@@ -6,7 +6,7 @@ use super::objective::{Barrier, Loss};
 use super::solve::{fit, objective, Bend, FitError, FitOptions};
 use crate::exact::rat_int;
 use crate::mesh::{Mesh, MeshOptions};
-use crate::spline::Spline;
+use crate::spline::{ControlPoint, Spline};
 use rand::rngs::SmallRng;
 use rand::{Rng, SeedableRng};
 
@@ -169,6 +169,55 @@ fn bad_landmarks_are_refused() {
     assert!(matches!(fit(&s, &lms, &FitOptions::default()), Err(FitError::BadLandmark { .. })));
 }
 
+#[test]
+fn bad_options_are_typed_errors_naming_their_values() {
+    let s = grid_spline();
+    let lms = landmarks(5, 9, smooth_map);
+    let d = FitOptions::default;
+    let barrier = Barrier { floor: 0.5, tau: 0.3, mu: 1.0 };
+    let cases = [
+        (
+            FitOptions { bend: Bend::Weight(-1.0), ..d() },
+            FitError::BendWeight { weight: -1.0 },
+            "invalid fit option: bending weight -1 must be finite and >= 0",
+        ),
+        (
+            FitOptions { loss: Loss::Huber(0.0), ..d() },
+            FitError::LossScale { scale: 0.0 },
+            "invalid fit option: loss scale 0 must be finite and > 0",
+        ),
+        (
+            FitOptions { barrier: Some(barrier), ..d() },
+            FitError::BarrierShape { barrier },
+            "invalid fit option: barrier needs floor < threshold and a positive weight",
+        ),
+        (
+            FitOptions { grid_bits: 61, ..d() },
+            FitError::Sampling { det_level: d().det_level, grid_bits: 61 },
+            "invalid fit option: det level and grid bits must be positive (grid bits at most 60)",
+        ),
+    ];
+    for (opts, want, text) in cases {
+        let e = fit(&s, &lms, &opts).unwrap_err();
+        assert_eq!(e, want);
+        assert_eq!(e.to_string(), text);
+        assert!(e.is_option() && !e.is_unsolvable());
+    }
+    assert!(!FitError::NoLandmarks.is_option());
+}
+
+#[test]
+fn bad_mesh_options_of_a_frame_fit_are_option_errors() {
+    use super::frame::{fit_frame, FrameFitOptions};
+    let lms = landmarks(5, 9, smooth_map);
+    let mut opts = FrameFitOptions::default();
+    opts.mesh.min_angle = 40.0;
+    let e = fit_frame(&lms, [500.0, 250.0], &opts).unwrap_err();
+    assert!(matches!(e, FitError::AdaptedMesh(crate::mesh::MeshError::BadAdapt(_))), "{e}");
+    assert!(e.is_option());
+    assert!(e.to_string().starts_with("invalid fit option: landmark mesh: min angle 40"), "{e}");
+}
+
 /// Bug: a landmark target of 1e300 made `trimorph fit` run for minutes (soft and hard fits);
 /// huge coordinates and weights are now refused up front.
 #[test]
@@ -275,8 +324,13 @@ fn pinned_points_keep_their_input_values_exactly() {
             (p[0] - 50.0).abs() < 1e-9 && (p[1] - 50.0).abs() < 1e-9
         })
         .unwrap();
-    ed.select(&[v], &[], &crate::edit::select::Neighborhood::Radius(3), crate::edit::Mode::Xy)
-        .unwrap();
+    ed.select(
+        &[ControlPoint(v)],
+        &[],
+        &crate::edit::select::Neighborhood::Radius(3),
+        crate::edit::Mode::Xy,
+    )
+    .unwrap();
     ed.translate(&[rat_int(3), rat_int(-2)]).unwrap();
     let corrected = ed.into_spline();
     let lms: Vec<Landmark> = [[20.0, 20.0], [80.0, 25.0], [30.0, 75.0], [70.0, 70.0], [50.0, 30.0]]
@@ -284,7 +338,7 @@ fn pinned_points_keep_their_input_values_exactly() {
         .map(|&p| Landmark { name: None, src: p, dst: [p[0] + 1.5, p[1] + 0.5], weight: 1.0 })
         .collect();
     for hard in [false, true] {
-        let opts = FitOptions { pinned: vec![v], hard, ..FitOptions::default() };
+        let opts = FitOptions { pinned: vec![ControlPoint(v)], hard, ..FitOptions::default() };
         let f = fit(&corrected, &lms, &opts).unwrap();
         assert_eq!(f.spline.points()[v], corrected.points()[v], "hard = {hard}");
         f.spline.check_c1().unwrap();
@@ -292,6 +346,16 @@ fn pinned_points_keep_their_input_values_exactly() {
         // The rest did fit: residuals well below the 1.6 px offset.
         assert!(f.report.fit.rms < 0.8, "hard = {hard}: rms {}", f.report.fit.rms);
     }
-    let bad = FitOptions { pinned: vec![usize::MAX], ..FitOptions::default() };
-    assert!(matches!(fit(&corrected, &lms, &bad), Err(FitError::Options(_))));
+    let bad = FitOptions { pinned: vec![ControlPoint(usize::MAX)], ..FitOptions::default() };
+    let e = fit(&corrected, &lms, &bad).unwrap_err();
+    let n = corrected.num_points();
+    assert_eq!(e, FitError::NoSuchPinned { point: ControlPoint(usize::MAX), points: n });
+    assert!(e.is_option());
+    assert_eq!(
+        e.to_string(),
+        format!(
+            "invalid fit option: pinned control point {} does not exist (the spline has {n})",
+            usize::MAX
+        )
+    );
 }

@@ -53,9 +53,12 @@ pub enum TrackError {
         /// Its index.
         index: usize,
     },
-    /// An option is out of range.
-    #[error("invalid option: {0}")]
-    Options(String),
+    /// A forward-backward threshold ([`TrackOptions::fb_threshold`]) that is not `> 0`.
+    #[error("invalid option: fb_threshold {threshold} is not > 0")]
+    FbThreshold {
+        /// The threshold given (pixels).
+        threshold: f64,
+    },
     /// kornia's tracker failed.
     #[error("Lucas-Kanade tracking failed: {0}")]
     Lk(#[from] PyrLKError),
@@ -120,7 +123,7 @@ pub fn track_points(
     }
     if let Some(t) = opts.fb_threshold {
         if t.is_nan() || t <= 0.0 {
-            return Err(TrackError::Options(format!("fb_threshold {t} is not > 0")));
+            return Err(TrackError::FbThreshold { threshold: t });
         }
     }
     if pts.is_empty() {
@@ -259,5 +262,9 @@ mod tests {
             track_points(&flat, &flat, &[], None, &TrackOptions::default()).unwrap(),
             vec![]
         );
+        let bad = TrackOptions { fb_threshold: Some(0.0), ..TrackOptions::default() };
+        let e = track_points(&flat, &flat, &[[1.0, 1.0]], None, &bad).unwrap_err();
+        assert!(matches!(e, TrackError::FbThreshold { threshold: 0.0 }));
+        assert_eq!(e.to_string(), "invalid option: fb_threshold 0 is not > 0");
     }
 }

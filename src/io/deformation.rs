@@ -12,7 +12,7 @@
 
 use crate::exact::{parse_rat, rat_from_f64, rat_to_f64, rat_to_string, Int, Rat};
 use crate::mesh::{Mesh, MeshError, MeshOptions};
-use crate::spline::{Spline, SplineError, ZLayers};
+use crate::spline::{ControlPoint, Spline, SplineError, ZLayers};
 use num_integer::Integer;
 use num_traits::One;
 use serde_json::{json, Map, Value};
@@ -140,7 +140,7 @@ pub fn constraints_from_str(text: &str, s: &Spline) -> Result<Vec<Extra>, Deform
 
 /// The control points recorded as corrected by hand (key `"pinned"`, written by
 /// `trimorph editor`; an extra key that format v1 allows). Empty when absent.
-pub fn pinned_from_str(text: &str) -> Result<Vec<usize>, DeformationError> {
+pub fn pinned_from_str(text: &str) -> Result<Vec<ControlPoint>, DeformationError> {
     let doc: Value =
         serde_json::from_str(text).map_err(|e| DeformationError::Json(e.to_string()))?;
     match doc.get("pinned") {
@@ -149,7 +149,7 @@ pub fn pinned_from_str(text: &str) -> Result<Vec<usize>, DeformationError> {
             .iter()
             .enumerate()
             .map(|(i, v)| {
-                v.as_u64().map(|x| x as usize).ok_or_else(|| {
+                v.as_u64().map(|x| ControlPoint(x as usize)).ok_or_else(|| {
                     key(&format!("pinned[{i}]"), "expected a control point index (integer >= 0)")
                 })
             })
@@ -358,10 +358,15 @@ fn read(text: &str, require_c1: bool) -> Result<(Spline, Option<LastEdit>), Defo
     };
     let last = match doc.get("last_edit") {
         Some(Value::Object(o)) => {
-            let list = |k: &str| -> Vec<usize> {
+            let list = |k: &str| -> Vec<ControlPoint> {
                 o.get(k)
                     .and_then(Value::as_array)
-                    .map(|a| a.iter().filter_map(Value::as_u64).map(|u| u as usize).collect())
+                    .map(|a| {
+                        a.iter()
+                            .filter_map(Value::as_u64)
+                            .map(|u| ControlPoint(u as usize))
+                            .collect()
+                    })
                     .unwrap_or_default()
             };
             Some(LastEdit { anchors: list("anchors"), derived: list("derived") })
@@ -392,7 +397,10 @@ mod tests {
             z0: vec![rat_int(-1); n],
             z1: vec![Rat::new(3.into(), 7.into()); n],
         }));
-        let last = LastEdit { anchors: vec![1], derived: vec![2, 3] };
+        let last = LastEdit {
+            anchors: vec![ControlPoint(1)],
+            derived: ControlPoint::from_indices(&[2, 3]),
+        };
         let text = to_string(&s, Some(&last));
         let (back, l2) = from_str(&text).unwrap();
         assert_eq!(l2, Some(last.clone()));

@@ -204,7 +204,7 @@ fn prism_part(models: &Path, log: &mut Log) -> JobResult<()> {
         model: worm.clone(),
         mesh: Some(prisms.clone()),
         auto: false,
-        grid: "4x2".into(),
+        grid: Default::default(),
         margin: 0.05,
         range: None,
         degree: 5,

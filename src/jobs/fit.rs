@@ -369,10 +369,10 @@ impl FitJob {
                 }
                 // Options come from the command line, not from the landmark file: `--pin`
                 // names the deformation's control points.
-                FitError::Options(_) if self.pin.is_some() && e.to_string().contains("pinned") => {
+                FitError::NoSuchPinned { .. } if self.pin.is_some() => {
                     JobError::from(OptionError::Pin { deformation: def.clone(), source: e }).into()
                 }
-                FitError::Options(_) => JobError::from(OptionError::Fit(e)).into(),
+                e if e.is_option() => JobError::from(OptionError::Fit(e)).into(),
                 e => in_landmarks(e),
             }
         };
@@ -428,9 +428,9 @@ impl FitJob {
 }
 
 /// The control points `pin` names (`edited`: the file's recorded corrections).
-fn pinned(pin: &Pin, text: &str, def: &Path) -> Result<Vec<usize>, JobError> {
+fn pinned(pin: &Pin, text: &str, def: &Path) -> Result<Vec<ControlPoint>, JobError> {
     match pin {
-        Pin::Points(p) => Ok(p.iter().map(|c| c.index()).collect()),
+        Pin::Points(p) => Ok(p.clone()),
         Pin::Edited => {
             let p = deformation::pinned_from_str(text)
                 .map_err(|e| JobError::context(format!("--pin edited: {}", def.display()), e))?;

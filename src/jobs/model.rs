@@ -9,11 +9,13 @@
 
 use super::OptionError;
 use super::{read_deformation, JobError, JobResult};
-use crate::exact::{parse_rat, rat_to_f64, Rat};
+use crate::exact::{rat_to_f64, Rat};
 use crate::io::model::{load_model_up, save_landmarks, save_model, save_model_up, UpAxis};
 use crate::io::{deformation, read_text, write_atomic};
 use crate::mesh::MeshOptions;
-use crate::prism::{auto_mesh, auto_mesh_on, bind, deform, identity_layers, organism, Model};
+use crate::prism::{
+    auto_mesh, auto_mesh_on, bind, deform, identity_layers, organism, Model, ZRange,
+};
 use crate::render::model::View;
 use crate::spline::Spline;
 use std::path::{Path, PathBuf};
@@ -21,6 +23,61 @@ use std::time::Instant;
 
 /// Largest vertex grid of a reference mesh: 2^20 steps per unit.
 pub const MAX_SNAP: i64 = 1 << 20;
+
+/// Most cells of the automatic grid of [`bind_model`] ([`AutoGrid`]): the model's
+/// bounding box in at most this many prisms' footprints.
+pub const MAX_AUTO_CELLS: usize = 10_000;
+
+/// The cells `COLSxROWS` of the automatic reference mesh of [`bind_model`]: at least one
+/// column and one row, at most [`MAX_AUTO_CELLS`] cells in all.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct AutoGrid {
+    cols: usize,
+    rows: usize,
+}
+
+impl AutoGrid {
+    /// `cols x rows` cells; `None` unless both are at least 1 and there are at most
+    /// [`MAX_AUTO_CELLS`] cells.
+    pub fn new(cols: usize, rows: usize) -> Option<AutoGrid> {
+        let fits =
+            cols >= 1 && rows >= 1 && cols.checked_mul(rows).is_some_and(|n| n <= MAX_AUTO_CELLS);
+        fits.then_some(AutoGrid { cols, rows })
+    }
+
+    /// Columns (along x).
+    pub fn cols(self) -> usize {
+        self.cols
+    }
+
+    /// Rows (along y).
+    pub fn rows(self) -> usize {
+        self.rows
+    }
+}
+
+impl Default for AutoGrid {
+    /// 4 x 2 cells (`trimorph model bind`'s default).
+    fn default() -> Self {
+        AutoGrid { cols: 4, rows: 2 }
+    }
+}
+
+impl std::str::FromStr for AutoGrid {
+    type Err = AutoGridError;
+    /// `COLSxROWS`, whole numbers (spaces around them ignored), e.g. `4x2`.
+    fn from_str(text: &str) -> Result<AutoGrid, AutoGridError> {
+        text.split_once('x')
+            .and_then(|(c, r)| AutoGrid::new(c.trim().parse().ok()?, r.trim().parse().ok()?))
+            .ok_or(AutoGridError)
+    }
+}
+
+/// A text that is not an [`AutoGrid`] (not `COLSxROWS`, a side of 0, or more than
+/// [`MAX_AUTO_CELLS`] cells).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("expected COLSxROWS, e.g. 4x2")]
+pub struct AutoGridError;
 
 /// How [`bind_model`] builds the reference mesh and the prism range.
 #[derive(Clone, Debug)]
@@ -31,13 +88,12 @@ pub struct BindOptions {
     pub mesh: Option<PathBuf>,
     /// Instead of `mesh`: a grid around the model's bounding box.
     pub auto: bool,
-    /// The automatic grid, `COLSxROWS` (e.g. `4x2`; at most 10,000 cells).
-    pub grid: String,
+    /// The automatic grid (default 4 x 2 cells).
+    pub grid: AutoGrid,
     /// Margin of the automatic grid, a fraction of the model's largest side (0 to 10).
     pub margin: f64,
-    /// The prism range `A,B` (exact decimals or fractions); default from the mesh (`[-b,
-    /// b]`) or the model.
-    pub range: Option<String>,
+    /// The prism range; default from the mesh (`[-b, b]`) or the model.
+    pub range: Option<ZRange>,
     /// Spline degree.
     pub degree: usize,
     /// The scene file written (a deformation with the model's path under `"model"`).
@@ -140,17 +196,7 @@ pub fn bind_model(o: &BindOptions) -> JobResult<BindReport> {
             (mesh, r)
         }
         (None, true) => {
-            let (c, r) = o
-                .grid
-                .split_once('x')
-                .and_then(|(c, r)| {
-                    Some((c.trim().parse::<usize>().ok()?, r.trim().parse::<usize>().ok()?))
-                })
-                .filter(|&(c, r)| c >= 1 && r >= 1 && c.checked_mul(r).is_some_and(|n| n <= 10_000))
-                .ok_or(OptionError::Malformed {
-                    flag: "--grid",
-                    expected: "COLSxROWS, e.g. 4x2",
-                })?;
+            let (c, r) = (o.grid.cols(), o.grid.rows());
             if !(o.margin >= 0.0 && o.margin <= 10.0) {
                 return Err(OptionError::OutOfRange {
                     flag: "--margin",
@@ -165,15 +211,7 @@ pub fn bind_model(o: &BindOptions) -> JobResult<BindReport> {
         _ => return Err(OptionError::MeshOrAuto.into()),
     };
     let (lo, hi) = match (&o.range, range) {
-        (Some(r), _) => {
-            let (x, y) = r
-                .split_once(',')
-                .ok_or(OptionError::Malformed { flag: "--range", expected: "A,B" })?;
-            let rat = |t: &str| {
-                parse_rat(t).map_err(|source| OptionError::Value { flag: "--range", source })
-            };
-            (rat(x)?, rat(y)?)
-        }
+        (Some(r), _) => (r.lo().clone(), r.hi().clone()),
         (None, Some([x, y])) => (snap_to(x, grid, false), snap_to(y, grid, true)),
         (None, None) => return Err(OptionError::NoRange.into()),
     };

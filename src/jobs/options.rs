@@ -17,23 +17,6 @@ pub enum OptionError {
         /// What its value must be, e.g. `must be at least 1`.
         rule: &'static str,
     },
-    /// A value not of the expected form (`--grid COLSxROWS`, `--range A,B`).
-    #[error("{flag}: expected {expected}")]
-    Malformed {
-        /// The option.
-        flag: &'static str,
-        /// The form it takes, e.g. `A,B`.
-        expected: &'static str,
-    },
-    /// A part of a value that does not parse (`--range`: an exact number).
-    #[error("{flag}: {source}")]
-    Value {
-        /// The option.
-        flag: &'static str,
-        /// Why the part does not parse.
-        #[source]
-        source: crate::exact::ParseRatError,
-    },
     /// `model bind` needs exactly one of `--mesh` and `--auto`.
     #[error("give exactly one of --mesh T.obj or --auto")]
     MeshOrAuto,
@@ -112,7 +95,7 @@ pub enum OptionError {
         #[source]
         source: FitError,
     },
-    /// The fit's options refused by the fit ([`FitError::Options`]).
+    /// The fit's options refused by the fit ([`FitError::is_option`]).
     #[error(transparent)]
     Fit(FitError),
 }

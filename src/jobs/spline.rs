@@ -10,14 +10,14 @@ use super::OptionError;
 use super::{read_deformation, JobError, JobResult};
 use crate::edit::script::{self, OpReport, Script, ScriptError};
 use crate::edit::Editor;
-use crate::exact::Rat;
 use crate::io::deformation::{self, LastEdit};
 use crate::io::points::read_points;
 use crate::io::{read_text, write_atomic};
 use crate::mesh::{AdaptOptions, Mesh, MeshOptions};
+use crate::prism::ZRange;
 use crate::spline::check::absurd_point;
 use crate::spline::jacobian::{certify, CertifyOptions, DetJ};
-use crate::spline::{Spline, ZLayers};
+use crate::spline::Spline;
 use std::path::{Path, PathBuf};
 
 /// Where a reference mesh comes from.
@@ -110,22 +110,18 @@ pub fn build_mesh(source: &MeshSource, opts: MeshOptions) -> JobResult<Mesh> {
 }
 
 /// Writes the identity deformation of `degree` over `mesh` to `output` (2.5D with
-/// constant layers `z0 = lo`, `z1 = hi` when `z_range` is given). Returns the report
+/// constant layers `z0 = lo`, `z1 = hi` when `z_range = [lo, hi]` is given). Returns the report
 /// lines (three).
 pub fn write_identity(
     mesh: Mesh,
     degree: usize,
-    z_range: Option<(Rat, Rat)>,
+    z_range: Option<ZRange>,
     output: &Path,
 ) -> JobResult<String> {
     let mut spline = Spline::identity(mesh, degree)?;
-    if let Some((lo, hi)) = z_range {
-        let n = spline.num_points();
-        spline.set_z_layers(Some(ZLayers {
-            z0: vec![lo.clone(); n],
-            z1: vec![hi.clone(); n],
-            range: [lo, hi],
-        }));
+    if let Some(r) = z_range {
+        let z = r.layers(&spline);
+        spline.set_z_layers(Some(z));
     }
     write_atomic(output, deformation::to_string(&spline, None).as_bytes())?;
     let m = spline.mesh();

@@ -109,7 +109,7 @@ pub struct SnapReport {
 /// Why a mesh could not be built. Vertex and triangle numbers are 0-based positions in the
 /// input (for OBJ files read by `io::obj::read_mesh`: 0-based order of the `v` lines and of the triangles after
 /// fan triangulation).
-#[derive(Debug, thiserror::Error)]
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum MeshError {
     /// The snapping denominator is not positive.
     #[error("snapping grid denominator must be at least 1, got {grid}; use e.g. MeshOptions::default() (grid 16)")]

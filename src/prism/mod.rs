@@ -21,7 +21,7 @@
 
 pub mod organism;
 
-use crate::exact::{rat_to_f64, Rat};
+use crate::exact::{parse_rat, rat_to_f64, ParseRatError, Rat};
 use crate::mesh::{Mesh, MeshError, MeshOptions};
 use crate::spline::{Spline, ZLayers};
 use rayon::prelude::*;
@@ -154,8 +154,75 @@ pub fn identity_layers(s: &Spline, a: Rat, b: Rat) -> Result<ZLayers, PrismError
     if a >= b {
         return Err(PrismError::Range { a: rat_to_f64(&a), b: rat_to_f64(&b) });
     }
-    let n = s.num_points();
-    Ok(ZLayers { range: [a.clone(), b.clone()], z0: vec![a; n], z1: vec![b; n] })
+    Ok(ZRange { lo: a, hi: b }.layers(s))
+}
+
+/// An exact prism range `[lo, hi]` with `lo < hi`: the z extent of a 2.5D deformation's
+/// identity layers (`trimorph mesh --z-range`, `trimorph model bind --range`). Its text form
+/// is `A,B`, each an exact decimal or fraction ([`parse_rat`]).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ZRange {
+    lo: Rat,
+    hi: Rat,
+}
+
+impl ZRange {
+    /// The range `[lo, hi]`, refused unless `lo < hi`.
+    pub fn new(lo: Rat, hi: Rat) -> Result<ZRange, ZRangeError> {
+        if lo >= hi {
+            return Err(ZRangeError::Empty { lo: Box::new(lo), hi: Box::new(hi) });
+        }
+        Ok(ZRange { lo, hi })
+    }
+
+    /// The bottom `a`.
+    pub fn lo(&self) -> &Rat {
+        &self.lo
+    }
+
+    /// The top `b`.
+    pub fn hi(&self) -> &Rat {
+        &self.hi
+    }
+
+    /// The identity layers of `s` over this range ([`identity_layers`]).
+    pub fn layers(&self, s: &Spline) -> ZLayers {
+        let n = s.num_points();
+        ZLayers {
+            range: [self.lo.clone(), self.hi.clone()],
+            z0: vec![self.lo.clone(); n],
+            z1: vec![self.hi.clone(); n],
+        }
+    }
+}
+
+impl std::str::FromStr for ZRange {
+    type Err = ZRangeError;
+    /// `A,B` with `A < B`, each an exact number ([`parse_rat`]; spaces around them ignored).
+    fn from_str(text: &str) -> Result<ZRange, ZRangeError> {
+        let (a, b) = text.split_once(',').ok_or(ZRangeError::Malformed)?;
+        ZRange::new(parse_rat(a)?, parse_rat(b)?)
+    }
+}
+
+/// Why a prism range is refused; the texts leave the option's name to the caller (the
+/// command line prints `--z-range: need A < B`).
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum ZRangeError {
+    /// Not two values separated by a comma.
+    #[error("expected A,B")]
+    Malformed,
+    /// A value that is not an exact number.
+    #[error(transparent)]
+    Value(#[from] ParseRatError),
+    /// `lo >= hi`.
+    #[error("need A < B")]
+    Empty {
+        /// The bottom given.
+        lo: Box<Rat>,
+        /// The top given.
+        hi: Box<Rat>,
+    },
 }
 
 /// A reference mesh around a model: a `cols x rows` grid over the model's xy bounding box

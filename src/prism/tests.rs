@@ -7,6 +7,7 @@ use crate::ecles::ConstraintSystem;
 use crate::edit::select::Neighborhood;
 use crate::edit::{Editor, Mode};
 use crate::exact::{rat_int, Rat};
+use crate::spline::ControlPoint;
 use proptest::prelude::*;
 
 fn small_worm() -> Model {
@@ -52,7 +53,7 @@ fn z_edits_never_move_x_or_y_and_xy_edits_never_move_z() {
     let v = interior_vertex(&s);
     for mode in [Mode::Z0, Mode::Z1] {
         let mut ed = Editor::new(s.clone());
-        ed.select(&[v], &[], &Neighborhood::Radius(2), mode).unwrap();
+        ed.select(&[ControlPoint(v)], &[], &Neighborhood::Radius(2), mode).unwrap();
         ed.translate(&[rat_int(25)]).unwrap();
         let after = deform(&m, &b, ed.spline());
         let mut z_moved = false;
@@ -63,7 +64,7 @@ fn z_edits_never_move_x_or_y_and_xy_edits_never_move_z() {
         assert!(z_moved, "{mode:?} moved nothing");
     }
     let mut ed = Editor::new(s.clone());
-    ed.select(&[v], &[], &Neighborhood::Radius(2), Mode::Xy).unwrap();
+    ed.select(&[ControlPoint(v)], &[], &Neighborhood::Radius(2), Mode::Xy).unwrap();
     ed.translate(&[rat_int(30), rat_int(-20)]).unwrap();
     let after = deform(&m, &b, ed.spline());
     let mut xy_moved = false;
@@ -86,9 +87,9 @@ fn a_vertex_at_the_top_follows_sigma1_and_one_at_the_bottom_sigma0() {
     };
     let v = interior_vertex(&s);
     let mut ed = Editor::new(s.clone());
-    ed.select(&[v], &[], &Neighborhood::Radius(3), Mode::Z1).unwrap();
+    ed.select(&[ControlPoint(v)], &[], &Neighborhood::Radius(3), Mode::Z1).unwrap();
     ed.translate(&[rat_int(40)]).unwrap();
-    ed.select(&[v], &[], &Neighborhood::Radius(3), Mode::Z0).unwrap();
+    ed.select(&[ControlPoint(v)], &[], &Neighborhood::Radius(3), Mode::Z0).unwrap();
     ed.translate(&[rat_int(-15)]).unwrap();
     let e = ed.spline();
     let b = bind(&probe, e).unwrap();
@@ -137,7 +138,7 @@ proptest! {
         for (layer, by, pick) in ops {
             let v = inner[pick % inner.len()];
             let mode = if layer == 0 { Mode::Z0 } else { Mode::Z1 };
-            ed.select(&[v], &[], &Neighborhood::Radius(2), mode).unwrap();
+            ed.select(&[ControlPoint(v)], &[], &Neighborhood::Radius(2), mode).unwrap();
             ed.translate(&[rat_int(by)]).unwrap();
         }
         let z = ed.spline().z_layers().unwrap();
@@ -148,4 +149,20 @@ proptest! {
         }
         prop_assert_eq!(ed.spline().points(), s.points());
     }
+}
+
+#[test]
+fn z_ranges_parse_exactly_and_refuse_bad_text() {
+    let r: ZRange = "-1/2, 3".parse().unwrap();
+    assert_eq!((r.lo(), r.hi()), (&Rat::new((-1).into(), 2.into()), &rat_int(3)));
+    assert_eq!("1,2.5".parse::<ZRange>().unwrap().hi(), &Rat::new(5.into(), 2.into()));
+    assert_eq!("1".parse::<ZRange>().unwrap_err(), ZRangeError::Malformed);
+    assert_eq!("1,1".parse::<ZRange>().unwrap_err().to_string(), "need A < B");
+    assert!(matches!("2,1".parse::<ZRange>(), Err(ZRangeError::Empty { .. })));
+    let e = "x,1".parse::<ZRange>().unwrap_err();
+    assert!(matches!(e, ZRangeError::Value(_)));
+    assert!(e.to_string().starts_with("`x` is not an exact number"), "{e}");
+    let s = scene(&small_worm());
+    let z = r.layers(&s);
+    assert_eq!(z, identity_layers(&s, r.lo().clone(), r.hi().clone()).unwrap());
 }

@@ -36,7 +36,7 @@ use tiny_skia::{
 use super::font;
 use crate::edit::LastEdit;
 use crate::fit::landmarks::Landmark;
-use crate::spline::Spline;
+use crate::spline::{ControlPoint, Spline};
 
 /// Smallest accepted output width or height in pixels.
 pub const MIN_SIZE: u32 = 16;
@@ -341,8 +341,10 @@ pub fn render(
         dots(&mut pm, &centres, 1.2, POINT);
         legend.push(("control points".into(), Swatch::Dot(POINT, 1.5)));
         if let Some(last) = last {
-            let at = |idx: &[usize]| -> Vec<(f32, f32)> {
-                idx.iter().filter_map(|&i| points.get(i).and_then(|&p| view.map(p))).collect()
+            let at = |idx: &[ControlPoint]| -> Vec<(f32, f32)> {
+                idx.iter()
+                    .filter_map(|i| points.get(i.index()).and_then(|&p| view.map(p)))
+                    .collect()
             };
             dots(&mut pm, &at(&last.derived), 2.5, DERIVED);
             let mut pb = PathBuilder::new();

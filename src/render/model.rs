@@ -554,6 +554,7 @@ mod tests {
     use crate::exact::rat_int;
     use crate::prism::organism::{worm, WormOptions};
     use crate::prism::{auto_mesh, bind, deform, identity_layers};
+    use crate::spline::ControlPoint;
 
     /// The default worm (20,000 triangles) moved by `shift` in xy, in a 4 x 2 prism mesh of
     /// degree 5 with identity layers (as in the prism tests).
@@ -573,7 +574,7 @@ mod tests {
     fn edited(s: &Spline, mode: Mode, by: &[i64]) -> Spline {
         let v = (0..s.mesh().num_vertices()).find(|&v| !s.mesh().is_border_vertex(v)).unwrap();
         let mut ed = Editor::new(s.clone());
-        ed.select(&[v], &[], &Neighborhood::Radius(2), mode).unwrap();
+        ed.select(&[ControlPoint(v)], &[], &Neighborhood::Radius(2), mode).unwrap();
         ed.translate(&by.iter().map(|&b| rat_int(b)).collect::<Vec<_>>()).unwrap();
         ed.into_spline()
     }

@@ -122,15 +122,10 @@ impl MorphFileOptions {
 /// Checks a frame count: 2 to [`MAX_FRAMES`].
 pub fn check_frames(frames: usize) -> Result<(), MorphFilesError> {
     if frames < 2 {
-        return Err(MorphFilesError::Options(format!(
-            "--frames must be at least 2 (the first frame is A, the last B), got {frames}"
-        )));
+        return Err(MorphFilesError::TooFewFrames { frames });
     }
     if frames > MAX_FRAMES {
-        return Err(MorphFilesError::Options(format!(
-            "--frames: at most {MAX_FRAMES} (a thumbnail of every frame is kept for the \
-             contact sheet), got {frames}"
-        )));
+        return Err(MorphFilesError::TooManyFrames { frames });
     }
     Ok(())
 }
@@ -138,9 +133,7 @@ pub fn check_frames(frames: usize) -> Result<(), MorphFilesError> {
 /// Checks a time range: finite, each end within [`MAX_TIME`] of 0.
 pub fn check_range((t0, t1): (f64, f64)) -> Result<(), MorphFilesError> {
     if !(t0.is_finite() && t1.is_finite()) || t0.abs() > MAX_TIME || t1.abs() > MAX_TIME {
-        return Err(MorphFilesError::Options(format!(
-            "--range: times must lie within -{MAX_TIME}..{MAX_TIME}, got `{t0},{t1}`"
-        )));
+        return Err(MorphFilesError::TimesOutOfRange { t0, t1 });
     }
     Ok(())
 }
@@ -172,9 +165,29 @@ pub struct MorphFilesReport {
 /// Errors of [`write_morph`].
 #[derive(Debug, thiserror::Error)]
 pub enum MorphFilesError {
-    /// A frame count or time range out of its range.
-    #[error("{0}")]
-    Options(String),
+    /// Fewer than 2 frames ([`check_frames`]).
+    #[error("--frames must be at least 2 (the first frame is A, the last B), got {frames}")]
+    TooFewFrames {
+        /// The frame count given.
+        frames: usize,
+    },
+    /// More than [`MAX_FRAMES`] frames ([`check_frames`]).
+    #[error(
+        "--frames: at most {MAX_FRAMES} (a thumbnail of every frame is kept for the contact \
+         sheet), got {frames}"
+    )]
+    TooManyFrames {
+        /// The frame count given.
+        frames: usize,
+    },
+    /// A time that is not finite or lies beyond [`MAX_TIME`] of 0 ([`check_range`]).
+    #[error("--range: times must lie within -{MAX_TIME}..{MAX_TIME}, got `{t0},{t1}`")]
+    TimesOutOfRange {
+        /// The first frame's time.
+        t0: f64,
+        /// The last frame's time.
+        t1: f64,
+    },
     /// The morph failed (a frame, a blend, a certificate).
     #[error(transparent)]
     Morph(#[from] MorphError),
@@ -488,4 +501,32 @@ fn uncertified_times(
         })
         .collect::<Result<Vec<_>, _>>()?;
     Ok(bad.into_iter().flatten().collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn frame_counts_and_time_ranges_are_typed_errors_with_their_texts() {
+        let e = check_frames(1).unwrap_err();
+        assert!(matches!(e, MorphFilesError::TooFewFrames { frames: 1 }));
+        assert_eq!(
+            e.to_string(),
+            "--frames must be at least 2 (the first frame is A, the last B), got 1"
+        );
+        let e = check_frames(MAX_FRAMES + 1).unwrap_err();
+        assert!(matches!(e, MorphFilesError::TooManyFrames { frames: 10_001 }));
+        assert_eq!(
+            e.to_string(),
+            "--frames: at most 10000 (a thumbnail of every frame is kept for the contact sheet), \
+             got 10001"
+        );
+        assert!(check_frames(2).is_ok() && check_frames(MAX_FRAMES).is_ok());
+        let e = check_range((0.0, 200.0)).unwrap_err();
+        assert!(matches!(e, MorphFilesError::TimesOutOfRange { t0: 0.0, t1: 200.0 }));
+        assert_eq!(e.to_string(), "--range: times must lie within -100..100, got `0,200`");
+        assert!(check_range((f64::NAN, 1.0)).is_err());
+        assert!(check_range((-MAX_TIME, MAX_TIME)).is_ok());
+    }
 }

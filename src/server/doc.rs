@@ -27,7 +27,7 @@ use crate::io::{deformation, read_text, write_atomic};
 use crate::prism::{bind, deform, Binding, Model};
 use crate::render::overlay::SilhouetteEdges;
 use crate::spline::jacobian::{CertCache, CertifyOptions, DetJ};
-use crate::spline::Spline;
+use crate::spline::{ControlPoint, Spline};
 use image::DynamicImage;
 use serde_json::{json, Value};
 use std::collections::BTreeSet;
@@ -89,7 +89,7 @@ pub struct Doc {
     frame: Option<Frame>,
     undo: Vec<Step>,
     redo: Vec<Step>,
-    pinned: BTreeSet<usize>,
+    pinned: BTreeSet<ControlPoint>,
     /// Landmark pairs placed, moved or imported in the page ([`pairs`]).
     landmarks: Vec<Landmark>,
     before_drag: Option<Spline>,
@@ -208,9 +208,9 @@ impl Doc {
     }
 
     /// Marks control points as corrected by hand (e.g. read from a saved file).
-    pub fn add_pinned(&mut self, pts: &[usize]) {
+    pub fn add_pinned(&mut self, pts: &[ControlPoint]) {
         let n = self.editor.spline().num_points();
-        self.pinned.extend(pts.iter().copied().filter(|&p| p < n));
+        self.pinned.extend(pts.iter().copied().filter(|p| p.index() < n));
     }
 
     /// The spline.
@@ -230,7 +230,7 @@ impl Doc {
         self.frame.as_ref()
     }
     /// Points corrected by hand so far.
-    pub fn pinned(&self) -> &BTreeSet<usize> {
+    pub fn pinned(&self) -> &BTreeSet<ControlPoint> {
         &self.pinned
     }
     /// The folder file paths are confined to.
@@ -274,7 +274,7 @@ impl Doc {
     /// 2DSD.Select: anchors, a neighbourhood radius (`None`: all points) and the mode.
     pub fn select(
         &mut self,
-        anchors: &[usize],
+        anchors: &[ControlPoint],
         radius: Option<usize>,
         mode: Mode,
     ) -> Result<Value, ServerError> {
@@ -319,8 +319,8 @@ impl Doc {
         // Only the anchors and derived points moved (xy mode; z modes leave phi alone).
         if let Some(sel) = self.editor.selection().filter(|s| s.mode == Mode::Xy) {
             let s = self.editor.spline();
-            self.cert.refresh_points(s, &sel.anchors);
-            self.cert.refresh_points(s, &sel.derived);
+            self.cert.refresh_points(s, &ControlPoint::indices(&sel.anchors));
+            self.cert.refresh_points(s, &ControlPoint::indices(&sel.derived));
         }
         self.last_update_ms = t0.elapsed().as_secs_f64() * 1e3;
         if let Some(before) = self.before_drag.take() {
@@ -336,7 +336,7 @@ impl Doc {
     fn check_moved(&self) -> Result<(), ServerError> {
         let Some(sel) = self.editor.selection() else { return Ok(()) };
         let s = self.editor.spline();
-        for &i in sel.anchors.iter().chain(&sel.derived) {
+        for i in sel.anchors.iter().chain(&sel.derived).map(|p| p.index()) {
             let v: Vec<f64> = match (sel.mode, s.z_layers()) {
                 (Mode::Xy, _) | (_, None) => s.point_f64(i).to_vec(),
                 (Mode::Z0, Some(z)) => vec![crate::exact::rat_to_f64(&z.z0[i])],

@@ -67,6 +67,7 @@ mod tests_http;
 mod tests_pairs;
 
 use crate::edit::Mode;
+use crate::spline::ControlPoint;
 use doc::{Doc, Op};
 use serde_json::{json, Value};
 use std::net::{SocketAddr, TcpStream};
@@ -314,11 +315,11 @@ fn route(
         ("POST", "/api/select") => {
             let b = parse()?;
             let bad = || ServerError::BadRequest("`anchors` must be an array of indices".into());
-            let anchors: Vec<usize> = field(&b, "anchors")?
+            let anchors: Vec<ControlPoint> = field(&b, "anchors")?
                 .as_array()
                 .ok_or_else(bad)?
                 .iter()
-                .map(|v| v.as_u64().map(|x| x as usize).ok_or_else(bad))
+                .map(|v| v.as_u64().map(|x| ControlPoint(x as usize)).ok_or_else(bad))
                 .collect::<Result<_, _>>()?;
             let radius = match b.get("radius") {
                 None | Some(Value::Null) => None,

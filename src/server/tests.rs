@@ -1,7 +1,7 @@
 use super::doc::Doc;
 use super::*;
 use crate::mesh::{Mesh, MeshOptions};
-use crate::spline::Spline;
+use crate::spline::{ControlPoint, Spline};
 use std::io::{Read as _, Write};
 use std::net::TcpStream;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -136,7 +136,7 @@ fn save_and_load_stay_inside_the_folder() {
     let text = std::fs::read_to_string(dir.path().join("e.json")).unwrap();
     let (s, _) = crate::io::deformation::from_str(&text).unwrap();
     assert_eq!(s.points(), d.spline().points());
-    assert_eq!(crate::io::deformation::pinned_from_str(&text).unwrap(), vec![c]);
+    assert_eq!(crate::io::deformation::pinned_from_str(&text).unwrap(), vec![ControlPoint(c)]);
     for p in ["../e.json", "/tmp/e.json", "a/../../e.json"] {
         let (st, v) = call(&mut d, "POST", "/api/save", json!({ "path": p }));
         assert_eq!(st, 403, "{p}: {v}");
@@ -350,7 +350,7 @@ fn export_and_scene_round_trip() {
     assert_eq!(st, 200, "{v}");
     assert_eq!(e.spline().points(), d.spline().points());
     assert!(e.model().is_some() && e.frame().is_some());
-    assert_eq!(e.pinned().iter().copied().collect::<Vec<_>>(), vec![c]);
+    assert_eq!(e.pinned().iter().copied().collect::<Vec<_>>(), vec![ControlPoint(c)]);
 }
 
 #[test]

@@ -130,6 +130,16 @@ impl ControlPoint {
     pub fn index(self) -> usize {
         self.0
     }
+
+    /// The control points of these indices.
+    pub fn from_indices(indices: &[usize]) -> Vec<ControlPoint> {
+        indices.iter().copied().map(ControlPoint).collect()
+    }
+
+    /// The indices of these control points (for inner loops over [`Spline::points`]).
+    pub fn indices(points: &[ControlPoint]) -> Vec<usize> {
+        points.iter().map(|p| p.0).collect()
+    }
 }
 
 impl From<usize> for ControlPoint {

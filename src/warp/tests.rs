@@ -5,6 +5,7 @@ use crate::edit::select::Neighborhood;
 use crate::edit::{Editor, Mode};
 use crate::exact::{rat_int, Rat};
 use crate::mesh::{Mesh, MeshOptions};
+use crate::spline::ControlPoint;
 use image::{GrayImage, ImageBuffer, Luma, Rgba};
 
 fn grid(w: f64, h: f64) -> Mesh {
@@ -93,7 +94,7 @@ fn inverse_undoes_forward_after_edits() {
     let mesh = grid(100.0, 80.0);
     let mut ed = Editor::new(Spline::identity(mesh.clone(), 5).unwrap());
     let v = (0..mesh.num_vertices()).find(|&v| !mesh.is_border_vertex(v)).unwrap();
-    ed.select(&[v], &[], &Neighborhood::Radius(3), Mode::Xy).unwrap();
+    ed.select(&[ControlPoint(v)], &[], &Neighborhood::Radius(3), Mode::Xy).unwrap();
     ed.translate(&[rat_int(6), rat_int(-4)]).unwrap();
     let s = ed.into_spline();
     let pts: Vec<[f64; 2]> =
@@ -130,7 +131,7 @@ pub(super) fn dragged(mesh: Mesh, dx: i64, dy: i64) -> Spline {
             d(a).total_cmp(&d(b))
         })
         .unwrap();
-    ed.select(&[v], &[], &Neighborhood::Radius(2), Mode::Xy).unwrap();
+    ed.select(&[ControlPoint(v)], &[], &Neighborhood::Radius(2), Mode::Xy).unwrap();
     ed.translate(&[rat_int(dx), rat_int(dy)]).unwrap();
     ed.into_spline()
 }

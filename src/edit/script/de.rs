@@ -8,6 +8,7 @@ use super::Anchors;
 use crate::edit::select::Neighborhood;
 use crate::edit::Mode;
 use crate::exact::{parse_rat, rat_to_string, Rat};
+use crate::spline::ControlPoint;
 use serde::de::Error as _;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use serde_json::{json, Value};
@@ -55,6 +56,11 @@ fn value<'de, D: Deserializer<'de>>(d: D) -> Result<Value, D::Error> {
 /// `v` as a point index.
 fn index(v: &Value) -> Result<usize, String> {
     v.as_u64().map(|u| u as usize).ok_or_else(|| format!("`{v}` is not a point index"))
+}
+
+/// `v` as a control point (its index).
+fn point(v: &Value) -> Result<ControlPoint, String> {
+    index(v).map(ControlPoint)
 }
 
 /// `v` as an array of point indices.
@@ -150,7 +156,7 @@ pub mod anchors {
     pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Anchors, D::Error> {
         let near_form = "expected {\"near\": [[x, y], ...]}";
         match value(d)? {
-            Value::Array(a) => a.iter().map(index).collect::<Result<_, _>>().map(Anchors::Points),
+            Value::Array(a) => a.iter().map(point).collect::<Result<_, _>>().map(Anchors::Points),
             Value::Object(o) => {
                 let list = o.get("near").and_then(Value::as_array).ok_or_else(|| near_form.into());
                 list.and_then(|l| {
@@ -182,17 +188,17 @@ pub mod anchors {
 /// Derived points: indices (`null`: none).
 pub mod derived {
     use super::*;
-    /// Reads the indices.
-    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<usize>, D::Error> {
+    /// Reads the points.
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<ControlPoint>, D::Error> {
         match value(d)? {
             Value::Null => Ok(Vec::new()),
-            Value::Array(a) => a.iter().map(index).collect(),
+            Value::Array(a) => a.iter().map(point).collect(),
             x => Err(format!("expected an array, found {x}")),
         }
         .map_err(D::Error::custom)
     }
-    /// Writes the indices.
-    pub fn serialize<S: Serializer>(v: &[usize], s: S) -> Result<S::Ok, S::Error> {
+    /// Writes the points (as indices).
+    pub fn serialize<S: Serializer>(v: &[ControlPoint], s: S) -> Result<S::Ok, S::Error> {
         v.serialize(s)
     }
 }

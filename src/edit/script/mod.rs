@@ -47,23 +47,22 @@ use serde_json::Value;
 /// The anchors of a move.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Anchors {
-    /// Control point indices.
-    Points(Vec<usize>),
+    /// These control points (point indices in JSON).
+    Points(Vec<ControlPoint>),
     /// The control points nearest to these positions in the deformed plane (the current
     /// control points), found when the operation runs; consecutive repeats are dropped.
     Near(Vec<[f64; 2]>),
 }
 
 impl Anchors {
-    /// The anchor indices for the editor's current spline.
-    pub fn resolve(&self, ed: &Editor) -> Vec<usize> {
+    /// The anchors for the editor's current spline.
+    pub fn resolve(&self, ed: &Editor) -> Vec<ControlPoint> {
         match self {
             Anchors::Points(p) => p.clone(),
             Anchors::Near(pos) => {
-                let mut idx: Vec<usize> =
-                    ed.nearest_points(pos).into_iter().map(ControlPoint::index).collect();
-                idx.dedup();
-                idx
+                let mut points = ed.nearest_points(pos);
+                points.dedup();
+                points
             }
         }
     }
@@ -77,7 +76,7 @@ pub struct Target {
     pub anchors: Anchors,
     /// Points added to the initial derived set (default none).
     #[serde(default, with = "de::derived", skip_serializing_if = "Vec::is_empty")]
-    pub derived: Vec<usize>,
+    pub derived: Vec<ControlPoint>,
     /// The initial derived set around the anchors (default radius 2).
     #[serde(default = "de::default_hood", with = "de::hood")]
     pub neighborhood: Neighborhood,
@@ -449,9 +448,9 @@ pub enum OpReport {
     /// A move.
     Moved {
         /// Its anchors.
-        anchors: Vec<usize>,
+        anchors: Vec<ControlPoint>,
         /// Its derived points (after ExpandDerived).
-        derived: Vec<usize>,
+        derived: Vec<ControlPoint>,
         /// Relevant C1 conditions of the (first) ECLES session.
         relevant: usize,
         /// Their rank.

@@ -4,7 +4,7 @@
 use super::*;
 use crate::exact::{parse_rat, rat_int};
 use crate::mesh::{Mesh, MeshOptions};
-use crate::spline::{Spline, ZLayers};
+use crate::spline::{ControlPoint, Spline, ZLayers};
 use proptest::prelude::*;
 use serde_json::json;
 
@@ -38,9 +38,27 @@ fn translate_moves_the_anchor_exactly_and_reports_the_selection() {
     );
     ed.spline().check_c1().unwrap();
     let OpReport::Moved { anchors, derived, strong, .. } = &r[0] else { panic!("{r:?}") };
-    assert_eq!(anchors, &vec![c]);
+    assert_eq!(anchors, &vec![ControlPoint(c)]);
     assert!(!derived.is_empty() && *strong);
-    assert_eq!(last_edit(&r).unwrap().anchors, vec![c]);
+    assert_eq!(last_edit(&r).unwrap().anchors, vec![ControlPoint(c)]);
+    // Control points are bare indices in JSON, in scripts and in reports.
+    assert_eq!(serde_json::to_value(&r[0]).unwrap()["anchors"], json!([c]));
+    let op = &s.ops[0];
+    assert!(
+        matches!(op, Op::Move { target, .. } if target.anchors == Anchors::Points(vec![ControlPoint(c)]))
+    );
+    assert_eq!(op.to_value()["anchors"], json!([c]));
+    let with_derived = json!({"anchors": [c], "derived": [1, 2], "op": "translate", "by": [1, 0]});
+    let Op::Move { target, .. } = Op::from_value(&with_derived).unwrap() else { panic!() };
+    assert_eq!(target.derived, vec![ControlPoint(1), ControlPoint(2)]);
+    assert_eq!(
+        Op::Move {
+            target,
+            motion: Motion::Translate(Translate { by: vec![rat_int(1), rat_int(0)] })
+        }
+        .to_value()["derived"],
+        json!([1, 2])
+    );
 }
 
 #[test]
@@ -80,7 +98,7 @@ fn near_anchors_are_found_in_the_current_spline() {
     .unwrap();
     let r = s.run(&mut ed).unwrap();
     // The repeated position gives one anchor: the moved centre.
-    assert_eq!(r[1].last_edit().unwrap().anchors, vec![c]);
+    assert_eq!(r[1].last_edit().unwrap().anchors, vec![ControlPoint(c)]);
     assert_eq!(ed.spline().points()[c][0], rat_int(6));
 }
 
@@ -256,14 +274,15 @@ fn the_server_reads_finite_doubles_and_makes_them_exact() {
 fn arb_op() -> impl Strategy<Value = Op> {
     let target = (
         prop_oneof![
-            prop::collection::vec(0usize..50, 1..4).prop_map(Anchors::Points),
+            prop::collection::vec(0usize..50, 1..4)
+                .prop_map(|p| Anchors::Points(ControlPoint::from_indices(&p))),
             prop::collection::vec((-50i32..50, -50i32..50), 1..3).prop_map(|v| {
                 Anchors::Near(
                     v.into_iter().map(|(x, y)| [f64::from(x) / 4.0, f64::from(y)]).collect(),
                 )
             }),
         ],
-        prop::collection::vec(0usize..50, 0..3),
+        prop::collection::vec(0usize..50, 0..3).prop_map(|p| ControlPoint::from_indices(&p)),
         prop_oneof![(0usize..5).prop_map(Neighborhood::Radius), Just(Neighborhood::All)],
         prop_oneof![Just(Mode::Xy), Just(Mode::Z0), Just(Mode::Z1)],
     )

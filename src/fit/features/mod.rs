@@ -110,15 +110,73 @@ pub enum FeatureError {
         /// The model (`affine`, `homography`, `local`).
         model: &'static str,
     },
-    /// An option is out of range.
-    #[error("invalid option: {0}")]
-    Options(String),
+    /// [`MatchOptions::features`] below 3 or [`MatchOptions::levels`] 0.
+    #[error("invalid option: features {features} must be >= 3 and levels {levels} >= 1")]
+    FeatureCount {
+        /// The features asked for.
+        features: usize,
+        /// The pyramid levels asked for.
+        levels: usize,
+    },
+    /// [`MatchOptions::ratio`] outside `(0, 1]`.
+    #[error("invalid option: ratio {ratio} not in (0, 1]")]
+    Ratio {
+        /// The ratio given.
+        ratio: f32,
+    },
+    /// A RANSAC threshold ([`RansacOptions::threshold`]) that is not a finite number `> 0`.
+    #[error("invalid option: threshold {threshold} is not a finite number > 0")]
+    Threshold {
+        /// The threshold given (pixels).
+        threshold: f64,
+    },
+    /// A RANSAC confidence ([`RansacOptions::confidence`]) outside `(0, 1]`.
+    #[error("invalid option: confidence {confidence} not in (0, 1]")]
+    Confidence {
+        /// The confidence given.
+        confidence: f64,
+    },
+    /// The local model's neighbours below 3 or its minimum support below 4
+    /// ([`LocalOptions`]).
+    #[error(
+        "invalid option: local model: neighbours {neighbours} must be >= 3 and min_support \
+         {min_support} >= 4"
+    )]
+    LocalSupport {
+        /// [`LocalOptions::neighbours`] given.
+        neighbours: usize,
+        /// [`LocalOptions::min_support`] given.
+        min_support: usize,
+    },
+    /// The local model's largest stretch ([`LocalOptions::max_stretch`]) is not a finite
+    /// number `>= 1`.
+    #[error("invalid option: local model: max_stretch {max_stretch} must be a finite number >= 1")]
+    LocalStretch {
+        /// The stretch given.
+        max_stretch: f64,
+    },
     /// The sub-pixel refinement failed.
     #[error("refinement: {0}")]
     Track(#[from] super::track::TrackError),
     /// The feature detector failed.
     #[error("ORB detection failed: {0}")]
     Orb(#[from] kornia_image::ImageError),
+}
+
+impl FeatureError {
+    /// Whether an option is out of range (the variants whose text starts `invalid
+    /// option`), rather than the images or the matches being at fault.
+    pub fn is_option(&self) -> bool {
+        matches!(
+            self,
+            FeatureError::FeatureCount { .. }
+                | FeatureError::Ratio { .. }
+                | FeatureError::Threshold { .. }
+                | FeatureError::Confidence { .. }
+                | FeatureError::LocalSupport { .. }
+                | FeatureError::LocalStretch { .. }
+        )
+    }
 }
 
 /// Which model separates true matches from false ones (module documentation, step 3).
@@ -392,17 +450,12 @@ fn local_model(
     opts: &MatchOptions,
 ) -> Result<(Pairs, LocalFit, bool), FeatureError> {
     models::check_options(&opts.ransac)?;
-    if opts.local.neighbours < 3 || opts.local.min_support < 4 {
-        return Err(FeatureError::Options(format!(
-            "local model: neighbours {} must be >= 3 and min_support {} >= 4",
-            opts.local.neighbours, opts.local.min_support
-        )));
+    let LocalOptions { neighbours, min_support, max_stretch, .. } = opts.local;
+    if neighbours < 3 || min_support < 4 {
+        return Err(FeatureError::LocalSupport { neighbours, min_support });
     }
-    if !(opts.local.max_stretch >= 1.0 && opts.local.max_stretch.is_finite()) {
-        return Err(FeatureError::Options(format!(
-            "local model: max_stretch {} must be a finite number >= 1",
-            opts.local.max_stretch
-        )));
+    if !(max_stretch >= 1.0 && max_stretch.is_finite()) {
+        return Err(FeatureError::LocalStretch { max_stretch });
     }
     let required = opts.ransac.min_inliers.max(opts.local.min_support);
     let t = opts.ransac.threshold;
@@ -435,13 +488,10 @@ pub fn match_images(
     opts: &MatchOptions,
 ) -> Result<MatchResult, FeatureError> {
     if opts.features < 3 || opts.levels == 0 {
-        return Err(FeatureError::Options(format!(
-            "features {} must be >= 3 and levels {} >= 1",
-            opts.features, opts.levels
-        )));
+        return Err(FeatureError::FeatureCount { features: opts.features, levels: opts.levels });
     }
     if !(opts.ratio > 0.0 && opts.ratio <= 1.0) {
-        return Err(FeatureError::Options(format!("ratio {} not in (0, 1]", opts.ratio)));
+        return Err(FeatureError::Ratio { ratio: opts.ratio });
     }
     let fa = orb(a, 'A', opts)?;
     let fb = orb(b, 'B', opts)?;

@@ -352,13 +352,10 @@ pub(super) fn sample_for_tests<const S: usize>(rng: &mut SplitMix64, n: usize) -
 /// Checks the options shared by every RANSAC fit.
 pub(super) fn check_options(opts: &RansacOptions) -> Result<(), FeatureError> {
     if !(opts.threshold > 0.0 && opts.threshold.is_finite()) {
-        return Err(FeatureError::Options(format!(
-            "threshold {} is not a finite number > 0",
-            opts.threshold
-        )));
+        return Err(FeatureError::Threshold { threshold: opts.threshold });
     }
     if !(opts.confidence > 0.0 && opts.confidence <= 1.0) {
-        return Err(FeatureError::Options(format!("confidence {} not in (0, 1]", opts.confidence)));
+        return Err(FeatureError::Confidence { confidence: opts.confidence });
     }
     Ok(())
 }

@@ -99,7 +99,13 @@ fn ransac_errors() {
     let opts = RansacOptions { threshold: 0.01, ..Default::default() };
     assert!(matches!(ransac_affine(&a, &b, &opts), Err(FeatureError::NoConsensus { .. })));
     let bad = RansacOptions { threshold: -1.0, ..Default::default() };
-    assert!(matches!(ransac_affine(&a, &b, &bad), Err(FeatureError::Options(_))));
+    let e = ransac_affine(&a, &b, &bad).unwrap_err();
+    assert!(matches!(e, FeatureError::Threshold { threshold: -1.0 }) && e.is_option());
+    assert_eq!(e.to_string(), "invalid option: threshold -1 is not a finite number > 0");
+    let bad = RansacOptions { confidence: 0.0, ..Default::default() };
+    let e = ransac_affine(&a, &b, &bad).unwrap_err();
+    assert!(matches!(e, FeatureError::Confidence { confidence: 0.0 }) && e.is_option());
+    assert_eq!(e.to_string(), "invalid option: confidence 0 not in (0, 1]");
 }
 
 #[test]
@@ -157,7 +163,13 @@ fn match_errors() {
     let flat = GrayImage::from_pixel(200, 200, image::Luma([90]));
     assert!(matches!(match_images(&big, &flat, &o), Err(FeatureError::NoFeatures { which: 'B' })));
     let bad = MatchOptions { ratio: 1.5, ..Default::default() };
-    assert!(matches!(match_images(&big, &big, &bad), Err(FeatureError::Options(_))));
+    let e = match_images(&big, &big, &bad).unwrap_err();
+    assert!(matches!(e, FeatureError::Ratio { ratio: 1.5 }) && e.is_option());
+    assert_eq!(e.to_string(), "invalid option: ratio 1.5 not in (0, 1]");
+    let bad = MatchOptions { features: 2, ..Default::default() };
+    let e = match_images(&big, &big, &bad).unwrap_err();
+    assert!(matches!(e, FeatureError::FeatureCount { features: 2, .. }) && e.is_option());
+    assert_eq!(e.to_string(), "invalid option: features 2 must be >= 3 and levels 8 >= 1");
 }
 
 #[test]
@@ -298,6 +310,8 @@ fn local_model_options_are_checked() {
         LocalOptions { max_stretch: f64::NAN, ..Default::default() },
     ] {
         let o = MatchOptions { model: ModelKind::Local, local, ..Default::default() };
-        assert!(matches!(match_images(&a, &a, &o), Err(FeatureError::Options(_))));
+        let e = match_images(&a, &a, &o).unwrap_err();
+        assert!(e.is_option(), "{e}");
+        assert!(e.to_string().starts_with("invalid option: local model: "), "{e}");
     }
 }
