@@ -189,6 +189,9 @@ impl<T: Texel> Source<'_, T> {
                         out[c] = T::from_f32(top + (bot - top) * fy);
                     }
                 } else {
+                    // Clamping `x0`, `y0` first leaves every tap where `at` puts it and keeps
+                    // `x0 + 1` from overflowing (`x = inf` gives `x0 = isize::MAX`).
+                    let (x0, y0) = (x0.clamp(-1, self.w as isize), y0.clamp(-1, self.h as isize));
                     for (c, o) in out.iter_mut().enumerate() {
                         let top = self.at(x0, y0, c) * (1.0 - fx) + self.at(x0 + 1, y0, c) * fx;
                         let bot =
@@ -200,7 +203,10 @@ impl<T: Texel> Source<'_, T> {
             Interp::Bicubic => {
                 let (fx0, fy0) = (fast_floor(p[0]), fast_floor(p[1]));
                 let (fx, fy) = ((p[0] - fx0) as f32, (p[1] - fy0) as f32);
-                let (x0, y0) = (fx0 as isize, fy0 as isize);
+                // Clamped as in the bilinear case: the taps `x0 - 1 ..= x0 + 2` stay the
+                // same pixels and the offsets cannot overflow.
+                let x0 = (fx0 as isize).clamp(-2, self.w as isize + 1);
+                let y0 = (fy0 as isize).clamp(-2, self.h as isize + 1);
                 let wx = [keys(fx + 1.0), keys(fx), keys(fx - 1.0), keys(fx - 2.0)];
                 let wy = [keys(fy + 1.0), keys(fy), keys(fy - 1.0), keys(fy - 2.0)];
                 for (c, o) in out.iter_mut().enumerate() {

@@ -381,6 +381,13 @@ mod tests {
         harness::sweep::<u16, Gray16>(Bilinear, &[1], 16, 2000);
     }
 
+    /// Signed zeros, ties, the border, infinities and `NaN` in either coordinate.
+    #[test]
+    fn special_positions_match_the_scalar_path() {
+        harness::special::<u8, Gray8>(Bilinear, &[1], 6);
+        harness::special::<u16, Gray16>(Bilinear, &[1], 17);
+    }
+
     /// The last bytes (samples) read are the image's last (module docs).
     #[test]
     fn loads_at_the_bottom_right_cell_stay_inside_the_image() {

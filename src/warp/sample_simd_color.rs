@@ -292,6 +292,12 @@ mod tests {
         harness::sweep::<u8, Color8>(Bilinear, &[2], 28, 2000);
     }
 
+    /// Signed zeros, ties, the border, infinities and `NaN` in either coordinate.
+    #[test]
+    fn special_positions_match_the_scalar_path() {
+        harness::special::<u8, Color8>(Bilinear, &[2, 3, 4], 29);
+    }
+
     /// The loads end exactly on the last byte of the image (module docs).
     #[test]
     fn loads_at_the_bottom_right_cell_stay_inside_the_image() {

@@ -259,6 +259,12 @@ mod tests {
         harness::sweep::<u16, Color16>(Bilinear, &[2, 3, 4], 48, 2000);
     }
 
+    /// Signed zeros, ties, the border, infinities and `NaN` in either coordinate.
+    #[test]
+    fn special_positions_match_the_scalar_path() {
+        harness::special::<u16, Color16>(Bilinear, &[2, 3, 4], 49);
+    }
+
     /// The loads end exactly on the last sample of the image (module docs).
     #[test]
     fn loads_at_the_bottom_right_cell_stay_inside_the_image() {

@@ -388,6 +388,13 @@ mod tests {
         harness::sweep::<u8, Cubic8>(Bicubic, &[1, 2, 3, 4], 81, 2000);
     }
 
+    /// Signed zeros, ties, the border, infinities (the scalar path's overflow at `x0 + 2`
+    /// before its clamp) and `NaN` in either coordinate.
+    #[test]
+    fn bicubic8_special_positions_match_the_scalar_path() {
+        harness::special::<u8, Cubic8>(Bicubic, &[1, 2, 3, 4], 85);
+    }
+
     /// The loads start on the image's first taps and end on its last (module docs).
     #[test]
     fn bicubic8_loads_at_the_corner_cells_stay_inside_the_image() {
