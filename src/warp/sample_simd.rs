@@ -21,7 +21,10 @@
 //! same operations in the same order on eight lanes: the floors and fractions in `f64`
 //! (`vroundpd`, exact subtraction, then one rounding to `f32` as `as f32` does), the
 //! interpolation in `f32` with separate multiplies and adds, the final conversion by
-//! truncation. So its output is bit-identical to the scalar path's.
+//! truncation. So its output is bit-identical to the scalar path's. The floor adds `+0.0`
+//! to `vroundpd`'s result ([`avx2::floor`]), because `fast_floor(-0.0)` is `+0.0`: so the
+//! fraction at `x = -0.0` is `-0.0` on both paths, which `f32` samples of `-0.0` can tell
+//! from `+0.0` (for integer samples the sign of a zero is lost in the rounding anyway).
 //!
 //! **Taps.** With `k = y0 w + x0` (the image is `w x h`, one byte per pixel, row-major),
 //! the two top taps are bytes `k, k + 1` and the two bottom taps are bytes `k + w, k + w + 1`.
@@ -198,9 +201,20 @@ pub(super) mod avx2 {
         }
     }
 
+    /// The scalar `fast_floor` on four lanes: `floor(v) + 0`, which is `floor(v)` except
+    /// that `floor(-0.0) = -0.0` becomes `+0.0`, as the integer round trip of `fast_floor`
+    /// makes it. The sign matters: the fraction `v - floor(v)` of `v = -0.0` is then `-0.0`
+    /// as in the scalar path (not `+0.0`), and with `f32` samples of `-0.0` the sign of the
+    /// fraction reaches the sign of a zero result.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub(in crate::warp) fn floor(v: __m256d) -> __m256d {
+        _mm256_add_pd(_mm256_floor_pd(v), _mm256_setzero_pd())
+    }
+
     /// Eight positions: `x0`, `y0` (i32), the lanes that may take the vector path (all
     /// bits set where `0 <= x0 <= xmax` and `0 <= y0 <= ymax`), and `fx`, `fy` (f32), as
-    /// in [`bilinear_gray8`].
+    /// in [`bilinear_gray8`] (the floors by [`floor`]).
     ///
     /// # Safety
     ///
@@ -220,8 +234,8 @@ pub(super) mod avx2 {
         let ya = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpackhi_pd(v0, v1));
         let xb = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpacklo_pd(v2, v3));
         let yb = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpackhi_pd(v2, v3));
-        let (fxa, fya) = (_mm256_floor_pd(xa), _mm256_floor_pd(ya));
-        let (fxb, fyb) = (_mm256_floor_pd(xb), _mm256_floor_pd(yb));
+        let (fxa, fya) = (floor(xa), floor(ya));
+        let (fxb, fyb) = (floor(xb), floor(yb));
         let x0 = _mm256_set_m128i(_mm256_cvttpd_epi32(fxb), _mm256_cvttpd_epi32(fxa));
         let y0 = _mm256_set_m128i(_mm256_cvttpd_epi32(fyb), _mm256_cvttpd_epi32(fya));
         let ok = _mm256_and_si256(
@@ -262,7 +276,7 @@ pub(super) mod avx2 {
         // [x0 x2 x1 x3] -> [x0 x1 x2 x3], likewise for y.
         let xs = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpacklo_pd(v0, v1));
         let ys = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpackhi_pd(v0, v1));
-        let (fxs, fys) = (_mm256_floor_pd(xs), _mm256_floor_pd(ys));
+        let (fxs, fys) = (floor(xs), floor(ys));
         let (x0, y0) = (_mm256_cvttpd_epi32(fxs), _mm256_cvttpd_epi32(fys));
         let ok = _mm_and_si128(
             _mm_and_si128(_mm_cmpgt_epi32(x0, minus1), _mm_cmpgt_epi32(y0, minus1)),

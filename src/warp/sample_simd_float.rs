@@ -15,8 +15,10 @@
 //! code), so every lane is bit-identical to the scalar result: infinities and the `NaN` an
 //! invalid operation makes (`inf - inf`, `0 inf`) included, since an operation on one `NaN`
 //! returns that `NaN` and the only `NaN` made here is the default one. The floors and
-//! fractions are computed in `f64` (`vroundpd`, exact subtraction, one rounding to `f32` as
-//! `as f32` does). Layouts:
+//! fractions are computed in `f64` (`vroundpd` plus `+0.0`, exact subtraction, one rounding
+//! to `f32` as `as f32` does), so that `x = -0.0` has the fraction `-0.0` as in the scalar
+//! path and an image of `-0.0` samples gives `-0.0` there, not `+0.0`
+//! ([`super::sample_simd::avx2::floor`]). Layouts:
 //!
 //! * gray: eight positions per vector, one lane each;
 //! * gray + alpha: four positions per vector, two lanes each (in the order 0 2 1 3, put
@@ -317,6 +319,15 @@ mod tests {
     #[test]
     fn float_vector_paths_match_the_scalar_path_bit_for_bit() {
         harness::sweep::<f32, Float>(Bilinear, &[1, 2, 3, 4], 32, 1500);
+    }
+
+    /// Positions with signed zero coordinates (`x = -0.0`, `y = -0.0`) on images of
+    /// `-0.0` samples, where the sign of the fractions `fx`, `fy` decides the sign of a
+    /// zero result, and the other coordinates where flooring turns (`.5`, integers, the
+    /// border, infinities, `NaN`).
+    #[test]
+    fn signed_zero_positions_and_samples_match_the_scalar_path() {
+        harness::special::<f32, Float>(Bilinear, &[1, 2, 3, 4], 36);
     }
 
     /// The loads end exactly on the last float of the image (module docs).
