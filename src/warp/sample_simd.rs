@@ -129,49 +129,21 @@ pub(super) mod avx2 {
         // rejecting every lane).
         let xmax = _mm256_set1_epi32(w as i32 - 2);
         let ymax = _mm256_set1_epi32(h as i32 - 2);
-        let minus1 = _mm256_set1_epi32(-1);
         let wv = _mm256_set1_epi32(w as i32);
         let below = _mm256_set1_epi32(w as i32 - 2);
         let byte = _mm256_set1_epi32(0xff);
-        let (half, zero, top) = (_mm256_set1_ps(0.5), _mm256_setzero_ps(), _mm256_set1_ps(255.0));
+        let top = _mm256_set1_ps(255.0);
         let base = data.as_ptr() as *const i32;
         for g in 0..groups {
             let i = 8 * g;
-            // SAFETY: i + 8 <= n <= pos.len(), and [[f64; 2]] is 16 f64 for 8 positions,
-            // contiguous; unaligned loads.
-            let pp = pos.as_ptr().add(i) as *const f64;
-            let (v0, v1) = (_mm256_loadu_pd(pp), _mm256_loadu_pd(pp.add(4)));
-            let (v2, v3) = (_mm256_loadu_pd(pp.add(8)), _mm256_loadu_pd(pp.add(12)));
-            // [x0 x2 x1 x3] -> [x0 x1 x2 x3] (and likewise for y and the next four).
-            let xa = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpacklo_pd(v0, v1));
-            let ya = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpackhi_pd(v0, v1));
-            let xb = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpacklo_pd(v2, v3));
-            let yb = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpackhi_pd(v2, v3));
-            let (fxa, fya) = (_mm256_floor_pd(xa), _mm256_floor_pd(ya));
-            let (fxb, fyb) = (_mm256_floor_pd(xb), _mm256_floor_pd(yb));
-            let x0 = _mm256_set_m128i(_mm256_cvttpd_epi32(fxb), _mm256_cvttpd_epi32(fxa));
-            let y0 = _mm256_set_m128i(_mm256_cvttpd_epi32(fyb), _mm256_cvttpd_epi32(fya));
-            let ok = _mm256_and_si256(
-                _mm256_and_si256(_mm256_cmpgt_epi32(x0, minus1), _mm256_cmpgt_epi32(y0, minus1)),
-                _mm256_andnot_si256(
-                    _mm256_or_si256(_mm256_cmpgt_epi32(x0, xmax), _mm256_cmpgt_epi32(y0, ymax)),
-                    minus1,
-                ),
-            );
+            // SAFETY: i + 8 <= n <= pos.len(): 16 f64 for 8 contiguous positions.
+            let (x0, y0, ok, fx, fy) = lanes8(pos.as_ptr().add(i) as *const f64, xmax, ymax);
             if _mm256_movemask_ps(_mm256_castsi256_ps(ok)) != 0xff {
                 for k in i..i + 8 {
                     out[k] = scalar(&pos[k]);
                 }
                 continue;
             }
-            let fx = _mm256_set_m128(
-                _mm256_cvtpd_ps(_mm256_sub_pd(xb, fxb)),
-                _mm256_cvtpd_ps(_mm256_sub_pd(xa, fxa)),
-            );
-            let fy = _mm256_set_m128(
-                _mm256_cvtpd_ps(_mm256_sub_pd(yb, fyb)),
-                _mm256_cvtpd_ps(_mm256_sub_pd(ya, fya)),
-            );
             let k = _mm256_add_epi32(_mm256_mullo_epi32(y0, wv), x0);
             // SAFETY: every lane passed 0 <= x0 <= w - 2, 0 <= y0 <= h - 2 (so w, h >= 2);
             // the words read are bytes k .. k + 3 and k + w - 2 .. k + w + 1, inside
@@ -182,11 +154,7 @@ pub(super) mod avx2 {
             let b = _mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32::<8>(wt), byte));
             let e = _mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32::<16>(wb), byte));
             let f = _mm256_cvtepi32_ps(_mm256_srli_epi32::<24>(wb));
-            let t = _mm256_add_ps(a, _mm256_mul_ps(_mm256_sub_ps(b, a), fx));
-            let u = _mm256_add_ps(e, _mm256_mul_ps(_mm256_sub_ps(f, e), fx));
-            let v = _mm256_add_ps(t, _mm256_mul_ps(_mm256_sub_ps(u, t), fy));
-            let v = _mm256_min_ps(_mm256_max_ps(_mm256_add_ps(v, half), zero), top);
-            let r = _mm256_cvttps_epi32(v);
+            let r = round_clamp(bilerp(a, b, e, f, fx, fy), top);
             // 8 x i32 in 0..=255 -> bytes: per 128-bit lane, r0..r3 (resp. r4..r7) in the
             // low four bytes.
             let r16 = _mm256_packus_epi32(r, r);
@@ -337,7 +305,7 @@ pub(super) mod avx2 {
         let ymax = _mm256_set1_epi32(h as i32 - 2);
         let wv = _mm256_set1_epi32(w as i32);
         let low = _mm256_set1_epi32(0xffff);
-        let (half, zero, top) = (_mm256_set1_ps(0.5), _mm256_setzero_ps(), _mm256_set1_ps(65535.0));
+        let top = _mm256_set1_ps(65535.0);
         let base = data.as_ptr() as *const i32;
         for g in 0..groups {
             let i = 8 * g;
@@ -359,11 +327,7 @@ pub(super) mod avx2 {
             let b = _mm256_cvtepi32_ps(_mm256_srli_epi32::<16>(wt));
             let e = _mm256_cvtepi32_ps(_mm256_and_si256(wb, low));
             let f = _mm256_cvtepi32_ps(_mm256_srli_epi32::<16>(wb));
-            let t = _mm256_add_ps(a, _mm256_mul_ps(_mm256_sub_ps(b, a), fx));
-            let u = _mm256_add_ps(e, _mm256_mul_ps(_mm256_sub_ps(f, e), fx));
-            let v = _mm256_add_ps(t, _mm256_mul_ps(_mm256_sub_ps(u, t), fy));
-            let v = _mm256_min_ps(_mm256_max_ps(_mm256_add_ps(v, half), zero), top);
-            let r = _mm256_cvttps_epi32(v);
+            let r = round_clamp(bilerp(a, b, e, f, fx, fy), top);
             // 8 x i32 in 0..=65535 -> u16: per 128-bit lane r0..r3 (r4..r7) in the low
             // 64 bits; gather those two halves into the low 128 bits.
             let r16 = _mm256_permute4x64_epi64::<0b11_01_10_00>(_mm256_packus_epi32(r, r));
