@@ -4,9 +4,11 @@
 //! clamp at 65535; its tap layout is in its docs. Gray + alpha and colour images:
 //! [`super::sample_simd_color`] (8-bit), [`super::sample_simd_color16`] (16-bit); `f32`
 //! images: [`super::sample_simd_float`]; bicubic (8-bit, 1 to 4 channels):
-//! [`super::sample_simd_cubic`]. Their tests share `simd_harness`. The lane
-//! helpers they share ([`avx2::lanes8`],
-//! [`avx2::lanes4`], [`avx2::bilerp`], [`avx2::round_clamp`]) are in this module.
+//! [`super::sample_simd_cubic`]; nearest (every type): [`super::sample_simd_nearest`]. Their
+//! tests share `simd_harness`. What they share is in this module: the check every safe
+//! wrapper makes before it calls an AVX2 kernel ([`avx2_fits`]) and the lane helpers
+//! ([`avx2::lanes8`], [`avx2::lanes4`], [`avx2::floor`], [`avx2::bilerp`],
+//! [`avx2::round_clamp`]).
 //!
 //! The scalar path ([`super::sample::fill_pixels`]) computes, for a position `(x, y)` with
 //! `x0 = floor(x)`, `y0 = floor(y)`, `fx = (x - x0) as f32`, `fy = (y - y0) as f32` and the
@@ -44,6 +46,20 @@
 //! eight pixels. Out-of-range and `NaN` coordinates convert to `i32::MIN` and so fail the
 //! test.
 
+/// Whether the AVX2 kernels of `sample_simd*` may run on a `w x h` image of `nc` samples
+/// per pixel held in a buffer of `len` samples: the CPU has AVX2 (detected at run time),
+/// `w, h >= 1`, `nc w h <= len` and `nc w h < 2^31` (so every sample offset, and every byte
+/// offset scaled by the gathers, fits in `i32`). Each kernel's safe wrapper calls into its
+/// `avx2` module only when this holds, and its `SAFETY` comment cites it.
+#[cfg(target_arch = "x86_64")]
+pub(super) fn avx2_fits(len: usize, w: usize, h: usize, nc: usize) -> bool {
+    let n = w.checked_mul(h).and_then(|n| n.checked_mul(nc));
+    w >= 1
+        && h >= 1
+        && n.is_some_and(|n| n <= len && n < i32::MAX as usize)
+        && std::arch::is_x86_feature_detected!("avx2")
+}
+
 /// Fills `out[i]` for every position `pos[i]` (`i < min(pos.len(), out.len())`) of a
 /// `w x h` gray image `data` by bilinear interpolation, with `scalar(p)` giving the value of
 /// the pixels the vector path does not take. Returns `false` (and writes nothing) when the
@@ -58,14 +74,11 @@ pub(super) fn bilinear_gray8(
     scalar: impl Fn(&[f64; 2]) -> u8,
 ) -> bool {
     #[cfg(target_arch = "x86_64")]
-    {
-        let fits = w.checked_mul(h).is_some_and(|n| n <= data.len() && n < i32::MAX as usize);
-        if fits && std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: AVX2 is available (checked just above); `data` holds at least `w h`
-            // bytes and `w h < 2^31` (checked just above), as `avx2::bilinear_gray8` requires.
-            unsafe { avx2::bilinear_gray8(data, w, h, pos, out, &scalar) };
-            return true;
-        }
+    if avx2_fits(data.len(), w, h, 1) {
+        // SAFETY: AVX2 is available and `data` holds at least `w h < 2^31` bytes
+        // (`avx2_fits`), as `avx2::bilinear_gray8` requires.
+        unsafe { avx2::bilinear_gray8(data, w, h, pos, out, &scalar) };
+        return true;
     }
     let _ = (data, w, h, pos, out, scalar);
     false
@@ -90,15 +103,11 @@ pub(super) fn bilinear_gray16(
     scalar: impl Fn(&[f64; 2]) -> u16,
 ) -> bool {
     #[cfg(target_arch = "x86_64")]
-    {
-        let fits = w.checked_mul(h).is_some_and(|n| n <= data.len() && n < i32::MAX as usize);
-        if fits && std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: AVX2 is available (checked just above); `data` holds at least `w h`
-            // samples and `w h < 2^31` (checked just above), as `avx2::bilinear_gray16`
-            // requires.
-            unsafe { avx2::bilinear_gray16(data, w, h, pos, out, &scalar) };
-            return true;
-        }
+    if avx2_fits(data.len(), w, h, 1) {
+        // SAFETY: AVX2 is available and `data` holds at least `w h < 2^31` samples
+        // (`avx2_fits`), as `avx2::bilinear_gray16` requires.
+        unsafe { avx2::bilinear_gray16(data, w, h, pos, out, &scalar) };
+        return true;
     }
     let _ = (data, w, h, pos, out, scalar);
     false

@@ -40,6 +40,9 @@
 //! border) and the tail of fewer than four (eight) are done pixel by pixel by the scalar
 //! path.
 
+#[cfg(target_arch = "x86_64")]
+use super::sample_simd::avx2_fits;
+
 /// Fills the `NC`-byte pixels `out[NC i ..]` for every position `pos[i]`
 /// (`i < min(pos.len(), out.len() / NC)`) of a `w x h` image `data` (`NC` = 2, 3 or 4
 /// interleaved 8-bit channels) by bilinear interpolation, with `scalar(p, px)` writing the
@@ -55,25 +58,18 @@ pub(super) fn bilinear_color8<const NC: usize>(
     scalar: impl Fn(&[f64; 2], &mut [u8]),
 ) -> bool {
     #[cfg(target_arch = "x86_64")]
-    {
-        let fits = w
-            .checked_mul(h)
-            .and_then(|n| n.checked_mul(NC))
-            .is_some_and(|n| n <= data.len() && n < i32::MAX as usize);
-        if (2..=4).contains(&NC) && fits && std::arch::is_x86_feature_detected!("avx2") {
-            if NC == 2 {
-                // SAFETY: AVX2 is available (checked just above); `data` holds at least
-                // `2 w h < 2^31` bytes (checked just above), as `avx2::bilinear_la8`
-                // requires.
-                unsafe { avx2::bilinear_la8(data, w, h, pos, out, &scalar) };
-            } else {
-                // SAFETY: AVX2 is available and `NC` is 3 or 4 (checked just above); `data`
-                // holds at least `NC w h < 2^31` bytes (checked just above), as
-                // `avx2::bilinear_color8` requires.
-                unsafe { avx2::bilinear_color8::<NC>(data, w, h, pos, out, &scalar) };
-            }
-            return true;
+    if (2..=4).contains(&NC) && avx2_fits(data.len(), w, h, NC) {
+        if NC == 2 {
+            // SAFETY: AVX2 is available and `data` holds at least `2 w h < 2^31` bytes
+            // (`avx2_fits`), as `avx2::bilinear_la8` requires.
+            unsafe { avx2::bilinear_la8(data, w, h, pos, out, &scalar) };
+        } else {
+            // SAFETY: `NC` is 3 or 4 (checked just above); AVX2 is available and `data`
+            // holds at least `NC w h < 2^31` bytes (`avx2_fits`), as `avx2::bilinear_color8`
+            // requires.
+            unsafe { avx2::bilinear_color8::<NC>(data, w, h, pos, out, &scalar) };
         }
+        return true;
     }
     let _ = (data, w, h, pos, out, scalar);
     false

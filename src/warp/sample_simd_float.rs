@@ -48,6 +48,9 @@
 //! image border) and the tail are done pixel by pixel by the scalar path. Out-of-range and
 //! `NaN` coordinates convert to `i32::MIN` and so fail the test.
 
+#[cfg(target_arch = "x86_64")]
+use super::sample_simd::avx2_fits;
+
 /// Fills the `NC`-float pixels `out[NC i ..]` for every position `pos[i]`
 /// (`i < min(pos.len(), out.len() / NC)`) of a `w x h` image `data` (`NC` = 1 to 4
 /// interleaved `f32` channels) by bilinear interpolation, with `scalar(p, px)` writing the
@@ -63,29 +66,22 @@ pub(super) fn bilinear_f32<const NC: usize>(
     scalar: impl Fn(&[f64; 2], &mut [f32]),
 ) -> bool {
     #[cfg(target_arch = "x86_64")]
-    {
-        let fits = w
-            .checked_mul(h)
-            .and_then(|n| n.checked_mul(NC))
-            .is_some_and(|n| n <= data.len() && n < i32::MAX as usize);
-        if (1..=4).contains(&NC) && fits && std::arch::is_x86_feature_detected!("avx2") {
-            if NC == 1 {
-                // SAFETY: AVX2 is available (checked just above); `data` holds at least
-                // `w h < 2^31` floats (checked just above), as `avx2::bilinear_gray` requires.
-                unsafe { avx2::bilinear_gray(data, w, h, pos, out, &scalar) };
-            } else if NC == 2 {
-                // SAFETY: AVX2 is available (checked just above); `data` holds at least
-                // `2 w h < 2^31` floats (checked just above), as `avx2::bilinear_la`
-                // requires.
-                unsafe { avx2::bilinear_la(data, w, h, pos, out, &scalar) };
-            } else {
-                // SAFETY: AVX2 is available and `NC` is 3 or 4 (checked just above); `data`
-                // holds at least `NC w h < 2^31` floats (checked just above), as
-                // `avx2::bilinear_color` requires.
-                unsafe { avx2::bilinear_color::<NC>(data, w, h, pos, out, &scalar) };
-            }
-            return true;
+    if (1..=4).contains(&NC) && avx2_fits(data.len(), w, h, NC) {
+        if NC == 1 {
+            // SAFETY: AVX2 is available and `data` holds at least `w h < 2^31` floats
+            // (`avx2_fits`), as `avx2::bilinear_gray` requires.
+            unsafe { avx2::bilinear_gray(data, w, h, pos, out, &scalar) };
+        } else if NC == 2 {
+            // SAFETY: AVX2 is available and `data` holds at least `2 w h < 2^31` floats
+            // (`avx2_fits`), as `avx2::bilinear_la` requires.
+            unsafe { avx2::bilinear_la(data, w, h, pos, out, &scalar) };
+        } else {
+            // SAFETY: `NC` is 3 or 4 (checked just above); AVX2 is available and `data`
+            // holds at least `NC w h < 2^31` floats (`avx2_fits`), as `avx2::bilinear_color`
+            // requires.
+            unsafe { avx2::bilinear_color::<NC>(data, w, h, pos, out, &scalar) };
         }
+        return true;
     }
     let _ = (data, w, h, pos, out, scalar);
     false

@@ -39,6 +39,9 @@
 //! the image. The samples are copied as they are (no arithmetic), so floats keep their bits,
 //! signed zeros and all.
 
+#[cfg(target_arch = "x86_64")]
+use super::sample_simd::avx2_fits;
+
 /// Fills the `NC`-sample pixels `out[NC i ..]` for every position `pos[i]`
 /// (`i < min(pos.len(), out.len() / NC)`) of a `w x h` image `data` (`NC` = 1 to 4
 /// interleaved channels) with the nearest pixel, with `scalar(p, px)` writing the pixels the
@@ -54,22 +57,11 @@ pub(super) fn nearest<T: Copy, const NC: usize>(
     scalar: impl Fn(&[f64; 2], &mut [T]),
 ) -> bool {
     #[cfg(target_arch = "x86_64")]
-    {
-        let fits = w
-            .checked_mul(h)
-            .and_then(|n| n.checked_mul(NC))
-            .is_some_and(|n| n <= data.len() && n < i32::MAX as usize);
-        if (1..=4).contains(&NC)
-            && w > 0
-            && h > 0
-            && fits
-            && std::arch::is_x86_feature_detected!("avx2")
-        {
-            // SAFETY: AVX2 is available, `w, h >= 1` and `data` holds at least
-            // `NC w h < 2^31` samples (checked just above), as `avx2::nearest` requires.
-            unsafe { avx2::nearest::<T, NC>(data, w, h, pos, out, &scalar) };
-            return true;
-        }
+    if (1..=4).contains(&NC) && avx2_fits(data.len(), w, h, NC) {
+        // SAFETY: AVX2 is available, `w, h >= 1` and `data` holds at least `NC w h < 2^31`
+        // samples (`avx2_fits`), as `avx2::nearest` requires.
+        unsafe { avx2::nearest::<T, NC>(data, w, h, pos, out, &scalar) };
+        return true;
     }
     let _ = (data, w, h, pos, out, scalar);
     false
