@@ -16,6 +16,8 @@
 //!   `warp_samples_into` and tiles).
 //! * `resample_1024_u8x{1,2,3,4}_bicubic`: the same, bicubic (the AVX2 kernels of
 //!   `sample_simd_cubic`).
+//! * `resample_1024_{u8,u16,f32}x{1,2,3,4}_nearest`: the same, nearest, every sample type
+//!   and channel count (the AVX2 kernels of `sample_simd_nearest`).
 //! * `warp_2048_gray8_bent` and `warp_2048_gray8_mild`: the strongly bent map of
 //!   `tests/data/warp_bent_2048.json` (60 landmarks, displacements up to 40 px) against a mild
 //!   one; target: bent within 2x of mild (issue 18).
@@ -228,8 +230,8 @@ fn by_type_and_hard_maps(c: &mut Criterion) {
     resample_by_type(c);
 }
 
-/// Bilinear resampling alone, every sample type and channel count, and bicubic for 8-bit
-/// samples: a 1024 x 1024 image at the positions of a 2-degree rotation about its centre
+/// Bilinear and nearest resampling alone, every sample type and channel count, and bicubic
+/// for 8-bit samples: a 1024 x 1024 image at the positions of a 2-degree rotation about its centre
 /// (a few pixels near the corners fall outside and take the scalar path, as in a warp).
 fn resample_by_type(c: &mut Criterion) {
     let n = 1024usize;
@@ -255,7 +257,11 @@ fn resample_by_type(c: &mut Criterion) {
     ) {
         let src = Source { data, w: n, h: n, nc: NC };
         let mut out = vec![T::from_f32(0.0); NC * pos.len()];
-        let suffix = if interp == Interp::Bicubic { "_bicubic" } else { "" };
+        let suffix = match interp {
+            Interp::Bicubic => "_bicubic",
+            Interp::Nearest => "_nearest",
+            Interp::Bilinear => "",
+        };
         g.bench_function(format!("resample_{n}_{name}x{NC}{suffix}"), |b| {
             b.iter(|| {
                 fill_pixels::<T, NC>(&src, pos, &mut out, interp, 0.0);
@@ -272,15 +278,22 @@ fn resample_by_type(c: &mut Criterion) {
         one::<u8, 3>(&mut g, "u8", &u8s[..3 * n * n], n, &pos, interp);
         one::<u8, 4>(&mut g, "u8", &u8s, n, &pos, interp);
     }
-    let lin = Interp::Bilinear;
-    one::<u16, 1>(&mut g, "u16", &u16s[..n * n], n, &pos, lin);
-    one::<u16, 2>(&mut g, "u16", &u16s[..2 * n * n], n, &pos, lin);
-    one::<u16, 3>(&mut g, "u16", &u16s[..3 * n * n], n, &pos, lin);
-    one::<u16, 4>(&mut g, "u16", &u16s, n, &pos, lin);
-    one::<f32, 1>(&mut g, "f32", &f32s[..n * n], n, &pos, lin);
-    one::<f32, 2>(&mut g, "f32", &f32s[..2 * n * n], n, &pos, lin);
-    one::<f32, 3>(&mut g, "f32", &f32s[..3 * n * n], n, &pos, lin);
-    one::<f32, 4>(&mut g, "f32", &f32s, n, &pos, lin);
+    for interp in [Interp::Bilinear, Interp::Nearest] {
+        if interp == Interp::Nearest {
+            one::<u8, 1>(&mut g, "u8", &u8s[..n * n], n, &pos, interp);
+            one::<u8, 2>(&mut g, "u8", &u8s[..2 * n * n], n, &pos, interp);
+            one::<u8, 3>(&mut g, "u8", &u8s[..3 * n * n], n, &pos, interp);
+            one::<u8, 4>(&mut g, "u8", &u8s, n, &pos, interp);
+        }
+        one::<u16, 1>(&mut g, "u16", &u16s[..n * n], n, &pos, interp);
+        one::<u16, 2>(&mut g, "u16", &u16s[..2 * n * n], n, &pos, interp);
+        one::<u16, 3>(&mut g, "u16", &u16s[..3 * n * n], n, &pos, interp);
+        one::<u16, 4>(&mut g, "u16", &u16s, n, &pos, interp);
+        one::<f32, 1>(&mut g, "f32", &f32s[..n * n], n, &pos, interp);
+        one::<f32, 2>(&mut g, "f32", &f32s[..2 * n * n], n, &pos, interp);
+        one::<f32, 3>(&mut g, "f32", &f32s[..3 * n * n], n, &pos, interp);
+        one::<f32, 4>(&mut g, "f32", &f32s, n, &pos, interp);
+    }
     g.finish();
 }
 

@@ -38,6 +38,7 @@ mod sample_simd_color;
 mod sample_simd_color16;
 mod sample_simd_cubic;
 mod sample_simd_float;
+mod sample_simd_nearest;
 #[cfg(test)]
 mod simd_harness;
 pub mod tiles;

@@ -4,9 +4,11 @@
 //! clamp at 65535; its tap layout is in its docs. Gray + alpha and colour images:
 //! [`super::sample_simd_color`] (8-bit), [`super::sample_simd_color16`] (16-bit); `f32`
 //! images: [`super::sample_simd_float`]; bicubic (8-bit, 1 to 4 channels):
-//! [`super::sample_simd_cubic`]. Their tests share `simd_harness`. The lane
-//! helpers they share ([`avx2::lanes8`],
-//! [`avx2::lanes4`], [`avx2::bilerp`], [`avx2::round_clamp`]) are in this module.
+//! [`super::sample_simd_cubic`]; nearest (every type): [`super::sample_simd_nearest`]. Their
+//! tests share `simd_harness`. What they share is in this module: the check every safe
+//! wrapper makes before it calls an AVX2 kernel ([`avx2_fits`]) and the lane helpers
+//! ([`avx2::lanes8`], [`avx2::lanes4`], [`avx2::floor`], [`avx2::bilerp`],
+//! [`avx2::round_clamp`]).
 //!
 //! The scalar path ([`super::sample::fill_pixels`]) computes, for a position `(x, y)` with
 //! `x0 = floor(x)`, `y0 = floor(y)`, `fx = (x - x0) as f32`, `fy = (y - y0) as f32` and the
@@ -21,7 +23,10 @@
 //! same operations in the same order on eight lanes: the floors and fractions in `f64`
 //! (`vroundpd`, exact subtraction, then one rounding to `f32` as `as f32` does), the
 //! interpolation in `f32` with separate multiplies and adds, the final conversion by
-//! truncation. So its output is bit-identical to the scalar path's.
+//! truncation. So its output is bit-identical to the scalar path's. The floor adds `+0.0`
+//! to `vroundpd`'s result ([`avx2::floor`]), because `fast_floor(-0.0)` is `+0.0`: so the
+//! fraction at `x = -0.0` is `-0.0` on both paths, which `f32` samples of `-0.0` can tell
+//! from `+0.0` (for integer samples the sign of a zero is lost in the rounding anyway).
 //!
 //! **Taps.** With `k = y0 w + x0` (the image is `w x h`, one byte per pixel, row-major),
 //! the two top taps are bytes `k, k + 1` and the two bottom taps are bytes `k + w, k + w + 1`.
@@ -41,6 +46,20 @@
 //! eight pixels. Out-of-range and `NaN` coordinates convert to `i32::MIN` and so fail the
 //! test.
 
+/// Whether the AVX2 kernels of `sample_simd*` may run on a `w x h` image of `nc` samples
+/// per pixel held in a buffer of `len` samples: the CPU has AVX2 (detected at run time),
+/// `w, h >= 1`, `nc w h <= len` and `nc w h < 2^31` (so every sample offset, and every byte
+/// offset scaled by the gathers, fits in `i32`). Each kernel's safe wrapper calls into its
+/// `avx2` module only when this holds, and its `SAFETY` comment cites it.
+#[cfg(target_arch = "x86_64")]
+pub(super) fn avx2_fits(len: usize, w: usize, h: usize, nc: usize) -> bool {
+    let n = w.checked_mul(h).and_then(|n| n.checked_mul(nc));
+    w >= 1
+        && h >= 1
+        && n.is_some_and(|n| n <= len && n < i32::MAX as usize)
+        && std::arch::is_x86_feature_detected!("avx2")
+}
+
 /// Fills `out[i]` for every position `pos[i]` (`i < min(pos.len(), out.len())`) of a
 /// `w x h` gray image `data` by bilinear interpolation, with `scalar(p)` giving the value of
 /// the pixels the vector path does not take. Returns `false` (and writes nothing) when the
@@ -55,14 +74,11 @@ pub(super) fn bilinear_gray8(
     scalar: impl Fn(&[f64; 2]) -> u8,
 ) -> bool {
     #[cfg(target_arch = "x86_64")]
-    {
-        let fits = w.checked_mul(h).is_some_and(|n| n <= data.len() && n < i32::MAX as usize);
-        if fits && std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: AVX2 is available (checked just above); `data` holds at least `w h`
-            // bytes and `w h < 2^31` (checked just above), as `avx2::bilinear_gray8` requires.
-            unsafe { avx2::bilinear_gray8(data, w, h, pos, out, &scalar) };
-            return true;
-        }
+    if avx2_fits(data.len(), w, h, 1) {
+        // SAFETY: AVX2 is available and `data` holds at least `w h < 2^31` bytes
+        // (`avx2_fits`), as `avx2::bilinear_gray8` requires.
+        unsafe { avx2::bilinear_gray8(data, w, h, pos, out, &scalar) };
+        return true;
     }
     let _ = (data, w, h, pos, out, scalar);
     false
@@ -87,15 +103,11 @@ pub(super) fn bilinear_gray16(
     scalar: impl Fn(&[f64; 2]) -> u16,
 ) -> bool {
     #[cfg(target_arch = "x86_64")]
-    {
-        let fits = w.checked_mul(h).is_some_and(|n| n <= data.len() && n < i32::MAX as usize);
-        if fits && std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: AVX2 is available (checked just above); `data` holds at least `w h`
-            // samples and `w h < 2^31` (checked just above), as `avx2::bilinear_gray16`
-            // requires.
-            unsafe { avx2::bilinear_gray16(data, w, h, pos, out, &scalar) };
-            return true;
-        }
+    if avx2_fits(data.len(), w, h, 1) {
+        // SAFETY: AVX2 is available and `data` holds at least `w h < 2^31` samples
+        // (`avx2_fits`), as `avx2::bilinear_gray16` requires.
+        unsafe { avx2::bilinear_gray16(data, w, h, pos, out, &scalar) };
+        return true;
     }
     let _ = (data, w, h, pos, out, scalar);
     false
@@ -126,49 +138,21 @@ pub(super) mod avx2 {
         // rejecting every lane).
         let xmax = _mm256_set1_epi32(w as i32 - 2);
         let ymax = _mm256_set1_epi32(h as i32 - 2);
-        let minus1 = _mm256_set1_epi32(-1);
         let wv = _mm256_set1_epi32(w as i32);
         let below = _mm256_set1_epi32(w as i32 - 2);
         let byte = _mm256_set1_epi32(0xff);
-        let (half, zero, top) = (_mm256_set1_ps(0.5), _mm256_setzero_ps(), _mm256_set1_ps(255.0));
+        let top = _mm256_set1_ps(255.0);
         let base = data.as_ptr() as *const i32;
         for g in 0..groups {
             let i = 8 * g;
-            // SAFETY: i + 8 <= n <= pos.len(), and [[f64; 2]] is 16 f64 for 8 positions,
-            // contiguous; unaligned loads.
-            let pp = pos.as_ptr().add(i) as *const f64;
-            let (v0, v1) = (_mm256_loadu_pd(pp), _mm256_loadu_pd(pp.add(4)));
-            let (v2, v3) = (_mm256_loadu_pd(pp.add(8)), _mm256_loadu_pd(pp.add(12)));
-            // [x0 x2 x1 x3] -> [x0 x1 x2 x3] (and likewise for y and the next four).
-            let xa = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpacklo_pd(v0, v1));
-            let ya = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpackhi_pd(v0, v1));
-            let xb = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpacklo_pd(v2, v3));
-            let yb = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpackhi_pd(v2, v3));
-            let (fxa, fya) = (_mm256_floor_pd(xa), _mm256_floor_pd(ya));
-            let (fxb, fyb) = (_mm256_floor_pd(xb), _mm256_floor_pd(yb));
-            let x0 = _mm256_set_m128i(_mm256_cvttpd_epi32(fxb), _mm256_cvttpd_epi32(fxa));
-            let y0 = _mm256_set_m128i(_mm256_cvttpd_epi32(fyb), _mm256_cvttpd_epi32(fya));
-            let ok = _mm256_and_si256(
-                _mm256_and_si256(_mm256_cmpgt_epi32(x0, minus1), _mm256_cmpgt_epi32(y0, minus1)),
-                _mm256_andnot_si256(
-                    _mm256_or_si256(_mm256_cmpgt_epi32(x0, xmax), _mm256_cmpgt_epi32(y0, ymax)),
-                    minus1,
-                ),
-            );
+            // SAFETY: i + 8 <= n <= pos.len(): 16 f64 for 8 contiguous positions.
+            let (x0, y0, ok, fx, fy) = lanes8(pos.as_ptr().add(i) as *const f64, xmax, ymax);
             if _mm256_movemask_ps(_mm256_castsi256_ps(ok)) != 0xff {
                 for k in i..i + 8 {
                     out[k] = scalar(&pos[k]);
                 }
                 continue;
             }
-            let fx = _mm256_set_m128(
-                _mm256_cvtpd_ps(_mm256_sub_pd(xb, fxb)),
-                _mm256_cvtpd_ps(_mm256_sub_pd(xa, fxa)),
-            );
-            let fy = _mm256_set_m128(
-                _mm256_cvtpd_ps(_mm256_sub_pd(yb, fyb)),
-                _mm256_cvtpd_ps(_mm256_sub_pd(ya, fya)),
-            );
             let k = _mm256_add_epi32(_mm256_mullo_epi32(y0, wv), x0);
             // SAFETY: every lane passed 0 <= x0 <= w - 2, 0 <= y0 <= h - 2 (so w, h >= 2);
             // the words read are bytes k .. k + 3 and k + w - 2 .. k + w + 1, inside
@@ -179,11 +163,7 @@ pub(super) mod avx2 {
             let b = _mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32::<8>(wt), byte));
             let e = _mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32::<16>(wb), byte));
             let f = _mm256_cvtepi32_ps(_mm256_srli_epi32::<24>(wb));
-            let t = _mm256_add_ps(a, _mm256_mul_ps(_mm256_sub_ps(b, a), fx));
-            let u = _mm256_add_ps(e, _mm256_mul_ps(_mm256_sub_ps(f, e), fx));
-            let v = _mm256_add_ps(t, _mm256_mul_ps(_mm256_sub_ps(u, t), fy));
-            let v = _mm256_min_ps(_mm256_max_ps(_mm256_add_ps(v, half), zero), top);
-            let r = _mm256_cvttps_epi32(v);
+            let r = round_clamp(bilerp(a, b, e, f, fx, fy), top);
             // 8 x i32 in 0..=255 -> bytes: per 128-bit lane, r0..r3 (resp. r4..r7) in the
             // low four bytes.
             let r16 = _mm256_packus_epi32(r, r);
@@ -198,9 +178,20 @@ pub(super) mod avx2 {
         }
     }
 
+    /// The scalar `fast_floor` on four lanes: `floor(v) + 0`, which is `floor(v)` except
+    /// that `floor(-0.0) = -0.0` becomes `+0.0`, as the integer round trip of `fast_floor`
+    /// makes it. The sign matters: the fraction `v - floor(v)` of `v = -0.0` is then `-0.0`
+    /// as in the scalar path (not `+0.0`), and with `f32` samples of `-0.0` the sign of the
+    /// fraction reaches the sign of a zero result.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub(in crate::warp) fn floor(v: __m256d) -> __m256d {
+        _mm256_add_pd(_mm256_floor_pd(v), _mm256_setzero_pd())
+    }
+
     /// Eight positions: `x0`, `y0` (i32), the lanes that may take the vector path (all
     /// bits set where `0 <= x0 <= xmax` and `0 <= y0 <= ymax`), and `fx`, `fy` (f32), as
-    /// in [`bilinear_gray8`].
+    /// in [`bilinear_gray8`] (the floors by [`floor`]).
     ///
     /// # Safety
     ///
@@ -220,8 +211,8 @@ pub(super) mod avx2 {
         let ya = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpackhi_pd(v0, v1));
         let xb = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpacklo_pd(v2, v3));
         let yb = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpackhi_pd(v2, v3));
-        let (fxa, fya) = (_mm256_floor_pd(xa), _mm256_floor_pd(ya));
-        let (fxb, fyb) = (_mm256_floor_pd(xb), _mm256_floor_pd(yb));
+        let (fxa, fya) = (floor(xa), floor(ya));
+        let (fxb, fyb) = (floor(xb), floor(yb));
         let x0 = _mm256_set_m128i(_mm256_cvttpd_epi32(fxb), _mm256_cvttpd_epi32(fxa));
         let y0 = _mm256_set_m128i(_mm256_cvttpd_epi32(fyb), _mm256_cvttpd_epi32(fya));
         let ok = _mm256_and_si256(
@@ -262,7 +253,7 @@ pub(super) mod avx2 {
         // [x0 x2 x1 x3] -> [x0 x1 x2 x3], likewise for y.
         let xs = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpacklo_pd(v0, v1));
         let ys = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpackhi_pd(v0, v1));
-        let (fxs, fys) = (_mm256_floor_pd(xs), _mm256_floor_pd(ys));
+        let (fxs, fys) = (floor(xs), floor(ys));
         let (x0, y0) = (_mm256_cvttpd_epi32(fxs), _mm256_cvttpd_epi32(fys));
         let ok = _mm_and_si128(
             _mm_and_si128(_mm_cmpgt_epi32(x0, minus1), _mm_cmpgt_epi32(y0, minus1)),
@@ -323,7 +314,7 @@ pub(super) mod avx2 {
         let ymax = _mm256_set1_epi32(h as i32 - 2);
         let wv = _mm256_set1_epi32(w as i32);
         let low = _mm256_set1_epi32(0xffff);
-        let (half, zero, top) = (_mm256_set1_ps(0.5), _mm256_setzero_ps(), _mm256_set1_ps(65535.0));
+        let top = _mm256_set1_ps(65535.0);
         let base = data.as_ptr() as *const i32;
         for g in 0..groups {
             let i = 8 * g;
@@ -345,11 +336,7 @@ pub(super) mod avx2 {
             let b = _mm256_cvtepi32_ps(_mm256_srli_epi32::<16>(wt));
             let e = _mm256_cvtepi32_ps(_mm256_and_si256(wb, low));
             let f = _mm256_cvtepi32_ps(_mm256_srli_epi32::<16>(wb));
-            let t = _mm256_add_ps(a, _mm256_mul_ps(_mm256_sub_ps(b, a), fx));
-            let u = _mm256_add_ps(e, _mm256_mul_ps(_mm256_sub_ps(f, e), fx));
-            let v = _mm256_add_ps(t, _mm256_mul_ps(_mm256_sub_ps(u, t), fy));
-            let v = _mm256_min_ps(_mm256_max_ps(_mm256_add_ps(v, half), zero), top);
-            let r = _mm256_cvttps_epi32(v);
+            let r = round_clamp(bilerp(a, b, e, f, fx, fy), top);
             // 8 x i32 in 0..=65535 -> u16: per 128-bit lane r0..r3 (r4..r7) in the low
             // 64 bits; gather those two halves into the low 128 bits.
             let r16 = _mm256_permute4x64_epi64::<0b11_01_10_00>(_mm256_packus_epi32(r, r));
@@ -379,6 +366,13 @@ mod tests {
     #[test]
     fn gray16_vector_path_matches_the_scalar_path_bit_for_bit() {
         harness::sweep::<u16, Gray16>(Bilinear, &[1], 16, 2000);
+    }
+
+    /// Signed zeros, ties, the border, infinities and `NaN` in either coordinate.
+    #[test]
+    fn special_positions_match_the_scalar_path() {
+        harness::special::<u8, Gray8>(Bilinear, &[1], 6);
+        harness::special::<u16, Gray16>(Bilinear, &[1], 17);
     }
 
     /// The last bytes (samples) read are the image's last (module docs).

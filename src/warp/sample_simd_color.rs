@@ -40,6 +40,9 @@
 //! border) and the tail of fewer than four (eight) are done pixel by pixel by the scalar
 //! path.
 
+#[cfg(target_arch = "x86_64")]
+use super::sample_simd::avx2_fits;
+
 /// Fills the `NC`-byte pixels `out[NC i ..]` for every position `pos[i]`
 /// (`i < min(pos.len(), out.len() / NC)`) of a `w x h` image `data` (`NC` = 2, 3 or 4
 /// interleaved 8-bit channels) by bilinear interpolation, with `scalar(p, px)` writing the
@@ -55,25 +58,18 @@ pub(super) fn bilinear_color8<const NC: usize>(
     scalar: impl Fn(&[f64; 2], &mut [u8]),
 ) -> bool {
     #[cfg(target_arch = "x86_64")]
-    {
-        let fits = w
-            .checked_mul(h)
-            .and_then(|n| n.checked_mul(NC))
-            .is_some_and(|n| n <= data.len() && n < i32::MAX as usize);
-        if (2..=4).contains(&NC) && fits && std::arch::is_x86_feature_detected!("avx2") {
-            if NC == 2 {
-                // SAFETY: AVX2 is available (checked just above); `data` holds at least
-                // `2 w h < 2^31` bytes (checked just above), as `avx2::bilinear_la8`
-                // requires.
-                unsafe { avx2::bilinear_la8(data, w, h, pos, out, &scalar) };
-            } else {
-                // SAFETY: AVX2 is available and `NC` is 3 or 4 (checked just above); `data`
-                // holds at least `NC w h < 2^31` bytes (checked just above), as
-                // `avx2::bilinear_color8` requires.
-                unsafe { avx2::bilinear_color8::<NC>(data, w, h, pos, out, &scalar) };
-            }
-            return true;
+    if (2..=4).contains(&NC) && avx2_fits(data.len(), w, h, NC) {
+        if NC == 2 {
+            // SAFETY: AVX2 is available and `data` holds at least `2 w h < 2^31` bytes
+            // (`avx2_fits`), as `avx2::bilinear_la8` requires.
+            unsafe { avx2::bilinear_la8(data, w, h, pos, out, &scalar) };
+        } else {
+            // SAFETY: `NC` is 3 or 4 (checked just above); AVX2 is available and `data`
+            // holds at least `NC w h < 2^31` bytes (`avx2_fits`), as `avx2::bilinear_color8`
+            // requires.
+            unsafe { avx2::bilinear_color8::<NC>(data, w, h, pos, out, &scalar) };
         }
+        return true;
     }
     let _ = (data, w, h, pos, out, scalar);
     false
@@ -81,7 +77,7 @@ pub(super) fn bilinear_color8<const NC: usize>(
 
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
-    use crate::warp::sample_simd::avx2::{bilerp, lanes8, round_clamp};
+    use crate::warp::sample_simd::avx2::{bilerp, lanes4, lanes8, round_clamp};
     use std::arch::x86_64::*;
 
     /// Zero byte for `_mm_shuffle_epi8`.
@@ -106,7 +102,6 @@ mod avx2 {
         // Lane bounds as in the module docs; -1 when w or h is 1 (every lane rejected).
         let xmax = _mm_set1_epi32(w as i32 - 2);
         let ymax = _mm_set1_epi32(h as i32 - 2);
-        let minus1 = _mm_set1_epi32(-1);
         let wv = _mm_set1_epi32(w as i32);
         // Per pair of pixels (p, p'), the 16 bytes [p's 8 | p''s 8] of one row are shuffled
         // to [a_p a_p' | b_p b_p'], four bytes per tap (RGB: the fourth zero).
@@ -120,36 +115,22 @@ mod avx2 {
                 -2isize,
             )
         };
-        let (half, zero, top) = (_mm256_set1_ps(0.5), _mm256_setzero_ps(), _mm256_set1_ps(255.0));
+        let top = _mm256_set1_ps(255.0);
         let spread =
             [_mm256_setr_epi32(0, 0, 0, 0, 1, 1, 1, 1), _mm256_setr_epi32(2, 2, 2, 2, 3, 3, 3, 3)];
         let base = data.as_ptr();
         let mut ks = [0i32; 4];
         for g in 0..groups {
             let i = 4 * g;
-            // SAFETY: i + 4 <= n <= pos.len(): 8 contiguous f64; unaligned loads.
-            let pp = pos.as_ptr().add(i) as *const f64;
-            let (v0, v1) = (_mm256_loadu_pd(pp), _mm256_loadu_pd(pp.add(4)));
-            // [x0 x2 x1 x3] -> [x0 x1 x2 x3], likewise for y.
-            let xs = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpacklo_pd(v0, v1));
-            let ys = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpackhi_pd(v0, v1));
-            let (fxs, fys) = (_mm256_floor_pd(xs), _mm256_floor_pd(ys));
-            let (x0, y0) = (_mm256_cvttpd_epi32(fxs), _mm256_cvttpd_epi32(fys));
-            let ok = _mm_and_si128(
-                _mm_and_si128(_mm_cmpgt_epi32(x0, minus1), _mm_cmpgt_epi32(y0, minus1)),
-                _mm_andnot_si128(
-                    _mm_or_si128(_mm_cmpgt_epi32(x0, xmax), _mm_cmpgt_epi32(y0, ymax)),
-                    minus1,
-                ),
-            );
+            // SAFETY: i + 4 <= n <= pos.len(): 8 contiguous f64.
+            let (x0, y0, ok, fx4, fy4) = lanes4(pos.as_ptr().add(i) as *const f64, xmax, ymax);
             if _mm_movemask_ps(_mm_castsi128_ps(ok)) != 0xf {
                 for k in i..i + 4 {
                     scalar(&pos[k], &mut out[NC * k..NC * k + NC]);
                 }
                 continue;
             }
-            let fx4 = _mm256_castps128_ps256(_mm256_cvtpd_ps(_mm256_sub_pd(xs, fxs)));
-            let fy4 = _mm256_castps128_ps256(_mm256_cvtpd_ps(_mm256_sub_pd(ys, fys)));
+            let (fx4, fy4) = (_mm256_castps128_ps256(fx4), _mm256_castps128_ps256(fy4));
             // SAFETY: `ks` is four i32; unaligned store.
             _mm_storeu_si128(
                 ks.as_mut_ptr() as *mut __m128i,
@@ -174,11 +155,7 @@ mod avx2 {
                 let f = _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(_mm_srli_si128::<8>(b16)));
                 let fx = _mm256_permutevar8x32_ps(fx4, *idx);
                 let fy = _mm256_permutevar8x32_ps(fy4, *idx);
-                let t = _mm256_add_ps(a, _mm256_mul_ps(_mm256_sub_ps(b, a), fx));
-                let u = _mm256_add_ps(e, _mm256_mul_ps(_mm256_sub_ps(f, e), fx));
-                let v = _mm256_add_ps(t, _mm256_mul_ps(_mm256_sub_ps(u, t), fy));
-                let v = _mm256_min_ps(_mm256_max_ps(_mm256_add_ps(v, half), zero), top);
-                let r = _mm256_cvttps_epi32(v);
+                let r = round_clamp(bilerp(a, b, e, f, fx, fy), top);
                 // 8 x i32 in 0..=255 -> per 128-bit lane, the pixel's four bytes lowest.
                 let r16 = _mm256_packus_epi32(r, r);
                 let r8 = _mm256_packus_epi16(r16, r16);
@@ -290,6 +267,12 @@ mod tests {
     #[test]
     fn gray_alpha_vector_path_matches_the_scalar_path_bit_for_bit() {
         harness::sweep::<u8, Color8>(Bilinear, &[2], 28, 2000);
+    }
+
+    /// Signed zeros, ties, the border, infinities and `NaN` in either coordinate.
+    #[test]
+    fn special_positions_match_the_scalar_path() {
+        harness::special::<u8, Color8>(Bilinear, &[2, 3, 4], 29);
     }
 
     /// The loads end exactly on the last byte of the image (module docs).

@@ -41,6 +41,9 @@
 //! and the tail are done pixel by pixel by the scalar path. Out-of-range and `NaN`
 //! coordinates convert to `i32::MIN` and so fail the test.
 
+#[cfg(target_arch = "x86_64")]
+use super::sample_simd::avx2_fits;
+
 /// Fills the `NC`-sample pixels `out[NC i ..]` for every position `pos[i]`
 /// (`i < min(pos.len(), out.len() / NC)`) of a `w x h` image `data` (`NC` = 2, 3 or 4
 /// interleaved 16-bit channels) by bilinear interpolation, with `scalar(p, px)` writing the
@@ -56,25 +59,18 @@ pub(super) fn bilinear_color16<const NC: usize>(
     scalar: impl Fn(&[f64; 2], &mut [u16]),
 ) -> bool {
     #[cfg(target_arch = "x86_64")]
-    {
-        let fits = w
-            .checked_mul(h)
-            .and_then(|n| n.checked_mul(NC))
-            .is_some_and(|n| n <= data.len() && n < i32::MAX as usize);
-        if (2..=4).contains(&NC) && fits && std::arch::is_x86_feature_detected!("avx2") {
-            if NC == 2 {
-                // SAFETY: AVX2 is available (checked just above); `data` holds at least
-                // `2 w h < 2^31` samples (checked just above), as `avx2::bilinear_la16`
-                // requires.
-                unsafe { avx2::bilinear_la16(data, w, h, pos, out, &scalar) };
-            } else {
-                // SAFETY: AVX2 is available and `NC` is 3 or 4 (checked just above); `data`
-                // holds at least `NC w h < 2^31` samples (checked just above), as
-                // `avx2::bilinear_color16` requires.
-                unsafe { avx2::bilinear_color16::<NC>(data, w, h, pos, out, &scalar) };
-            }
-            return true;
+    if (2..=4).contains(&NC) && avx2_fits(data.len(), w, h, NC) {
+        if NC == 2 {
+            // SAFETY: AVX2 is available and `data` holds at least `2 w h < 2^31` samples
+            // (`avx2_fits`), as `avx2::bilinear_la16` requires.
+            unsafe { avx2::bilinear_la16(data, w, h, pos, out, &scalar) };
+        } else {
+            // SAFETY: `NC` is 3 or 4 (checked just above); AVX2 is available and `data`
+            // holds at least `NC w h < 2^31` samples (`avx2_fits`), as
+            // `avx2::bilinear_color16` requires.
+            unsafe { avx2::bilinear_color16::<NC>(data, w, h, pos, out, &scalar) };
         }
+        return true;
     }
     let _ = (data, w, h, pos, out, scalar);
     false
@@ -257,6 +253,12 @@ mod tests {
     #[test]
     fn la16_rgb16_and_rgba16_vector_paths_match_the_scalar_path_bit_for_bit() {
         harness::sweep::<u16, Color16>(Bilinear, &[2, 3, 4], 48, 2000);
+    }
+
+    /// Signed zeros, ties, the border, infinities and `NaN` in either coordinate.
+    #[test]
+    fn special_positions_match_the_scalar_path() {
+        harness::special::<u16, Color16>(Bilinear, &[2, 3, 4], 49);
     }
 
     /// The loads end exactly on the last sample of the image (module docs).

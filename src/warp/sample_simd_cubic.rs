@@ -58,6 +58,9 @@
 //! border) and the tail are done pixel by pixel by the scalar path. Out-of-range and `NaN`
 //! coordinates convert to `i32::MIN` and so fail the test.
 
+#[cfg(target_arch = "x86_64")]
+use super::sample_simd::avx2_fits;
+
 /// Fills the `NC`-byte pixels `out[NC i ..]` for every position `pos[i]`
 /// (`i < min(pos.len(), out.len() / NC)`) of a `w x h` image `data` (`NC` = 1 to 4
 /// interleaved 8-bit channels) by bicubic interpolation, with `scalar(p, px)` writing the
@@ -73,24 +76,18 @@ pub(super) fn bicubic8<const NC: usize>(
     scalar: impl Fn(&[f64; 2], &mut [u8]),
 ) -> bool {
     #[cfg(target_arch = "x86_64")]
-    {
-        let fits = w
-            .checked_mul(h)
-            .and_then(|n| n.checked_mul(NC))
-            .is_some_and(|n| n <= data.len() && n < i32::MAX as usize);
-        if (1..=4).contains(&NC) && fits && std::arch::is_x86_feature_detected!("avx2") {
-            if NC == 1 {
-                // SAFETY: AVX2 is available (checked just above); `data` holds at least
-                // `w h < 2^31` bytes (checked just above), as `avx2::bicubic_gray8` requires.
-                unsafe { avx2::bicubic_gray8(data, w, h, pos, out, &scalar) };
-            } else {
-                // SAFETY: AVX2 is available and `NC` is 2, 3 or 4 (checked just above);
-                // `data` holds at least `NC w h < 2^31` bytes (checked just above), as
-                // `avx2::bicubic_color8` requires.
-                unsafe { avx2::bicubic_color8::<NC>(data, w, h, pos, out, &scalar) };
-            }
-            return true;
+    if (1..=4).contains(&NC) && avx2_fits(data.len(), w, h, NC) {
+        if NC == 1 {
+            // SAFETY: AVX2 is available and `data` holds at least `w h < 2^31` bytes
+            // (`avx2_fits`), as `avx2::bicubic_gray8` requires.
+            unsafe { avx2::bicubic_gray8(data, w, h, pos, out, &scalar) };
+        } else {
+            // SAFETY: `NC` is 2, 3 or 4 (checked just above); AVX2 is available and `data`
+            // holds at least `NC w h < 2^31` bytes (`avx2_fits`), as `avx2::bicubic_color8`
+            // requires.
+            unsafe { avx2::bicubic_color8::<NC>(data, w, h, pos, out, &scalar) };
         }
+        return true;
     }
     let _ = (data, w, h, pos, out, scalar);
     false
@@ -386,6 +383,13 @@ mod tests {
     #[test]
     fn bicubic8_vector_paths_match_the_scalar_path_bit_for_bit() {
         harness::sweep::<u8, Cubic8>(Bicubic, &[1, 2, 3, 4], 81, 2000);
+    }
+
+    /// Signed zeros, ties, the border, infinities (the scalar path's overflow at `x0 + 2`
+    /// before its clamp) and `NaN` in either coordinate.
+    #[test]
+    fn bicubic8_special_positions_match_the_scalar_path() {
+        harness::special::<u8, Cubic8>(Bicubic, &[1, 2, 3, 4], 85);
     }
 
     /// The loads start on the image's first taps and end on its last (module docs).

@@ -15,8 +15,10 @@
 //! code), so every lane is bit-identical to the scalar result: infinities and the `NaN` an
 //! invalid operation makes (`inf - inf`, `0 inf`) included, since an operation on one `NaN`
 //! returns that `NaN` and the only `NaN` made here is the default one. The floors and
-//! fractions are computed in `f64` (`vroundpd`, exact subtraction, one rounding to `f32` as
-//! `as f32` does). Layouts:
+//! fractions are computed in `f64` (`vroundpd` plus `+0.0`, exact subtraction, one rounding
+//! to `f32` as `as f32` does), so that `x = -0.0` has the fraction `-0.0` as in the scalar
+//! path and an image of `-0.0` samples gives `-0.0` there, not `+0.0`
+//! ([`super::sample_simd::avx2::floor`]). Layouts:
 //!
 //! * gray: eight positions per vector, one lane each;
 //! * gray + alpha: four positions per vector, two lanes each (in the order 0 2 1 3, put
@@ -46,6 +48,9 @@
 //! image border) and the tail are done pixel by pixel by the scalar path. Out-of-range and
 //! `NaN` coordinates convert to `i32::MIN` and so fail the test.
 
+#[cfg(target_arch = "x86_64")]
+use super::sample_simd::avx2_fits;
+
 /// Fills the `NC`-float pixels `out[NC i ..]` for every position `pos[i]`
 /// (`i < min(pos.len(), out.len() / NC)`) of a `w x h` image `data` (`NC` = 1 to 4
 /// interleaved `f32` channels) by bilinear interpolation, with `scalar(p, px)` writing the
@@ -61,29 +66,22 @@ pub(super) fn bilinear_f32<const NC: usize>(
     scalar: impl Fn(&[f64; 2], &mut [f32]),
 ) -> bool {
     #[cfg(target_arch = "x86_64")]
-    {
-        let fits = w
-            .checked_mul(h)
-            .and_then(|n| n.checked_mul(NC))
-            .is_some_and(|n| n <= data.len() && n < i32::MAX as usize);
-        if (1..=4).contains(&NC) && fits && std::arch::is_x86_feature_detected!("avx2") {
-            if NC == 1 {
-                // SAFETY: AVX2 is available (checked just above); `data` holds at least
-                // `w h < 2^31` floats (checked just above), as `avx2::bilinear_gray` requires.
-                unsafe { avx2::bilinear_gray(data, w, h, pos, out, &scalar) };
-            } else if NC == 2 {
-                // SAFETY: AVX2 is available (checked just above); `data` holds at least
-                // `2 w h < 2^31` floats (checked just above), as `avx2::bilinear_la`
-                // requires.
-                unsafe { avx2::bilinear_la(data, w, h, pos, out, &scalar) };
-            } else {
-                // SAFETY: AVX2 is available and `NC` is 3 or 4 (checked just above); `data`
-                // holds at least `NC w h < 2^31` floats (checked just above), as
-                // `avx2::bilinear_color` requires.
-                unsafe { avx2::bilinear_color::<NC>(data, w, h, pos, out, &scalar) };
-            }
-            return true;
+    if (1..=4).contains(&NC) && avx2_fits(data.len(), w, h, NC) {
+        if NC == 1 {
+            // SAFETY: AVX2 is available and `data` holds at least `w h < 2^31` floats
+            // (`avx2_fits`), as `avx2::bilinear_gray` requires.
+            unsafe { avx2::bilinear_gray(data, w, h, pos, out, &scalar) };
+        } else if NC == 2 {
+            // SAFETY: AVX2 is available and `data` holds at least `2 w h < 2^31` floats
+            // (`avx2_fits`), as `avx2::bilinear_la` requires.
+            unsafe { avx2::bilinear_la(data, w, h, pos, out, &scalar) };
+        } else {
+            // SAFETY: `NC` is 3 or 4 (checked just above); AVX2 is available and `data`
+            // holds at least `NC w h < 2^31` floats (`avx2_fits`), as `avx2::bilinear_color`
+            // requires.
+            unsafe { avx2::bilinear_color::<NC>(data, w, h, pos, out, &scalar) };
         }
+        return true;
     }
     let _ = (data, w, h, pos, out, scalar);
     false
@@ -317,6 +315,15 @@ mod tests {
     #[test]
     fn float_vector_paths_match_the_scalar_path_bit_for_bit() {
         harness::sweep::<f32, Float>(Bilinear, &[1, 2, 3, 4], 32, 1500);
+    }
+
+    /// Positions with signed zero coordinates (`x = -0.0`, `y = -0.0`) on images of
+    /// `-0.0` samples, where the sign of the fractions `fx`, `fy` decides the sign of a
+    /// zero result, and the other coordinates where flooring turns (`.5`, integers, the
+    /// border, infinities, `NaN`).
+    #[test]
+    fn signed_zero_positions_and_samples_match_the_scalar_path() {
+        harness::special::<f32, Float>(Bilinear, &[1, 2, 3, 4], 36);
     }
 
     /// The loads end exactly on the last float of the image (module docs).

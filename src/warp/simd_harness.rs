@@ -8,8 +8,12 @@
 //!   runs of inside, border, outside, `NaN` and huge positions ([`positions`]), for every
 //!   start and remainder length modulo the group size;
 //! * [`bottom_right`]: an image in a buffer of exactly `NC w h` samples, sampled at its
-//!   last interior cell (and, for bicubic, its first), where the loads end on (start at)
-//!   the image's last (first) tap;
+//!   last interior cell (and, for bicubic, its first; for nearest, its last pixel), where
+//!   the loads end on (start at) the image's last (first) tap;
+//! * [`special`]: every pair of the coordinates where rounding and flooring turn
+//!   ([`special_coords`]: signed zeros, `.5` ties and their neighbouring `f64`s, the image
+//!   border, infinities, `NaN`), on images of every kind of sample, at every start modulo
+//!   eight;
 //! * [`scalar_calls`]: how many of 19 inside positions the kernel left to the scalar path
 //!   (3 when every full group was vectorized);
 //! * [`random_image`]: one random image and 200 random positions, for the proptests.
@@ -293,13 +297,17 @@ fn sweep_nc<T: TestTexel, const NC: usize>(
 
 /// The loads stay inside the image (the kernels' module docs): an image in a buffer of
 /// exactly `NC w h` samples, sampled at its bottom-right interior cell (bicubic: also its
-/// top-left one), for images barely large enough and larger.
+/// top-left one; nearest: its bottom-right pixel), for images barely large enough and
+/// larger.
 fn bottom_right_nc<T: TestTexel, const NC: usize>(kernel: Kernel<T>, interp: Interp) {
     // The last cell on the vector path: x0 = w - 2 (bilinear) or w - 3 (bicubic, whose
     // taps reach x0 + 2), likewise for y; bicubic's first is x0 = y0 = 1.
+    // Nearest's last pixel is x = w - 1, reached here from x = w - 0.25 (rounded to w and
+    // clamped), likewise y = h - 0.75.
     let (m, sizes): (usize, &[(usize, usize)]) = match interp {
         Interp::Bicubic => (3, &[(4, 4), (6, 4), (4, 9), (7, 5)]),
-        _ => (2, &[(2, 2), (5, 3), (2, 7)]),
+        Interp::Nearest => (1, &[(1, 1), (2, 2), (5, 3), (2, 7), (1, 9), (9, 1)]),
+        Interp::Bilinear => (2, &[(2, 2), (5, 3), (2, 7)]),
     };
     for &(w, h) in sizes {
         let data: Vec<T> = (0..NC * w * h).map(T::pattern).collect();
@@ -308,6 +316,56 @@ fn bottom_right_nc<T: TestTexel, const NC: usize>(kernel: Kernel<T>, interp: Int
         let pos: Vec<[f64; 2]> = (0..17).map(|k| if k % 2 == 0 { last } else { first }).collect();
         check::<T, NC>(kernel, interp, &data, w, h, &pos);
         check::<T, NC>(kernel, interp, &data, w, h, &vec![last; 17]);
+    }
+}
+
+/// The coordinates along an axis of `n` pixels where rounding (nearest) and flooring
+/// (bilinear, bicubic) turn or where signs and clamps matter: both zeros, the `.5` ties
+/// (`-0.5`, `0.5`, `1.5`, `2.5`, `n - 1.5`, `n - 0.5`) with the `f64` just below and above
+/// each, `0.49999999999999994` (where `floor(x + 0.5)` would round up), integers, the last
+/// pixel and one past it, huge values and infinities of either sign, and `NaN`.
+pub(super) fn special_coords(n: usize) -> Vec<f64> {
+    let last = n as f64 - 1.0;
+    let mut c = vec![0.0, -0.0, 1.0, 2.0, last, last + 1.0, 1e12, -1e12, 3.25, last - 0.75];
+    c.extend([f64::INFINITY, f64::NEG_INFINITY, f64::NAN]);
+    for t in [-0.5, 0.5, 1.5, 2.5, last - 0.5, last + 0.5] {
+        c.extend([t.next_down(), t, t.next_up()]);
+    }
+    c
+}
+
+/// Every pair `(x, y)` of [`special_coords`] (`x` the outer loop, so that most groups share
+/// one `x` and a `NaN` `x` spoils only its own groups), on images of several sizes, of
+/// every kind of sample, of `-0.0` only, and of `-0.0`, `0.0`, `-1.0` and `1.0` mixed
+/// (where the sign of a zero position reaches the sign of a zero result), compared with
+/// [`reference`] bit for bit from every start `0..8`.
+fn special_nc<T: TestTexel, const NC: usize>(kernel: Kernel<T>, interp: Interp, seed: u64) {
+    let mut rng = SmallRng::seed_from_u64(seed);
+    for (w, h) in [(1usize, 1usize), (2, 2), (3, 5), (6, 4), (17, 9)] {
+        let (xs, ys) = (special_coords(w), special_coords(h));
+        let pos: Vec<[f64; 2]> = xs.iter().flat_map(|&x| ys.iter().map(move |&y| [x, y])).collect();
+        for kind in 0..=T::KINDS + 2 {
+            let data: Vec<T> = if kind <= T::KINDS {
+                image::<T>(&mut rng, NC * w * h, kind)
+            } else if kind == T::KINDS + 1 {
+                vec![T::from_f32(-0.0); NC * w * h]
+            } else {
+                let zeros = [-0.0, 0.0, -1.0, 1.0];
+                (0..NC * w * h).map(|_| T::from_f32(zeros[rng.gen_range(0..4)])).collect()
+            };
+            for start in 0..8 {
+                if !check::<T, NC>(kernel, interp, &data, w, h, &pos[start..]) {
+                    return; // no vector path on this machine: nothing to compare
+                }
+            }
+        }
+    }
+}
+
+/// [`special_nc`] for each channel count of `ncs`, seeds `seed`, `seed + 1`, ...
+pub(super) fn special<T: TestTexel, F: Family<T>>(interp: Interp, ncs: &[usize], seed: u64) {
+    for (s, &nc) in (seed..).zip(ncs) {
+        by_nc!(nc, special_nc, T, F, (interp, s));
     }
 }
 
