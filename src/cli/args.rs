@@ -1,11 +1,12 @@
 //! The options of the subcommands (clap), one struct each; `cli::run` hands each to its
 //! command module. The subcommand's help text is the doc comment of its `Command` variant.
 
-use super::common::{
-    parse_canvas_size, parse_extent, parse_grid, parse_raster_size, parse_time_range, text,
-};
+use super::common::text;
 use super::{editor_cmd, model_cmd, morph_cmd, spline_cmds, warp_cmd};
 use crate::jobs::model::AutoGrid;
+use crate::jobs::values::{
+    parse_canvas_size, parse_extent, parse_grid, parse_raster_size, parse_time_range,
+};
 use crate::prism::ZRange;
 use crate::render::deformation::Layers;
 use std::path::PathBuf;

@@ -2,11 +2,12 @@
 //! `--size W,H` instead of DEF), or a sequence (`--model SCENE.json --frames DIR`). Parsed
 //! here, dispatched by `cli::run` to [`super::fit_cmd`] and [`super::fit_batch`].
 
-use super::common::{choice, parse_frame_size, parse_shard, text};
+use super::common::{choice, text};
 use super::{fit_batch, fit_cmd};
 use crate::fit::objective::{Barrier, Loss, LossKind};
 use crate::fit::solve::{Bend, FitOptions};
 use crate::jobs::fit::Pin;
+use crate::jobs::values::{parse_frame_size, parse_shard};
 use crate::render::sequence::AnchorKind;
 use anyhow::anyhow;
 use std::path::PathBuf;

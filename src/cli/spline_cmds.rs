@@ -3,7 +3,7 @@
 //! prints.
 
 use super::args::MeshCli;
-use super::common::{check_extent, check_frame_size, say};
+use super::common::say;
 use super::{Exit, EXIT_INPUT, EXIT_UNSOLVABLE};
 use crate::io::deformation;
 use crate::io::read_text;
@@ -11,6 +11,7 @@ use crate::jobs::read_deformation;
 use crate::jobs::spline::{
     build_mesh, edit_file, render_file, write_identity, EditFileError, EditLog, MeshSource,
 };
+use crate::jobs::values::{check_extent, check_frame_size};
 use crate::mesh::{AdaptOptions, MeshOptions};
 use crate::render::deformation::{Layers, RenderOptions};
 use anyhow::{anyhow, bail, Context, Result};

@@ -13,7 +13,9 @@
 //!   deformation;
 //! * [`fit`]: fits to landmark files, one deformation or a scene over a frame sequence;
 //! * [`bitgrowth`]: the bit-size study of the exact factoring (CSV and plots);
-//! * [`demo`]: the demonstration on bundled data, written into one folder.
+//! * [`demo`]: the demonstration on bundled data, written into one folder;
+//! * [`values`]: the text forms of option values (sizes, grids, shards, time ranges) and
+//!   their limits; [`options`]: the errors of bad option values.
 //!
 //! Layer: above [`crate::render`] and [`crate::io`], below [`crate::server`] and the
 //! command line.
@@ -25,6 +27,7 @@ pub mod fit;
 pub mod model;
 pub mod options;
 pub mod spline;
+pub mod values;
 pub mod warp;
 
 use crate::io::deformation::{self, DeformationError, LastEdit};
