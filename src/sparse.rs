@@ -87,32 +87,15 @@ impl Pattern {
             fill[c] += 1;
         }
         let mut pos = vec![0usize; entries.len()];
-        let mut col_ptr = Vec::with_capacity(n + 1);
-        let mut row_idx: Vec<usize> = Vec::new();
-        let mut mark = vec![usize::MAX; n];
-        let mut slot = vec![0usize; n];
-        let mut rows: Vec<usize> = Vec::new();
-        col_ptr.push(0);
+        let mut cols = Columns::new(n);
         for c in 0..n {
-            rows.clear();
-            for &i in &by_col[start[c]..start[c + 1]] {
-                let r = lower(&entries[i]).0;
-                if mark[r] != c {
-                    mark[r] = c;
-                    rows.push(r);
-                }
+            let here = &by_col[start[c]..start[c + 1]];
+            cols.push(c, here.iter().map(|&i| lower(&entries[i]).0));
+            for &i in here {
+                pos[i] = cols.slot[lower(&entries[i]).0];
             }
-            rows.sort_unstable();
-            for &r in &rows {
-                slot[r] = row_idx.len();
-                row_idx.push(r);
-            }
-            for &i in &by_col[start[c]..start[c + 1]] {
-                pos[i] = slot[lower(&entries[i]).0];
-            }
-            col_ptr.push(row_idx.len());
         }
-        Pattern::analyse(n, pos, col_ptr, row_idx)
+        cols.analyse(pos)
     }
 
     /// The pattern of `sum_t S_t^T B_t S_t`-like matrices whose blocks are dense over
@@ -158,63 +141,23 @@ impl Pattern {
             }
         }
         let mut pos = vec![0usize; total + if diagonal { n } else { 0 }];
-        let mut col_ptr = Vec::with_capacity(n + 1);
-        let mut row_idx: Vec<usize> = Vec::new();
-        let mut mark = vec![usize::MAX; n];
-        let mut slot = vec![0usize; n];
-        let mut rows: Vec<usize> = Vec::new();
-        col_ptr.push(0);
+        let mut cols = Columns::new(n);
         for col in 0..n {
-            rows.clear();
             let here = &member[count[col]..count[col + 1]];
-            for &(t, z) in here {
-                for &r in &cliques[t as usize][z as usize..] {
-                    if mark[r] != col {
-                        mark[r] = col;
-                        rows.push(r);
-                    }
-                }
-            }
-            if diagonal && mark[col] != col {
-                mark[col] = col;
-                rows.push(col);
-            }
-            rows.sort_unstable();
-            for &r in &rows {
-                slot[r] = row_idx.len();
-                row_idx.push(r);
-            }
+            let rows = here.iter().flat_map(|&(t, z)| &cliques[t as usize][z as usize..]);
+            cols.push(col, rows.copied().chain(diagonal.then_some(col)));
             // Entry (c[z1], c[z2]) with z2 = z sits at offset + z1 (z1 + 1) / 2 + z2.
             for &(t, z) in here {
                 let (c, z2) = (&cliques[t as usize], z as usize);
                 for (z1, &r) in c.iter().enumerate().skip(z2) {
-                    pos[offset[t as usize] + z1 * (z1 + 1) / 2 + z2] = slot[r];
+                    pos[offset[t as usize] + z1 * (z1 + 1) / 2 + z2] = cols.slot[r];
                 }
             }
             if diagonal {
-                pos[total + col] = slot[col];
+                pos[total + col] = cols.slot[col];
             }
-            col_ptr.push(row_idx.len());
         }
-        Pattern::analyse(n, pos, col_ptr, row_idx)
-    }
-
-    /// The symbolic analysis of compressed lower columns.
-    fn analyse(
-        n: usize,
-        pos: Vec<usize>,
-        col_ptr: Vec<usize>,
-        row_idx: Vec<usize>,
-    ) -> Result<Pattern, SparseError> {
-        let symbolic = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
-        let llt = factorize_symbolic_cholesky(
-            symbolic.as_ref(),
-            Side::Lower,
-            Default::default(),
-            Default::default(),
-        )
-        .map_err(|e| SparseError::Structure(format!("{e:?}")))?;
-        Ok(Pattern { n, pos, symbolic, llt: Arc::new(llt) })
+        cols.analyse(pos)
     }
 
     /// The matrix order.
@@ -261,6 +204,62 @@ impl Pattern {
             )
             .map_err(|_| SparseError::NotPositiveDefinite)?;
         Ok(Factor { n: self.n, symbolic: Arc::clone(&self.llt), values })
+    }
+}
+
+/// Compressed lower columns built one column at a time ([`Pattern::new`] and
+/// [`Pattern::from_cliques`]): each column's rows are deduplicated with a marker per row,
+/// sorted, and appended to `row_idx`; `slot[r]` is then row `r`'s place in it.
+struct Columns {
+    n: usize,
+    col_ptr: Vec<usize>,
+    row_idx: Vec<usize>,
+    /// The last column that listed each row.
+    mark: Vec<usize>,
+    /// Each row's place in `row_idx`, for the column just pushed.
+    slot: Vec<usize>,
+    /// Scratch: the rows of the current column.
+    rows: Vec<usize>,
+}
+
+impl Columns {
+    fn new(n: usize) -> Columns {
+        let mut col_ptr = Vec::with_capacity(n + 1);
+        col_ptr.push(0);
+        let (mark, slot) = (vec![usize::MAX; n], vec![0usize; n]);
+        Columns { n, col_ptr, row_idx: Vec::new(), mark, slot, rows: Vec::new() }
+    }
+
+    /// Appends column `col` (the next one) with `rows`, repeats allowed.
+    fn push(&mut self, col: usize, rows: impl IntoIterator<Item = usize>) {
+        debug_assert_eq!(col + 1, self.col_ptr.len(), "columns pushed in order");
+        self.rows.clear();
+        for r in rows {
+            if self.mark[r] != col {
+                self.mark[r] = col;
+                self.rows.push(r);
+            }
+        }
+        self.rows.sort_unstable();
+        for &r in &self.rows {
+            self.slot[r] = self.row_idx.len();
+            self.row_idx.push(r);
+        }
+        self.col_ptr.push(self.row_idx.len());
+    }
+
+    /// The symbolic analysis of the columns, with each entry's position `pos`.
+    fn analyse(self, pos: Vec<usize>) -> Result<Pattern, SparseError> {
+        let n = self.n;
+        let symbolic = SymbolicSparseColMat::new_checked(n, n, self.col_ptr, None, self.row_idx);
+        let llt = factorize_symbolic_cholesky(
+            symbolic.as_ref(),
+            Side::Lower,
+            Default::default(),
+            Default::default(),
+        )
+        .map_err(|e| SparseError::Structure(format!("{e:?}")))?;
+        Ok(Pattern { n, pos, symbolic, llt: Arc::new(llt) })
     }
 }
 
