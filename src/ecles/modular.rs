@@ -19,7 +19,7 @@
 //! [`ConstraintSystem::canonical_redundant`]), which `trimorph solve` reports on both paths.
 //! Any failure to certify returns `None` and the caller runs the fraction-free path.
 
-use super::session::{check_indices, check_rows};
+use super::session::{check_edit, check_rows};
 use super::{ConstraintSystem, EclesError};
 use crate::exact::int::Int;
 use crate::exact::lsq::gram;
@@ -82,19 +82,7 @@ impl ConstraintSystem {
         strong: bool,
     ) -> Result<Option<ModularEdit>, EclesError> {
         let n = self.params();
-        check_rows("P (current values)", p, n, self.d)?;
-        if anchors.is_empty() {
-            return Err(EclesError::NoAnchors);
-        }
-        check_indices("anchors", anchors, n)?;
-        check_indices("derived", derived, n)?;
-        let mut is_anchor = vec![false; n];
-        for &a in anchors {
-            is_anchor[a] = true;
-        }
-        if let Some(&index) = derived.iter().find(|&&s| is_anchor[s]) {
-            return Err(EclesError::AnchorAlsoDerived { index });
-        }
+        check_edit(p, anchors, derived, n, self.d)?;
         check_rows("anchor values", anchor_values, anchors.len(), self.d)?;
         check_rows("hints", hints, derived.len(), self.d)?;
         if weights.len() != derived.len() {

@@ -57,6 +57,31 @@ pub(super) fn check_indices(what: &'static str, idx: &[usize], n: usize) -> Resu
     Ok(())
 }
 
+/// The checks every edit starts with: `p` is `n x d`, at least one anchor, anchors and
+/// derived points are in range, each listed once, and no point is both.
+pub(super) fn check_edit(
+    p: &[Vec<Rat>],
+    anchors: &[usize],
+    derived: &[usize],
+    n: usize,
+    d: usize,
+) -> Result<(), EclesError> {
+    check_rows("P (current values)", p, n, d)?;
+    if anchors.is_empty() {
+        return Err(EclesError::NoAnchors);
+    }
+    check_indices("anchors", anchors, n)?;
+    check_indices("derived", derived, n)?;
+    let mut is_anchor = vec![false; n];
+    for &a in anchors {
+        is_anchor[a] = true;
+    }
+    if let Some(&index) = derived.iter().find(|&&s| is_anchor[s]) {
+        return Err(EclesError::AnchorAlsoDerived { index });
+    }
+    Ok(())
+}
+
 pub(super) fn check_rows(
     what: &str,
     m: &[Vec<Rat>],
@@ -91,19 +116,7 @@ impl ConstraintSystem {
         opts: InitOptions,
     ) -> Result<Session, EclesError> {
         let n = self.params();
-        check_rows("P (current values)", p, n, self.d)?;
-        if anchors.is_empty() {
-            return Err(EclesError::NoAnchors);
-        }
-        check_indices("anchors", anchors, n)?;
-        check_indices("derived", derived, n)?;
-        let mut is_anchor = vec![false; n];
-        for &a in anchors {
-            is_anchor[a] = true;
-        }
-        if let Some(&index) = derived.iter().find(|&&s| is_anchor[s]) {
-            return Err(EclesError::AnchorAlsoDerived { index });
-        }
+        check_edit(p, anchors, derived, n, self.d)?;
         let (relevant, fixed_relevant) = self.extract_relevant(anchors, derived);
         // Column maps as hash maps: the edit touches few of the n parameters.
         let map_cols = |cols: &[usize]| -> std::collections::HashMap<usize, usize> {

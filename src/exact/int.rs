@@ -222,27 +222,11 @@ fn int_from_u64(g: u64) -> Int {
     Int::from_i128(g as i128)
 }
 
-/// Binary GCD on machine words.
+/// Greatest common divisor on machine words (`gcd(0, 0) = 0`): Stein's binary algorithm,
+/// as `num_integer` implements it.
 #[inline]
-pub fn gcd_u64(mut a: u64, mut b: u64) -> u64 {
-    if a == 0 {
-        return b;
-    }
-    if b == 0 {
-        return a;
-    }
-    let shift = (a | b).trailing_zeros();
-    a >>= a.trailing_zeros();
-    loop {
-        b >>= b.trailing_zeros();
-        if a > b {
-            std::mem::swap(&mut a, &mut b);
-        }
-        b -= a;
-        if b == 0 {
-            return a << shift;
-        }
-    }
+pub fn gcd_u64(a: u64, b: u64) -> u64 {
+    num_integer::Integer::gcd(&a, &b)
 }
 
 impl Default for Int {

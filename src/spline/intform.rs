@@ -22,26 +22,10 @@ pub(crate) fn int_i128(x: &Int) -> Option<i128> {
     }
 }
 
-/// Greatest common divisor of `|a|` and `|b|` (`gcd(0, 0) = 0`).
-pub(crate) fn gcd_u128(mut a: u128, mut b: u128) -> u128 {
-    if a == 0 {
-        return b;
-    }
-    if b == 0 {
-        return a;
-    }
-    let shift = (a | b).trailing_zeros();
-    a >>= a.trailing_zeros();
-    loop {
-        b >>= b.trailing_zeros();
-        if a > b {
-            std::mem::swap(&mut a, &mut b);
-        }
-        b -= a;
-        if b == 0 {
-            return a << shift;
-        }
-    }
+/// Greatest common divisor of `a` and `b` (`gcd(0, 0) = 0`): Stein's binary algorithm, as
+/// `num_integer` implements it.
+pub(crate) fn gcd_u128(a: u128, b: u128) -> u128 {
+    num_integer::Integer::gcd(&a, &b)
 }
 
 /// Least common multiple of two positive integers, or `None` on overflow.

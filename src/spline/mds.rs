@@ -602,6 +602,26 @@ mod tests {
         assert_eq!(m, before, "rows untouched on overflow");
     }
 
+    /// The pivot rows of an exact elimination equal the rational one's (`rats`), and each
+    /// other row is zero in both or in neither.
+    fn same_reduced_rows(
+        got: &[Vec<Rat>],
+        rats: &[Vec<Rat>],
+        pivots: &[(usize, usize)],
+    ) -> Result<(), proptest::test_runner::TestCaseError> {
+        for &(r, _) in pivots {
+            prop_assert_eq!(&got[r], &rats[r]);
+        }
+        for i in 0..rats.len() {
+            if !pivots.iter().any(|&(r, _)| r == i) {
+                let zero_int = got[i].iter().all(|x| x.is_zero());
+                let zero_rat = rats[i].iter().all(|x| x.is_zero());
+                prop_assert_eq!(zero_int, zero_rat);
+            }
+        }
+        Ok(())
+    }
+
     proptest! {
         /// Random small integer matrices, often rank deficient (rows repeated with a
         /// multiple): the fraction-free elimination gives the same pivots and the same reduced
@@ -622,17 +642,7 @@ mod tests {
             let pivots = rref_int(&mut ints, ncand.min(7)).expect("small numbers fit");
             let mut rats = to_rat(&m);
             prop_assert_eq!(&pivots, &rref(&mut rats, ncand.min(7)));
-            let got = rref_to_rat(&ints, &pivots);
-            for &(r, _) in &pivots {
-                prop_assert_eq!(&got[r], &rats[r]);
-            }
-            for i in 0..m.len() {
-                if !pivots.iter().any(|&(r, _)| r == i) {
-                    let zero_int = got[i].iter().all(|x| x.is_zero());
-                    let zero_rat = rats[i].iter().all(|x| x.is_zero());
-                    prop_assert_eq!(zero_int, zero_rat);
-                }
-            }
+            same_reduced_rows(&rref_to_rat(&ints, &pivots), &rats, &pivots)?;
         }
 
         /// Matrices whose minors overflow `i128` (entries up to 2^45, as C1 conditions on a
@@ -659,17 +669,7 @@ mod tests {
             let pivots = rref_big(&mut big, ncand).expect("fraction-free divisions are exact");
             let mut rats = to_rat(&m);
             prop_assert_eq!(&pivots, &rref(&mut rats, ncand));
-            let got = big_rref_to_rat(&big, &pivots);
-            for &(r, _) in &pivots {
-                prop_assert_eq!(&got[r], &rats[r]);
-            }
-            for i in 0..m.len() {
-                if !pivots.iter().any(|&(r, _)| r == i) {
-                    let zero_int = got[i].iter().all(|x| x.is_zero());
-                    let zero_rat = rats[i].iter().all(|x| x.is_zero());
-                    prop_assert_eq!(zero_int, zero_rat);
-                }
-            }
+            same_reduced_rows(&big_rref_to_rat(&big, &pivots), &rats, &pivots)?;
         }
     }
 
