@@ -10,6 +10,8 @@
 //! * [`geom`]: points and vectors of the plane (pixels), the types of the public API;
 //! * [`json`]: strict JSON reading (duplicate keys refused), used by every reader;
 //! * [`timing`]: wall-time phases of a job (below every other module);
+//! * [`rng`]: the seeded random generator behind every random draw the library reports
+//!   (below every other module);
 //! * [`memory`]: the process's memory budget, checked before large buffers are allocated
 //!   (below every other module);
 //! * [`sparse`]: sparse symmetric positive definite systems (faer's supernodal Cholesky),
@@ -36,6 +38,7 @@
 
 // Index loops are the clearest way to write the matrix algorithms here.
 #![allow(clippy::needless_range_loop)]
+#![warn(missing_docs)]
 
 pub mod alloc;
 pub mod bundled;
@@ -53,6 +56,7 @@ pub mod mesh;
 pub mod morph;
 pub mod prism;
 pub mod render;
+pub mod rng;
 pub mod server;
 pub mod sparse;
 pub mod spline;

@@ -38,7 +38,7 @@
 //!
 //! Everything here works on strings; reading and writing files is in `crate::io::landmarks`.
 
-use super::rng::SplitMix64;
+use crate::rng::SplitMix64;
 
 mod bigwarp;
 pub use bigwarp::{

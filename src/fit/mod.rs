@@ -31,7 +31,6 @@ pub mod newton;
 pub mod objective;
 pub mod param;
 mod report;
-mod rng;
 pub mod sequence;
 pub mod smooth;
 pub mod solve;

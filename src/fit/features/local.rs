@@ -212,7 +212,7 @@ pub fn local_filter(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fit::rng::SplitMix64;
+    use crate::rng::SplitMix64;
 
     /// Three "cells" that move independently (two translations and a rotation), plus gross
     /// outliers: the local filter keeps every cell's matches and drops the outliers.

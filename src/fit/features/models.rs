@@ -25,7 +25,7 @@
 //! stable (at most 10 times).
 
 use super::FeatureError;
-use crate::fit::rng::SplitMix64;
+use crate::rng::SplitMix64;
 
 /// A map from image A's pixel coordinates to image B's, fitted to point pairs.
 pub trait PointModel: Copy + std::fmt::Display {

@@ -1,5 +1,5 @@
 use super::*;
-use crate::fit::rng::SplitMix64;
+use crate::rng::SplitMix64;
 
 fn cell() -> GrayImage {
     let p = concat!(env!("CARGO_MANIFEST_DIR"), "/data/microscopy/cell.png");

@@ -281,7 +281,7 @@ fn rms_error(
 /// RMS, anchored to the first frame 0.20 px, key frames every 10: 0.20 px.
 #[test]
 fn over_forty_noisy_frames_anchored_tracking_does_not_drift() {
-    let mut rng = crate::fit::rng::SplitMix64::new(3);
+    let mut rng = crate::rng::SplitMix64::new(3);
     let (vx, vy) = (0.37, -0.21);
     let imgs: Vec<GrayImage> = (0..40)
         .map(|k| {
