@@ -220,8 +220,16 @@ impl<T: Texel> Source<'_, T> {
                         for (i, wxi) in wx.iter().enumerate() {
                             let v = self.at(x0 + i as isize - 1, y0 + j as isize - 1, c);
                             if (1..=2).contains(&i) && (1..=2).contains(&j) {
-                                lo = lo.min(v);
-                                hi = hi.max(v);
+                                // Compares, not `f32::min` / `max`, whose pick between
+                                // `-0.0` and `+0.0` is unspecified (LLVM may swap their
+                                // operands): the first of equal taps stays, a `NaN` tap
+                                // is skipped, as `vminps(v, lo)` / `vmaxps(v, hi)` do.
+                                if v < lo {
+                                    lo = v;
+                                }
+                                if v > hi {
+                                    hi = v;
+                                }
                             }
                             row += wxi * v;
                         }
