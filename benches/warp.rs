@@ -14,8 +14,8 @@
 //!   small rotation, for every sample type and channel count (the vector paths of
 //!   `sample_simd*`; f32 gray and gray + alpha are reachable only through
 //!   `warp_samples_into` and tiles).
-//! * `resample_1024_u8x{1,2,3,4}_bicubic`: the same, bicubic (the AVX2 kernels of
-//!   `sample_simd_cubic`).
+//! * `resample_1024_{u8,u16,f32}x{1,2,3,4}_bicubic`: the same, bicubic (the AVX2 kernels
+//!   of `sample_simd_cubic` for u8, `sample_simd_cubic_wide` for u16 and f32).
 //! * `resample_1024_{u8,u16,f32}x{1,2,3,4}_nearest`: the same, nearest, every sample type
 //!   and channel count (the AVX2 kernels of `sample_simd_nearest`).
 //! * `warp_2048_gray8_bent` and `warp_2048_gray8_mild`: the strongly bent map of
@@ -230,8 +230,8 @@ fn by_type_and_hard_maps(c: &mut Criterion) {
     resample_by_type(c);
 }
 
-/// Bilinear and nearest resampling alone, every sample type and channel count, and bicubic
-/// for 8-bit samples: a 1024 x 1024 image at the positions of a 2-degree rotation about its centre
+/// Bilinear, bicubic and nearest resampling alone, every sample type and channel count: a
+/// 1024 x 1024 image at the positions of a 2-degree rotation about its centre
 /// (a few pixels near the corners fall outside and take the scalar path, as in a warp).
 fn resample_by_type(c: &mut Criterion) {
     let n = 1024usize;
@@ -278,7 +278,7 @@ fn resample_by_type(c: &mut Criterion) {
         one::<u8, 3>(&mut g, "u8", &u8s[..3 * n * n], n, &pos, interp);
         one::<u8, 4>(&mut g, "u8", &u8s, n, &pos, interp);
     }
-    for interp in [Interp::Bilinear, Interp::Nearest] {
+    for interp in [Interp::Bilinear, Interp::Bicubic, Interp::Nearest] {
         if interp == Interp::Nearest {
             one::<u8, 1>(&mut g, "u8", &u8s[..n * n], n, &pos, interp);
             one::<u8, 2>(&mut g, "u8", &u8s[..2 * n * n], n, &pos, interp);

@@ -37,6 +37,7 @@ mod sample_simd;
 mod sample_simd_color;
 mod sample_simd_color16;
 mod sample_simd_cubic;
+mod sample_simd_cubic_wide;
 mod sample_simd_float;
 mod sample_simd_nearest;
 #[cfg(test)]

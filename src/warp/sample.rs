@@ -17,8 +17,9 @@
 //! Bicubic resampling of 8-bit images (gray, gray + alpha, RGB, RGBA) takes an AVX2 path
 //! too (`sample_simd_cubic`: Keys' weights, the sixteen taps per channel and the clamp to
 //! the 2x2 range in the same `f32` operations and order as [`Source::sample_into`], for
-//! positions whose 4x4 neighbourhood lies inside the image); 16-bit and `f32` bicubic use
-//! the scalar path.
+//! positions whose 4x4 neighbourhood lies inside the image), and so does bicubic resampling
+//! of 16-bit and `f32` images with 1 to 4 channels (`sample_simd_cubic_wide`, the same
+//! arithmetic with the 16-bit rounding or none).
 //!
 //! Nearest resampling takes an AVX2 path for every sample type and channel count
 //! (`sample_simd_nearest`: eight positions rounded half away from zero and clamped to the
@@ -29,8 +30,8 @@
 //! pixels) to 5-14x (8- and 16-bit gray) in the criterion benches (README).
 
 use super::{
-    sample_simd, sample_simd_color, sample_simd_color16, sample_simd_cubic, sample_simd_float,
-    sample_simd_nearest, Interp,
+    sample_simd, sample_simd_color, sample_simd_color16, sample_simd_cubic, sample_simd_cubic_wide,
+    sample_simd_float, sample_simd_nearest, Interp,
 };
 
 /// A channel value: `u8`, `u16` or `f32`.
@@ -220,8 +221,16 @@ impl<T: Texel> Source<'_, T> {
                         for (i, wxi) in wx.iter().enumerate() {
                             let v = self.at(x0 + i as isize - 1, y0 + j as isize - 1, c);
                             if (1..=2).contains(&i) && (1..=2).contains(&j) {
-                                lo = lo.min(v);
-                                hi = hi.max(v);
+                                // Compares, not `f32::min` / `max`, whose pick between
+                                // `-0.0` and `+0.0` is unspecified (LLVM may swap their
+                                // operands): the first of equal taps stays, a `NaN` tap
+                                // is skipped, as `vminps(v, lo)` / `vmaxps(v, hi)` do.
+                                if v < lo {
+                                    lo = v;
+                                }
+                                if v > hi {
+                                    hi = v;
+                                }
                             }
                             row += wxi * v;
                         }
@@ -361,6 +370,30 @@ pub fn fill_pixels<T: Texel, const NC: usize>(
                     }
                 };
                 if sample_simd_cubic::bicubic8::<NC>(d8, w, h, pos, o8, one) {
+                    return;
+                }
+            }
+            if let (Some(d16), Some(o16)) = (T::as_u16s(d), T::as_u16s_mut(out)) {
+                let one = |p: &[f64; 2], dst: &mut [u16]| {
+                    let mut px = [T::from_f32(0.0); NC];
+                    pixel(&mut px, p);
+                    if let Some(b) = T::as_u16s(&px) {
+                        dst.copy_from_slice(b);
+                    }
+                };
+                if sample_simd_cubic_wide::bicubic16::<NC>(d16, w, h, pos, o16, one) {
+                    return;
+                }
+            }
+            if let (Some(df), Some(of)) = (T::as_f32s(d), T::as_f32s_mut(out)) {
+                let one = |p: &[f64; 2], dst: &mut [f32]| {
+                    let mut px = [T::from_f32(0.0); NC];
+                    pixel(&mut px, p);
+                    if let Some(b) = T::as_f32s(&px) {
+                        dst.copy_from_slice(b);
+                    }
+                };
+                if sample_simd_cubic_wide::bicubic_f32::<NC>(df, w, h, pos, of, one) {
                     return;
                 }
             }

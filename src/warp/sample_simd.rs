@@ -3,12 +3,12 @@
 //! The 16-bit path ([`bilinear_gray16`]) is the same arithmetic with 16-bit taps and the
 //! clamp at 65535; its tap layout is in its docs. Gray + alpha and colour images:
 //! [`super::sample_simd_color`] (8-bit), [`super::sample_simd_color16`] (16-bit); `f32`
-//! images: [`super::sample_simd_float`]; bicubic (8-bit, 1 to 4 channels):
-//! [`super::sample_simd_cubic`]; nearest (every type): [`super::sample_simd_nearest`]. Their
-//! tests share `simd_harness`. What they share is in this module: the check every safe
-//! wrapper makes before it calls an AVX2 kernel ([`avx2_fits`]) and the lane helpers
-//! ([`avx2::lanes8`], [`avx2::lanes4`], [`avx2::floor`], [`avx2::bilerp`],
-//! [`avx2::round_clamp`]).
+//! images: [`super::sample_simd_float`]; bicubic, 1 to 4 channels: 8-bit
+//! [`super::sample_simd_cubic`], 16-bit and `f32` [`super::sample_simd_cubic_wide`];
+//! nearest (every type): [`super::sample_simd_nearest`]. Their tests share `simd_harness`.
+//! What they share is in this module: the check every safe wrapper makes before it calls
+//! an AVX2 kernel ([`avx2_fits`]) and the lane helpers ([`avx2::lanes8`],
+//! [`avx2::lanes4`], [`avx2::floor`], [`avx2::bilerp`], [`avx2::round_clamp`]).
 //!
 //! The scalar path ([`super::sample::fill_pixels`]) computes, for a position `(x, y)` with
 //! `x0 = floor(x)`, `y0 = floor(y)`, `fx = (x - x0) as f32`, `fy = (y - y0) as f32` and the

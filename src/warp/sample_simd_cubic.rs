@@ -94,7 +94,7 @@ pub(super) fn bicubic8<const NC: usize>(
 }
 
 #[cfg(target_arch = "x86_64")]
-mod avx2 {
+pub(super) mod avx2 {
     use crate::warp::sample_simd::avx2::{lanes4, lanes8, round_clamp};
     use std::arch::x86_64::*;
 
@@ -130,7 +130,7 @@ mod avx2 {
     /// The four weights `[K(f + 1), K(f), K(f - 1), K(f - 2)]` of the fractions `f`.
     #[target_feature(enable = "avx2")]
     #[inline]
-    fn weights(f: __m256) -> [__m256; 4] {
+    pub(in crate::warp) fn weights(f: __m256) -> [__m256; 4] {
         let (one, two) = (_mm256_set1_ps(1.0), _mm256_set1_ps(2.0));
         [
             keys(_mm256_add_ps(f, one)),
@@ -144,7 +144,7 @@ mod avx2 {
     /// taps (and `acc` its rows).
     #[target_feature(enable = "avx2")]
     #[inline]
-    fn dot4(w: &[__m256; 4], v: &[__m256; 4]) -> __m256 {
+    pub(in crate::warp) fn dot4(w: &[__m256; 4], v: &[__m256; 4]) -> __m256 {
         let mut s = _mm256_setzero_ps();
         for i in 0..4 {
             s = _mm256_add_ps(s, _mm256_mul_ps(w[i], v[i]));
@@ -156,19 +156,28 @@ mod avx2 {
     /// the result is `> hi`.
     #[target_feature(enable = "avx2")]
     #[inline]
-    fn clamp(acc: __m256, lo: __m256, hi: __m256) -> __m256 {
+    pub(in crate::warp) fn clamp(acc: __m256, lo: __m256, hi: __m256) -> __m256 {
         let v = _mm256_blendv_ps(acc, lo, _mm256_cmp_ps::<_CMP_LT_OQ>(acc, lo));
         _mm256_blendv_ps(v, hi, _mm256_cmp_ps::<_CMP_GT_OQ>(v, hi))
     }
 
-    /// The lanes whose taps all lie inside the image (module docs): `ok` from
-    /// [`lanes8`] or [`lanes4`] (`0 <= x0 <= w - 3`, `0 <= y0 <= h - 3`) and `x0, y0 >= 1`.
+    /// Whether the taps of all eight lanes lie inside the image (module docs): `ok` from
+    /// [`lanes8`] (`0 <= x0 <= w - 3`, `0 <= y0 <= h - 3`) and `x0, y0 >= 1`.
     #[target_feature(enable = "avx2")]
     #[inline]
-    fn inside8(ok: __m256i, x0: __m256i, y0: __m256i) -> bool {
+    pub(in crate::warp) fn inside8(ok: __m256i, x0: __m256i, y0: __m256i) -> bool {
         let z = _mm256_setzero_si256();
         let pos = _mm256_and_si256(_mm256_cmpgt_epi32(x0, z), _mm256_cmpgt_epi32(y0, z));
         _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_and_si256(ok, pos))) == 0xff
+    }
+
+    /// [`inside8`] for the four lanes of [`lanes4`].
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub(in crate::warp) fn inside4(ok: __m128i, x0: __m128i, y0: __m128i) -> bool {
+        let z = _mm_setzero_si128();
+        let pos = _mm_and_si128(_mm_cmpgt_epi32(x0, z), _mm_cmpgt_epi32(y0, z));
+        _mm_movemask_ps(_mm_castsi128_ps(_mm_and_si128(ok, pos))) == 0xf
     }
 
     /// See [`super::bicubic8`] with `NC = 1`: eight positions at a time, one lane each.
@@ -304,9 +313,7 @@ mod avx2 {
             let i = 4 * g;
             // SAFETY: i + 4 <= n <= pos.len(): 8 contiguous f64.
             let (x0, y0, ok, fx4, fy4) = lanes4(pos.as_ptr().add(i) as *const f64, xmax, ymax);
-            let z = _mm_setzero_si128();
-            let pos_ok = _mm_and_si128(_mm_cmpgt_epi32(x0, z), _mm_cmpgt_epi32(y0, z));
-            if _mm_movemask_ps(_mm_castsi128_ps(_mm_and_si128(ok, pos_ok))) != 0xf {
+            if !inside4(ok, x0, y0) {
                 for k in i..i + 4 {
                     scalar(&pos[k], &mut out[NC * k..NC * k + NC]);
                 }
