@@ -243,6 +243,33 @@ impl<T: Texel> Source<'_, T> {
     }
 }
 
+/// The scalar pixel function `pixel` seen through a raw view of the samples (`as_bytes`,
+/// `as_u16s` or `as_f32s`): how the vector paths compute the pixels they do not take.
+fn scalar_pixels<'a, T: Texel, U: Copy + 'a, const NC: usize>(
+    pixel: &'a impl Fn(&mut [T], &[f64; 2]),
+    view: fn(&[T]) -> Option<&[U]>,
+) -> impl Fn(&[f64; 2], &mut [U]) + 'a {
+    move |p, dst| {
+        let mut px = [T::from_f32(0.0); NC];
+        pixel(&mut px, p);
+        if let Some(b) = view(&px) {
+            dst.copy_from_slice(b);
+        }
+    }
+}
+
+/// [`scalar_pixels`] for one channel, returning the sample.
+fn scalar_gray<'a, T: Texel, U: Copy + Default + 'a>(
+    pixel: &'a impl Fn(&mut [T], &[f64; 2]),
+    view: fn(&[T]) -> Option<&[U]>,
+) -> impl Fn(&[f64; 2]) -> U + 'a {
+    move |p| {
+        let mut px = [T::from_f32(0.0)];
+        pixel(&mut px, p);
+        view(&px).map_or(U::default(), |b| b[0])
+    }
+}
+
 /// Fills `out` (`NC` channels per pixel) by sampling `src` at `pos` (`NaN`: background,
 /// alpha 0). Monomorphized on the channel count, with the interpolation chosen once.
 pub fn fill_pixels<T: Texel, const NC: usize>(
@@ -291,21 +318,13 @@ pub fn fill_pixels<T: Texel, const NC: usize>(
             };
             if NC == 1 {
                 if let (Some(d8), Some(o8)) = (T::as_bytes(d), T::as_bytes_mut(out)) {
-                    let one = |p: &[f64; 2]| {
-                        let mut px = [T::from_f32(0.0)];
-                        pixel(&mut px, p);
-                        T::as_bytes(&px).map_or(0, |b| b[0])
-                    };
+                    let one = scalar_gray(&pixel, T::as_bytes);
                     if sample_simd::bilinear_gray8(d8, w, h, pos, o8, one) {
                         return;
                     }
                 }
                 if let (Some(d16), Some(o16)) = (T::as_u16s(d), T::as_u16s_mut(out)) {
-                    let one = |p: &[f64; 2]| {
-                        let mut px = [T::from_f32(0.0)];
-                        pixel(&mut px, p);
-                        T::as_u16s(&px).map_or(0, |b| b[0])
-                    };
+                    let one = scalar_gray(&pixel, T::as_u16s);
                     if sample_simd::bilinear_gray16(d16, w, h, pos, o16, one) {
                         return;
                     }
@@ -313,38 +332,20 @@ pub fn fill_pixels<T: Texel, const NC: usize>(
             }
             if NC >= 2 {
                 if let (Some(d8), Some(o8)) = (T::as_bytes(d), T::as_bytes_mut(out)) {
-                    let one = |p: &[f64; 2], dst: &mut [u8]| {
-                        let mut px = [T::from_f32(0.0); NC];
-                        pixel(&mut px, p);
-                        if let Some(b) = T::as_bytes(&px) {
-                            dst.copy_from_slice(b);
-                        }
-                    };
+                    let one = scalar_pixels::<T, u8, NC>(&pixel, T::as_bytes);
                     if sample_simd_color::bilinear_color8::<NC>(d8, w, h, pos, o8, one) {
                         return;
                     }
                 }
                 if let (Some(d16), Some(o16)) = (T::as_u16s(d), T::as_u16s_mut(out)) {
-                    let one = |p: &[f64; 2], dst: &mut [u16]| {
-                        let mut px = [T::from_f32(0.0); NC];
-                        pixel(&mut px, p);
-                        if let Some(b) = T::as_u16s(&px) {
-                            dst.copy_from_slice(b);
-                        }
-                    };
+                    let one = scalar_pixels::<T, u16, NC>(&pixel, T::as_u16s);
                     if sample_simd_color16::bilinear_color16::<NC>(d16, w, h, pos, o16, one) {
                         return;
                     }
                 }
             }
             if let (Some(df), Some(of)) = (T::as_f32s(d), T::as_f32s_mut(out)) {
-                let one = |p: &[f64; 2], dst: &mut [f32]| {
-                    let mut px = [T::from_f32(0.0); NC];
-                    pixel(&mut px, p);
-                    if let Some(b) = T::as_f32s(&px) {
-                        dst.copy_from_slice(b);
-                    }
-                };
+                let one = scalar_pixels::<T, f32, NC>(&pixel, T::as_f32s);
                 if sample_simd_float::bilinear_f32::<NC>(df, w, h, pos, of, one) {
                     return;
                 }
@@ -362,37 +363,19 @@ pub fn fill_pixels<T: Texel, const NC: usize>(
                 }
             };
             if let (Some(d8), Some(o8)) = (T::as_bytes(d), T::as_bytes_mut(out)) {
-                let one = |p: &[f64; 2], dst: &mut [u8]| {
-                    let mut px = [T::from_f32(0.0); NC];
-                    pixel(&mut px, p);
-                    if let Some(b) = T::as_bytes(&px) {
-                        dst.copy_from_slice(b);
-                    }
-                };
+                let one = scalar_pixels::<T, u8, NC>(&pixel, T::as_bytes);
                 if sample_simd_cubic::bicubic8::<NC>(d8, w, h, pos, o8, one) {
                     return;
                 }
             }
             if let (Some(d16), Some(o16)) = (T::as_u16s(d), T::as_u16s_mut(out)) {
-                let one = |p: &[f64; 2], dst: &mut [u16]| {
-                    let mut px = [T::from_f32(0.0); NC];
-                    pixel(&mut px, p);
-                    if let Some(b) = T::as_u16s(&px) {
-                        dst.copy_from_slice(b);
-                    }
-                };
+                let one = scalar_pixels::<T, u16, NC>(&pixel, T::as_u16s);
                 if sample_simd_cubic_wide::bicubic16::<NC>(d16, w, h, pos, o16, one) {
                     return;
                 }
             }
             if let (Some(df), Some(of)) = (T::as_f32s(d), T::as_f32s_mut(out)) {
-                let one = |p: &[f64; 2], dst: &mut [f32]| {
-                    let mut px = [T::from_f32(0.0); NC];
-                    pixel(&mut px, p);
-                    if let Some(b) = T::as_f32s(&px) {
-                        dst.copy_from_slice(b);
-                    }
-                };
+                let one = scalar_pixels::<T, f32, NC>(&pixel, T::as_f32s);
                 if sample_simd_cubic_wide::bicubic_f32::<NC>(df, w, h, pos, of, one) {
                     return;
                 }
