@@ -189,6 +189,23 @@ pub(super) mod avx2 {
         _mm256_add_pd(_mm256_floor_pd(v), _mm256_setzero_pd())
     }
 
+    /// Four positions `[x0, y0, x1, y1, ...]` at `pp` as `([x0 x1 x2 x3], [y0 y1 y2 y3])`:
+    /// two unaligned loads, then unpack (`[x0 x2 x1 x3]`) and a lane permute.
+    ///
+    /// # Safety
+    ///
+    /// The CPU supports AVX2; `pp` points to 8 readable `f64`.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub(in crate::warp) unsafe fn xy4(pp: *const f64) -> (__m256d, __m256d) {
+        // SAFETY: 8 f64 readable at pp (caller); unaligned loads.
+        let (v0, v1) = (_mm256_loadu_pd(pp), _mm256_loadu_pd(pp.add(4)));
+        (
+            _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpacklo_pd(v0, v1)),
+            _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpackhi_pd(v0, v1)),
+        )
+    }
+
     /// Eight positions: `x0`, `y0` (i32), the lanes that may take the vector path (all
     /// bits set where `0 <= x0 <= xmax` and `0 <= y0 <= ymax`), and `fx`, `fy` (f32), as
     /// in [`bilinear_gray8`] (the floors by [`floor`]).
@@ -204,13 +221,8 @@ pub(super) mod avx2 {
         ymax: __m256i,
     ) -> (__m256i, __m256i, __m256i, __m256, __m256) {
         let minus1 = _mm256_set1_epi32(-1);
-        // SAFETY: 16 f64 readable at pp (caller); unaligned loads.
-        let (v0, v1) = (_mm256_loadu_pd(pp), _mm256_loadu_pd(pp.add(4)));
-        let (v2, v3) = (_mm256_loadu_pd(pp.add(8)), _mm256_loadu_pd(pp.add(12)));
-        let xa = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpacklo_pd(v0, v1));
-        let ya = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpackhi_pd(v0, v1));
-        let xb = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpacklo_pd(v2, v3));
-        let yb = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpackhi_pd(v2, v3));
+        // SAFETY: 16 f64 readable at pp (caller), 8 at each of pp and pp + 8.
+        let ((xa, ya), (xb, yb)) = (xy4(pp), xy4(pp.add(8)));
         let (fxa, fya) = (floor(xa), floor(ya));
         let (fxb, fyb) = (floor(xb), floor(yb));
         let x0 = _mm256_set_m128i(_mm256_cvttpd_epi32(fxb), _mm256_cvttpd_epi32(fxa));
@@ -248,11 +260,8 @@ pub(super) mod avx2 {
         ymax: __m128i,
     ) -> (__m128i, __m128i, __m128i, __m128, __m128) {
         let minus1 = _mm_set1_epi32(-1);
-        // SAFETY: 8 f64 readable at pp (caller); unaligned loads.
-        let (v0, v1) = (_mm256_loadu_pd(pp), _mm256_loadu_pd(pp.add(4)));
-        // [x0 x2 x1 x3] -> [x0 x1 x2 x3], likewise for y.
-        let xs = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpacklo_pd(v0, v1));
-        let ys = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpackhi_pd(v0, v1));
+        // SAFETY: 8 f64 readable at pp (caller).
+        let (xs, ys) = xy4(pp);
         let (fxs, fys) = (floor(xs), floor(ys));
         let (x0, y0) = (_mm256_cvttpd_epi32(fxs), _mm256_cvttpd_epi32(fys));
         let ok = _mm_and_si128(

@@ -69,6 +69,7 @@ pub(super) fn nearest<T: Copy, const NC: usize>(
 
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
+    use crate::warp::sample_simd::avx2::xy4;
     use std::arch::x86_64::*;
 
     /// Eight positions: the pixel index `k = j w + i` of each (i32), and a bit per lane
@@ -80,14 +81,8 @@ mod avx2 {
     #[target_feature(enable = "avx2")]
     #[inline]
     unsafe fn index8(pp: *const f64, xm: __m256d, ym: __m256d, wv: __m256i) -> (__m256i, i32) {
-        // SAFETY: 16 f64 readable at pp (caller); unaligned loads.
-        let (v0, v1) = (_mm256_loadu_pd(pp), _mm256_loadu_pd(pp.add(4)));
-        let (v2, v3) = (_mm256_loadu_pd(pp.add(8)), _mm256_loadu_pd(pp.add(12)));
-        // [x0 x2 x1 x3] -> [x0 x1 x2 x3] (and likewise for y and the next four).
-        let xa = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpacklo_pd(v0, v1));
-        let ya = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpackhi_pd(v0, v1));
-        let xb = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpacklo_pd(v2, v3));
-        let yb = _mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_unpackhi_pd(v2, v3));
+        // SAFETY: 16 f64 readable at pp (caller), 8 at each of pp and pp + 8.
+        let ((xa, ya), (xb, yb)) = (xy4(pp), xy4(pp.add(8)));
         let nan = _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_UNORD_Q>(xa, xa))
             | _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_UNORD_Q>(xb, xb)) << 4;
         let (i, j) = (
