@@ -183,7 +183,7 @@ impl ImageWarpReport {
                     .to_string(),
             ),
             Some(b) => Err(format!(
-                "phi folds over the output: {} pixels in [{}, {}] - [{}, {}] come from pieces with det J <= 0; each shows the layer drawn last (see `trimorph field --jacobian`)",
+                "phi folds over the output: {} pixels in [{}, {}] - [{}, {}] come from pieces with det J <= 0; each shows one layer: the last rasterized, else the first solved by Newton (see `trimorph field --jacobian`)",
                 self.warp.folded, b[0], b[1], b[2], b[3]
             )),
         }

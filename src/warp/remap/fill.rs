@@ -49,10 +49,11 @@ impl RemapPlan<'_> {
         );
         let near = &*near;
         // Which pixels the last piece drawn there is folded (only when there are folds).
-        let any_fold = near
-            .iter()
-            .map(|&j| &self.rows[j])
-            .any(|r| r.blocks.iter().any(|b| b.folded) || r.tris.iter().any(|t| t.folded));
+        let any_fold = near.iter().map(|&j| &self.rows[j]).any(|r| {
+            r.blocks.iter().any(|b| b.folded)
+                || r.tris.iter().any(|t| t.folded)
+                || r.newton.iter().any(|b| b.folded)
+        });
         let mut mask = any_fold.then(|| {
             mask.clear();
             mask.resize(rows * ww, false);
@@ -155,14 +156,9 @@ impl RemapPlan<'_> {
                 }
             }
         }
-        st.folded = mask.as_ref().map_or(0, |m| m.iter().filter(|&&f| f).count());
-        if let Some(f) = folds {
-            match &mask {
-                Some(m) => f[..rows * ww].copy_from_slice(m),
-                None => f[..rows * ww].fill(false),
-            }
-        }
-        // Newton for the unfilled pixels near border pieces (each pixel tried once).
+        // Newton for the unfilled pixels of compressed pieces and near border pieces (each
+        // pixel tried once). Compressed pieces first: their seeds are certified close
+        // ([`super::SEED_BOUND`]), a border piece's may be far from a pixel in its box.
         let boxes = || {
             near.iter()
                 .flat_map(|&j| &self.rows[j].newton)
@@ -172,7 +168,8 @@ impl RemapPlan<'_> {
         if boxes().next().is_some() {
             tried.resize(rows * ww, false);
         }
-        for b in boxes() {
+        let ordered = boxes().filter(|b| b.compressed).chain(boxes().filter(|b| !b.compressed));
+        for b in ordered {
             let r = b.r;
             let ya = r[1].ceil().max(y0 as f64) as usize;
             let yb = (r[3].floor() as isize).min((y0 + rows) as isize - 1);
@@ -191,6 +188,15 @@ impl RemapPlan<'_> {
                     let seeded = self.map.invert_from(q, b.seed.at(q), b.seed.tri);
                     if seeded.is_some() {
                         st.newton_seeded += 1;
+                        st.newton_compressed += usize::from(b.compressed);
+                        if b.folded {
+                            // Reversed throughout: the preimage near the seed is on the fold.
+                            if let Some(m) = mask.as_deref_mut() {
+                                m[k] = true;
+                            }
+                            let c = clip_box(q, q, w, rows_total);
+                            st.merge(&RemapStats { fold_box: Some(c), ..Default::default() });
+                        }
                     }
                     match seeded.or_else(|| self.map.invert_from_buckets(q)) {
                         Some(pm) => {
@@ -227,6 +233,13 @@ impl RemapPlan<'_> {
                     st.max_error_bound = st.max_error_bound.max(pm.error_bound);
                 }
                 None => st.newton_failed += 1,
+            }
+        }
+        st.folded = mask.as_ref().map_or(0, |m| m.iter().filter(|&&f| f).count());
+        if let Some(f) = folds {
+            match &mask {
+                Some(m) => f[..rows * ww].copy_from_slice(m),
+                None => f[..rows * ww].fill(false),
             }
         }
         st.outside = out.iter().filter(|p| p[0].is_nan()).count();

@@ -10,13 +10,16 @@ pub struct RemapStats {
     pub outside: usize,
     /// Largest error bound over the pixels that have a preimage (pixels).
     pub max_error_bound: f64,
-    /// Pixels solved one by one by Newton (near the border of the deformed mesh, and where
-    /// the smallest pieces miss the bound).
+    /// Pixels solved one by one by Newton (near the border of the deformed mesh, where the
+    /// smallest pieces miss the bound, and in strongly compressed pieces).
     pub newton_solves: usize,
     /// Of [`RemapStats::newton_solves`], those whose Newton iteration started from the
     /// affine inverse of the piece that needed it (the others needed the neighbour's
     /// preimage or the forward samples as seeds).
     pub newton_seeded: usize,
+    /// Of [`RemapStats::newton_seeded`], the pixels of pieces where `phi` compresses so
+    /// strongly that interpolation would cost several forward evaluations per pixel.
+    pub newton_compressed: usize,
     /// Of [`RemapStats::newton_seeded`], the pixels in the thin gaps between neighbouring
     /// pieces of different sizes (T-junctions of the lattice refinement).
     pub newton_gaps: usize,
@@ -41,6 +44,7 @@ impl RemapStats {
         self.newton_solves += o.newton_solves;
         self.newton_seeded += o.newton_seeded;
         self.newton_gaps += o.newton_gaps;
+        self.newton_compressed += o.newton_compressed;
         self.newton_failed += o.newton_failed;
         self.interpolated += o.interpolated;
         self.folded += o.folded;
@@ -55,13 +59,14 @@ impl RemapStats {
     /// One line: how many pixels took each path of the inverse map.
     pub fn paths_line(&self) -> String {
         format!(
-            "{} pixels: {} interpolated from certified pieces, {} drawn from folded pieces, {} by Newton ({} seeded from the piece's affine inverse, of them {} in gaps between pieces, {} from other seeds), {} outside ({} after a failed Newton search)",
+            "{} pixels: {} interpolated from certified pieces, {} drawn from folded pieces, {} by Newton ({} seeded from the piece's affine inverse, of them {} in gaps between pieces and {} where phi compresses strongly, {} from other seeds), {} outside ({} after a failed Newton search)",
             self.pixels,
             self.interpolated - self.folded.min(self.interpolated),
             self.folded,
             self.newton_solves,
             self.newton_seeded,
             self.newton_gaps,
+            self.newton_compressed,
             self.newton_solves - self.newton_seeded,
             self.outside,
             self.newton_failed
