@@ -158,7 +158,7 @@ impl RemapPlan<'_> {
         }
         // Newton for the unfilled pixels of compressed pieces and near border pieces (each
         // pixel tried once). Compressed pieces first: their seeds are certified close
-        // ([`super::SEED_BOUND`]), a border piece's may be far from a pixel in its box.
+        // ([`super::refine::SEED_BOUND`]), a border piece's may be far from a pixel in its box.
         let boxes = || {
             near.iter()
                 .flat_map(|&j| &self.rows[j].newton)
