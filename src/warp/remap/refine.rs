@@ -6,6 +6,10 @@ use super::geometry::{affine_inverse_norm, bbox, signed_area, CurvatureGrid};
 use super::{gap_width, qt_tri, Block, Corner, NewtonBox, Pieces, Seed, Tri, MIN_SQUARE};
 use crate::spline::Spline;
 
+/// The two halves `(p00, p10, p11)` and `(p00, p11, p01)` of a square with corners
+/// `[p00, p10, p01, p11]`.
+const HALVES: [[usize; 3]; 2] = [[0, 1, 3], [0, 3, 2]];
+
 /// Side (reference pixels) at or below which a square is not split further: its halves that
 /// miss the bound, and squares across the border of the mesh, leave their output pixels to
 /// Newton's method seeded from the piece's affine inverse. Below a pixel, splitting costs at
@@ -163,6 +167,7 @@ impl Refiner<'_> {
         &self,
         p: [[f64; 2]; 4],
         q: [[f64; 2]; 4],
+        ainv: [Option<f64>; 2],
         m2: f64,
         side: f64,
         tri: Option<usize>,
@@ -170,21 +175,21 @@ impl Refiner<'_> {
         if m2 == 0.0 {
             return Compressed::No;
         }
-        let halves = [[0, 1, 3], [0, 3, 2]];
-        let (mut ainv, mut area, mut sign) = ([0.0f64; 2], 0.0f64, 0.0f64);
-        for (h, a) in halves.iter().zip(&mut ainv) {
+        let halves = HALVES;
+        let [Some(a0), Some(a1)] = ainv else { return Compressed::No };
+        let ainv = [a0, a1];
+        let (mut area, mut sign) = (0.0f64, 0.0f64);
+        for h in &halves {
             let (pt, qt) = (h.map(|i| p[i]), h.map(|i| q[i]));
             let sg = (signed_area(pt) * signed_area(qt)).signum();
-            let Some(n) = affine_inverse_norm(pt, qt) else { return Compressed::No };
             if sign != 0.0 && sg != sign {
                 return Compressed::No;
             }
-            (sign, *a) = (sg, n);
+            sign = sg;
             area += signed_area(qt).abs() / 2.0;
         }
-        // The block's k (as in `block`), and its grid points per output pixel.
-        let leg = (4.0 * self.tol / (SPLIT_MARGIN * ainv[0].max(ainv[1]) * m2)).sqrt();
-        let k = (side / leg).ceil().max(1.0);
+        // The block's k, and its grid points per output pixel.
+        let k = self.split_count(a0.max(a1), m2, side) as f64;
         if k <= 1.0 || (k + 1.0) * (k + 1.0) <= self.dense * area {
             return Compressed::No;
         }
@@ -209,22 +214,31 @@ impl Refiner<'_> {
         }))
     }
 
+    /// The `k` of a `k x k` block of a square of side `side` whose halves have
+    /// `|A^-1| <= ainv`: a leg `a` meets the bound when `K M a^2 / 4 <= tol`, aimed with
+    /// [`SPLIT_MARGIN`] of slack.
+    fn split_count(&self, ainv: f64, m2: f64, side: f64) -> usize {
+        let leg = (4.0 * self.tol / (SPLIT_MARGIN * ainv * m2)).sqrt();
+        (side / leg).ceil().max(1.0) as usize
+    }
+
     /// Tries to cut the square (all corners inside, not crossing the border) into `k x k`
-    /// rectangles that all meet the bound, `k` chosen from the bound itself.
-    fn block(&self, p: [[f64; 2]; 4], qt: [Corner; 4], m2: f64, out: &mut Pieces) -> bool {
-        let q = qt.map(|c| c.map(|c| c.0).unwrap_or([0.0; 2]));
+    /// rectangles that all meet the bound, `k` chosen from the bound itself (`ainv`: the
+    /// halves' `|A^-1|`, `None` if one is degenerate).
+    fn block(
+        &self,
+        p: [[f64; 2]; 4],
+        qt: [Corner; 4],
+        ainv: [Option<f64>; 2],
+        m2: f64,
+        out: &mut Pieces,
+    ) -> bool {
         let (sx, sy) = (p[1][0] - p[0][0], p[2][1] - p[0][1]);
         let k = if m2 == 0.0 {
             1
         } else {
-            // |A^-1| of the two halves; a leg `a` meets the bound when K M a^2 / 4 <= tol.
-            let ainv = [[0, 1, 3], [0, 3, 2]]
-                .iter()
-                .map(|h| affine_inverse_norm(h.map(|i| p[i]), h.map(|i| q[i])))
-                .try_fold(0.0f64, |a, b| Some(a.max(b?)));
-            let Some(ainv) = ainv else { return false };
-            let leg = (4.0 * self.tol / (SPLIT_MARGIN * ainv * m2)).sqrt();
-            (sx.max(sy) / leg).ceil().max(1.0) as usize
+            let [Some(a0), Some(a1)] = ainv else { return false };
+            self.split_count(a0.max(a1), m2, sx.max(sy))
         };
         if k > 1 && (sx.max(sy) / k as f64) < MIN_SQUARE.max(0.5) {
             return false;
@@ -307,9 +321,11 @@ impl Refiner<'_> {
             return;
         }
         let mut try_block = all && !crossing && !smallest;
+        let mut ainv = [None; 2];
         if try_block {
             let qv = q.map(|v| v.unwrap_or([0.0; 2]));
-            match self.compressed(p, qv, m2, side, qt_tri(&qt, &[0, 1, 2, 3])) {
+            ainv = HALVES.map(|h| affine_inverse_norm(h.map(|i| p[i]), h.map(|i| qv[i])));
+            match self.compressed(p, qv, ainv, m2, side, qt_tri(&qt, &[0, 1, 2, 3])) {
                 Compressed::No => {}
                 Compressed::Split => try_block = false,
                 Compressed::Newton(boxes) => {
@@ -318,7 +334,7 @@ impl Refiner<'_> {
                 }
             }
         }
-        if try_block && self.block(p, qt, m2, out) {
+        if try_block && self.block(p, qt, ainv, m2, out) {
             return;
         }
         if all && !crossing {
