@@ -92,6 +92,18 @@ pub fn parse_rat(text: &str) -> Result<Rat, ParseRatError> {
         return Err(err());
     }
     if let Some((p, q)) = t.split_once('/') {
+        // Fast path: both parts fit in i64 (deformation files: dyadic fractions), reduced
+        // with a machine-word gcd; the same value in lowest terms as the general path.
+        if let (Ok(p), Ok(q)) = (p.trim().parse::<i64>(), q.trim().parse::<i64>()) {
+            if q == 0 {
+                return Err(err());
+            }
+            let (p, q) = (p as i128, q as i128);
+            let g = num_integer::Integer::gcd(&p, &q);
+            let s = if q < 0 { -1 } else { 1 };
+            let (p, q) = (s * p / g, s * q / g);
+            return Ok(Rat::new_raw(Int::from_i128(p), Int::from_i128(q)));
+        }
         let p: BigInt = p.trim().parse().map_err(|_| err())?;
         let q: BigInt = q.trim().parse().map_err(|_| err())?;
         if q.is_zero() {
@@ -401,6 +413,28 @@ mod tests {
             assert!(matches!(e, ParseRatError::Exponent(_)), "{far}");
             assert!(e.to_string().contains("exponent is beyond"), "{e}");
         }
+    }
+
+    /// The machine-word fast path of `p/q` gives the general path's value in lowest terms,
+    /// signs and extremes included (`i64::MIN / -1` overflows i64, not the i128 it uses).
+    #[test]
+    fn fraction_fast_path_matches_the_bigint_path() {
+        let m = i64::MAX;
+        let n = i64::MIN;
+        let cases = [(416148729i64, 1048576i64), (-6, 4), (6, -4), (-6, -4), (0, -7), (n, -1)];
+        let more = [(n, n), (m, n), (n, 2), (m, m - 1), (12, 1), (-3616467, 524288)];
+        for (p, q) in cases.into_iter().chain(more) {
+            let want = rat_from_big(&BigRational::new(BigInt::from(p), BigInt::from(q)));
+            let got = parse_rat(&format!("{p}/{q}")).unwrap();
+            assert_eq!(got, want, "{p}/{q}");
+            assert_eq!(rat_to_string(&got), rat_to_string(&want));
+            assert_eq!(
+                (got.numer().as_i64(), got.denom().as_i64()),
+                (want.numer().as_i64(), want.denom().as_i64())
+            );
+        }
+        assert!(matches!(parse_rat("5/0"), Err(ParseRatError::Syntax(_))));
+        assert!(matches!(parse_rat("-5/-0"), Err(ParseRatError::Syntax(_))));
     }
 
     #[test]

@@ -160,7 +160,22 @@ impl Write for AtomicFile {
     }
 }
 
+/// Seeking works on a temporary file (a regular file); a destination written in place (a
+/// FIFO or device, [`AtomicFile::seekable`] false) refuses it with the system's error.
+impl std::io::Seek for AtomicFile {
+    fn seek(&mut self, pos: std::io::SeekFrom) -> std::io::Result<u64> {
+        let r = self.out.seek(pos);
+        self.remember(r)
+    }
+}
+
 impl AtomicFile {
+    /// Whether the file is a temporary regular file (so [`std::io::Seek`] works), not a FIFO
+    /// or device written in place.
+    pub fn seekable(&self) -> bool {
+        self.rename.is_some()
+    }
+
     /// Keeps the first error of a write (an interrupted call is retried, not an error).
     fn remember<T>(&mut self, r: std::io::Result<T>) -> std::io::Result<T> {
         if let Err(e) = &r {
