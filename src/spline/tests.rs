@@ -555,3 +555,38 @@ fn excess_bound_covers_any_difference_and_refuses_other_meshes() {
     let other = Spline::identity(Mesh::grid(3, 3, 40.0, 30.0, MeshOptions::default()).unwrap(), 5);
     assert_eq!(cp.second_derivative_excess_bound(other.unwrap().eval_cache(), 1.0), f64::INFINITY);
 }
+
+/// The degree-5 path of the uniform bounds (coefficients shared between sub-triangles, the
+/// lattice values by the Newton form) gives the general path's bounds (a collocation inverse
+/// per sub-triangle) up to rounding, sub-triangle for sub-triangle, on a bent spline and on
+/// an affine one (zero Hessian: both give the tiny floor), for fine subdivisions too.
+#[test]
+fn cubic_uniform_bounds_match_the_general_path() {
+    let id = Spline::identity(strip(), 5).unwrap();
+    let bent: Vec<Vec<Rat>> = id
+        .points()
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let k = (i * 37 % 23) as i64 - 11;
+            vec![&p[0] + rat_int(k) / rat_int(40), &p[1] + rat_int(k * k % 7) / rat_int(30)]
+        })
+        .collect();
+    let bent = Spline::from_points_unchecked(strip(), 5, bent, None).unwrap();
+    for s in [&bent, &id] {
+        let c = s.eval_cache();
+        for t in 0..s.mesh().num_triangles() {
+            for n in [1, 2, 3, 5, 13, 64] {
+                let fast = c.second_derivative_bounds_uniform_by(t, n, true);
+                let slow = c.second_derivative_bounds_uniform_by(t, n, false);
+                assert_eq!(fast.len(), n * n);
+                assert_eq!(fast.len(), slow.len());
+                for ((bf, mf), (bs, ms)) in fast.iter().zip(&slow) {
+                    assert_eq!(bf, bs, "t={t} n={n}: the same sub-triangles in the same order");
+                    let scale = mf.abs().max(1e-12);
+                    assert!((mf - ms).abs() <= 1e-9 * scale, "t={t} n={n}: {mf} vs {ms}");
+                }
+            }
+        }
+    }
+}
