@@ -22,8 +22,88 @@ use std::fmt;
 /// assert!(e.to_string().starts_with("duplicate key \"a\" at line 2"), "{e}");
 /// ```
 pub fn parse(text: &str) -> Result<Value, serde_json::Error> {
-    check_keys(text)?;
-    serde_json::from_str(text)
+    // One pass: the value is built and every object's keys checked as it is read (a file
+    // of control points is a few hundred kilobytes, read at every command's start).
+    serde_json::from_str::<Strict>(text).map(|s| s.0)
+}
+
+/// A [`Value`] read with every object's keys checked (the visitor of `serde_json`'s own
+/// `Value`, plus the duplicate check).
+struct Strict(Value);
+
+/// The key under which `serde_json` (with `arbitrary_precision`) hands a number's text to
+/// `deserialize_any`, as a one-entry map.
+const NUMBER_TOKEN: &str = "$serde_json::private::Number";
+
+impl<'de> Deserialize<'de> for Strict {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        d.deserialize_any(StrictVisitor).map(Strict)
+    }
+}
+
+struct StrictVisitor;
+
+impl<'de> Visitor<'de> for StrictVisitor {
+    type Value = Value;
+
+    fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        f.write_str("any JSON value")
+    }
+    fn visit_bool<E>(self, v: bool) -> Result<Value, E> {
+        Ok(Value::Bool(v))
+    }
+    fn visit_i64<E>(self, v: i64) -> Result<Value, E> {
+        Ok(Value::Number(v.into()))
+    }
+    fn visit_u64<E>(self, v: u64) -> Result<Value, E> {
+        Ok(Value::Number(v.into()))
+    }
+    fn visit_f64<E>(self, v: f64) -> Result<Value, E> {
+        Ok(serde_json::Number::from_f64(v).map_or(Value::Null, Value::Number))
+    }
+    fn visit_str<E>(self, v: &str) -> Result<Value, E> {
+        Ok(Value::String(v.to_owned()))
+    }
+    fn visit_string<E>(self, v: String) -> Result<Value, E> {
+        Ok(Value::String(v))
+    }
+    fn visit_unit<E>(self) -> Result<Value, E> {
+        Ok(Value::Null)
+    }
+    fn visit_none<E>(self) -> Result<Value, E> {
+        Ok(Value::Null)
+    }
+    fn visit_some<D: Deserializer<'de>>(self, d: D) -> Result<Value, D::Error> {
+        Strict::deserialize(d).map(|s| s.0)
+    }
+    fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Value, A::Error> {
+        let mut v = Vec::with_capacity(seq.size_hint().unwrap_or(0));
+        while let Some(Strict(x)) = seq.next_element()? {
+            v.push(x);
+        }
+        Ok(Value::Array(v))
+    }
+    fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Value, A::Error> {
+        let mut m = serde_json::Map::new();
+        let Some(first) = map.next_key::<String>()? else {
+            return Ok(Value::Object(m));
+        };
+        if first == NUMBER_TOKEN {
+            // A number, its text kept exactly (`Number`'s parser checks it once more).
+            let text: String = map.next_value()?;
+            return text.parse().map(Value::Number).map_err(de::Error::custom);
+        }
+        let Strict(v) = map.next_value()?;
+        m.insert(first, v);
+        while let Some(k) = map.next_key::<String>()? {
+            if m.contains_key(&k) {
+                return Err(de::Error::custom(format_args!("{DUPLICATE}{k:?}")));
+            }
+            let Strict(v) = map.next_value()?;
+            m.insert(k, v);
+        }
+        Ok(Value::Object(m))
+    }
 }
 
 /// Parses JSON text into `T` ([`serde::Deserialize`]), refusing duplicate keys first.
@@ -113,6 +193,34 @@ mod tests {
         let msg = e.to_string();
         assert!(msg.starts_with("duplicate key \"k\" at line 1 column"), "{msg}");
         assert!(parse(r#"[{"a": 1}, {"a": 2}]"#).is_ok(), "the same key in two objects is fine");
+    }
+
+    /// Numbers keep their text exactly (arbitrary precision), as `serde_json`'s own `Value`
+    /// keeps it; nesting, empty containers and escapes too; and the deep-nesting limit holds.
+    #[test]
+    fn exact_numbers_and_nesting_match_serde_json() {
+        let text = r#"[0, -0, 1.5e-400, 123456789012345678901234567890, -1.25E+3, 0.1,
+            {}, [], [[[]]], {"a": {"b": {"c": null}}}, "\u00e9\n", 18446744073709551615,
+            -9223372036854775808, 3.0]"#;
+        let want = serde_json::from_str::<Value>(text).unwrap();
+        let got = parse(text).unwrap();
+        assert_eq!(got, want);
+        assert_eq!(got.to_string(), want.to_string());
+        assert_eq!(got[2].to_string(), "1.5e-400");
+        let deep = "[".repeat(200) + &"]".repeat(200);
+        assert!(parse(&deep).is_err() && serde_json::from_str::<Value>(&deep).is_err());
+        // A file that spells out serde_json's private number key is read as serde_json
+        // reads it (as the number, or refused).
+        for odd in [
+            r#"{"$serde_json::private::Number": "1", "x": 2}"#,
+            r#"{"$serde_json::private::Number": "12"}"#,
+            r#"{"$serde_json::private::Number": "x"}"#,
+            r#"{"x": 2, "$serde_json::private::Number": "1"}"#,
+        ] {
+            let (got, want) = (parse(odd), serde_json::from_str::<Value>(odd));
+            assert_eq!(got.as_ref().ok(), want.as_ref().ok(), "{odd}");
+            assert_eq!(got.is_err(), want.is_err(), "{odd}");
+        }
     }
 
     #[test]

@@ -168,14 +168,16 @@ pub fn to_string_with(s: &Spline, last: Option<&LastEdit>, extras: &[Extra]) -> 
     super::json_rows(&to_json_with(s, last, extras))
 }
 
-fn num(v: &Value, path: &str) -> Result<Rat, DeformationError> {
+/// The exact value of `v`; `path` names it in errors (built only then: a file holds
+/// thousands of values).
+fn num(v: &Value, path: impl Fn() -> String) -> Result<Rat, DeformationError> {
     match v {
-        Value::String(s) => parse_rat(s).map_err(|e| key(path, e.to_string())),
+        Value::String(s) => parse_rat(s).map_err(|e| key(&path(), e.to_string())),
         Value::Number(n) => {
-            let f = n.as_f64().ok_or_else(|| key(path, "not a number"))?;
-            rat_from_f64(f).ok_or_else(|| key(path, "not a finite number"))
+            let f = n.as_f64().ok_or_else(|| key(&path(), "not a number"))?;
+            rat_from_f64(f).ok_or_else(|| key(&path(), "not a finite number"))
         }
-        other => Err(key(path, format!("expected a number, found {other}"))),
+        other => Err(key(&path(), format!("expected a number, found {other}"))),
     }
 }
 
@@ -184,19 +186,23 @@ fn rows(v: Option<&Value>, path: &str, width: usize) -> Result<Vec<Vec<Rat>>, De
     arr.iter()
         .enumerate()
         .map(|(i, r)| {
-            let p = format!("{path}[{i}]");
-            let r = r.as_array().ok_or_else(|| key(&p, "expected an array"))?;
+            let p = || format!("{path}[{i}]");
+            let r = r.as_array().ok_or_else(|| key(&p(), "expected an array"))?;
             if r.len() < width {
-                return Err(key(&p, format!("expected {width} values")));
+                return Err(key(&p(), format!("expected {width} values")));
             }
-            r.iter().take(width).enumerate().map(|(j, x)| num(x, &format!("{p}[{j}]"))).collect()
+            r.iter()
+                .take(width)
+                .enumerate()
+                .map(|(j, x)| num(x, || format!("{}[{j}]", p())))
+                .collect()
         })
         .collect()
 }
 
 fn scalars(v: Option<&Value>, path: &str) -> Result<Vec<Rat>, DeformationError> {
     let arr = v.and_then(Value::as_array).ok_or_else(|| key(path, "missing or not an array"))?;
-    arr.iter().enumerate().map(|(i, x)| num(x, &format!("{path}[{i}]"))).collect()
+    arr.iter().enumerate().map(|(i, x)| num(x, || format!("{path}[{i}]"))).collect()
 }
 
 fn indices(v: Option<&Value>, path: &str) -> Result<Vec<Vec<usize>>, DeformationError> {
@@ -204,14 +210,14 @@ fn indices(v: Option<&Value>, path: &str) -> Result<Vec<Vec<usize>>, Deformation
     arr.iter()
         .enumerate()
         .map(|(i, r)| {
-            let p = format!("{path}[{i}]");
+            let p = || format!("{path}[{i}]");
             r.as_array()
-                .ok_or_else(|| key(&p, "expected an array of indices"))?
+                .ok_or_else(|| key(&p(), "expected an array of indices"))?
                 .iter()
                 .map(|x| {
                     x.as_u64()
                         .map(|u| u as usize)
-                        .ok_or_else(|| key(&p, "expected non-negative integers"))
+                        .ok_or_else(|| key(&p(), "expected non-negative integers"))
                 })
                 .collect()
         })
