@@ -367,14 +367,17 @@ pub fn write_stack(path: &Path, stack: &Stack) -> Result<(), RasterError> {
     let bytes = if is_tiff(path) {
         // Into the temporary file directly where it can seek (the encoder patches offsets):
         // the samples go from the image to the page cache, with no copy of the whole file in
-        // memory (about 5 ms of a 4096^2 gray warp). A FIFO or device gets the bytes at once.
+        // memory (about 5 ms of a 4096^2 gray warp). A FIFO or device, opened once, gets the
+        // bytes encoded in memory.
         let mut f = crate::io::AtomicFile::create(path)?;
         if f.seekable() {
             encode_tiff_into(&mut f, stack, CLASSIC_TIFF_MAX).map_err(|e| eerr(e.to_string()))?;
-            return Ok(f.commit()?);
+        } else {
+            let bytes = encode_tiff(stack).map_err(|e| eerr(e.to_string()))?;
+            std::io::Write::write_all(&mut f, &bytes)
+                .map_err(|source| IoError::Write { path: path.to_path_buf(), source })?;
         }
-        drop(f);
-        encode_tiff(stack).map_err(|e| eerr(e.to_string()))?
+        return Ok(f.commit()?);
     } else {
         if stack.pages.len() != 1 {
             return Err(eerr(format!(
