@@ -177,7 +177,10 @@ fn row_span(
     if hi_x < lo_x || flat[0] + flat[1] * y < -flat[2].max(eps) {
         return None;
     }
-    let (x0, x1) = (fast_ceil(lo_x), fast_floor(hi_x));
+    // Here `x[0] <= lo_x <= hi_x <= x[1]` (finite, non-negative): ceil and floor straight to
+    // integers, the values of `fast_ceil` and `fast_floor` without their float round trip.
+    let (t0, t1) = (lo_x as i64, hi_x as i64);
+    let (x0, x1) = (t0 + i64::from((t0 as f64) < lo_x), t1 - i64::from((t1 as f64) > hi_x));
     (x1 >= x0).then_some((x0 as usize, x1 as usize))
 }
 
