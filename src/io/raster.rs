@@ -203,8 +203,8 @@ fn decoder_limit(budget: u64) -> u64 {
     budget.min(MAX_PIXELS * 16)
 }
 
-/// Every page of a TIFF, under the memory budget `budget`.
-/// Decodes every page of the TIFF read by `reader` (`file_len` bytes long).
+/// Every page of the TIFF read by `reader` (`file_len` bytes long), under the memory budget
+/// `budget`.
 fn read_tiff<R: std::io::Read + std::io::Seek>(
     path: &Path,
     reader: R,
@@ -226,7 +226,7 @@ fn read_tiff<R: std::io::Read + std::io::Seek>(
         limits
     };
     let tag_limits =
-        with_limit(decoder_limit(budget).min((file_len.saturating_mul(64)).max(1 << 20)));
+        with_limit(decoder_limit(budget).min(file_len.saturating_mul(64).max(1 << 20)));
     let page_limits = with_limit(decoder_limit(budget));
     let mut dec = Decoder::new(reader).map_err(derr)?.with_limits(tag_limits.clone());
     let mut pages = Vec::new();
@@ -363,42 +363,49 @@ fn jpeg_is_complete(bytes: &[u8]) -> bool {
 /// Writes a stack atomically: TIFF (any number of pages, types kept), or PNG / JPEG / PNM (one
 /// page; JPEG holds 8-bit gray and RGB only; PNM as the extension says, see `encode_pnm`).
 pub fn write_stack(path: &Path, stack: &Stack) -> Result<(), RasterError> {
+    if is_tiff(path) {
+        return write_tiff(path, stack);
+    }
     let eerr = |reason: String| RasterError::Encode { path: path.to_path_buf(), reason };
-    let bytes = if is_tiff(path) {
-        // Into the temporary file directly where it can seek (the encoder patches offsets):
-        // the samples go from the image to the page cache, with no copy of the whole file in
-        // memory (about 5 ms of a 4096^2 gray warp). A FIFO or device, opened once, gets the
-        // bytes encoded in memory.
-        let mut f = crate::io::AtomicFile::create(path)?;
-        if f.seekable() {
-            encode_tiff_into(&mut f, stack, CLASSIC_TIFF_MAX).map_err(|e| eerr(e.to_string()))?;
-        } else {
-            let bytes = encode_tiff(stack).map_err(|e| eerr(e.to_string()))?;
-            std::io::Write::write_all(&mut f, &bytes)
-                .map_err(|source| IoError::Write { path: path.to_path_buf(), source })?;
-        }
-        return Ok(f.commit()?);
+    if stack.pages.len() != 1 {
+        return Err(eerr(format!(
+            "{} pages: only TIFF (.tif) holds a stack of pages",
+            stack.pages.len()
+        )));
+    }
+    let fmt = ImageFormat::from_path(path).map_err(|_| {
+        eerr("unknown image extension (use .png, .tif, .jpg, .pgm, .ppm or .pam)".into())
+    })?;
+    let page = &stack.pages[0];
+    let bytes = if fmt == ImageFormat::Pnm {
+        encode_pnm(path, page, stack.gray_float).map_err(eerr)?
     } else {
-        if stack.pages.len() != 1 {
-            return Err(eerr(format!(
-                "{} pages: only TIFF (.tif) holds a stack of pages",
-                stack.pages.len()
-            )));
-        }
-        let fmt = ImageFormat::from_path(path).map_err(|_| {
-            eerr("unknown image extension (use .png, .tif, .jpg, .pgm, .ppm or .pam)".into())
-        })?;
-        let page = &stack.pages[0];
-        if fmt == ImageFormat::Pnm {
-            encode_pnm(path, page, stack.gray_float).map_err(eerr)?
-        } else {
-            let mut out = Cursor::new(Vec::new());
-            page.write_to(&mut out, fmt).map_err(|e| eerr(e.to_string()))?;
-            out.into_inner()
-        }
+        let mut out = Cursor::new(Vec::new());
+        page.write_to(&mut out, fmt).map_err(|e| eerr(e.to_string()))?;
+        out.into_inner()
     };
     write_atomic(path, &bytes)?;
     Ok(())
+}
+
+/// [`write_stack`] for a TIFF: encoded into the temporary file directly where it can seek
+/// (the encoder patches offsets), so the samples go from the image to the page cache with
+/// no copy of the whole file in memory (about 5 ms of a 4096^2 gray warp). A FIFO or device,
+/// opened once, gets the bytes encoded in memory.
+fn write_tiff(path: &Path, stack: &Stack) -> Result<(), RasterError> {
+    let eerr = |e: tiff::TiffError| RasterError::Encode {
+        path: path.to_path_buf(),
+        reason: e.to_string(),
+    };
+    let mut f = crate::io::AtomicFile::create(path)?;
+    if f.seekable() {
+        encode_tiff_into(&mut f, stack, CLASSIC_TIFF_MAX).map_err(eerr)?;
+    } else {
+        let bytes = encode_tiff(stack).map_err(eerr)?;
+        std::io::Write::write_all(&mut f, &bytes)
+            .map_err(|source| IoError::Write { path: path.to_path_buf(), source })?;
+    }
+    Ok(f.commit()?)
 }
 
 /// Classic TIFF addresses at most 4 GiB; larger stacks are written as BigTIFF (which
@@ -460,7 +467,7 @@ fn encode_tiff(stack: &Stack) -> Result<Vec<u8>, tiff::TiffError> {
 
 /// [`encode_tiff`] with BigTIFF above `classic_max` bytes of samples.
 fn encode_tiff_above(stack: &Stack, classic_max: u64) -> Result<Vec<u8>, tiff::TiffError> {
-    let raw: u64 = stack.pages.iter().map(|p| p.as_bytes().len() as u64).sum();
+    let raw = sample_bytes(stack);
     // Samples plus directories and strip tables: one allocation, no regrowth.
     let cap = raw.saturating_add(stack.pages.len() as u64 * 65_536).min(isize::MAX as u64);
     let mut out = Cursor::new(Vec::with_capacity(cap as usize));
@@ -475,12 +482,16 @@ fn encode_tiff_into<W: std::io::Write + std::io::Seek>(
     classic_max: u64,
 ) -> Result<(), tiff::TiffError> {
     use tiff::encoder::TiffEncoder;
-    let raw: u64 = stack.pages.iter().map(|p| p.as_bytes().len() as u64).sum();
-    if raw > classic_max {
+    if sample_bytes(stack) > classic_max {
         encode_pages(&mut TiffEncoder::new_big(out)?, stack)
     } else {
         encode_pages(&mut TiffEncoder::new(out)?, stack)
     }
+}
+
+/// Bytes of samples in all pages of `stack`.
+fn sample_bytes(stack: &Stack) -> u64 {
+    stack.pages.iter().map(|p| p.as_bytes().len() as u64).sum()
 }
 
 fn encode_pages<W: std::io::Write + std::io::Seek, K: tiff::encoder::TiffKind>(

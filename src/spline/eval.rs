@@ -651,7 +651,14 @@ fn cubic_bounds_uniform(vals: &[[f64; 6]], n: usize, scale: f64) -> Vec<([[f64; 
             }
         }
     }
-    let norms: Vec<[f64; 2]> = coef.iter().map(|h| [rho(h, 0), rho(h, 1)]).collect();
+    // Norm bounds of the lattice's points only (the array's other half is unused).
+    let mut norms = vec![[0.0f64; 2]; stride * stride];
+    for i in 0..=big {
+        for j in 0..=big - i {
+            let h = &coef[at(i, j)];
+            norms[at(i, j)] = [rho(h, 0), rho(h, 1)];
+        }
+    }
     let mut out = Vec::with_capacity(n * n);
     for i in 0..n {
         for j in 0..n - i {
