@@ -45,6 +45,20 @@
 //! image border) is done pixel by pixel by the scalar path, as is the tail of fewer than
 //! eight pixels. Out-of-range and `NaN` coordinates convert to `i32::MIN` and so fail the
 //! test.
+//!
+//! **Windows** (8-bit gray). The consecutive pixels of a smooth map read neighbourhoods
+//! close together, and two gathers cost more than the arithmetic of a group. So when the
+//! eight lanes have `x0 - xm <= 14` and `y0 - ym <= 1` (`xm`, `ym` the lanes' minima), the
+//! taps come from 16-byte windows of the rows `ym`, `ym + 1` (and `ym + 2` when some lane
+//! has `y0 = ym + 1`), each starting at column `xm`, by byte shuffles (`vpshufb`, each lane's
+//! indices `[d, d + 1, d, d + 1]` with `d = x0 - xm <= 14`, so at most 15: inside the
+//! window). A lane of row `y0 = ym + r` takes its top taps from window `r` and its bottom
+//! taps from window `r + 1`, the bytes `y0 w + x0 + {0, 1}` and `(y0 + 1) w + x0 + {0, 1}`:
+//! the gathered taps, so the result is the same. The windows are bytes
+//! `s .. s + 16`, `s + w .. s + w + 16` (and `s + 2w .. s + 2w + 16`) with `s = ym w + xm >= 0`;
+//! they are read only when the last ends at most at `data.len()`, otherwise the group
+//! gathers. A window may run past the end of its row into the next one: those bytes are
+//! never selected (every lane has `x0 + 1 <= w - 1`).
 
 /// Whether the AVX2 kernels of `sample_simd*` may run on a `w x h` image of `nc` samples
 /// per pixel held in a buffer of `len` samples: the CPU has AVX2 (detected at run time),
@@ -153,12 +167,22 @@ pub(super) mod avx2 {
                 }
                 continue;
             }
-            let k = _mm256_add_epi32(_mm256_mullo_epi32(y0, wv), x0);
-            // SAFETY: every lane passed 0 <= x0 <= w - 2, 0 <= y0 <= h - 2 (so w, h >= 2);
-            // the words read are bytes k .. k + 3 and k + w - 2 .. k + w + 1, inside
-            // 0 .. w h <= data.len() by the bounds in the module docs.
-            let wt = _mm256_i32gather_epi32::<1>(base, k);
-            let wb = _mm256_i32gather_epi32::<1>(base, _mm256_add_epi32(k, below));
+            // SAFETY: every lane passed 0 <= x0 <= w - 2, 0 <= y0 <= h - 2 (so w, h >= 2),
+            // as `window8` requires.
+            let (wt, wb) = match window8(data, w, x0, y0) {
+                Some(taps) => taps,
+                None => {
+                    let k = _mm256_add_epi32(_mm256_mullo_epi32(y0, wv), x0);
+                    // SAFETY: every lane passed 0 <= x0 <= w - 2, 0 <= y0 <= h - 2 (so
+                    // w, h >= 2); the words read are bytes k .. k + 3 and
+                    // k + w - 2 .. k + w + 1, inside 0 .. w h <= data.len() by the bounds
+                    // in the module docs.
+                    (
+                        _mm256_i32gather_epi32::<1>(base, k),
+                        _mm256_i32gather_epi32::<1>(base, _mm256_add_epi32(k, below)),
+                    )
+                }
+            };
             let a = _mm256_cvtepi32_ps(_mm256_and_si256(wt, byte));
             let b = _mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32::<8>(wt), byte));
             let e = _mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32::<16>(wb), byte));
@@ -176,6 +200,72 @@ pub(super) mod avx2 {
         for k in 8 * groups..n {
             out[k] = scalar(&pos[k]);
         }
+    }
+
+    /// The minimum of the eight lanes, in every lane.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn min8(v: __m256i) -> __m256i {
+        let m = _mm256_min_epi32(v, _mm256_permute2x128_si256::<1>(v, v));
+        let m = _mm256_min_epi32(m, _mm256_shuffle_epi32::<0b01_00_11_10>(m));
+        _mm256_min_epi32(m, _mm256_shuffle_epi32::<0b10_11_00_01>(m))
+    }
+
+    /// The taps of [`bilinear_gray8`] from two or three 16-byte row windows instead of two
+    /// gathers, when the eight neighbourhoods are close together, as they are for the
+    /// consecutive pixels of a smooth map (module docs, **Windows**): the words `(wt, wb)`
+    /// with `a, b` in bytes 0, 1 of `wt` and `e, f` in bytes 2, 3 of `wb`, the bytes the
+    /// gathers would give there. `None` when the lanes are too far apart or a window would
+    /// end past `data`.
+    ///
+    /// # Safety
+    ///
+    /// The CPU supports AVX2, and every lane has `0 <= x0 <= w - 2`, `0 <= y0 <= h - 2`.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn window8(
+        data: &[u8],
+        w: usize,
+        x0: __m256i,
+        y0: __m256i,
+    ) -> Option<(__m256i, __m256i)> {
+        let (xm, ym) = (min8(x0), min8(y0));
+        let (d, e) = (_mm256_sub_epi32(x0, xm), _mm256_sub_epi32(y0, ym));
+        let far = _mm256_or_si256(
+            _mm256_cmpgt_epi32(d, _mm256_set1_epi32(14)),
+            _mm256_cmpgt_epi32(e, _mm256_set1_epi32(1)),
+        );
+        if _mm256_movemask_epi8(far) != 0 {
+            return None;
+        }
+        let lower = _mm256_cmpeq_epi32(e, _mm256_set1_epi32(1));
+        let two_rows = _mm256_movemask_epi8(lower) != 0;
+        // Lanes are non-negative (caller), so the minima are too.
+        let (xs, ys) = (_mm256_cvtsi256_si32(xm) as usize, _mm256_cvtsi256_si32(ym) as usize);
+        let start = ys * w + xs;
+        let last = start + if two_rows { 2 * w } else { w } + 16;
+        if last > data.len() {
+            return None;
+        }
+        let p = data.as_ptr().add(start);
+        // SAFETY: the windows are bytes start .. start + 16 of rows ys, ys + 1 (and ys + 2
+        // when two_rows), all below `last <= data.len()`.
+        let row =
+            |r: usize| _mm256_broadcastsi128_si256(_mm_loadu_si128(p.add(r * w) as *const __m128i));
+        // Lane index bytes [d, d + 1, d, d + 1]: byte 0 of each lane to all four, plus
+        // 0x01000100. With d <= 14 every index is at most 15, inside the 16-byte window.
+        let spread = _mm256_setr_epi8(
+            0, 0, 0, 0, 4, 4, 4, 4, 8, 8, 8, 8, 12, 12, 12, 12, 0, 0, 0, 0, 4, 4, 4, 4, 8, 8, 8, 8,
+            12, 12, 12, 12,
+        );
+        let idx = _mm256_add_epi32(_mm256_shuffle_epi8(d, spread), _mm256_set1_epi32(0x0100_0100));
+        let (r0, r1) = (row(0), row(1));
+        let (t0, t1) = (_mm256_shuffle_epi8(r0, idx), _mm256_shuffle_epi8(r1, idx));
+        if !two_rows {
+            return Some((t0, t1));
+        }
+        let t2 = _mm256_shuffle_epi8(row(2), idx);
+        Some((_mm256_blendv_epi8(t0, t1, lower), _mm256_blendv_epi8(t1, t2, lower)))
     }
 
     /// The scalar `fast_floor` on four lanes: `floor(v) + 0`, which is `floor(v)` except
@@ -375,6 +465,15 @@ mod tests {
     #[test]
     fn gray16_vector_path_matches_the_scalar_path_bit_for_bit() {
         harness::sweep::<u16, Gray16>(Bilinear, &[1], 16, 2000);
+    }
+
+    /// Rows of a smooth map, where the 8-bit kernel loads row windows instead of gathering
+    /// (module docs, **Windows**): one or two source rows, near or too far apart, up to the
+    /// image's last bytes.
+    #[test]
+    fn row_windows_match_the_scalar_path() {
+        harness::smooth_rows::<u8, Gray8>(Bilinear, &[1], 41);
+        harness::smooth_rows::<u16, Gray16>(Bilinear, &[1], 43);
     }
 
     /// Signed zeros, ties, the border, infinities and `NaN` in either coordinate.

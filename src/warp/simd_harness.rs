@@ -14,6 +14,8 @@
 //!   ([`special_coords`]: signed zeros, `.5` ties and their neighbouring `f64`s, the image
 //!   border, infinities, `NaN`), on images of every kind of sample, at every start modulo
 //!   eight;
+//! * [`smooth_rows`]: rows of positions through rotations, scalings and mirrors, as a
+//!   smooth map gives them (the row-window loads of the 8-bit kernel);
 //! * [`scalar_calls`]: how many of 19 inside positions the kernel left to the scalar path
 //!   (3 when every full group was vectorized);
 //! * [`random_image`]: one random image and 200 random positions, for the proptests.
@@ -292,6 +294,48 @@ fn sweep_nc<T: TestTexel, const NC: usize>(
                 }
             }
         }
+    }
+}
+
+/// Rows of positions as a smooth map gives them (consecutive pixels close together, where
+/// kernels may load row windows instead of gathering): every pixel row of an output of the
+/// image's size through an affine map about the image centre, rotated by -40 to 40
+/// degrees, scaled by 0.4 to 2.5 (upsampling to downsampling), mirrored or not, shifted by
+/// a random fraction, so that groups lie in one or two source rows, near together or too
+/// far apart, and reach the right and bottom border and beyond; on random images of several
+/// sizes (buffers of exactly `NC w h` samples, so a window past the last row would be
+/// caught as a read out of bounds by the slice bounds or Miri), each from every start
+/// `0..8`.
+fn smooth_rows_nc<T: TestTexel, const NC: usize>(kernel: Kernel<T>, interp: Interp, seed: u64) {
+    let mut rng = SmallRng::seed_from_u64(seed);
+    for (w, h) in [(40usize, 37usize), (300, 5), (17, 90), (16, 3), (129, 66)] {
+        let data = image::<T>(&mut rng, NC * w * h, T::KINDS);
+        for _ in 0..12 {
+            let a = rng.gen_range(-40f64..40.0).to_radians();
+            let k = rng.gen_range(0.4f64..2.5);
+            let m = if rng.gen_bool(0.3) { -1.0 } else { 1.0 };
+            let shift = [rng.gen_range(-0.5f64..0.5), rng.gen_range(-0.5f64..0.5)];
+            let (c, s) = (k * a.cos(), k * a.sin());
+            let (cx, cy) = ((w as f64 - 1.0) / 2.0, (h as f64 - 1.0) / 2.0);
+            let pos: Vec<[f64; 2]> = (0..w * h)
+                .map(|i| {
+                    let (x, y) = (m * ((i % w) as f64 - cx), (i / w) as f64 - cy);
+                    [cx + c * x - s * y + shift[0], cy + s * x + c * y + shift[1]]
+                })
+                .collect();
+            for start in 0..8.min(pos.len()) {
+                if !check::<T, NC>(kernel, interp, &data, w, h, &pos[start..]) {
+                    return; // no vector path on this machine: nothing to compare
+                }
+            }
+        }
+    }
+}
+
+/// [`smooth_rows_nc`] for each channel count of `ncs`, seeds `seed`, `seed + 1`, ...
+pub(super) fn smooth_rows<T: TestTexel, F: Family<T>>(interp: Interp, ncs: &[usize], seed: u64) {
+    for (s, &nc) in (seed..).zip(ncs) {
+        by_nc!(nc, smooth_rows_nc, T, F, (interp, s));
     }
 }
 
