@@ -25,6 +25,41 @@ impl RemapPlan<'_> {
         folds: Option<&mut [bool]>,
         scratch: &mut BandScratch,
     ) -> RemapStats {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU supports AVX2 (detected just above).
+            return unsafe { self.fill_rect_avx2(rect, out, folds, scratch) };
+        }
+        self.fill_rect_any(rect, out, folds, scratch)
+    }
+
+    /// [`RemapPlan::fill_rect`] compiled for AVX2: the same operations (Rust never fuses
+    /// or reorders floating-point operations, whatever the target features), so the same
+    /// values, with the rasterizer's pixel loop on 256-bit registers.
+    ///
+    /// # Safety
+    ///
+    /// The CPU supports AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn fill_rect_avx2(
+        &self,
+        rect: Rect,
+        out: &mut [[f64; 2]],
+        folds: Option<&mut [bool]>,
+        scratch: &mut BandScratch,
+    ) -> RemapStats {
+        self.fill_rect_any(rect, out, folds, scratch)
+    }
+
+    #[inline(always)]
+    pub(super) fn fill_rect_any(
+        &self,
+        rect: Rect,
+        out: &mut [[f64; 2]],
+        folds: Option<&mut [bool]>,
+        scratch: &mut BandScratch,
+    ) -> RemapStats {
         let w = self.w as usize;
         let rows_total = self.h as usize;
         let (x0, y0) = (rect.x0 as usize, rect.y0 as usize);

@@ -19,7 +19,7 @@ fn fast_ceil(x: f64) -> f64 {
 /// with the whole output's clipping, and the value at column `x` is `start + (x - x0) px`
 /// from the span's first column `x0`, whatever part of the span the window keeps. So
 /// windows that tile the output get exactly the values of one whole-output pass.
-#[inline]
+#[inline(always)]
 pub(super) fn raster(
     p: &[[f64; 2]; 3],
     q: &[[f64; 2]; 3],
