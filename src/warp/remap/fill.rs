@@ -136,7 +136,15 @@ impl RemapPlan<'_> {
                         // right, diagonal, top; bottom, left, diagonal. Only the block's outer
                         // edges can meet a neighbour of another size (the inner ones share
                         // the block's grid points), so only they are searched for gaps.
-                        let (l, r, t, bo) = (i == 0, i + 1 == b.k, j == 0, j + 1 == b.k);
+                        // Edges shared with a whole neighbour block cannot leave a gap
+                        // (`mark_conforming`).
+                        let [cl, cr, ct, cb] = b.conform;
+                        let (l, r, t, bo) = (
+                            i == 0 && !cl,
+                            i + 1 == b.k && !cr,
+                            j == 0 && !ct,
+                            j + 1 == b.k && !cb,
+                        );
                         for (h, edges) in [([0, 1, 3], [r, false, t]), ([0, 3, 2], [bo, l, false])]
                         {
                             written += raster(

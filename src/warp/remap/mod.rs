@@ -242,6 +242,13 @@ struct Block {
     gap: f64,
     /// The image is reversed (det J < 0 on the whole block).
     folded: bool,
+    /// Lattice column of the square when the block is the whole square undivided (`k = 1`,
+    /// its corners the lattice corners' images), else `u32::MAX`.
+    whole: u32,
+    /// Outer edges (left, right, top, bottom) shared with such a whole neighbour: the
+    /// same segment between the same corner images, so no gap can open there and the gap
+    /// search skips them ([`RemapPlan::new`]).
+    conform: [bool; 4],
 }
 
 /// Largest gap (output pixels) between the image of a piece's edge of length `leg` and a
@@ -259,6 +266,35 @@ fn gap_width(m2: f64, leg: f64) -> f64 {
 
 /// Largest gap width searched around a piece (output pixels, [`gap_width`]).
 const MAX_GAP: f64 = 0.5;
+
+/// Marks the outer edges that two whole-square blocks (`k = 1`, kept in the plan) share,
+/// `rows[j]` holding lattice row `j` of `cols` squares. Both blocks rasterize that edge
+/// as the same segment, between the corner images that both took from the one evaluation
+/// of each lattice corner; a pixel centre on either side of it, or on it, is inside one of
+/// the two triangles up to the rasterizer's barycentric slack (`1e-9`, far above the
+/// rounding of the barycentric coordinates), so no gap opens there and the gap search
+/// ([`raster::Gap`]) is skipped on it. Any other outer edge (a neighbour split finer, a
+/// triangle, a Newton box, a square outside the mesh, or one dropped from the plan) keeps
+/// the search.
+fn mark_conforming(rows: &mut [Pieces], cols: usize) {
+    let whole: Vec<Vec<bool>> = rows
+        .iter()
+        .map(|r| {
+            let mut v = vec![false; cols];
+            for b in r.blocks.iter().filter(|b| (b.whole as usize) < cols) {
+                v[b.whole as usize] = true;
+            }
+            v
+        })
+        .collect();
+    let at = |j: usize, i: usize| whole.get(j).and_then(|r| r.get(i)).copied().unwrap_or(false);
+    for (j, r) in rows.iter_mut().enumerate() {
+        for b in r.blocks.iter_mut().filter(|b| (b.whole as usize) < cols) {
+            let i = b.whole as usize;
+            b.conform = [i > 0 && at(j, i - 1), at(j, i + 1), j > 0 && at(j - 1, i), at(j + 1, i)];
+        }
+    }
+}
 
 /// A lattice corner's image and the mesh triangle it lies in (`None`: outside the mesh).
 type Corner = Option<([f64; 2], usize)>;
@@ -402,7 +438,16 @@ impl<'a> RemapPlan<'a> {
                         [vals[k], vals[k + 1], vals[k + nx], vals[k + nx + 1]],
                     );
                     if p[1][0] > p[0][0] && p[2][1] > p[0][1] {
+                        let counts = (out.blocks.len(), out.tris.len(), out.newton.len());
                         refiner.square(p, q, &mut out);
+                        let whole = (out.blocks.len(), out.tris.len(), out.newton.len())
+                            == (counts.0 + 1, counts.1, counts.2)
+                            && out.blocks[counts.0].k == 1
+                            && out.blocks[counts.0].p0 == p[0]
+                            && out.blocks[counts.0].step == [p[1][0] - p[0][0], p[2][1] - p[0][1]];
+                        if whole {
+                            out.blocks[counts.0].whole = i as u32;
+                        }
                     }
                 }
                 // Keep what can reach the output, and note the rows spanned.
@@ -422,6 +467,8 @@ impl<'a> RemapPlan<'a> {
                 out
             })
             .collect();
+        let mut rows = rows;
+        mark_conforming(&mut rows, nx.saturating_sub(1));
         let bands = (h as usize).div_ceil(opts.band_rows as usize);
         RemapPlan { map, opts, w, h, rows, bands }
     }

@@ -301,6 +301,8 @@ impl Refiner<'_> {
             bound: worst,
             gap: gap_width(m2, step[0].max(step[1])),
             folded: sign < 0.0,
+            whole: u32::MAX,
+            conform: [false; 4],
         });
         true
     }

@@ -342,3 +342,32 @@ fn avx2_fill_equals_the_portable_fill_bit_for_bit() {
         }
     }
 }
+
+/// Issue 18: skipping the gap search on the edges two whole-square blocks share
+/// (`mark_conforming`) changes nothing: the same preimages bit for bit, fold marks and
+/// statistics as a plan that searches every outer edge, on the blends of the folded map
+/// (T-junction gaps do occur there), the folded map and the bent one; and the skip is taken.
+#[test]
+fn shared_whole_square_edges_need_no_gap_search() {
+    let folded = load("folded");
+    let half = blend_with_identity(&folded, &crate::exact::Rat::new(1.into(), 2.into()));
+    let bent = load("bent");
+    let mut skipped = 0;
+    for (s, w, h) in [(&half, 150u32, 225u32), (&folded, 150, 225), (&bent, 2048, 2048)] {
+        let plan = RemapPlan::new(s, w, h, RemapOptions::default());
+        let mut searched = RemapPlan::new(s, w, h, RemapOptions::default());
+        for b in searched.rows.iter_mut().flat_map(|r| r.blocks.iter_mut()) {
+            skipped += b.conform.iter().filter(|&&c| c).count();
+            b.conform = [false; 4];
+        }
+        let (pos, folds, st) = fill_all(&plan);
+        let (pos_all, folds_all, st_all) = fill_all(&searched);
+        assert_eq!(st, st_all, "{w}x{h}");
+        assert_eq!(folds, folds_all, "{w}x{h}");
+        let bits = |v: &[[f64; 2]]| -> Vec<u64> {
+            v.iter().flat_map(|p| [p[0].to_bits(), p[1].to_bits()]).collect()
+        };
+        assert!(bits(&pos) == bits(&pos_all), "{w}x{h}: preimages differ");
+    }
+    assert!(skipped > 500, "{skipped}");
+}
