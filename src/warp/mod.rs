@@ -51,6 +51,8 @@ pub use map2::{pull_back_map, warp_map, AffineMap, Map2};
 use rayon::prelude::*;
 use remap::{BandScratch, RemapOptions, RemapPlan, RemapStats};
 use sample::{Source, Texel};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Mutex;
 
 /// Resampling of the input image.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -400,13 +402,22 @@ pub fn warp_samples_into(
         }
     }
     let (interp, bg) = (opts.interp, opts.background);
-    let stats = bands
+    // One worker per thread, each with its own band buffers (allocated once, not per rayon
+    // split: a split's buffer would be a fresh 2 MiB to zero or fault in), taking the next
+    // band from a shared counter until none is left.
+    let workers = rayon::current_num_threads().clamp(1, bands.len());
+    let bands: Vec<Mutex<Vec<Dst<'_>>>> = bands.into_iter().map(Mutex::new).collect();
+    let next = AtomicUsize::new(0);
+    let stats = (0..workers)
         .into_par_iter()
-        .enumerate()
-        .map_init(
-            || (vec![[0.0f64; 2]; band_px], BandScratch::default()),
-            |(pos, scratch), (b, dsts)| {
-                let st = plan.fill_band_with(b, pos, None, scratch);
+        .map(|_| {
+            let (mut pos, mut scratch) = (vec![[0.0f64; 2]; band_px], BandScratch::default());
+            let mut st = RemapStats::default();
+            loop {
+                let b = next.fetch_add(1, Ordering::Relaxed);
+                let Some(cell) = bands.get(b) else { break };
+                let dsts = std::mem::take(&mut *cell.lock().unwrap_or_else(|e| e.into_inner()));
+                st.merge(&plan.fill_band_with(b, &mut pos, None, &mut scratch));
                 for (dst, src) in dsts.into_iter().zip(&srcs) {
                     let n = match &dst {
                         Dst::U8(d) => d.len(),
@@ -422,9 +433,9 @@ pub fn warp_samples_into(
                     }
                 }
                 progress(plan.band_rows().min(h - b as u32 * plan.band_rows()) as u64);
-                st
-            },
-        )
+            }
+            st
+        })
         .reduce(RemapStats::default, |mut a, b| {
             a.merge(&b);
             a
