@@ -34,6 +34,7 @@ pub mod pullback;
 pub mod remap;
 pub mod sample;
 mod sample_simd;
+mod sample_simd512;
 mod sample_simd_color;
 mod sample_simd_color16;
 mod sample_simd_cubic;

@@ -1,4 +1,7 @@
 //! Bilinear resampling of 8- and 16-bit gray images, eight pixels at a time (x86_64 AVX2).
+//! Where the CPU has AVX-512 with VBMI, 8-bit gray runs sixteen at a time
+//! ([`super::sample_simd512`], same arithmetic, bit-identical), handing the groups it
+//! cannot take to the AVX2 kernel here.
 //!
 //! The 16-bit path ([`bilinear_gray16`]) is the same arithmetic with 16-bit taps and the
 //! clamp at 65535; its tap layout is in its docs. Gray + alpha and colour images:
@@ -88,6 +91,26 @@ pub(super) fn bilinear_gray8(
     scalar: impl Fn(&[f64; 2]) -> u8,
 ) -> bool {
     #[cfg(target_arch = "x86_64")]
+    if super::sample_simd512::avx512_fits(data.len(), w, h) {
+        // SAFETY: AVX2 and AVX-512 F, BW, DQ, VL, VBMI are available and `data` holds at
+        // least `w h < 2^31` bytes (`avx512_fits`), as the AVX-512 kernel requires.
+        unsafe { super::sample_simd512::avx512::bilinear_gray8(data, w, h, pos, out, &scalar) };
+        return true;
+    }
+    bilinear_gray8_avx2(data, w, h, pos, out, scalar)
+}
+
+/// [`bilinear_gray8`] without the AVX-512 kernel: the AVX2 kernel alone (eight pixels at a
+/// time), or `false` where there is none.
+pub(super) fn bilinear_gray8_avx2(
+    data: &[u8],
+    w: usize,
+    h: usize,
+    pos: &[[f64; 2]],
+    out: &mut [u8],
+    scalar: impl Fn(&[f64; 2]) -> u8,
+) -> bool {
+    #[cfg(target_arch = "x86_64")]
     if avx2_fits(data.len(), w, h, 1) {
         // SAFETY: AVX2 is available and `data` holds at least `w h < 2^31` bytes
         // (`avx2_fits`), as `avx2::bilinear_gray8` requires.
@@ -137,7 +160,7 @@ pub(super) mod avx2 {
     ///
     /// The CPU supports AVX2; `data.len() >= w h` and `w h < 2^31`.
     #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn bilinear_gray8(
+    pub(in crate::warp) unsafe fn bilinear_gray8(
         data: &[u8],
         w: usize,
         h: usize,
@@ -455,11 +478,14 @@ mod tests {
     use crate::warp::Interp::Bilinear;
 
     family!(Gray8, u8, bilinear_gray8, gray);
+    // The AVX2 kernel alone (`Gray8` runs the AVX-512 one where the CPU has it).
+    family!(Gray8Avx2, u8, bilinear_gray8_avx2, gray);
     family!(Gray16, u16, bilinear_gray16, gray);
 
     #[test]
     fn vector_path_matches_the_scalar_path_bit_for_bit() {
         harness::sweep::<u8, Gray8>(Bilinear, &[1], 5, 2000);
+        harness::sweep::<u8, Gray8Avx2>(Bilinear, &[1], 5, 2000);
     }
 
     #[test]
@@ -473,6 +499,7 @@ mod tests {
     #[test]
     fn row_windows_match_the_scalar_path() {
         harness::smooth_rows::<u8, Gray8>(Bilinear, &[1], 41);
+        harness::smooth_rows::<u8, Gray8Avx2>(Bilinear, &[1], 41);
         harness::smooth_rows::<u16, Gray16>(Bilinear, &[1], 43);
     }
 
@@ -480,6 +507,7 @@ mod tests {
     #[test]
     fn special_positions_match_the_scalar_path() {
         harness::special::<u8, Gray8>(Bilinear, &[1], 6);
+        harness::special::<u8, Gray8Avx2>(Bilinear, &[1], 6);
         harness::special::<u16, Gray16>(Bilinear, &[1], 17);
     }
 
@@ -487,12 +515,14 @@ mod tests {
     #[test]
     fn loads_at_the_bottom_right_cell_stay_inside_the_image() {
         harness::bottom_right::<u8, Gray8>(Bilinear, &[1]);
+        harness::bottom_right::<u8, Gray8Avx2>(Bilinear, &[1]);
         harness::bottom_right::<u16, Gray16>(Bilinear, &[1]);
     }
 
     #[test]
     fn interior_groups_take_the_vector_path() {
         harness::assert_vectorized::<u8, Gray8>(Bilinear, &[1]);
+        harness::assert_vectorized::<u8, Gray8Avx2>(Bilinear, &[1]);
         harness::assert_vectorized::<u16, Gray16>(Bilinear, &[1]);
     }
 
@@ -503,6 +533,15 @@ mod tests {
         Bilinear,
         [1],
         "Random 16-bit images (extreme values included) and random positions."
+    );
+
+    bit_identity_proptest!(
+        gray8_avx2_bit_identical_on_random_images,
+        u8,
+        Gray8Avx2,
+        Bilinear,
+        [1],
+        "Random 8-bit images and random positions, the AVX2 kernel alone."
     );
 
     bit_identity_proptest!(
