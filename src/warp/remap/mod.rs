@@ -245,9 +245,9 @@ struct Block {
     /// Lattice column of the square when the block is the whole square undivided (`k = 1`,
     /// its corners the lattice corners' images), else `u32::MAX`.
     whole: u32,
-    /// Outer edges (left, right, top, bottom) shared with such a whole neighbour: the
-    /// same segment between the same corner images, so no gap can open there and the gap
-    /// search skips them ([`RemapPlan::new`]).
+    /// Outer edges (left, right, top, bottom) shared with such a whole neighbour of the
+    /// same orientation: the same segment between the same corner images, so no gap can
+    /// open there and the gap search skips them (`mark_conforming`).
     conform: [bool; 4],
 }
 
@@ -267,7 +267,8 @@ fn gap_width(m2: f64, leg: f64) -> f64 {
 /// Largest gap width searched around a piece (output pixels, [`gap_width`]).
 const MAX_GAP: f64 = 0.5;
 
-/// Marks the outer edges that two whole-square blocks (`k = 1`, kept in the plan) share,
+/// Marks the outer edges that two whole-square blocks (`k = 1`, kept in the plan, of one
+/// orientation) share,
 /// `rows[j]` holding lattice row `j` of `cols` squares. Both blocks rasterize that edge
 /// as the same segment, between the corner images that both took from the one evaluation
 /// of each lattice corner; a pixel centre on either side of it, or on it, is inside one of
@@ -277,21 +278,29 @@ const MAX_GAP: f64 = 0.5;
 /// triangle, a Newton box, a square outside the mesh, or one dropped from the plan) keeps
 /// the search.
 fn mark_conforming(rows: &mut [Pieces], cols: usize) {
-    let whole: Vec<Vec<bool>> = rows
+    // Per lattice square: 0 none, 1 a whole block, 2 a whole folded block. Only blocks of
+    // one orientation count as sharing an edge: where a fold's crease runs along the edge,
+    // both images lie on one side of it and the search must look across.
+    let whole: Vec<Vec<u8>> = rows
         .iter()
         .map(|r| {
-            let mut v = vec![false; cols];
+            let mut v = vec![0u8; cols];
             for b in r.blocks.iter().filter(|b| (b.whole as usize) < cols) {
-                v[b.whole as usize] = true;
+                v[b.whole as usize] = 1 + u8::from(b.folded);
             }
             v
         })
         .collect();
-    let at = |j: usize, i: usize| whole.get(j).and_then(|r| r.get(i)).copied().unwrap_or(false);
+    let at = |j: usize, i: usize| whole.get(j).and_then(|r| r.get(i)).copied().unwrap_or(0);
     for (j, r) in rows.iter_mut().enumerate() {
         for b in r.blocks.iter_mut().filter(|b| (b.whole as usize) < cols) {
-            let i = b.whole as usize;
-            b.conform = [i > 0 && at(j, i - 1), at(j, i + 1), j > 0 && at(j - 1, i), at(j + 1, i)];
+            let (i, me) = (b.whole as usize, 1 + u8::from(b.folded));
+            b.conform = [
+                i > 0 && at(j, i - 1) == me,
+                at(j, i + 1) == me,
+                j > 0 && at(j - 1, i) == me,
+                at(j + 1, i) == me,
+            ];
         }
     }
 }
