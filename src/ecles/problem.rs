@@ -114,11 +114,6 @@ pub struct Solution {
 }
 
 /// Every entry in lowest terms (one gcd each, in parallel).
-fn reduced(v: &ScaledVec) -> Vec<Rat> {
-    use rayon::prelude::*;
-    (0..v.len()).into_par_iter().map(|i| v.get(i)).collect()
-}
-
 fn key_err(path: impl Into<String>, message: impl Into<String>) -> ProblemError {
     ProblemError::Key { path: path.into(), message: message.into() }
 }
@@ -471,7 +466,7 @@ impl Problem {
         let t0 = std::time::Instant::now();
         let all_constraints_hold = self.system.is_satisfied_fast(&p);
         let t1 = t0.elapsed().as_secs_f64();
-        let cols: Vec<Vec<Rat>> = e.derived_values.iter().map(reduced).collect();
+        let cols: Vec<Vec<Rat>> = e.derived_values.iter().map(ScaledVec::to_rats).collect();
         if std::env::var_os("TRIMORPH_TRACE").is_some() {
             eprintln!(
                 "trace: every constraint checked in {t1:.3} s; lowest terms in {:.3} s",

@@ -308,7 +308,12 @@ impl fmt::Display for Int {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Int(Repr::Small(v)) => fmt::Display::fmt(v, f),
-            Int(Repr::Big(b)) => fmt::Display::fmt(b, f),
+            // The same text as num-bigint's, several times faster ([`super::radix`]).
+            Int(Repr::Big(b)) => f.pad_integral(
+                b.sign() != num_bigint::Sign::Minus,
+                "",
+                &super::radix::decimal(b.magnitude()),
+            ),
         }
     }
 }

@@ -541,9 +541,10 @@ impl ScaledVec {
         Rat::new(self.num[i].clone(), self.den.clone())
     }
 
-    /// All entries in lowest terms.
+    /// All entries in lowest terms ([`super::lowest::lowest_terms`]: a few gcds and a
+    /// product per class of entries instead of one gcd per entry).
     pub fn to_rats(&self) -> Vec<Rat> {
-        (0..self.len()).map(|i| self.get(i)).collect()
+        super::lowest::lowest_terms(&self.num, &self.den)
     }
 
     /// All entries as rationals over the common denominator, *not* reduced (no gcd per

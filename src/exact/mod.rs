@@ -9,6 +9,9 @@
 //!   modulo word-size primes, Chinese remaindering, rational reconstruction with early
 //!   termination, and an exact verification of every answer.
 //! * [`gcd`]: Lehmer's gcd and Wang's rational reconstruction on 64-bit limbs, in place.
+//! * [`radix`]: decimal text of big integers (two interleaved reciprocal divisions).
+//! * [`lowest`]: lowest terms of many values over one denominator, with a few gcds and
+//!   products instead of one gcd per value.
 
 pub mod bitgrowth;
 pub mod crt;
@@ -16,10 +19,12 @@ pub mod dixon;
 pub mod gcd;
 pub mod int;
 pub mod ldu;
+pub mod lowest;
 pub mod lsq;
 pub mod matrix;
 pub mod modp;
 pub mod modular;
+pub mod radix;
 #[cfg(test)]
 pub(crate) mod reference;
 
