@@ -48,6 +48,8 @@ const MAX_STEPS: usize = 10_000;
 struct Lifter<'a> {
     a: &'a SparseIntMatrix,
     lu: LuModP,
+    /// `lu` in gather form, for the one solve per step.
+    solver: super::modp::LuSolver,
     /// Rows of `A` as `(column, value)` in `i64`.
     rows: Vec<Vec<(usize, i64)>>,
 }
@@ -60,7 +62,7 @@ impl Lifter<'_> {
         for (o, v) in bm.iter_mut().zip(r.iter()) {
             *o = zp.from_int(v);
         }
-        if self.lu.solve(bm, xm).is_none() {
+        if self.solver.solve(bm, xm).is_none() {
             return false;
         }
         for (o, &v) in x.iter_mut().zip(xm.iter()) {
@@ -68,6 +70,7 @@ impl Lifter<'_> {
             *o = if u > p / 2 { u as i64 - p as i64 } else { u as i64 };
         }
         let pi = p as i128;
+        let p_inv = inverse_mod_2_128(p);
         for (ri, row) in r.iter_mut().zip(&self.rows) {
             let mut ax: i128 = 0;
             for &(j, v) in row {
@@ -77,7 +80,11 @@ impl Lifter<'_> {
                 IntView::Small(s) => {
                     let t = s as i128 - ax;
                     debug_assert!(t % pi == 0);
-                    Int::from_i128(t / pi)
+                    // An exact quotient is the product with p's inverse modulo 2^128 (no
+                    // 128-bit division: it was a library call per entry and step).
+                    let q = (t as u128).wrapping_mul(p_inv) as i128;
+                    debug_assert_eq!(q, t / pi);
+                    Int::from_i128(q)
                 }
                 IntView::Big(b) => {
                     let t = b - BigInt::from(ax);
@@ -110,7 +117,8 @@ pub fn solve(a: &SparseIntMatrix, b: &[ScaledVec]) -> Option<(Vec<ScaledVec>, So
         let lu = LuModP::factor(zp, k, rows_mod(&zp, a));
         (lu.rank() == k).then_some(lu)
     })?;
-    let lifter = Lifter { a, lu, rows };
+    let solver = lu.solver();
+    let lifter = Lifter { a, lu, solver, rows };
     let sols: Vec<Option<(ScaledVec, usize)>> =
         b.par_iter().map(|col| lifter.solve_column(col)).collect();
     let mut stats = SolveStats::default();
@@ -216,6 +224,18 @@ impl Lifter<'_> {
         let z = super::crt::reconstruct_common(&vals, modulus.magnitude())?;
         Some((ScaledVec::new(z.num, &(&z.den * &dint) * &col.den), total))
     }
+}
+
+/// `p^-1 mod 2^128` for odd `p` (Newton's iteration doubles the correct low bits: p is its
+/// own inverse modulo 8, then 6, 12, ..., 192 bits).
+fn inverse_mod_2_128(p: u64) -> u128 {
+    let p = p as u128;
+    let mut inv = p;
+    for _ in 0..6 {
+        inv = inv.wrapping_mul(2u128.wrapping_sub(p.wrapping_mul(inv)));
+    }
+    debug_assert_eq!(p.wrapping_mul(inv), 1);
+    inv
 }
 
 /// The scheduled attempt after step `j` (growing by a quarter).
@@ -346,7 +366,8 @@ mod tests {
         let rows64 = (0..k)
             .map(|i| a.row(i).iter().map(|(j, v)| (*j, v.as_i64().unwrap())).collect())
             .collect();
-        let lifter = Lifter { a: &a, lu, rows: rows64 };
+        let solver = lu.solver();
+        let lifter = Lifter { a: &a, lu, solver, rows: rows64 };
         let w: Vec<i64> = (0..k).map(|i| 1 + ((i as i64 * 7919 + 13) % 65_521)).collect();
         let (mut bm, mut xm, mut x) = (vec![0u64; k], vec![0u64; k], vec![0i64; k]);
         let (mut r, mut s, mut pj) = (col.num.clone(), BigInt::zero(), BigInt::one());
@@ -400,5 +421,28 @@ mod tests {
         assert_eq!(s.attempt(100, d(5)), None);
         assert_eq!(s.attempt(101, None), None);
         assert_eq!(s.next, attempt_after(101));
+    }
+
+    /// Exact quotients by multiplication with the inverse modulo 2^128, at the ends of the
+    /// range the residual products reach.
+    #[test]
+    fn exact_division_by_the_inverse_modulo_2_128() {
+        for &p in &primes(3) {
+            let inv = inverse_mod_2_128(p);
+            for q in [
+                0i128,
+                1,
+                -1,
+                12345,
+                -(1 << 60),
+                1 << 64,
+                -(1i128 << 64) + 7,
+                i128::MAX / p as i128,
+                i128::MIN / p as i128 + 1,
+            ] {
+                let t = q * p as i128;
+                assert_eq!((t as u128).wrapping_mul(inv) as i128, q, "p {p} q {q}");
+            }
+        }
     }
 }
