@@ -3,7 +3,7 @@
 use super::{Exit, EXIT_INPUT, EXIT_UNSOLVABLE};
 use crate::ecles::problem::{error_json, Problem, ProblemError, Solution};
 use crate::ecles::EclesError;
-use crate::io::{read_text, write_atomic};
+use crate::io::{read_text, AtomicFile, IoError};
 use anyhow::Result;
 use serde_json::json;
 use std::io::Write;
@@ -60,11 +60,18 @@ pub fn run(system: &Path, output: Option<&Path>) -> Result<()> {
     })?;
     let t0 = std::time::Instant::now();
     let solution = solve_problem(&text, &system.display().to_string())?;
-    let body = solution.to_json_text();
-    trace(&format!("formatted {} bytes in {:.3} s", body.len(), t0.elapsed().as_secs_f64()));
     match output {
-        Some(path) => write_atomic(path, body.as_bytes())?,
-        None => std::io::stdout().lock().write_all(body.as_bytes())?,
+        Some(path) => {
+            let mut f = AtomicFile::create(path)?;
+            let written = solution.write_json(&mut f);
+            written.map_err(|source| IoError::Write { path: path.to_path_buf(), source })?;
+            f.commit()?;
+        }
+        None => {
+            let mut out = std::io::BufWriter::with_capacity(1 << 18, std::io::stdout());
+            solution.write_json(&mut out)?;
+            out.flush()?;
+        }
     }
     trace(&format!("written after {:.3} s", t0.elapsed().as_secs_f64()));
     Ok(())

@@ -31,6 +31,7 @@ use crate::exact::ldu::Simplification;
 use crate::exact::matrix::{parse_rat, rat_to_f64, rat_to_string, Rat, ScaledVec, SparseIntMatrix};
 use crate::exact::Int;
 use num_traits::{One, Zero};
+use rayon::prelude::*;
 use serde_json::{json, Map, Value};
 
 /// Smallest `|E| x |D|` (relevant constraints times derived parameters) for which `"auto"`
@@ -113,7 +114,6 @@ pub struct Solution {
     pub path: &'static str,
 }
 
-/// Every entry in lowest terms (one gcd each, in parallel).
 fn key_err(path: impl Into<String>, message: impl Into<String>) -> ProblemError {
     ProblemError::Key { path: path.into(), message: message.into() }
 }
@@ -458,23 +458,36 @@ impl Problem {
         for (&s, v) in self.anchors.iter().zip(&self.anchor_values) {
             p[s] = v.clone();
         }
-        // The final exact check of every constraint, on the unreduced values (no gcd).
-        let raw: Vec<Vec<Rat>> = e.derived_values.iter().map(ScaledVec::to_rats_raw).collect();
-        for (k, &s) in self.derived.iter().enumerate() {
-            p[s] = raw.iter().map(|c| c[k].clone()).collect();
-        }
+        // The final exact check of every constraint runs on the unreduced values (no gcd),
+        // beside the reduction to lowest terms (both in parallel).
         let t0 = std::time::Instant::now();
-        let all_constraints_hold = self.system.is_satisfied_fast(&p);
-        let t1 = t0.elapsed().as_secs_f64();
-        let cols: Vec<Vec<Rat>> = e.derived_values.iter().map(ScaledVec::to_rats).collect();
+        let ((all_constraints_hold, t_check), cols) = rayon::join(
+            || {
+                let mut raw_p = p.clone();
+                let raw: Vec<Vec<Rat>> =
+                    e.derived_values.iter().map(ScaledVec::to_rats_raw).collect();
+                let mut cells: Vec<_> = raw.into_iter().map(Vec::into_iter).collect();
+                for &s in &self.derived {
+                    raw_p[s] =
+                        cells.iter_mut().map(|c| c.next().expect("one per derived")).collect();
+                }
+                (self.system.is_satisfied_fast(&raw_p), t0.elapsed().as_secs_f64())
+            },
+            || {
+                let cols: Vec<Vec<Rat>> =
+                    e.derived_values.par_iter().map(ScaledVec::to_rats).collect();
+                cols
+            },
+        );
         if std::env::var_os("TRIMORPH_TRACE").is_some() {
             eprintln!(
-                "trace: every constraint checked in {t1:.3} s; lowest terms in {:.3} s",
-                t0.elapsed().as_secs_f64() - t1
+                "trace: every constraint checked after {t_check:.3} s; lowest terms beside it, both done in {:.3} s",
+                t0.elapsed().as_secs_f64()
             );
         }
-        for (k, &s) in self.derived.iter().enumerate() {
-            p[s] = cols.iter().map(|c| c[k].clone()).collect();
+        let mut cells: Vec<_> = cols.into_iter().map(Vec::into_iter).collect();
+        for &s in &self.derived {
+            p[s] = cells.iter_mut().map(|c| c.next().expect("one per derived")).collect();
         }
         Ok(Some(Solution {
             all_constraints_hold,
@@ -533,61 +546,56 @@ impl Solution {
 
 impl Solution {
     /// The text `trimorph solve` writes: the same bytes as
-    /// [`crate::io::json_rows`]`(&self.to_json())`, formatted row by row in parallel. The
-    /// values of `p` are in lowest terms on both paths, so no gcd is taken here.
+    /// [`crate::io::json_rows`]`(&self.to_json())` ([`Solution::write_json`] into a string).
     pub fn to_json_text(&self) -> String {
+        let mut out = Vec::new();
+        self.write_json(&mut out).expect("writing to memory");
+        String::from_utf8(out).expect("JSON text is UTF-8")
+    }
+
+    /// Writes [`Solution::to_json_text`]'s bytes to `w`, formatting blocks of rows in
+    /// parallel and writing each block as soon as it and the ones before it are done (while
+    /// the next block is formatted), so the text is never held whole. The values of `p` are
+    /// in lowest terms on both paths, so no gcd is taken here; the few distinct
+    /// denominators of an exact solve are converted to decimal once.
+    pub fn write_json<W: std::io::Write + Send>(&self, w: &mut W) -> std::io::Result<()> {
         use rayon::prelude::*;
         debug_assert!(self.p.iter().flatten().all(|r| r.denom().is_one() || {
             let g = num_integer::Integer::gcd(r.numer(), r.denom());
             g.is_one()
         }));
-        // The values of an exact solve share few denominators: each is converted once.
         let mut dens: Vec<&Int> =
             self.p.iter().flatten().map(|r| r.denom()).filter(|d| !d.is_one()).collect();
         dens.sort_unstable();
         dens.dedup();
         let den_text: std::collections::HashMap<&Int, String> =
             dens.par_iter().map(|&d| (d, d.to_string())).collect();
-        let p_rows: Vec<String> = self
-            .p
-            .par_iter()
-            .map(|r| {
-                let cells: Vec<String> = r
-                    .iter()
-                    .map(|v| match den_text.get(v.denom()) {
-                        Some(d) => format!("\"{}/{d}\"", v.numer()),
-                        None => format!("\"{}\"", v.numer()),
-                    })
-                    .collect();
-                format!("[{}]", cells.join(","))
-            })
-            .collect();
-        let f_rows: Vec<String> = self
-            .p
-            .par_iter()
-            .map(|r| Value::from(r.iter().map(rat_to_f64).collect::<Vec<_>>()).to_string())
-            .collect();
-        let rows = |out: &mut String, rows: &[String]| {
-            if rows.is_empty() {
-                out.push_str("[]");
-                return;
+        let exact_row = |out: &mut String, r: &[Rat]| {
+            out.push('[');
+            for (k, v) in r.iter().enumerate() {
+                if k > 0 {
+                    out.push(',');
+                }
+                out.push('"');
+                v.numer().push_decimal(out);
+                if let Some(d) = den_text.get(v.denom()) {
+                    out.push('/');
+                    out.push_str(d);
+                }
+                out.push('"');
             }
-            out.push_str("[\n");
-            for (j, r) in rows.iter().enumerate() {
-                out.push_str("    ");
-                out.push_str(r);
-                out.push_str(if j + 1 < rows.len() { ",\n" } else { "\n" });
-            }
-            out.push_str("  ]");
+            out.push(']');
         };
-        let total: usize = p_rows.iter().chain(&f_rows).map(|r| r.len() + 6).sum();
-        let mut out = String::with_capacity(total + 256);
-        out.push_str("{\n  \"P\": ");
-        rows(&mut out, &p_rows);
-        out.push_str(",\n  \"P_float\": ");
-        rows(&mut out, &f_rows);
+        let float_row = |out: &mut String, r: &[Rat]| {
+            out.push_str(&Value::from(r.iter().map(rat_to_f64).collect::<Vec<_>>()).to_string());
+        };
+        w.write_all(b"{\n  \"P\": ")?;
+        write_rows(w, &self.p, &exact_row)?;
+        w.write_all(b",\n  \"P_float\": ")?;
+        write_rows(w, &self.p, &float_row)?;
         let list = |v: &[usize]| Value::from(v.to_vec()).to_string();
-        out.push_str(&format!(
+        write!(
+            w,
             ",\n  \"all_constraints_hold\": {},\n  \"fixed_relevant\": {},\n  \"path\": {},\n  \"rank\": {},\n  \"redundant\": {},\n  \"relevant\": {}\n}}\n",
             self.all_constraints_hold,
             list(&self.fixed_relevant),
@@ -595,9 +603,53 @@ impl Solution {
             self.rank,
             list(&self.redundant),
             list(&self.relevant),
-        ));
-        out
+        )
     }
+}
+
+/// Rows of [`Solution::write_json`] per block.
+const JSON_BLOCK: usize = 64;
+
+/// Writes `rows` as the JSON array layout of [`crate::io::json_rows`] (`[]`, or one row per
+/// line indented by four spaces), each row's text from `row`. Blocks of rows are formatted
+/// in parallel; block `k` is written while block `k + 1` is formatted.
+fn write_rows<W, F>(w: &mut W, rows: &[Vec<Rat>], row: &F) -> std::io::Result<()>
+where
+    W: std::io::Write + Send,
+    F: Fn(&mut String, &[Rat]) + Sync,
+{
+    use rayon::prelude::*;
+    if rows.is_empty() {
+        return w.write_all(b"[]");
+    }
+    let n = rows.len();
+    let block = |b: usize| -> String {
+        let lo = b * JSON_BLOCK;
+        let hi = (lo + JSON_BLOCK).min(n);
+        let parts: Vec<String> = rows[lo..hi]
+            .par_iter()
+            .enumerate()
+            .map(|(k, r)| {
+                let mut s = String::from("    ");
+                row(&mut s, r);
+                s.push_str(if lo + k + 1 < n { ",\n" } else { "\n" });
+                s
+            })
+            .collect();
+        parts.concat()
+    };
+    w.write_all(b"[\n")?;
+    let blocks = n.div_ceil(JSON_BLOCK);
+    let mut ready = block(0);
+    for b in 1..=blocks {
+        let (written, next) = rayon::join(
+            || w.write_all(ready.as_bytes()),
+            || if b < blocks { block(b) } else { String::new() },
+        );
+        written?;
+        ready = next;
+    }
+    w.write_all(b"  ]")
 }
 
 /// The JSON error object for an ECLES error: `{"error": kind, "condition": ..., "message": ...}`.
@@ -658,6 +710,47 @@ mod tests {
             path: "modular",
         };
         assert_eq!(empty.to_json_text(), crate::io::json_rows(&empty.to_json()));
+    }
+
+    /// Streaming in blocks (several blocks, one row past a block boundary) gives the
+    /// formatted value's bytes, and a writer that fails part way reports its error.
+    #[test]
+    fn streamed_blocks_equal_the_formatted_value_and_write_errors_surface() {
+        let big: Int = "123456789012345678901234567890123456789".parse().unwrap();
+        let p: Vec<Vec<Rat>> = (0..(2 * JSON_BLOCK + 1) as i64)
+            .map(|i| {
+                vec![
+                    Rat::new(&big * &Int::from(i - 60), Int::from(3 + i % 4)),
+                    Rat::from_integer(Int::from(-i)),
+                ]
+            })
+            .collect();
+        let s = Solution {
+            p,
+            rank: 3,
+            relevant: vec![0, 2],
+            fixed_relevant: vec![1],
+            redundant: Vec::new(),
+            all_constraints_hold: true,
+            path: "modular",
+        };
+        let text = s.to_json_text();
+        assert_eq!(text, crate::io::json_rows(&s.to_json()));
+        struct Fails(usize);
+        impl std::io::Write for Fails {
+            fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+                if self.0 < buf.len() {
+                    return Err(std::io::Error::other("disk full"));
+                }
+                self.0 -= buf.len();
+                Ok(buf.len())
+            }
+            fn flush(&mut self) -> std::io::Result<()> {
+                Ok(())
+            }
+        }
+        let err = s.write_json(&mut Fails(text.len() / 2)).unwrap_err();
+        assert_eq!(err.to_string(), "disk full");
     }
 
     #[test]

@@ -202,6 +202,23 @@ impl Int {
         &(a * x) - &(b * y)
     }
 
+    /// Appends the decimal text of the value to `out` (the same text as `Display`, without
+    /// the formatter's intermediate copies).
+    pub fn push_decimal(&self, out: &mut String) {
+        match self {
+            Int(Repr::Small(v)) => {
+                use std::fmt::Write;
+                write!(out, "{v}").expect("writing to a String");
+            }
+            Int(Repr::Big(b)) => {
+                if b.sign() == num_bigint::Sign::Minus {
+                    out.push('-');
+                }
+                super::radix::push_decimal(b.magnitude(), out);
+            }
+        }
+    }
+
     /// Approximate value as `f64` (correctly rounded for `Small`, nearest for `Big`).
     pub fn to_f64_lossy(&self) -> f64 {
         match self {
@@ -575,6 +592,26 @@ impl FromPrimitive for Int {
 
 #[cfg(test)]
 mod tests {
+    /// `push_decimal` writes `Display`'s text: words, their extremes, and big values of
+    /// both signs.
+    #[test]
+    fn push_decimal_equals_display() {
+        let big: BigInt = BigInt::from(10u32).pow(77) * 3 + 17;
+        for v in [
+            Int::from(0),
+            Int::from(-7),
+            Int::from(i64::MIN),
+            Int::from(i64::MAX),
+            Int::from_i128(i64::MAX as i128 + 1),
+            Int::from_big(big.clone()),
+            Int::from_big(-big),
+        ] {
+            let mut s = String::from("x=");
+            v.push_decimal(&mut s);
+            assert_eq!(s, format!("x={v}"));
+        }
+    }
+
     use super::*;
     use proptest::prelude::*;
 

@@ -43,7 +43,7 @@ fn div_d(u1: u64, u0: u64) -> (u64, u64) {
 }
 
 /// Appends the decimal digits of the little-endian limbs `x` (consumed) to `out`.
-fn push_limbs(mut x: Vec<u64>, out: &mut String) {
+fn push_limbs(mut x: Vec<u64>, out: &mut Vec<u8>) {
     while x.last() == Some(&0) {
         x.pop();
     }
@@ -75,10 +75,10 @@ fn push_limbs(mut x: Vec<u64>, out: &mut String) {
     let mut buf = itoa_buf();
     let mut it = digits.iter().rev();
     if let Some(&first) = it.next() {
-        out.push_str(fmt_u64(first, &mut buf, false));
+        out.extend_from_slice(fmt_u64(first, &mut buf, false));
     }
     for &d in it {
-        out.push_str(fmt_u64(d, &mut buf, true));
+        out.extend_from_slice(fmt_u64(d, &mut buf, true));
     }
 }
 
@@ -98,7 +98,7 @@ const PAIRS: [u8; 200] = {
     t
 };
 /// The decimal digits of `v` (`< 10^19` when `pad`), zero-padded to 19 when `pad`.
-fn fmt_u64(v: u64, buf: &mut [u8; 20], pad: bool) -> &str {
+fn fmt_u64(v: u64, buf: &mut [u8; 20], pad: bool) -> &[u8] {
     // Eight digits at a time: 10^19 = 10^3 * 10^8 * 10^8; each 8-digit block in pairs.
     let (hi, lo) = (v / 100_000_000, (v % 100_000_000) as u32);
     let (top, mid) = (hi / 100_000_000, (hi % 100_000_000) as u32);
@@ -118,7 +118,7 @@ fn fmt_u64(v: u64, buf: &mut [u8; 20], pad: bool) -> &str {
         t /= 10;
     }
     let start = if pad { 1 } else { buf.iter().position(|&c| c != b'0').unwrap_or(19).min(19) };
-    std::str::from_utf8(&buf[start..]).expect("ASCII digits")
+    &buf[start..]
 }
 
 /// Appends the decimal text of `x` to `out`.
@@ -131,14 +131,17 @@ fn fmt_u64(v: u64, buf: &mut [u8; 20], pad: bool) -> &str {
 /// assert_eq!(s, x.to_string());
 /// ```
 pub fn push_decimal(x: &BigUint, out: &mut String) {
-    push_limbs(x.to_u64_digits(), out)
+    let mut bytes = Vec::with_capacity((x.bits() as usize * 3) / 10 + 2);
+    push_limbs(x.to_u64_digits(), &mut bytes);
+    // One validation per number (the digits are ASCII by construction).
+    out.push_str(std::str::from_utf8(&bytes).expect("ASCII digits"));
 }
 
 /// The decimal text of `x` (equal to `x.to_string()`).
 pub fn decimal(x: &BigUint) -> String {
-    let mut s = String::with_capacity((x.bits() as usize * 3) / 10 + 2);
-    push_decimal(x, &mut s);
-    s
+    let mut bytes = Vec::with_capacity((x.bits() as usize * 3) / 10 + 2);
+    push_limbs(x.to_u64_digits(), &mut bytes);
+    String::from_utf8(bytes).expect("ASCII digits")
 }
 
 #[cfg(test)]
