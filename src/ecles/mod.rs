@@ -45,6 +45,7 @@
 
 mod affine;
 pub mod modular;
+pub mod output;
 pub mod problem;
 mod session;
 
