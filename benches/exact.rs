@@ -166,6 +166,11 @@ fn bench(c: &mut Criterion) {
         };
         let f = dir.path().join(format!("{name}.json"));
         std::fs::write(&f, &text).unwrap();
+        // EXACT_BENCH_DUMP=DIR keeps a copy of each problem (for benches/flint_fflu.py).
+        if let Ok(keep) = std::env::var("EXACT_BENCH_DUMP") {
+            std::fs::create_dir_all(&keep).unwrap();
+            std::fs::write(Path::new(&keep).join(format!("{name}.json")), &text).unwrap();
+        }
         let out = dir.path().join(format!("{name}.out.json"));
         g.bench_function(name, |b| b.iter(|| run(&f, &out)));
     }

@@ -27,8 +27,13 @@
 //!    `2 l^2` word products, and one gcd per class. `h` is a multiple of
 //!    `gcd(prod x_i, d)` and divides `d`, which is all identity 3 needs. If `h = 1`, every
 //!    `x_i / d` of the class is in lowest terms (identities 1 and 2).
-//! 4. *Otherwise* some entries share more with `d`; each gets `e_i = gcd(x_i mod h, h)`
-//!    (identity 3), cheap when `h` is short, and becomes `(x_i / e_i) / (d / e_i)`.
+//! 4. *Otherwise* some entries share more with `d`, and `gcd(x_i, d) = gcd(x_i, h)`
+//!    (identity 3). A short `h` gets `e_i = gcd(x_i mod h, h)` per entry (cheap). A wide
+//!    one (a large factor that no seed revealed, shared by a few entries, such as one
+//!    coordinate's values with small denominators) is split: the entries divisible by `h`
+//!    have `e_i = h`, and the others are proved again modulo `h` (steps 3 and 4 with `h` for
+//!    `d`), a few levels deep before falling back to a gcd per entry. Each `x_i / d` becomes
+//!    `(x_i / e_i) / (d / e_i)`.
 //!
 //! Every answer is exact whatever the candidates are: they only decide how much work
 //! step 4 has left. The result equals `Ratio::new` entry by entry (tested).
@@ -90,13 +95,16 @@ pub fn lowest_terms(num: &[Int], den: &Int) -> Vec<Rat> {
             continue;
         }
         let dc = d / &candidates[c];
-        let h = shared_part(idx.iter().map(|&i| &classed[i].1).collect(), &dc);
+        let xs: Vec<(usize, &BigUint)> = idx.iter().map(|&i| (i, &classed[i].1)).collect();
+        let mut extra: Vec<Option<BigUint>> = vec![None; num.len()];
+        for (i, e) in shared_factors(&xs, &dc, REFINE_DEPTH) {
+            extra[i] = Some(e);
+        }
         let reduced: Vec<(usize, Rat)> = idx
             .par_iter()
             .map(|&i| {
                 let x = &classed[i].1;
-                // Step 4, only where the class's proof failed.
-                let e = if h.is_one() { BigUint::one() } else { (x % &h).gcd(&h) };
+                let e = extra[i].clone().unwrap_or_else(BigUint::one);
                 let (n, dd) = if e.is_one() { (x.clone(), dc.clone()) } else { (x / &e, &dc / &e) };
                 let neg = (num[i].signum_i32() < 0) != (sign == Sign::Minus);
                 let n = BigInt::from_biguint(if neg { Sign::Minus } else { Sign::Plus }, n);
@@ -108,6 +116,50 @@ pub fn lowest_terms(num: &[Int], den: &Int) -> Vec<Rat> {
         }
     }
     out.into_iter().map(|r| r.unwrap_or_else(Rat::zero)).collect()
+}
+
+/// Levels of step 4's refinement before it takes a gcd per entry.
+const REFINE_DEPTH: usize = 3;
+
+/// `h` wider than this (bits) is refined by another product rather than a gcd per entry.
+const REFINE_WIDE: u64 = 128;
+
+/// Steps 3 and 4: `gcd(x_i, m)` for each `(i, x_i)` of `xs`, listed only where it is not 1.
+///
+/// `h` = [`shared_part`]: if it is 1, every `x_i` is coprime to `m`. Otherwise
+/// `gcd(x_i, m) = gcd(x_i, h)` (identity 3). A short `h` gets a gcd per entry (cheap). A
+/// wide one (a large factor shared by a few entries that no seed revealed, such as the
+/// values with small denominators of one coordinate) is split: entries divisible by `h` have
+/// `gcd = h`, and the rest are refined the same way modulo `h`, down to `depth` levels.
+fn shared_factors(xs: &[(usize, &BigUint)], m: &BigUint, depth: usize) -> Vec<(usize, BigUint)> {
+    let h = shared_part(xs.iter().map(|e| e.1).collect(), m);
+    if h.is_one() {
+        return Vec::new();
+    }
+    let per_entry = |xs: &[(usize, &BigUint)], h: &BigUint| -> Vec<(usize, BigUint)> {
+        xs.par_iter()
+            .map(|&(i, x)| (i, super::gcd::gcd_biguint(&(x % h), h)))
+            .filter(|(_, e)| !e.is_one())
+            .collect()
+    };
+    if depth == 0 || h.bits() <= REFINE_WIDE {
+        return per_entry(xs, &h);
+    }
+    let rests: Vec<(usize, BigUint)> = xs.par_iter().map(|&(i, x)| (i, x % &h)).collect();
+    let (zero, rest): (Vec<_>, Vec<_>) = rests.into_iter().partition(|(_, r)| r.is_zero());
+    if zero.is_empty() && &h == m {
+        return per_entry(xs, &h); // no progress to make by splitting
+    }
+    let rest: Vec<(usize, &BigUint)> = rest.iter().map(|(i, _)| (*i, xs_lookup(xs, *i))).collect();
+    let mut out: Vec<(usize, BigUint)> = zero.into_iter().map(|(i, _)| (i, h.clone())).collect();
+    out.extend(shared_factors(&rest, &h, depth - 1));
+    out
+}
+
+/// The value of entry `i` in `xs` (sorted by index).
+fn xs_lookup<'a>(xs: &[(usize, &'a BigUint)], i: usize) -> &'a BigUint {
+    let k = xs.binary_search_by_key(&i, |e| e.0).expect("entry of the class");
+    xs[k].1
 }
 
 /// Step 3: a divisor `h` of `d` that every `gcd(x_i, d)` divides; 1 exactly when every
@@ -356,6 +408,24 @@ mod tests {
             .map(|i| {
                 let base = BigInt::from(i + 2).pow(30);
                 int(if i % 37 == 5 { base * &f1 } else { base * 30 + 1 })
+            })
+            .collect();
+        check(&num, &int(d));
+    }
+
+    /// Values with small denominators (numerators that are multiples of nearly all of `D`)
+    /// that no seed picked: their class's shared part is as wide as `d`, and the split by
+    /// divisibility proves the rest with one more product (the 400 x 800 benchmark's second
+    /// coordinate).
+    #[test]
+    fn wide_unseen_shared_parts_are_split_by_divisibility() {
+        let d = big_den(11) * BigInt::from(7u64).pow(60);
+        let n = 240usize;
+        let step = n.div_ceil(SEEDS);
+        let num: Vec<Int> = (0..n)
+            .map(|i| {
+                let k = BigInt::from(i as i64 * 31 + 5);
+                int(if i % step == 3 { (&d / 30) * k } else { k.pow(40) * 30 + 30 })
             })
             .collect();
         check(&num, &int(d));
