@@ -17,7 +17,11 @@
 //!
 //! **The method.**
 //! 1. *Candidates.* `gcd(N_i, D)` exactly for up to [`SEEDS`] entries spread over the vector
-//!    (Lehmer's gcd, [`super::gcd`]); their distinct values, largest first, and 1.
+//!    (Lehmer's gcd, [`super::gcd`]); their distinct values, largest first, and 1. If the
+//!    seeds show more than half as many distinct values as there are seeds, the common
+//!    factors are diverse (the select-all edit
+//!    of a 102-triangle spline: a different ~970-bit factor for each seed), classes would not
+//!    prove themselves, and every entry gets its own gcd instead.
 //! 2. *Classes.* Each entry goes to the largest candidate `g` that divides `N_i` (one
 //!    division), keeping `x_i = N_i / g`.
 //! 3. *Proof per class.* With `d = D / g = 2^k d'` (`d'` odd): `h = gcd(P, d')`, times `2^k`
@@ -33,7 +37,9 @@
 //!    coordinate's values with small denominators) is split: the entries divisible by `h`
 //!    have `e_i = h`, and the others are proved again modulo `h` (steps 3 and 4 with `h` for
 //!    `d`), a few levels deep before falling back to a gcd per entry. Each `x_i / d` becomes
-//!    `(x_i / e_i) / (d / e_i)`.
+//!    `(x_i / e_i) / (d / e_i)`. A class is first tried on a sample of [`SAMPLE`] entries:
+//!    if they already share a wide factor, its entries get a gcd each at once (no product
+//!    that could not prove anything).
 //!
 //! Every answer is exact whatever the candidates are: they only decide how much work
 //! step 4 has left. The result equals `Ratio::new` entry by entry (tested).
@@ -79,7 +85,11 @@ pub fn lowest_terms(num: &[Int], den: &Int) -> Vec<Rat> {
     let sign = big_den.sign();
     let d = big_den.magnitude();
     let mags: Vec<BigUint> = num.par_iter().map(magnitude).collect();
-    let candidates = candidates(&mags, d);
+    let (candidates, uniform) = candidates(&mags, d);
+    if !uniform {
+        // Diverse common factors (a select-all edit's values): one gcd per entry.
+        return num.par_iter().map(|n| Rat::new(n.clone(), den.clone())).collect();
+    }
     // Step 2: each entry's class (largest candidate dividing it) and quotient.
     let classed: Vec<(usize, BigUint)> =
         mags.into_par_iter().map(|n| classify(n, &candidates)).collect();
@@ -118,6 +128,9 @@ pub fn lowest_terms(num: &[Int], den: &Int) -> Vec<Rat> {
     out.into_iter().map(|r| r.unwrap_or_else(Rat::zero)).collect()
 }
 
+/// Entries of a class whose product is tried first ([`shared_factors`]).
+const SAMPLE: usize = 16;
+
 /// Levels of step 4's refinement before it takes a gcd per entry.
 const REFINE_DEPTH: usize = 3;
 
@@ -132,16 +145,26 @@ const REFINE_WIDE: u64 = 128;
 /// values with small denominators of one coordinate) is split: entries divisible by `h` have
 /// `gcd = h`, and the rest are refined the same way modulo `h`, down to `depth` levels.
 fn shared_factors(xs: &[(usize, &BigUint)], m: &BigUint, depth: usize) -> Vec<(usize, BigUint)> {
-    let h = shared_part(xs.iter().map(|e| e.1).collect(), m);
-    if h.is_one() {
-        return Vec::new();
-    }
     let per_entry = |xs: &[(usize, &BigUint)], h: &BigUint| -> Vec<(usize, BigUint)> {
         xs.par_iter()
             .map(|&(i, x)| (i, super::gcd::gcd_biguint(&(x % h), h)))
             .filter(|(_, e)| !e.is_one())
             .collect()
     };
+    // A sample first: if a few entries already share a wide factor with `m`, the class is
+    // not one (diverse large factors, as in a select-all edit's values), and a gcd per
+    // entry is cheaper than products that would not prove anything.
+    if depth == REFINE_DEPTH && xs.len() > 4 * SAMPLE {
+        let step = xs.len() / SAMPLE;
+        let sample: Vec<&BigUint> = xs.iter().step_by(step).map(|e| e.1).collect();
+        if shared_part(sample, m).bits() > REFINE_WIDE {
+            return per_entry(xs, m);
+        }
+    }
+    let h = shared_part(xs.iter().map(|e| e.1).collect(), m);
+    if h.is_one() {
+        return Vec::new();
+    }
     if depth == 0 || h.bits() <= REFINE_WIDE {
         return per_entry(xs, &h);
     }
@@ -302,19 +325,21 @@ fn magnitude(n: &Int) -> BigUint {
 
 /// Step 1: the distinct `gcd(N_i, D)` of up to [`SEEDS`] nonzero entries spread over the
 /// vector, largest first, then 1 (always last, so every entry has a class).
-fn candidates(mags: &[BigUint], d: &BigUint) -> Vec<BigUint> {
+/// Also returns whether the seeds show few distinct gcds (at most half as many values as
+/// seeds, 1 included): if not, the entries' common factors are too diverse for classes to
+/// pay off.
+fn candidates(mags: &[BigUint], d: &BigUint) -> (Vec<BigUint>, bool) {
     let nonzero: Vec<usize> = (0..mags.len()).filter(|&i| !mags[i].is_zero()).collect();
     let step = nonzero.len().div_ceil(SEEDS).max(1);
-    let mut c: Vec<BigUint> = nonzero
-        .par_iter()
-        .step_by(step)
-        .map(|&i| super::gcd::gcd_biguint(&mags[i], d))
-        .filter(|g| !g.is_one())
-        .collect();
+    let mut c: Vec<BigUint> =
+        nonzero.par_iter().step_by(step).map(|&i| super::gcd::gcd_biguint(&mags[i], d)).collect();
+    let seeds = c.len();
     c.sort_unstable_by(|a, b| b.cmp(a));
     c.dedup();
+    let few = 2 * c.len() <= seeds.max(2);
+    c.retain(|g| !g.is_one());
     c.push(BigUint::one());
-    c
+    (c, few)
 }
 
 /// Step 2: the first (largest) candidate dividing `n`, and `n` divided by it. Zero goes to

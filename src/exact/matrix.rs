@@ -560,7 +560,8 @@ impl ScaledVec {
         if d.is_finite() && self.den.bits() < 1000 {
             self.num.iter().map(|n| n.to_f64_lossy() / d).collect()
         } else {
-            self.to_rats().iter().map(rat_to_f64).collect()
+            // The value of n / d does not need lowest terms (no gcd per entry).
+            self.to_rats_raw().iter().map(rat_to_f64).collect()
         }
     }
 
