@@ -70,7 +70,8 @@ fn from_u128(v: u128) -> Vec<u64> {
     out
 }
 
-fn to_big(x: &[u64]) -> BigUint {
+/// A number from little-endian 64-bit limbs.
+pub(super) fn to_big(x: &[u64]) -> BigUint {
     let mut d32 = Vec::with_capacity(2 * x.len());
     for &l in x {
         d32.push(l as u32);

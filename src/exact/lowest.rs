@@ -168,21 +168,16 @@ fn shared_factors(xs: &[(usize, &BigUint)], m: &BigUint, depth: usize) -> Vec<(u
     if depth == 0 || h.bits() <= REFINE_WIDE {
         return per_entry(xs, &h);
     }
-    let rests: Vec<(usize, BigUint)> = xs.par_iter().map(|&(i, x)| (i, x % &h)).collect();
-    let (zero, rest): (Vec<_>, Vec<_>) = rests.into_iter().partition(|(_, r)| r.is_zero());
+    let divisible: Vec<bool> = xs.par_iter().map(|&(_, x)| (x % &h).is_zero()).collect();
+    let (zero, rest): (Vec<_>, Vec<_>) =
+        xs.iter().zip(&divisible).partition(|&(_, &is_zero)| is_zero);
     if zero.is_empty() && &h == m {
         return per_entry(xs, &h); // no progress to make by splitting
     }
-    let rest: Vec<(usize, &BigUint)> = rest.iter().map(|(i, _)| (*i, xs_lookup(xs, *i))).collect();
-    let mut out: Vec<(usize, BigUint)> = zero.into_iter().map(|(i, _)| (i, h.clone())).collect();
+    let rest: Vec<(usize, &BigUint)> = rest.into_iter().map(|(&e, _)| e).collect();
+    let mut out: Vec<(usize, BigUint)> = zero.into_iter().map(|(e, _)| (e.0, h.clone())).collect();
     out.extend(shared_factors(&rest, &h, depth - 1));
     out
-}
-
-/// The value of entry `i` in `xs` (sorted by index).
-fn xs_lookup<'a>(xs: &[(usize, &'a BigUint)], i: usize) -> &'a BigUint {
-    let k = xs.binary_search_by_key(&i, |e| e.0).expect("entry of the class");
-    xs[k].1
 }
 
 /// Step 3: a divisor `h` of `d` that every `gcd(x_i, d)` divides; 1 exactly when every
@@ -221,9 +216,7 @@ fn shared_part(xs: Vec<&BigUint>, d: &BigUint) -> BigUint {
     two * super::gcd::gcd_biguint(&limbs_to_big(&prod), &odd)
 }
 
-fn limbs_to_big(x: &[u64]) -> BigUint {
-    BigUint::from_slice(&x.iter().flat_map(|&l| [l as u32, (l >> 32) as u32]).collect::<Vec<_>>())
-}
+use super::gcd::to_big as limbs_to_big;
 
 /// Montgomery multiplication modulo an odd `m` of `l` limbs, `R = 2^(64 l)` (Koc, Acar and
 /// Kaliski, "Analyzing and comparing Montgomery multiplication algorithms", 1996: CIOS).
