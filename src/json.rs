@@ -33,7 +33,7 @@ struct Strict(Value);
 
 /// The key under which `serde_json` (with `arbitrary_precision`) hands a number's text to
 /// `deserialize_any`, as a one-entry map.
-const NUMBER_TOKEN: &str = "$serde_json::private::Number";
+pub(crate) const NUMBER_TOKEN: &str = "$serde_json::private::Number";
 
 impl<'de> Deserialize<'de> for Strict {
     fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
@@ -122,10 +122,11 @@ fn check_keys(text: &str) -> Result<(), serde_json::Error> {
     }
 }
 
-const DUPLICATE: &str = "duplicate key ";
+pub(crate) const DUPLICATE: &str = "duplicate key ";
 
-/// Any JSON value, skipped, with the keys of every object checked.
-struct Keys;
+/// Any JSON value, skipped, with the keys of every object checked (also how readers that
+/// stream their input skip keys they do not use).
+pub(crate) struct Keys;
 
 impl<'de> Deserialize<'de> for Keys {
     fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {

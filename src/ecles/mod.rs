@@ -44,6 +44,7 @@
 //! ```
 
 mod affine;
+mod input;
 pub mod modular;
 pub mod output;
 pub mod problem;

@@ -16,7 +16,9 @@
 //! | `"path"` | `"auto"` (default), `"modular"` or `"fraction_free"`: which exact solver runs |
 //!
 //! Every value may be a JSON number (read exactly from its decimal text: `0.1` is 1/10) or a
-//! string `"p/q"`, `"p"` or a decimal. The output holds `"P"` (all `n` rows as exact strings
+//! string `"p/q"`, `"p"` or a decimal. The keys may come in any order; the text is read in
+//! one streaming pass straight into exact values, never as a JSON tree (`super::input`,
+//! [`Problem::from_json`], [`Problem::from_reader`]). The output holds `"P"` (all `n` rows as exact strings
 //! in lowest terms), `"P_float"`, `"rank"`, `"relevant"`, `"fixed_relevant"` and
 //! `"redundant"` (constraint and parameter indices, 0-based), and `"path"`: the solver that
 //! ran, `"fraction_free"` (the LDU of thesis ch. 6-9) or `"modular"` (the multi-modular
@@ -26,13 +28,13 @@
 //! (each redundant constraint depends on the relevant ones before it; see
 //! [`super::modular`]).
 
+use super::input::{Raw, RawR, PATHS};
 use super::{ConstraintSystem, EclesError, InitOptions};
 use crate::exact::ldu::Simplification;
-use crate::exact::matrix::{parse_rat, Rat, ScaledVec, SparseIntMatrix};
+use crate::exact::matrix::{Rat, ScaledVec, SparseIntMatrix};
 use crate::exact::Int;
-use num_traits::Zero;
+use num_traits::{Signed, Zero};
 use rayon::prelude::*;
-use serde_json::{Map, Value};
 
 pub use super::output::error_json;
 
@@ -116,150 +118,9 @@ pub struct Solution {
     pub path: &'static str,
 }
 
-fn key_err(path: impl Into<String>, message: impl Into<String>) -> ProblemError {
+/// A [`ProblemError::Key`] at `path`.
+pub(super) fn key_err(path: impl Into<String>, message: impl Into<String>) -> ProblemError {
     ProblemError::Key { path: path.into(), message: message.into() }
-}
-
-fn describe(v: &Value) -> String {
-    let s = v.to_string();
-    if s.len() > 40 {
-        format!("{}...", &s[..40])
-    } else {
-        s
-    }
-}
-
-fn num(v: &Value, path: &str) -> Result<Rat, ProblemError> {
-    let text = match v {
-        Value::Number(n) => n.to_string(),
-        Value::String(s) => s.clone(),
-        _ => {
-            return Err(key_err(
-                path,
-                format!("expected a number or a \"p/q\" string, found {}", describe(v)),
-            ))
-        }
-    };
-    parse_rat(&text).map_err(|e| key_err(path, e.to_string()))
-}
-
-fn row(v: &Value, path: &str, len: Option<usize>) -> Result<Vec<Rat>, ProblemError> {
-    let arr = v
-        .as_array()
-        .ok_or_else(|| key_err(path, format!("expected an array, found {}", describe(v))))?;
-    if let Some(l) = len {
-        if arr.len() != l {
-            return Err(key_err(path, format!("expected {l} values, found {}", arr.len())));
-        }
-    }
-    arr.iter().enumerate().map(|(j, x)| num(x, &format!("{path}[{j}]"))).collect()
-}
-
-fn rows(v: &Value, path: &str, len: Option<usize>) -> Result<Vec<Vec<Rat>>, ProblemError> {
-    let arr = v.as_array().ok_or_else(|| {
-        key_err(path, format!("expected an array of rows, found {}", describe(v)))
-    })?;
-    arr.iter().enumerate().map(|(i, r)| row(r, &format!("{path}[{i}]"), len)).collect()
-}
-
-fn index_key(k: &str, path: &str, n: usize) -> Result<usize, ProblemError> {
-    let i: usize = k.trim().parse().map_err(|_| {
-        key_err(format!("{path}.\"{k}\""), "keys must be parameter indices (0, 1, 2, ...)")
-    })?;
-    if i >= n {
-        return Err(key_err(
-            format!("{path}.\"{k}\""),
-            format!("parameter {i} is out of range (there are {n})"),
-        ));
-    }
-    Ok(i)
-}
-
-fn object<'a>(
-    doc: &'a Map<String, Value>,
-    key: &str,
-) -> Result<Option<&'a Map<String, Value>>, ProblemError> {
-    match doc.get(key) {
-        None | Some(Value::Null) => Ok(None),
-        Some(Value::Object(o)) => Ok(Some(o)),
-        Some(v) => Err(key_err(
-            key,
-            format!("expected an object {{\"index\": ...}}, found {}", describe(v)),
-        )),
-    }
-}
-
-/// `R` as `m` dense rows of `n` integers.
-fn dense_rows(r_val: &Value, n: usize) -> Result<Vec<Vec<(usize, Int)>>, ProblemError> {
-    let r_rows = r_val
-        .as_array()
-        .ok_or_else(|| key_err("R", "expected an array of rows or {\"rows\": ...}"))?;
-    let mut sparse = Vec::with_capacity(r_rows.len());
-    for (i, rv) in r_rows.iter().enumerate() {
-        let vals = row(rv, &format!("R[{i}]"), Some(n))?;
-        let mut out = Vec::new();
-        for (j, v) in vals.into_iter().enumerate() {
-            if !v.is_integer() {
-                return Err(key_err(format!("R[{i}][{j}]"), "coefficients must be integers"));
-            }
-            if !v.is_zero() {
-                out.push((j, v.to_integer()));
-            }
-        }
-        sparse.push(out);
-    }
-    Ok(sparse)
-}
-
-/// `R` in the sparse form `{"rows": [[[col, val], ...], ...]}`.
-fn sparse_rows(o: &Map<String, Value>, n: usize) -> Result<Vec<Vec<(usize, Int)>>, ProblemError> {
-    let rows_v = o.get("rows").ok_or_else(|| {
-        key_err("R", "the sparse form needs \"rows\": [[[column, value], ...], ...]")
-    })?;
-    let rows_a = rows_v.as_array().ok_or_else(|| {
-        key_err("R.rows", format!("expected an array, found {}", describe(rows_v)))
-    })?;
-    let mut out = Vec::with_capacity(rows_a.len());
-    for (i, rv) in rows_a.iter().enumerate() {
-        let path = format!("R.rows[{i}]");
-        let pairs = rv.as_array().ok_or_else(|| {
-            key_err(
-                &path,
-                format!("expected an array of [column, value] pairs, found {}", describe(rv)),
-            )
-        })?;
-        let mut r: Vec<(usize, Int)> = Vec::with_capacity(pairs.len());
-        for (k, pv) in pairs.iter().enumerate() {
-            let pp = format!("{path}[{k}]");
-            let pair = pv.as_array().filter(|a| a.len() == 2).ok_or_else(|| {
-                key_err(&pp, format!("expected [column, value], found {}", describe(pv)))
-            })?;
-            let c = pair[0].as_u64().ok_or_else(|| {
-                key_err(
-                    format!("{pp}[0]"),
-                    format!("expected a column index, found {}", describe(&pair[0])),
-                )
-            })? as usize;
-            if c >= n {
-                return Err(key_err(
-                    format!("{pp}[0]"),
-                    format!("column {c} is out of range (there are {n} parameters)"),
-                ));
-            }
-            let v = num(&pair[1], &format!("{pp}[1]"))?;
-            if !v.is_integer() {
-                return Err(key_err(format!("{pp}[1]"), "coefficients must be integers"));
-            }
-            r.push((c, v.to_integer()));
-        }
-        r.sort_by_key(|e| e.0);
-        if let Some(w) = r.windows(2).find(|w| w[0].0 == w[1].0) {
-            return Err(key_err(&path, format!("column {} is given twice", w[0].0)));
-        }
-        r.retain(|e| !e.1.is_zero());
-        out.push(r);
-    }
-    Ok(out)
 }
 
 /// Largest bit size of a weight's numerator and denominator (weights from about 1e-38 to
@@ -267,162 +128,6 @@ fn sparse_rows(o: &Map<String, Value>, n: usize) -> Result<Vec<Vec<(usize, Int)>
 pub const MAX_WEIGHT_BITS: u64 = 128;
 
 impl Problem {
-    /// Parses a problem from JSON text.
-    pub fn from_json(text: &str) -> Result<Problem, ProblemError> {
-        let doc: Value = crate::json::parse(text).map_err(|e| ProblemError::Json(e.to_string()))?;
-        let doc =
-            doc.as_object().ok_or_else(|| key_err("(top level)", "expected a JSON object"))?;
-        let p = rows(
-            doc.get("P").ok_or_else(|| key_err("P", "missing (n rows of current values)"))?,
-            "P",
-            None,
-        )?;
-        let n = p.len();
-        let d = p.first().map_or(1, Vec::len);
-        if d == 0 {
-            return Err(key_err("P[0]", "rows must have at least one value"));
-        }
-        if let Some((i, _)) = p.iter().enumerate().find(|(_, r)| r.len() != d) {
-            return Err(key_err(format!("P[{i}]"), format!("expected {d} values like P[0]")));
-        }
-        let r_val = doc.get("R").ok_or_else(|| key_err("R", "missing (m rows of n integers)"))?;
-        let sparse = match r_val {
-            Value::Object(o) => sparse_rows(o, n)?,
-            _ => dense_rows(r_val, n)?,
-        };
-        let m = sparse.len();
-        let r = SparseIntMatrix::from_rows(n, sparse).expect("columns checked");
-        let q = match doc.get("Q") {
-            None | Some(Value::Null) => vec![vec![Rat::zero(); d]; m],
-            Some(v) => {
-                let q = rows(v, "Q", Some(d))?;
-                if q.len() != m {
-                    return Err(key_err(
-                        "Q",
-                        format!("expected {m} rows (one per row of R), found {}", q.len()),
-                    ));
-                }
-                q
-            }
-        };
-        let system = ConstraintSystem::with_dim(r, q, d)?;
-
-        let anchors_obj = object(doc, "anchors")?
-            .ok_or_else(|| key_err("anchors", "missing (object: index -> new value)"))?;
-        let mut anchors: Vec<(usize, Vec<Rat>)> = Vec::new();
-        for (k, v) in anchors_obj {
-            let i = index_key(k, "anchors", n)?;
-            anchors.push((i, row(v, &format!("anchors.\"{k}\""), Some(d))?));
-        }
-        anchors.sort_by_key(|e| e.0);
-        if let Some(w) = anchors.windows(2).find(|w| w[0].0 == w[1].0) {
-            return Err(key_err("anchors", format!("parameter {} is given twice", w[0].0)));
-        }
-        let derived_val =
-            doc.get("derived").ok_or_else(|| key_err("derived", "missing (array of indices)"))?;
-        let derived_arr = derived_val
-            .as_array()
-            .ok_or_else(|| key_err("derived", "expected an array of indices"))?;
-        let mut derived = Vec::with_capacity(derived_arr.len());
-        for (k, v) in derived_arr.iter().enumerate() {
-            let i = v.as_u64().ok_or_else(|| {
-                key_err(
-                    format!("derived[{k}]"),
-                    format!("expected a parameter index, found {}", describe(v)),
-                )
-            })? as usize;
-            if i >= n {
-                return Err(key_err(
-                    format!("derived[{k}]"),
-                    format!("parameter {i} is out of range (there are {n})"),
-                ));
-            }
-            derived.push(i);
-        }
-        let pos_of = |i: usize, path: &str| {
-            derived
-                .iter()
-                .position(|&s| s == i)
-                .ok_or_else(|| key_err(path, format!("parameter {i} is not derived")))
-        };
-        let mut hints: Vec<Vec<Rat>> = derived.iter().map(|&s| p[s].clone()).collect();
-        if let Some(h) = object(doc, "hints")? {
-            for (k, v) in h {
-                let path = format!("hints.\"{k}\"");
-                let i = index_key(k, "hints", n)?;
-                hints[pos_of(i, &path)?] = row(v, &path, Some(d))?;
-            }
-        }
-        let mut weights = vec![Rat::from_integer(Int::from(1)); derived.len()];
-        if let Some(w) = object(doc, "weights")? {
-            for (k, v) in w {
-                let path = format!("weights.\"{k}\"");
-                let i = index_key(k, "weights", n)?;
-                let val = num(v, &path)?;
-                if val <= Rat::zero() {
-                    return Err(key_err(path, "weights must be positive"));
-                }
-                // Weights only say how much each derived value matters relative to the
-                // others; huge exact numbers (1e10000) only make the exact solve crawl.
-                if val.numer().bits() > MAX_WEIGHT_BITS || val.denom().bits() > MAX_WEIGHT_BITS {
-                    return Err(key_err(
-                        path,
-                        format!("weights must have a numerator and a denominator below 2^{MAX_WEIGHT_BITS} (about 1e38); rescale the weights (only their ratios matter)"),
-                    ));
-                }
-                weights[pos_of(i, &path)?] = val;
-            }
-        }
-        let strong = match doc.get("strong") {
-            None | Some(Value::Null) => false,
-            Some(Value::Bool(b)) => *b,
-            Some(v) => {
-                return Err(key_err(
-                    "strong",
-                    format!("expected true or false, found {}", describe(v)),
-                ))
-            }
-        };
-        let method = match doc.get("method") {
-            None | Some(Value::Null) => Simplification::Turner,
-            Some(Value::String(s)) => s.parse().map_err(|e: String| key_err("method", e))?,
-            Some(v) => {
-                return Err(key_err(
-                    "method",
-                    format!("expected \"none\", \"gcd\" or \"turner\", found {}", describe(v)),
-                ))
-            }
-        };
-        let path = match doc.get("path") {
-            None | Some(Value::Null) => SolvePath::Auto,
-            Some(Value::String(s)) if s == "auto" => SolvePath::Auto,
-            Some(Value::String(s)) if s == "modular" => SolvePath::Modular,
-            Some(Value::String(s)) if s == "fraction_free" => SolvePath::FractionFree,
-            Some(v) => {
-                return Err(key_err(
-                    "path",
-                    format!(
-                        "expected \"auto\", \"modular\" or \"fraction_free\", found {}",
-                        describe(v)
-                    ),
-                ))
-            }
-        };
-        let (anchors, anchor_values) = anchors.into_iter().unzip();
-        Ok(Problem {
-            system,
-            p,
-            anchors,
-            anchor_values,
-            derived,
-            hints,
-            weights,
-            strong,
-            method,
-            path,
-        })
-    }
-
     /// Runs ECLES Initialize and one Update. Errors are the ECLES errors (unsolvable edits
     /// are `NotStronglySolvable` / `NotWeaklySolvable`).
     pub fn solve(&self) -> Result<Solution, EclesError> {
@@ -528,6 +233,189 @@ impl Problem {
             path: "fraction_free",
         })
     }
+}
+
+impl Problem {
+    /// The problem from every key as read ([`super::input`]), after the checks that need
+    /// several keys (sizes against `n`, `d` and `m`, indices, the derived set), in the order
+    /// `P`, `R`, `Q`, `anchors`, `derived`, `hints`, `weights`.
+    pub(super) fn from_raw(raw: Raw) -> Result<Problem, ProblemError> {
+        let p = raw.p.ok_or_else(|| key_err("P", "missing (n rows of current values)"))?;
+        let n = p.len();
+        let d = p.first().map_or(1, Vec::len);
+        if d == 0 {
+            return Err(key_err("P[0]", "rows must have at least one value"));
+        }
+        if let Some((i, _)) = p.iter().enumerate().find(|(_, r)| r.len() != d) {
+            return Err(key_err(format!("P[{i}]"), format!("expected {d} values like P[0]")));
+        }
+        let sparse = match raw.r.ok_or_else(|| key_err("R", "missing (m rows of n integers)"))? {
+            RawR::Dense(rows) => {
+                let mut out = Vec::with_capacity(rows.len());
+                for (i, (len, nz)) in rows.into_iter().enumerate() {
+                    if len != n {
+                        return Err(key_err(
+                            format!("R[{i}]"),
+                            format!("expected {n} values, found {len}"),
+                        ));
+                    }
+                    out.push(nz);
+                }
+                out
+            }
+            RawR::Sparse(rows) => {
+                let mut out = Vec::with_capacity(rows.len());
+                for (i, mut r) in rows.into_iter().enumerate() {
+                    if let Some(k) = r.iter().position(|e| e.0 >= n) {
+                        return Err(key_err(
+                            format!("R.rows[{i}][{k}][0]"),
+                            format!("column {} is out of range (there are {n} parameters)", r[k].0),
+                        ));
+                    }
+                    r.sort_by_key(|e| e.0);
+                    if let Some(w) = r.windows(2).find(|w| w[0].0 == w[1].0) {
+                        return Err(key_err(
+                            format!("R.rows[{i}]"),
+                            format!("column {} is given twice", w[0].0),
+                        ));
+                    }
+                    r.retain(|e| !e.1.is_zero());
+                    out.push(r);
+                }
+                out
+            }
+        };
+        let m = sparse.len();
+        let r = SparseIntMatrix::from_rows(n, sparse).expect("columns checked");
+        let q = match raw.q.flatten() {
+            None => vec![vec![Rat::zero(); d]; m],
+            Some(q) => {
+                if let Some((i, r)) = q.iter().enumerate().find(|(_, r)| r.len() != d) {
+                    return Err(key_err(
+                        format!("Q[{i}]"),
+                        format!("expected {d} values, found {}", r.len()),
+                    ));
+                }
+                if q.len() != m {
+                    return Err(key_err(
+                        "Q",
+                        format!("expected {m} rows (one per row of R), found {}", q.len()),
+                    ));
+                }
+                q
+            }
+        };
+        let system = ConstraintSystem::with_dim(r, q, d)?;
+
+        let anchors_raw = raw
+            .anchors
+            .ok_or_else(|| key_err("anchors", "missing (object: index -> new value)"))?;
+        let mut anchors: Vec<(usize, Vec<Rat>)> = Vec::with_capacity(anchors_raw.len());
+        for (k, v) in anchors_raw {
+            let i = index_key(&k, "anchors", n)?;
+            if v.len() != d {
+                return Err(key_err(
+                    format!("anchors.\"{k}\""),
+                    format!("expected {d} values, found {}", v.len()),
+                ));
+            }
+            anchors.push((i, v));
+        }
+        anchors.sort_by_key(|e| e.0);
+        if let Some(w) = anchors.windows(2).find(|w| w[0].0 == w[1].0) {
+            return Err(key_err("anchors", format!("parameter {} is given twice", w[0].0)));
+        }
+        let derived =
+            raw.derived.ok_or_else(|| key_err("derived", "missing (array of indices)"))?;
+        if let Some((k, &i)) = derived.iter().enumerate().find(|(_, &i)| i >= n) {
+            return Err(key_err(
+                format!("derived[{k}]"),
+                format!("parameter {i} is out of range (there are {n})"),
+            ));
+        }
+        // Position of each derived parameter (the first, if one is listed twice: the edit
+        // check refuses that below).
+        let mut pos = vec![usize::MAX; n];
+        for (k, &s) in derived.iter().enumerate().rev() {
+            pos[s] = k;
+        }
+        let pos_of = |i: usize, path: &str| match pos[i] {
+            usize::MAX => Err(key_err(path, format!("parameter {i} is not derived"))),
+            k => Ok(k),
+        };
+        let mut hints: Vec<Vec<Rat>> = derived.iter().map(|&s| p[s].clone()).collect();
+        for (k, v) in raw.hints.unwrap_or_default() {
+            let path = format!("hints.\"{k}\"");
+            let i = index_key(&k, "hints", n)?;
+            let at = pos_of(i, &path)?;
+            if v.len() != d {
+                return Err(key_err(path, format!("expected {d} values, found {}", v.len())));
+            }
+            hints[at] = v;
+        }
+        let mut weights = vec![Rat::from_integer(Int::from(1)); derived.len()];
+        for (k, val) in raw.weights.unwrap_or_default() {
+            let path = format!("weights.\"{k}\"");
+            let i = index_key(&k, "weights", n)?;
+            if !val.is_positive() {
+                return Err(key_err(path, "weights must be positive"));
+            }
+            // Weights only say how much each derived value matters relative to the others;
+            // huge exact numbers (1e10000) only make the exact solve crawl.
+            if val.numer().bits() > MAX_WEIGHT_BITS || val.denom().bits() > MAX_WEIGHT_BITS {
+                return Err(key_err(
+                path,
+                format!("weights must have a numerator and a denominator below 2^{MAX_WEIGHT_BITS} (about 1e38); rescale the weights (only their ratios matter)"),
+            ));
+            }
+            weights[pos_of(i, &path)?] = val;
+        }
+        let method = match raw.method {
+            None => Simplification::Turner,
+            Some(s) => s.parse().map_err(|e: String| key_err("method", e))?,
+        };
+        let path = match raw.path.as_deref() {
+            None | Some("auto") => SolvePath::Auto,
+            Some("modular") => SolvePath::Modular,
+            Some("fraction_free") => SolvePath::FractionFree,
+            Some(s) => {
+                return Err(key_err(
+                    "path",
+                    format!(
+                        "expected {PATHS}, found {}",
+                        serde_json::to_string(s).unwrap_or_default()
+                    ),
+                ))
+            }
+        };
+        let (anchors, anchor_values) = anchors.into_iter().unzip();
+        Ok(Problem {
+            system,
+            p,
+            anchors,
+            anchor_values,
+            derived,
+            hints,
+            weights,
+            strong: raw.strong.unwrap_or(false),
+            method,
+            path,
+        })
+    }
+}
+
+/// A key of an index object: a parameter index below `n`.
+fn index_key(k: &str, name: &str, n: usize) -> Result<usize, ProblemError> {
+    let i: usize = k.trim().parse().map_err(|_| {
+        key_err(format!("{name}.\"{k}\""), "keys must be parameter indices (0, 1, 2, ...)")
+    })?;
+    if i >= n {
+        return Err(key_err(
+            format!("{name}.\"{k}\""),
+            format!("parameter {i} is out of range (there are {n})"),
+        ));
+    }
+    Ok(i)
 }
 
 #[cfg(test)]

@@ -138,8 +138,22 @@ pub fn parse_rat(text: &str) -> Result<Rat, ParseRatError> {
     if exp.saturating_abs() > MAX_DECIMAL_EXPONENT {
         return Err(ParseRatError::Exponent(text.to_string()));
     }
-    let digits: BigInt = format!("0{ip}{fp}").parse().map_err(|_| err())?;
     let scale = exp - fp.len() as i64;
+    // Fast path: at most 18 digits and a power of ten below 10^19 (every coordinate and
+    // coefficient a problem file usually holds), reduced with a machine-word gcd; the same
+    // value in lowest terms as the general path below.
+    if ip.len() + fp.len() <= 18 && scale.abs() <= 18 {
+        let m = ip.bytes().chain(fp.bytes()).fold(0u64, |m, b| m * 10 + u64::from(b - b'0'));
+        let (m, p) = (m as i128, 10i128.pow(scale.unsigned_abs() as u32));
+        let (p, q) = if scale >= 0 {
+            (m * p, 1)
+        } else {
+            let g = num_integer::Integer::gcd(&m, &p);
+            (m / g, p / g)
+        };
+        return Ok(Rat::new_raw(Int::from_i128(if neg { -p } else { p }), Int::from_i128(q)));
+    }
+    let digits: BigInt = format!("0{ip}{fp}").parse().map_err(|_| err())?;
     let ten = BigInt::from(10);
     let v = if scale >= 0 {
         BigRational::from_integer(digits * num_traits::pow(ten, scale as usize))
@@ -435,6 +449,63 @@ mod tests {
         }
         assert!(matches!(parse_rat("5/0"), Err(ParseRatError::Syntax(_))));
         assert!(matches!(parse_rat("-5/-0"), Err(ParseRatError::Syntax(_))));
+    }
+
+    /// The value of decimal text `sign ip . fp e exp`, computed independently in BigRational.
+    fn decimal_by_bigint(neg: bool, ip: &str, fp: &str, exp: i64) -> Rat {
+        let digits: BigInt = format!("0{ip}{fp}").parse().unwrap();
+        let scale = exp - fp.len() as i64;
+        let p = num_traits::pow(BigInt::from(10), scale.unsigned_abs() as usize);
+        let v = if scale >= 0 {
+            BigRational::from_integer(digits * p)
+        } else {
+            BigRational::new(digits, p)
+        };
+        rat_from_big(&if neg { -v } else { v })
+    }
+
+    proptest::proptest! {
+        /// The machine-word fast path of decimals (up to 18 digits, powers of ten up to
+        /// 10^18) and the general path on both sides of its limits give one value in lowest
+        /// terms.
+        #[test]
+        fn decimal_fast_path_matches_the_bigint_path(
+            neg in proptest::bool::ANY,
+            ip in "[0-9]{0,12}",
+            fp in "[0-9]{0,12}",
+            exp in -25i64..25,
+        ) {
+            proptest::prop_assume!(!(ip.is_empty() && fp.is_empty()));
+            let sign = if neg { "-" } else { "" };
+            let text = match (fp.is_empty(), exp) {
+                (true, 0) => format!("{sign}{ip}"),
+                (true, e) => format!("{sign}{ip}e{e}"),
+                (false, 0) => format!("{sign}{ip}.{fp}"),
+                (false, e) => format!("{sign}{ip}.{fp}E{e}"),
+            };
+            let want = decimal_by_bigint(neg, &ip, &fp, exp);
+            let got = parse_rat(&text).unwrap();
+            proptest::prop_assert_eq!(&got, &want, "{}", text);
+            proptest::prop_assert_eq!(rat_to_string(&got), rat_to_string(&want));
+        }
+    }
+
+    #[test]
+    fn decimal_fast_path_edges() {
+        for (text, ip, fp, exp) in [
+            ("999999999999999999", "999999999999999999", "", 0),
+            ("999999999999999999e18", "999999999999999999", "", 18),
+            ("-0.000000000000000001", "0", "000000000000000001", 0),
+            ("1e-18", "1", "", -18),
+            ("1e19", "1", "", 19),
+            ("-0", "0", "", 0),
+            ("0.000", "0", "000", 0),
+            ("9999999999999999999", "9999999999999999999", "", 0),
+        ] {
+            let neg = text.starts_with('-');
+            assert_eq!(parse_rat(text).unwrap(), decimal_by_bigint(neg, ip, fp, exp), "{text}");
+        }
+        assert_eq!(rat_to_string(&parse_rat("-0.000").unwrap()), "0");
     }
 
     #[test]
