@@ -11,6 +11,8 @@
 //! * `edit_process/select_all_edit_1000`: `trimorph edit` of a 1,000-triangle spline, one
 //!   anchor translated with every other point derived, in the default bounded mode (the
 //!   determining-set path; target < 10 s, goal 1 s).
+//! * `edit_process/select_all_unbounded_rotate_100`: `trimorph edit --unbounded` of a
+//!   100-triangle spline, a select-all rotation with exact values (ECLES's modular path).
 //!
 //! The FLINT comparison is `benches/flint_fflu.py` (needs python-flint), the scaling series
 //! `benches/exact_scaling.sh`.
@@ -201,6 +203,28 @@ fn bench_edit(c: &mut Criterion) {
                 .output()
                 .unwrap();
             assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        })
+    });
+    // Exact (unbounded) values: a select-all rotation of a 100-triangle spline on ECLES's
+    // modular path (the fraction-free sessions took about 13 s).
+    let def100 = dir.path().join("mesh100.json");
+    std::fs::write(&def100, trimorph::io::deformation::to_string(&select_all_spline(100), None))
+        .unwrap();
+    let rot = dir.path().join("rotate.json");
+    std::fs::write(
+        &rot,
+        r#"[{"op": "rotate", "anchors": {"near": [[100, 100]]}, "neighborhood": "all", "center": [90, 95], "angle": 0.2}]"#,
+    )
+    .unwrap();
+    g.bench_function("select_all_unbounded_rotate_100", |b| {
+        b.iter(|| {
+            let o = Command::new(env!("CARGO_BIN_EXE_trimorph"))
+                .args(["edit", def100.to_str().unwrap(), "--script", rot.to_str().unwrap()])
+                .args(["--unbounded", "-o", out.to_str().unwrap()])
+                .output()
+                .unwrap();
+            assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+            assert!(String::from_utf8_lossy(&o.stdout).contains("modular path"));
         })
     });
     g.finish();

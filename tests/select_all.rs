@@ -1,6 +1,7 @@
 //! Select-all edits on a large mesh through the command line (issue: exact core at scale,
 //! point 4): `trimorph edit` with `"neighborhood": "all"` in its default bounded mode takes
-//! the determining-set path (`edit::global`), and the result is exactly C1.
+//! the determining-set path (`edit::global`), with `--unbounded` the modular path of ECLES,
+//! and the result is exactly C1.
 
 mod common;
 
@@ -42,7 +43,7 @@ fn a_select_all_edit_of_a_600_triangle_mesh_is_exactly_c1_and_moves_the_anchor()
         stdout.contains("strongly solvable") && stdout.contains("C1 holds exactly"),
         "{stdout}"
     );
-    // The line says which path ran; `--unbounded` keeps the ECLES sessions.
+    // The line says which path ran.
     assert!(stdout.contains("(solved in determining-set coordinates)"), "{stdout}");
     let (after, _) =
         trimorph::io::deformation::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
@@ -64,5 +65,50 @@ fn a_select_all_edit_of_a_600_triangle_mesh_is_exactly_c1_and_moves_the_anchor()
     // Points near the anchor follow; the check command agrees.
     let moved_points = (0..n).filter(|&i| before.point_f64(i) != after.point_f64(i)).count();
     assert!(moved_points > n / 10, "{moved_points} of {n} points moved");
+    ok(&trimorph(&["check", s(&out)]));
+}
+
+/// `trimorph edit --unbounded` keeps exact values, so a select-all edit cannot take the
+/// determining-set path; it runs on ECLES's modular path (issue 24, point 4) and gives the
+/// fraction-free sessions' exact values.
+#[test]
+fn an_unbounded_select_all_edit_runs_on_the_modular_path_with_the_sessions_values() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut x = 0x9E37_79B9_7F4A_7C15u64;
+    let mut next = || {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        (x % 100_000) as f64 / 1000.0
+    };
+    let pts: String = (0..24).map(|_| format!("{},{}\n", next(), next())).collect();
+    let csv = dir.path().join("points.csv");
+    std::fs::write(&csv, pts).unwrap();
+    let mesh = dir.path().join("mesh.json");
+    ok(&trimorph(&["mesh", "--points", s(&csv), "-o", s(&mesh)]));
+    let (before, _) =
+        trimorph::io::deformation::from_str(&std::fs::read_to_string(&mesh).unwrap()).unwrap();
+    let script_text = r#"[{"op": "rotate", "anchors": {"near": [[50, 50]]}, "neighborhood": "all", "center": [40, 45], "angle": 0.2},
+        {"op": "translate", "anchors": {"near": [[20, 70]]}, "neighborhood": "all", "by": [2, "-1/3"]}]"#;
+    let script = dir.path().join("all.json");
+    std::fs::write(&script, script_text).unwrap();
+    let out = dir.path().join("edited.json");
+    let o = trimorph(&["edit", s(&mesh), "--script", s(&script), "--unbounded", "-o", s(&out)]);
+    ok(&o);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(stdout.matches("(solved on the modular path)").count(), 2, "{stdout}");
+    let (after, _) =
+        trimorph::io::deformation::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    after.check_c1().expect("C1 exactly, checked in rationals");
+    // The same script on fraction-free sessions, through the library.
+    let mut ed = trimorph::edit::Editor::new(before.clone());
+    ed.set_modular_path(None);
+    let reports = trimorph::edit::script::Script::from_json_str(script_text).unwrap().run(&mut ed);
+    assert_eq!(reports.unwrap().len(), 2);
+    assert!(!ed.selection().unwrap().is_modular());
+    let text = |s: &trimorph::spline::Spline| -> Vec<String> {
+        s.points().iter().flatten().map(trimorph::exact::rat_to_string).collect()
+    };
+    assert_eq!(text(&after), text(ed.spline()), "the sessions' exact values");
     ok(&trimorph(&["check", s(&out)]));
 }

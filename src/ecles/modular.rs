@@ -24,7 +24,7 @@ use super::{ConstraintSystem, EclesError};
 use crate::exact::int::Int;
 use crate::exact::lsq::gram;
 use crate::exact::matrix::{Rat, ScaledVec, SparseIntMatrix};
-use crate::exact::modular::{certified_basis, solve_nonsingular};
+use crate::exact::modular::{certified_basis, solve_nonsingular, CertifiedBasis};
 use num_traits::{One, Signed, Zero};
 
 /// The outcome of a modular edit: the same quantities as a [`super::Session`] after one
@@ -81,20 +81,25 @@ impl ConstraintSystem {
         weights: &[Rat],
         strong: bool,
     ) -> Result<Option<ModularEdit>, EclesError> {
-        let n = self.params();
-        check_edit(p, anchors, derived, n, self.d)?;
-        check_rows("anchor values", anchor_values, anchors.len(), self.d)?;
-        check_rows("hints", hints, derived.len(), self.d)?;
-        if weights.len() != derived.len() {
-            return Err(EclesError::Dimension {
-                what: "weights (one per derived parameter)".into(),
-                expected: derived.len(),
-                found: weights.len(),
-            });
+        match self.plan_modular(p, anchors, derived, strong)? {
+            Some(plan) => plan.update(anchor_values, hints, weights),
+            None => Ok(None),
         }
-        if let Some((k, v)) = weights.iter().enumerate().find(|(_, v)| !v.is_positive()) {
-            return Err(EclesError::NonPositiveWeight { index: derived[k], value: v.to_string() });
-        }
+    }
+
+    /// ECLES Initialize on the modular path: the relevant sets, a certified basis of the rows
+    /// of `R_ED` (rank and redundant constraints) and, with `strong`, the strong solvability
+    /// check (eqs. 8.15-8.16), which do not depend on the anchors' new values. Each
+    /// [`ModularPlan::update`] then solves one edit. `Ok(None)` when no prime certified
+    /// the basis (run the fraction-free path instead).
+    pub fn plan_modular(
+        &self,
+        p: &[Vec<Rat>],
+        anchors: &[usize],
+        derived: &[usize],
+        strong: bool,
+    ) -> Result<Option<ModularPlan>, EclesError> {
+        check_edit(p, anchors, derived, self.params(), self.d)?;
         let (relevant, fixed_relevant) = self.extract_relevant(anchors, derived);
         let map_cols = |cols: &[usize]| -> std::collections::HashMap<usize, usize> {
             cols.iter().enumerate().map(|(k, &s)| (s, k)).collect()
@@ -117,24 +122,13 @@ impl ConstraintSystem {
                 t0.elapsed().as_secs_f64()
             );
         }
-        let mut primes = basis.stats.primes;
-        // C = Q_E - R_EF' P_F' and B = C - R_EA P'_A.
+        // C = Q_E - R_EF' P_F'.
         let p_f: Vec<Vec<Rat>> = fixed_relevant.iter().map(|&s| p[s].clone()).collect();
         let rf = r_ef.mul_rat(&p_f);
-        let ka = r_ea.mul_rat(anchor_values);
-        let sub = |a: &Rat, v: Option<&Rat>| match v {
-            Some(v) => a - v,
-            None => a.clone(),
-        };
         let c: Vec<Vec<Rat>> = relevant
             .iter()
             .enumerate()
             .map(|(k, &i)| (0..self.d).map(|j| sub(&self.q[i][j], rf[k].get(j))).collect())
-            .collect();
-        let b: Vec<Vec<Rat>> = c
-            .iter()
-            .zip(&ka)
-            .map(|(c, k)| (0..self.d).map(|j| sub(&c[j], k.get(j))).collect())
             .collect();
         if strong {
             for a in 0..anchors.len() {
@@ -158,6 +152,115 @@ impl ConstraintSystem {
                 }
             }
         }
+        let a_hat = r_ed.select(
+            &basis.independent,
+            &(0..derived.len()).map(Some).collect::<Vec<_>>(),
+            derived.len(),
+        );
+        let mut redundant: Vec<usize> = basis.redundant.iter().map(|&k| relevant[k]).collect();
+        redundant.sort_unstable();
+        Ok(Some(ModularPlan {
+            d: self.d,
+            anchors: anchors.len(),
+            derived: derived.to_vec(),
+            relevant,
+            fixed_relevant,
+            redundant,
+            r_ea,
+            c,
+            a_hat,
+            basis,
+            strong,
+        }))
+    }
+}
+
+/// `a - v` (`a` when there is no `v`).
+fn sub(a: &Rat, v: Option<&Rat>) -> Rat {
+    match v {
+        Some(v) => a - v,
+        None => a.clone(),
+    }
+}
+
+/// ECLES initialized on the modular path ([`ConstraintSystem::plan_modular`]): what one
+/// selection keeps between edits (the relevant sets, the certified basis, `C`), so each
+/// edit ([`ModularPlan::update`]) only checks weak solvability and solves.
+#[derive(Clone, Debug)]
+pub struct ModularPlan {
+    d: usize,
+    anchors: usize,
+    derived: Vec<usize>,
+    relevant: Vec<usize>,
+    fixed_relevant: Vec<usize>,
+    redundant: Vec<usize>,
+    /// `R_EA`: relevant rows, anchor columns.
+    r_ea: SparseIntMatrix,
+    /// `C = Q_E - R_EF' P_F'`.
+    c: Vec<Vec<Rat>>,
+    /// `R_I`: the independent rows, derived columns.
+    a_hat: SparseIntMatrix,
+    basis: CertifiedBasis,
+    strong: bool,
+}
+
+impl ModularPlan {
+    /// Relevant constraints (sorted).
+    pub fn relevant(&self) -> &[usize] {
+        &self.relevant
+    }
+    /// Fixed relevant parameters (sorted).
+    pub fn fixed_relevant(&self) -> &[usize] {
+        &self.fixed_relevant
+    }
+    /// Rank of `R_ED`.
+    pub fn rank(&self) -> usize {
+        self.basis.rank()
+    }
+    /// Redundant relevant constraints, the canonical set (sorted).
+    pub fn redundant(&self) -> &[usize] {
+        &self.redundant
+    }
+    /// Whether strong solvability was checked (and holds).
+    pub fn strong(&self) -> bool {
+        self.strong
+    }
+
+    /// ECLES Update on the modular path: weak solvability (eq. 8.10) of these anchor
+    /// values, then the derived values nearest the hints (Alg. 15). `Ok(None)` when the
+    /// solve could not be certified (run the fraction-free path instead). Nothing is kept:
+    /// a failed update changes nothing.
+    pub fn update(
+        &self,
+        anchor_values: &[Vec<Rat>],
+        hints: &[Vec<Rat>],
+        weights: &[Rat],
+    ) -> Result<Option<ModularEdit>, EclesError> {
+        let derived = &self.derived;
+        check_rows("anchor values", anchor_values, self.anchors, self.d)?;
+        check_rows("hints", hints, derived.len(), self.d)?;
+        if weights.len() != derived.len() {
+            return Err(EclesError::Dimension {
+                what: "weights (one per derived parameter)".into(),
+                expected: derived.len(),
+                found: weights.len(),
+            });
+        }
+        if let Some((k, v)) = weights.iter().enumerate().find(|(_, v)| !v.is_positive()) {
+            return Err(EclesError::NonPositiveWeight { index: derived[k], value: v.to_string() });
+        }
+        let (basis, relevant) = (&self.basis, &self.relevant);
+        let trace = std::env::var_os("TRIMORPH_TRACE").is_some();
+        let t0 = std::time::Instant::now();
+        let mut primes = basis.stats.primes;
+        // B = C - R_EA P'_A.
+        let ka = self.r_ea.mul_rat(anchor_values);
+        let b: Vec<Vec<Rat>> = self
+            .c
+            .iter()
+            .zip(&ka)
+            .map(|(c, k)| (0..self.d).map(|j| sub(&c[j], k.get(j))).collect())
+            .collect();
         let b_cols: Vec<ScaledVec> = (0..self.d).map(|j| column(&b, j)).collect();
         for (j, col) in b_cols.iter().enumerate() {
             if let Some(z) = basis.first_inconsistent(col) {
@@ -175,11 +278,7 @@ impl ConstraintSystem {
                 )
             })
             .collect();
-        let a_hat = r_ed.select(
-            &basis.independent,
-            &(0..derived.len()).map(Some).collect::<Vec<_>>(),
-            derived.len(),
-        );
+        let a_hat = &self.a_hat;
         let derived_values = if rank == derived.len() {
             // Unique: R_IJ y = b_I with the columns in pivot order.
             let mut pos = vec![0usize; derived.len()];
@@ -200,7 +299,7 @@ impl ConstraintSystem {
                 })
                 .collect()
         } else {
-            match least_squares(&a_hat, weights, &b_hat, hints, self.d) {
+            match least_squares(a_hat, weights, &b_hat, hints, self.d) {
                 Some((v, st)) => {
                     primes += st;
                     v
@@ -214,9 +313,14 @@ impl ConstraintSystem {
                 t0.elapsed().as_secs_f64()
             );
         }
-        let mut redundant: Vec<usize> = basis.redundant.iter().map(|&k| relevant[k]).collect();
-        redundant.sort_unstable();
-        Ok(Some(ModularEdit { relevant, fixed_relevant, rank, redundant, derived_values, primes }))
+        Ok(Some(ModularEdit {
+            relevant: self.relevant.clone(),
+            fixed_relevant: self.fixed_relevant.clone(),
+            rank,
+            redundant: self.redundant.clone(),
+            derived_values,
+            primes,
+        }))
     }
 }
 

@@ -366,6 +366,7 @@ impl Editor {
             mode,
             sessions: Vec::new(),
             global: Some(Arc::new(solve)),
+            plans: Vec::new(),
             relevant,
             rank: n - mds.num_free(),
             preview: None,

@@ -35,11 +35,14 @@ pub mod global;
 pub mod script;
 pub mod select;
 
-use crate::ecles::{ConstraintSystem, EclesError, InitOptions, Session};
+use crate::ecles::modular::ModularPlan;
+use crate::ecles::problem::MODULAR_MIN_ENTRIES;
+use crate::ecles::{ConstraintSystem, EclesError, Session};
 use crate::exact::{rat_from_f64, rat_to_f64, Int, Rat};
 use crate::spline::{ControlPoint, Spline};
 use extra::{axis_system, Extra};
 use global::GlobalSolve;
+use modular::Solvers;
 use num_traits::Zero;
 use select::{expand, neighborhood, rel_magnitude, Neighborhood, SelectIndex};
 use std::sync::Arc;
@@ -136,6 +139,9 @@ pub struct Selection {
     sessions: Vec<Session>,
     /// The select-all path ([`global`]), instead of sessions.
     global: Option<Arc<GlobalSolve>>,
+    /// The modular path of ECLES (one plan per system, like `sessions`), instead of
+    /// sessions, for large derived sets ([`Editor::set_modular_path`]).
+    plans: Vec<Arc<ModularPlan>>,
     /// Relevant conditions and their rank (reported by scripts and the editor).
     relevant: usize,
     rank: usize,
@@ -159,6 +165,12 @@ impl Selection {
     pub fn is_global(&self) -> bool {
         self.global.is_some()
     }
+    /// Whether this selection is solved on ECLES's modular path
+    /// ([`crate::ecles::modular`]: a certified basis once, a certified exact solve per
+    /// operation) rather than by fraction-free sessions; see [`Editor::set_modular_path`].
+    pub fn is_modular(&self) -> bool {
+        !self.plans.is_empty()
+    }
     /// Number of C1 conditions that involve an anchor or a derived point.
     pub fn relevant(&self) -> usize {
         self.relevant
@@ -168,17 +180,18 @@ impl Selection {
     pub fn rank(&self) -> usize {
         self.rank
     }
-    /// The relevant conditions without redundant ones, as ECLES found them; on the
-    /// select-all path every condition of the spline (redundancy is not computed there).
+    /// The relevant conditions without redundant ones, as ECLES found them (which of the
+    /// dependent conditions are left out follows the LDU's pivot order on sessions, and is
+    /// the canonical set on the modular path; their number is the same); on the select-all
+    /// path every condition of the spline (redundancy is not computed there).
     pub fn independent_constraints(&self, spline: &Spline) -> Vec<usize> {
-        match self.sessions.first() {
-            Some(session) => {
-                let redundant: std::collections::BTreeSet<usize> =
-                    session.redundant().into_iter().collect();
-                session.relevant().iter().copied().filter(|c| !redundant.contains(c)).collect()
-            }
-            None => (0..spline.c1_matrix().rows()).collect(),
-        }
+        let (relevant, redundant) = match (self.sessions.first(), self.plans.first()) {
+            (Some(session), _) => (session.relevant(), session.redundant()),
+            (None, Some(plan)) => (plan.relevant(), plan.redundant().to_vec()),
+            (None, None) => return (0..spline.c1_matrix().rows()).collect(),
+        };
+        let redundant: std::collections::BTreeSet<usize> = redundant.into_iter().collect();
+        relevant.iter().copied().filter(|c| !redundant.contains(c)).collect()
     }
 }
 
@@ -193,6 +206,8 @@ pub struct Editor {
     bounded: Option<(crate::spline::mds::Mds, u32)>,
     /// Fewest control points for the select-all path (`None`: never).
     global_min: Option<usize>,
+    /// Smallest `|E| x |D|` for the modular path (`None`: never).
+    modular_min: Option<usize>,
     selection: Option<Selection>,
 }
 
@@ -215,8 +230,21 @@ impl Editor {
             axis_sys: None,
             bounded: None,
             global_min: Some(global::GLOBAL_MIN_POINTS),
+            modular_min: Some(MODULAR_MIN_ENTRIES),
             selection: None,
         }
+    }
+
+    /// Selections whose relevant conditions times derived points (`|E| x |D|`) reach
+    /// `min_entries` are solved on ECLES's modular path ([`crate::ecles::modular`]): the
+    /// rank, the redundant conditions and strong solvability from a certified basis at
+    /// selection, then each operation one exactly verified solve, the same exact answer as
+    /// the fraction-free sessions (which stay for smaller selections, and whenever no prime
+    /// certifies). `None` always uses sessions. The default is
+    /// [`MODULAR_MIN_ENTRIES`], as for `trimorph solve`. Ends the selection.
+    pub fn set_modular_path(&mut self, min_entries: Option<usize>) {
+        self.modular_min = min_entries;
+        self.selection = None;
     }
 
     /// Select-all edits in bounded xy mode without extra constraints, on splines with at
@@ -418,11 +446,7 @@ impl Editor {
             self.axis_sys =
                 Some([axis_system(c1, &self.extras, 0), axis_system(c1, &self.extras, 1)]);
         }
-        let cols: Vec<Vec<Vec<Rat>>> = if split {
-            (0..2).map(|a| params.iter().map(|p| vec![p[a].clone()]).collect()).collect()
-        } else {
-            Vec::new()
-        };
+        let cols = if split { axis_system_params(params) } else { Vec::new() };
         let systems: Vec<(&ConstraintSystem, &[Vec<Rat>])> = if split {
             let [x, y] = self.axis_sys.as_ref().expect("built above");
             vec![(x, &cols[0]), (y, &cols[1])]
@@ -431,22 +455,14 @@ impl Editor {
         } else {
             vec![(&self.zsys, params)]
         };
-        let (sessions, strong, derived) = loop {
+        let (solvers, strong, derived) = loop {
             let derived: Vec<usize> = (0..n).filter(|&p| in_d[p]).collect();
-            let opts = InitOptions { strong: true, ..Default::default() };
-            let mut failed = None;
-            let mut sessions = Vec::with_capacity(systems.len());
-            for (sys, p) in &systems {
-                match sys.initialize(p, anchors, &derived, opts) {
-                    Ok(s) => sessions.push(s),
-                    Err(EclesError::NotStronglySolvable { constraint, .. }) => {
-                        failed = Some((*sys, constraint));
-                        break;
-                    }
-                    Err(e) => return Err(e.into()),
-                }
-            }
-            let Some((sys, constraint)) = failed else { break (sessions, true, derived) };
+            let (k, constraint) = match self.start(&systems, anchors, &derived, true) {
+                Ok(s) => break (s, true, derived),
+                Err((k, EclesError::NotStronglySolvable { constraint, .. })) => (k, constraint),
+                Err((_, e)) => return Err(e.into()),
+            };
+            let sys = systems[k].0;
             // Grow D by the free members of the failing condition; if it has none, by the
             // fixed points that the relevant conditions involve (F'), which are what blocks.
             let mut grow: Vec<usize> = sys
@@ -460,10 +476,7 @@ impl Editor {
                 grow = sys.extract_relevant(anchors, &derived).1;
             }
             if grow.is_empty() {
-                let weak = systems
-                    .iter()
-                    .map(|(sys, p)| sys.initialize(p, anchors, &derived, InitOptions::default()))
-                    .collect::<Result<Vec<_>, _>>()?;
+                let weak = self.start(&systems, anchors, &derived, false).map_err(|(_, e)| e)?;
                 break (weak, false, derived);
             }
             for &p in &grow {
@@ -473,7 +486,15 @@ impl Editor {
             close(&mut in_d, &self.bounded);
         };
         let theta = rel_magnitude(&self.index, anchors, &derived);
-        let (relevant, rank) = (sessions[0].relevant().len(), sessions[0].rank());
+        let (sessions, plans) = match solvers {
+            Solvers::Ldu(s) => (s, Vec::new()),
+            Solvers::Modular(p) => (Vec::new(), p),
+        };
+        let (relevant, rank) = match (sessions.first(), plans.first()) {
+            (Some(s), _) => (s.relevant().len(), s.rank()),
+            (None, Some(p)) => (p.relevant().len(), p.rank()),
+            (None, None) => unreachable!("one solver per system, and there is one system"),
+        };
         self.selection = Some(Selection {
             anchors: ControlPoint::from_indices(anchors),
             base_anchors: anchors.iter().map(|&a| params[a].clone()).collect(),
@@ -484,6 +505,7 @@ impl Editor {
             mode,
             sessions,
             global: None,
+            plans,
             relevant,
             rank,
             preview: None,
@@ -497,8 +519,19 @@ impl Editor {
         if let Some(solve) = global {
             return self.apply_global(&solve, &anchors, &hints);
         }
+        let plans = self.selection.as_ref().map(|s| s.plans.clone()).unwrap_or_default();
+        let modular = match plans.is_empty() {
+            true => None,
+            false => modular::values(&plans, &anchors, &hints)?,
+        };
+        if !plans.is_empty() && modular.is_none() {
+            // No prime certified this operation: the selection goes on with sessions.
+            self.fall_back_to_sessions()?;
+        }
         let sel = self.selection.as_mut().ok_or(EditError::NoSelection)?;
-        let (derived, df): (Vec<Vec<Rat>>, Vec<Vec<f64>>) = if sel.sessions.len() == 1 {
+        let (derived, df): (Vec<Vec<Rat>>, Vec<Vec<f64>>) = if let Some(v) = modular {
+            v
+        } else if sel.sessions.len() == 1 {
             sel.sessions[0].update(&anchors, Some(&hints), None)?;
             // Exact values unreduced (no gcd per value during a drag); f64 straight from
             // the common-denominator form.
@@ -531,7 +564,8 @@ impl Editor {
         match sel.mode {
             Mode::Xy => {
                 self.spline.write_points(&idx, vals, &approx);
-                if let (Some((mds, bits)), 1) = (&self.bounded, sel.sessions.len()) {
+                let systems = sel.sessions.len() + sel.plans.len();
+                if let (Some((mds, bits)), 1) = (&self.bounded, systems) {
                     let mut region = vec![false; self.spline.num_points()];
                     for &p in &idx {
                         region[p] = true;
@@ -651,12 +685,23 @@ impl Editor {
     /// costs a few multiply-adds per point. Certify with [`Editor::translate`] at the end of
     /// the drag. Positions are in the order anchors, then derived.
     pub fn preview_translate(&mut self, v: [f64; 2]) -> Result<Vec<[f64; 2]>, EditError> {
+        let sel = self.selection.as_ref().ok_or(EditError::NoSelection)?;
+        if sel.plans.len() == 1 && sel.mode == Mode::Xy && sel.preview.is_none() {
+            let (plan, a, d, th) =
+                (&sel.plans[0], &sel.base_anchors, &sel.base_derived, &sel.theta);
+            match modular::preview_basis(plan, a, d, th)? {
+                Some(basis) => {
+                    self.selection.as_mut().expect("checked above").preview = Some(basis)
+                }
+                None => self.fall_back_to_sessions()?,
+            }
+        }
         let sel = self.selection.as_mut().ok_or(EditError::NoSelection)?;
         if let (Some(solve), None) = (&sel.global, &sel.preview) {
             let basis = solve.preview_basis(sel, self.spline.num_points());
             sel.preview = Some(basis);
         }
-        if sel.global.is_none() && (sel.mode != Mode::Xy || sel.sessions.len() != 1) {
+        if sel.preview.is_none() && (sel.mode != Mode::Xy || sel.sessions.len() != 1) {
             return Err(EditError::Mode(
                 "preview works for xy edits without extra constraints".into(),
             ));
@@ -718,6 +763,11 @@ impl Editor {
     }
 }
 
+/// The x and y columns of the parameters, for the per-axis systems (one coordinate each).
+fn axis_system_params(params: &[Vec<Rat>]) -> Vec<Vec<Vec<Rat>>> {
+    (0..2).map(|a| params.iter().map(|p| vec![p[a].clone()]).collect()).collect()
+}
+
 /// Whether two splines have the same mesh (exact vertex coordinates and triangles) and
 /// degree, so that control points correspond one to one.
 pub fn same_layout(a: &Spline, b: &Spline) -> bool {
@@ -736,6 +786,7 @@ pub fn exact(v: f64) -> Result<Rat, EditError> {
     rat_from_f64(v).ok_or_else(|| EditError::Argument(format!("{v} is not a finite number")))
 }
 
+mod modular;
 mod rational;
 pub use rational::{rational_approx, rational_rotation};
 
@@ -744,3 +795,6 @@ mod tests;
 
 #[cfg(test)]
 mod global_tests;
+
+#[cfg(test)]
+mod modular_tests;

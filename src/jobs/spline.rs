@@ -219,13 +219,19 @@ fn progress_line(k: usize, r: &OpReport) -> String {
         OpReport::Constrained { in_force, .. } => {
             format!("operation {k}: {in_force} constraints in force")
         }
-        OpReport::Moved { anchors, derived, relevant, rank, strong, determining_set } => format!(
-            "operation {k}: {} anchors, {} derived, {relevant} relevant conditions (rank {rank}), {}{}",
-            anchors.len(),
-            derived.len(),
-            if *strong { "strongly solvable" } else { "weakly solvable" },
-            if *determining_set { " (solved in determining-set coordinates)" } else { "" }
-        ),
+        OpReport::Moved { anchors, derived, relevant, rank, strong, determining_set, modular } => {
+            format!(
+                "operation {k}: {} anchors, {} derived, {relevant} relevant conditions (rank {rank}), {}{}",
+                anchors.len(),
+                derived.len(),
+                if *strong { "strongly solvable" } else { "weakly solvable" },
+                match (determining_set, modular) {
+                    (true, _) => " (solved in determining-set coordinates)",
+                    (false, true) => " (solved on the modular path)",
+                    (false, false) => "",
+                }
+            )
+        }
     }
 }
 

@@ -291,6 +291,13 @@ impl Doc {
             "strong": sel.strong,
             "relevant": sel.relevant(),
             "rank": sel.rank(),
+            "solver": if sel.is_global() {
+                "determining_set"
+            } else if sel.is_modular() {
+                "modular"
+            } else {
+                "sessions"
+            },
         });
         self.before_drag = Some(before);
         self.last_op = None;

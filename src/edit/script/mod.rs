@@ -460,6 +460,9 @@ pub enum OpReport {
         /// Solved in the coordinates of the minimal determining set ([`super::Selection::is_global`]:
         /// a large bounded select-all edit) rather than by ECLES sessions.
         determining_set: bool,
+        /// Solved on ECLES's modular path ([`super::Selection::is_modular`]: a large exact
+        /// selection) rather than by fraction-free sessions.
+        modular: bool,
     },
     /// A constrain operation.
     Constrained {
@@ -545,6 +548,7 @@ fn apply_op(ed: &mut Editor, op: &Op, index: usize) -> Result<OpReport, ScriptEr
                 rank: sel.rank(),
                 strong: sel.strong,
                 determining_set: sel.is_global(),
+                modular: sel.is_modular(),
             })
         }
         Op::Constrain(c) => {
