@@ -54,6 +54,16 @@ fn same_points(a: &[Vec<Rat>], b: &[Vec<Rat>]) -> bool {
         })
 }
 
+/// A degree-5 identity spline over a random mesh, with flat 2.5D layers at z = -2 and 2.
+fn layered_spline() -> (Mesh, Spline) {
+    let mesh = random_mesh(5, 20);
+    let mut s = Spline::identity(mesh.clone(), 5).unwrap();
+    let n = s.num_points();
+    let z = |v: i64| vec![rat_int(v); n];
+    s.set_z_layers(Some(ZLayers { range: [rat_int(-2), rat_int(2)], z0: z(-2), z1: z(2) }));
+    (mesh, s)
+}
+
 fn inner_vertex(m: &Mesh, k: usize) -> usize {
     (0..m.num_vertices()).filter(|&v| !m.is_border_vertex(v)).nth(k).unwrap()
 }
@@ -103,14 +113,7 @@ fn split_selections_under_extra_constraints_agree() {
 /// z modes (one coordinate, the `z0` / `z1` layers).
 #[test]
 fn z_mode_selections_agree() {
-    let mesh = random_mesh(5, 20);
-    let mut s = Spline::identity(mesh.clone(), 5).unwrap();
-    let n = s.num_points();
-    s.set_z_layers(Some(ZLayers {
-        range: [rat_int(-2), rat_int(2)],
-        z0: vec![rat_int(-2); n],
-        z1: vec![rat_int(2); n],
-    }));
+    let (mesh, s) = layered_spline();
     let (mut m, mut l) = pair(s.clone());
     let v = inner_vertex(&mesh, 1);
     select_both((&mut m, &mut l), &[v], &Neighborhood::All, Mode::Z1);
@@ -188,14 +191,7 @@ fn the_default_threshold_chooses_by_size() {
 /// same edit (xy, split under extra constraints, z): the values stay the sessions' values.
 #[test]
 fn the_fallback_to_sessions_keeps_the_edit() {
-    let mesh = random_mesh(5, 20);
-    let mut s = Spline::identity(mesh.clone(), 5).unwrap();
-    let n = s.num_points();
-    s.set_z_layers(Some(ZLayers {
-        range: [rat_int(-2), rat_int(2)],
-        z0: vec![rat_int(-2); n],
-        z1: vec![rat_int(2); n],
-    }));
+    let (mesh, s) = layered_spline();
     let v = inner_vertex(&mesh, 1);
     for (mode, pin) in [(Mode::Xy, false), (Mode::Xy, true), (Mode::Z0, false)] {
         let (mut m, mut l) = pair(s.clone());

@@ -11,11 +11,11 @@
 //! must satisfy the C1 conditions exactly.
 
 use crate::exact::{parse_rat, rat_from_f64, rat_to_f64, rat_to_string, Int, Rat};
-use rayon::prelude::*;
 use crate::mesh::{Mesh, MeshError, MeshOptions};
 use crate::spline::{ControlPoint, Spline, SplineError, ZLayers};
 use num_integer::Integer;
 use num_traits::One;
+use rayon::prelude::*;
 use serde_json::{json, Map, Value};
 
 /// Errors reading a deformation file.
