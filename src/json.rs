@@ -112,6 +112,14 @@ pub fn from_str<'a, T: Deserialize<'a>>(text: &'a str) -> Result<T, serde_json::
     serde_json::from_str(text)
 }
 
+/// Whether `text` is valid JSON with no key given twice in one object (the checks of
+/// [`parse`]), without building anything: one pass over the text.
+pub(crate) fn check_syntax(text: &str) -> Result<(), serde_json::Error> {
+    let mut de = serde_json::Deserializer::from_str(text);
+    Keys::deserialize(&mut de)?;
+    de.end()
+}
+
 /// One pass over the text that only looks at object keys: an error at the first key that
 /// repeats in its object (syntax errors are left to the real parse, which reports them).
 fn check_keys(text: &str) -> Result<(), serde_json::Error> {

@@ -102,7 +102,7 @@ fn an_unbounded_select_all_edit_runs_on_the_modular_path_with_the_sessions_value
     after.check_c1().expect("C1 exactly, checked in rationals");
     // The same script on fraction-free sessions, through the library.
     let mut ed = trimorph::edit::Editor::new(before.clone());
-    ed.set_modular_path(None);
+    ed.set_modular_path(Some(usize::MAX));
     let reports = trimorph::edit::script::Script::from_json_str(script_text).unwrap().run(&mut ed);
     assert_eq!(reports.unwrap().len(), 2);
     assert!(!ed.selection().unwrap().is_modular());

@@ -13,7 +13,9 @@
 //! of parameters `n` from `"P"`, the dimension `d`, the number of constraints `m`, the derived
 //! set) is checked after the last key, in the order `P`, `R`, `Q`, `anchors`, `derived`,
 //! `hints`, `weights`. Every error names its element (`P[3][1]`, `R.rows[7][2][0]`,
-//! `anchors."12"`), built only when the error happens.
+//! `anchors."12"`), built only when the error happens. From text, a document that is not
+//! valid JSON is always reported as such ([`ProblemError::Json`]), even when a wrong value
+//! comes before the syntax error.
 
 use super::problem::{key_err, Problem, ProblemError};
 use crate::exact::matrix::{parse_rat, Rat};
@@ -678,14 +680,26 @@ fn read<'de, R: serde_json::de::Read<'de>>(
 }
 
 impl Problem {
-    /// Parses a problem from JSON text, in one streaming pass (module docs).
+    /// Parses a problem from JSON text, in one streaming pass (module docs). Text that is not
+    /// valid JSON (a syntax error, a key given twice) is a [`ProblemError::Json`] even when
+    /// the pass met a wrong value first: on an error, the text is scanned once more for
+    /// that.
     pub fn from_json(text: &str) -> Result<Problem, ProblemError> {
-        read(serde_json::Deserializer::from_str(text))
+        read(serde_json::Deserializer::from_str(text)).map_err(|e| match e {
+            ProblemError::Json(_) => e,
+            _ => match crate::json::check_syntax(text) {
+                Err(j) => ProblemError::Json(j.to_string()),
+                Ok(()) => e,
+            },
+        })
     }
 
-    /// Parses a problem from a reader (a file, a pipe), in one streaming pass without
-    /// holding the text; the same result as [`Problem::from_json`] on the text read.
+    /// Parses a problem from a reader (a file, a pipe; buffered here), in one streaming pass
+    /// without holding the text: the same problem as [`Problem::from_json`] on the text
+    /// read. Errors are those met first in reading order (a wrong value before a later
+    /// syntax error is reported as the wrong value).
     pub fn from_reader<R: std::io::Read>(r: R) -> Result<Problem, ProblemError> {
+        let r = std::io::BufReader::with_capacity(1 << 16, r);
         read(serde_json::Deserializer::from_reader(r))
     }
 }

@@ -172,10 +172,22 @@ fn syntax_errors_stay_json_errors() {
             "{bad:?}"
         );
     }
-    // Read front to back: what is wrong first is reported first.
-    let first = r#"{"P": [[true]], "R": ["#;
-    assert_eq!(key_path(first), "P[0][0]");
-    assert_eq!(key_path("[1,]"), "(top level)");
+    // Text that is not JSON is a JSON error even where a wrong value comes first (found by
+    // review: the first streaming reader reported the value); from a reader, what is met
+    // first is reported.
+    for (text, path) in [
+        (r#"{"P": [[true]], "R": ["#, "P[0][0]"),
+        (r#"{"P": "x", "P": [[1]]}"#, "P"),
+        ("[1,]", "(top level)"),
+    ] {
+        assert!(matches!(Problem::from_json(text), Err(ProblemError::Json(_))), "{text}");
+        match Problem::from_reader(text.as_bytes()) {
+            Err(ProblemError::Key { path: p, .. }) => assert_eq!(p, path, "{text}"),
+            other => panic!("{text}: {other:?}"),
+        }
+    }
+    let dup = Problem::from_json(r#"{"P": "x", "P": [[1]]}"#).unwrap_err().to_string();
+    assert!(dup.contains("duplicate key \"P\""), "{dup}");
 }
 
 /// `null` means absent for the optional keys.

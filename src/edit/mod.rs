@@ -240,8 +240,14 @@ impl Editor {
     /// rank, the redundant conditions and strong solvability from a certified basis at
     /// selection, then each operation one exactly verified solve, the same exact answer as
     /// the fraction-free sessions (which stay for smaller selections, and whenever no prime
-    /// certifies). `None` always uses sessions. The default is
-    /// [`MODULAR_MIN_ENTRIES`], as for `trimorph solve`. Ends the selection.
+    /// certifies). The default is [`MODULAR_MIN_ENTRIES`], as for `trimorph solve`.
+    ///
+    /// With a threshold set, the growth of the derived set in 2DSD.Select (when strong
+    /// solvability fails) takes the canonical failing condition on both paths (the first
+    /// that depends on the conditions before it), so the selection does not depend on
+    /// which path ran. `None` always uses sessions, and grows by the condition the LDU
+    /// names in its pivot order (the rule before the modular path existed). Ends the
+    /// selection.
     pub fn set_modular_path(&mut self, min_entries: Option<usize>) {
         self.modular_min = min_entries;
         self.selection = None;
@@ -525,8 +531,16 @@ impl Editor {
             false => modular::values(&plans, &anchors, &hints)?,
         };
         if !plans.is_empty() && modular.is_none() {
-            // No prime certified this operation: the selection goes on with sessions.
+            // No prime certified this operation: the selection goes on with sessions (and
+            // keeps its plans if the operation fails on them too).
             self.fall_back_to_sessions()?;
+            let result = self.apply(anchors, hints);
+            if result.is_err() {
+                let sel = self.selection.as_mut().expect("the selection is kept");
+                sel.sessions.clear();
+                sel.plans = plans;
+            }
+            return result;
         }
         let sel = self.selection.as_mut().ok_or(EditError::NoSelection)?;
         let (derived, df): (Vec<Vec<Rat>>, Vec<Vec<f64>>) = if let Some(v) = modular {

@@ -65,6 +65,7 @@ impl Editor {
         derived: &[usize],
         strong: bool,
     ) -> Result<Solvers, (usize, EclesError)> {
+        let mut uncertified = false;
         if self.modular_applies(systems[0].0, anchors, derived) {
             let mut plans = Vec::with_capacity(systems.len());
             for (k, (sys, p)) in systems.iter().enumerate() {
@@ -77,6 +78,7 @@ impl Editor {
             if plans.len() == systems.len() {
                 return Ok(Solvers::Modular(plans));
             }
+            uncertified = true;
         }
         let opts = InitOptions { strong, ..Default::default() };
         let mut sessions = Vec::with_capacity(systems.len());
@@ -84,12 +86,17 @@ impl Editor {
             match sys.initialize(p, anchors, derived, opts) {
                 Ok(s) => sessions.push(s),
                 Err(EclesError::NotStronglySolvable { constraint, cause }) => {
-                    // The LDU names a failing condition in its pivot order; the growth of D
-                    // takes the canonical one, as the modular path names it, so that both
-                    // paths grow D alike (and give the same selection).
+                    // The LDU names a failing condition in its pivot order; with the modular
+                    // path on, the growth of D takes the canonical one, as the modular path
+                    // names it, so that both paths grow D alike (the same selection). Not
+                    // when no prime certified the basis just above.
+                    let own = EclesError::NotStronglySolvable { constraint, cause };
+                    if self.modular_min.is_none() || uncertified {
+                        return Err((k, own));
+                    }
                     let canonical = match sys.plan_modular(p, anchors, derived, true) {
                         Err(e @ EclesError::NotStronglySolvable { .. }) => e,
-                        _ => EclesError::NotStronglySolvable { constraint, cause },
+                        _ => own,
                     };
                     return Err((k, canonical));
                 }

@@ -12,12 +12,13 @@ fn random_mesh(seed: u64, n: usize) -> Mesh {
 }
 
 /// Two editors over the same spline (exact, unbounded): one always on the modular path,
-/// one always on sessions.
+/// one always on sessions (a threshold never reached: sessions, with the canonical growth
+/// of `D`).
 fn pair(s: Spline) -> (Editor, Editor) {
     let mut modular = Editor::new(s);
     let mut ldu = modular.clone();
     modular.set_modular_path(Some(0));
-    ldu.set_modular_path(None);
+    ldu.set_modular_path(Some(usize::MAX));
     (modular, ldu)
 }
 
@@ -145,8 +146,11 @@ fn a_refused_modular_operation_changes_nothing() {
         m.translate(&[rat_int(1), rat_int(0)]).unwrap_err(),
         l.translate(&[rat_int(1), rat_int(0)]).unwrap_err(),
     );
-    assert_eq!(em, el);
-    assert!(matches!(em, EditError::Ecles(EclesError::NotWeaklySolvable { .. })), "{em}");
+    // The same refusal; which dependent condition it names may differ (the LDU's pivot
+    // order, the canonical order on the modular path).
+    for e in [&em, &el] {
+        assert!(matches!(e, EditError::Ecles(EclesError::NotWeaklySolvable { .. })), "{e}");
+    }
     assert_eq!(m.spline().points(), before.points());
     m.translate(&[rat_int(0), rat_int(0)]).unwrap();
     assert_eq!(m.spline().points(), before.points());
@@ -215,6 +219,9 @@ fn the_fallback_to_sessions_keeps_the_edit() {
         }
         assert!(same_points(m.spline().points(), l.spline().points()), "{mode:?} {pin}");
         let (zm, zl) = (m.spline().z_layers().unwrap(), l.spline().z_layers().unwrap());
-        assert!(same_points(&[zm.z0.clone()], &[zl.z0.clone()]), "{mode:?} {pin}");
+        assert!(
+            same_points(std::slice::from_ref(&zm.z0), std::slice::from_ref(&zl.z0)),
+            "{mode:?} {pin}"
+        );
     }
 }
