@@ -6,26 +6,35 @@
 mod common;
 
 use common::{edit_script, ok, s, trimorph};
+use std::path::{Path, PathBuf};
 use trimorph::exact::rat_to_f64;
+use trimorph::spline::Spline;
+
+/// `trimorph mesh --points` of `n` points in `[0, size]^2` from a fixed xorshift generator
+/// (seed `seed`, coordinates in thousandths): the deformation file and the spline read back.
+fn delaunay_mesh(dir: &Path, seed: u64, n: usize, size: f64) -> (PathBuf, Spline) {
+    let mut x = seed;
+    let mut next = || {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        (x % (size as u64 * 1000)) as f64 / 1000.0
+    };
+    let pts: String = (0..n).map(|_| format!("{},{}\n", next(), next())).collect();
+    let csv = dir.join("points.csv");
+    std::fs::write(&csv, pts).unwrap();
+    let mesh = dir.join("mesh.json");
+    ok(&trimorph(&["mesh", "--points", s(&csv), "-o", s(&mesh)]));
+    let text = std::fs::read_to_string(&mesh).unwrap();
+    let (spline, _) = trimorph::io::deformation::from_str(&text).unwrap();
+    (mesh, spline)
+}
 
 #[test]
 fn a_select_all_edit_of_a_600_triangle_mesh_is_exactly_c1_and_moves_the_anchor() {
     let dir = tempfile::tempdir().unwrap();
     // 300 points in [0, 200]^2 from a fixed generator.
-    let mut x = 0x2545_F491_4F6C_DD1Du64;
-    let mut next = || {
-        x ^= x << 13;
-        x ^= x >> 7;
-        x ^= x << 17;
-        (x % 200_000) as f64 / 1000.0
-    };
-    let pts: String = (0..300).map(|_| format!("{},{}\n", next(), next())).collect();
-    let csv = dir.path().join("points.csv");
-    std::fs::write(&csv, pts).unwrap();
-    let mesh = dir.path().join("mesh.json");
-    ok(&trimorph(&["mesh", "--points", s(&csv), "-o", s(&mesh)]));
-    let text = std::fs::read_to_string(&mesh).unwrap();
-    let (before, _) = trimorph::io::deformation::from_str(&text).unwrap();
+    let (mesh, before) = delaunay_mesh(dir.path(), 0x2545_F491_4F6C_DD1D, 300, 200.0);
     assert!(before.mesh().num_triangles() > 550, "{} triangles", before.mesh().num_triangles());
     let script = dir.path().join("all.json");
     std::fs::write(
@@ -74,20 +83,7 @@ fn a_select_all_edit_of_a_600_triangle_mesh_is_exactly_c1_and_moves_the_anchor()
 #[test]
 fn an_unbounded_select_all_edit_runs_on_the_modular_path_with_the_sessions_values() {
     let dir = tempfile::tempdir().unwrap();
-    let mut x = 0x9E37_79B9_7F4A_7C15u64;
-    let mut next = || {
-        x ^= x << 13;
-        x ^= x >> 7;
-        x ^= x << 17;
-        (x % 100_000) as f64 / 1000.0
-    };
-    let pts: String = (0..24).map(|_| format!("{},{}\n", next(), next())).collect();
-    let csv = dir.path().join("points.csv");
-    std::fs::write(&csv, pts).unwrap();
-    let mesh = dir.path().join("mesh.json");
-    ok(&trimorph(&["mesh", "--points", s(&csv), "-o", s(&mesh)]));
-    let (before, _) =
-        trimorph::io::deformation::from_str(&std::fs::read_to_string(&mesh).unwrap()).unwrap();
+    let (mesh, before) = delaunay_mesh(dir.path(), 0x9E37_79B9_7F4A_7C15, 24, 100.0);
     let script_text = r#"[{"op": "rotate", "anchors": {"near": [[50, 50]]}, "neighborhood": "all", "center": [40, 45], "angle": 0.2},
         {"op": "translate", "anchors": {"near": [[20, 70]]}, "neighborhood": "all", "by": [2, "-1/3"]}]"#;
     let script = dir.path().join("all.json");
@@ -106,7 +102,7 @@ fn an_unbounded_select_all_edit_runs_on_the_modular_path_with_the_sessions_value
     let reports = trimorph::edit::script::Script::from_json_str(script_text).unwrap().run(&mut ed);
     assert_eq!(reports.unwrap().len(), 2);
     assert!(!ed.selection().unwrap().is_modular());
-    let text = |s: &trimorph::spline::Spline| -> Vec<String> {
+    let text = |s: &Spline| -> Vec<String> {
         s.points().iter().flatten().map(trimorph::exact::rat_to_string).collect()
     };
     assert_eq!(text(&after), text(ed.spline()), "the sessions' exact values");
