@@ -6,5 +6,6 @@
 static ALLOC: trimorph::alloc::HugePages = trimorph::alloc::HugePages;
 
 fn main() {
+    trimorph::alloc::tune_heap();
     std::process::exit(trimorph::cli::run());
 }
