@@ -26,6 +26,7 @@ use crate::exact::lsq::gram;
 use crate::exact::matrix::{Rat, ScaledVec, SparseIntMatrix};
 use crate::exact::modular::{certified_basis, solve_nonsingular, CertifiedBasis};
 use num_traits::{One, Signed, Zero};
+use rayon::prelude::*;
 
 /// The outcome of a modular edit: the same quantities as a [`super::Session`] after one
 /// update.
@@ -374,27 +375,35 @@ fn least_squares(
             lams.first().map_or(0, |l| l.den.bits())
         );
     }
-    for (&j, lam) in busy.iter().zip(lams) {
-        let mut atl = vec![Int::zero(); n];
-        for (i, li) in lam.num.iter().enumerate() {
-            if li.is_zero() {
-                continue;
+    // The columns in parallel, and each column's entries (the big products) in parallel.
+    let solved: Vec<(usize, ScaledVec)> = busy
+        .par_iter()
+        .zip(lams)
+        .map(|(&j, lam)| {
+            let mut atl = vec![Int::zero(); n];
+            for (i, li) in lam.num.iter().enumerate() {
+                if li.is_zero() {
+                    continue;
+                }
+                for (s, v) in a.row(i) {
+                    atl[*s] += &(li * v);
+                }
             }
-            for (s, v) in a.row(i) {
-                atl[*s] += &(li * v);
-            }
-        }
-        // scale G Lambda = scale R with Lambda = L / LD, so lambda = Lambda / (hd bd) and
-        // x'' = hn / hd - factor * atl / (scale * LD * hd * bd).
-        let (h, b) = (&h_cols[j], &b_hat[j]);
-        let k = &(&scale * &lam.den) * &b.den;
-        let num = h
-            .num
-            .iter()
-            .zip(atl.iter().zip(&factor))
-            .map(|(hn, (a, f))| Int::cross(hn, &k, f, a))
-            .collect();
-        out[j] = ScaledVec::new(num, &k * &h.den);
+            // scale G Lambda = scale R with Lambda = L / LD, so lambda = Lambda / (hd bd) and
+            // x'' = hn / hd - factor * atl / (scale * LD * hd * bd).
+            let (h, b) = (&h_cols[j], &b_hat[j]);
+            let k = &(&scale * &lam.den) * &b.den;
+            let num = h
+                .num
+                .par_iter()
+                .zip(atl.par_iter().zip(&factor))
+                .map(|(hn, (a, f))| Int::cross(hn, &k, f, a))
+                .collect();
+            (j, ScaledVec::new(num, &k * &h.den))
+        })
+        .collect();
+    for (j, v) in solved {
+        out[j] = v;
     }
     Some((out, st.primes))
 }
