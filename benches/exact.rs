@@ -14,6 +14,9 @@
 //! * `edit_process/select_all_unbounded_rotate_100`: `trimorph edit --unbounded` of a
 //!   100-triangle spline, a select-all rotation with exact values (ECLES's modular path).
 //!
+//! * `exact_parts/decimal_200_x_3300_bits`, `exact_parts/lowest_terms_800_x_3300_bits`: the
+//!   output's two costliest parts on their own, at the 400 x 800 solve's sizes.
+//!
 //! The FLINT comparison is `benches/flint_fflu.py` (needs python-flint), the scaling series
 //! `benches/exact_scaling.sh`.
 
@@ -230,5 +233,37 @@ fn bench_edit(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench, bench_edit);
+/// The two costliest parts of writing an exact solution, on numbers of the 400 x 800
+/// solve's size (3,300 bits): decimal text (`exact::radix`) and lowest terms over one
+/// denominator (`exact::lowest`, 800 values sharing a factor 30 with it).
+fn bench_parts(c: &mut Criterion) {
+    use num_bigint::BigUint;
+    use trimorph::exact::Int;
+    let mut rng = SmallRng::seed_from_u64(11);
+    let mut big = |bits: usize| -> BigUint {
+        let words: Vec<u32> = (0..bits.div_ceil(32)).map(|_| rng.gen()).collect();
+        BigUint::new(words) >> (bits.div_ceil(32) * 32 - bits) | (BigUint::from(1u32) << (bits - 1))
+    };
+    let xs: Vec<BigUint> = (0..200).map(|_| big(3300)).collect();
+    let den = big(3300) * 30u32;
+    let num: Vec<Int> = (0..800).map(|_| Int::from_big((big(3290) * 30u32).into())).collect();
+    let den = Int::from_big(den.into());
+    let mut g = c.benchmark_group("exact_parts");
+    g.bench_function("decimal_200_x_3300_bits", |b| {
+        b.iter(|| {
+            let mut s = String::with_capacity(200 * 1000);
+            for x in &xs {
+                trimorph::exact::radix::push_decimal(x, &mut s);
+            }
+            s.len()
+        })
+    });
+    g.sample_size(20);
+    g.bench_function("lowest_terms_800_x_3300_bits", |b| {
+        b.iter(|| trimorph::exact::lowest::lowest_terms(&num, &den).len())
+    });
+    g.finish();
+}
+
+criterion_group!(benches, bench, bench_edit, bench_parts);
 criterion_main!(benches);
