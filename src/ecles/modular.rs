@@ -19,13 +19,13 @@
 //! [`ConstraintSystem::canonical_redundant`]), which `trimorph solve` reports on both paths.
 //! Any failure to certify returns `None` and the caller runs the fraction-free path.
 
-use super::session::{check_edit, check_rows};
+use super::session::{check_edit, check_rows, check_weights};
 use super::{ConstraintSystem, EclesError};
 use crate::exact::int::Int;
 use crate::exact::lsq::gram;
 use crate::exact::matrix::{Rat, ScaledVec, SparseIntMatrix};
 use crate::exact::modular::{certified_basis, solve_nonsingular, CertifiedBasis};
-use num_traits::{One, Signed, Zero};
+use num_traits::{One, Zero};
 use rayon::prelude::*;
 
 /// The outcome of a modular edit: the same quantities as a [`super::Session`] after one
@@ -240,16 +240,7 @@ impl ModularPlan {
         let derived = &self.derived;
         check_rows("anchor values", anchor_values, self.anchors, self.d)?;
         check_rows("hints", hints, derived.len(), self.d)?;
-        if weights.len() != derived.len() {
-            return Err(EclesError::Dimension {
-                what: "weights (one per derived parameter)".into(),
-                expected: derived.len(),
-                found: weights.len(),
-            });
-        }
-        if let Some((k, v)) = weights.iter().enumerate().find(|(_, v)| !v.is_positive()) {
-            return Err(EclesError::NonPositiveWeight { index: derived[k], value: v.to_string() });
-        }
+        check_weights(weights, derived)?;
         let (basis, relevant) = (&self.basis, &self.relevant);
         let trace = std::env::var_os("TRIMORPH_TRACE").is_some();
         let t0 = std::time::Instant::now();

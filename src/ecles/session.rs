@@ -82,6 +82,21 @@ pub(super) fn check_edit(
     Ok(())
 }
 
+/// One positive weight per derived parameter (`derived` names them in errors).
+pub(super) fn check_weights(weights: &[Rat], derived: &[usize]) -> Result<(), EclesError> {
+    if weights.len() != derived.len() {
+        return Err(EclesError::Dimension {
+            what: "weights (one per derived parameter)".into(),
+            expected: derived.len(),
+            found: weights.len(),
+        });
+    }
+    if let Some((k, v)) = weights.iter().enumerate().find(|(_, v)| !v.is_positive()) {
+        return Err(EclesError::NonPositiveWeight { index: derived[k], value: v.to_string() });
+    }
+    Ok(())
+}
+
 pub(super) fn check_rows(
     what: &str,
     m: &[Vec<Rat>],
@@ -329,19 +344,7 @@ impl Session {
         match weights {
             None => Ok(vec![Rat::one(); self.derived.len()]),
             Some(w) => {
-                if w.len() != self.derived.len() {
-                    return Err(EclesError::Dimension {
-                        what: "weights (one per derived parameter)".into(),
-                        expected: self.derived.len(),
-                        found: w.len(),
-                    });
-                }
-                if let Some((k, v)) = w.iter().enumerate().find(|(_, v)| !v.is_positive()) {
-                    return Err(EclesError::NonPositiveWeight {
-                        index: self.derived[k],
-                        value: v.to_string(),
-                    });
-                }
+                check_weights(w, &self.derived)?;
                 Ok(w.to_vec())
             }
         }
