@@ -79,13 +79,26 @@ impl Phases {
 #[derive(Debug)]
 pub struct Trace {
     what: &'static str,
-    last: Option<Instant>,
+    last: Option<(Instant, f64)>,
+}
+
+/// The CPU time of the whole process, all threads (milliseconds); 0 where it cannot be read.
+fn process_cpu_ms() -> f64 {
+    #[cfg(unix)]
+    {
+        let mut ts = libc::timespec { tv_sec: 0, tv_nsec: 0 };
+        // SAFETY: `ts` is a valid, writable timespec; the call only writes it.
+        if unsafe { libc::clock_gettime(libc::CLOCK_PROCESS_CPUTIME_ID, &mut ts) } == 0 {
+            return ts.tv_sec as f64 * 1e3 + ts.tv_nsec as f64 * 1e-6;
+        }
+    }
+    0.0
 }
 
 impl Trace {
     /// Starts the clock if `TRIMORPH_TRACE` is set.
     pub fn new(what: &'static str) -> Trace {
-        let last = std::env::var_os("TRIMORPH_TRACE").map(|_| Instant::now());
+        let last = std::env::var_os("TRIMORPH_TRACE").map(|_| (Instant::now(), process_cpu_ms()));
         Trace { what, last }
     }
 
@@ -94,12 +107,19 @@ impl Trace {
         self.last.is_some()
     }
 
-    /// Prints the time since the previous mark (or the start) as the phase `phase`.
+    /// Prints the time since the previous mark (or the start) as the phase `phase`, with the
+    /// process's CPU time over the same span (all threads: a phase that keeps `n` cores busy
+    /// shows about `n` times its wall time).
     pub fn mark(&mut self, phase: &str) {
-        if let Some(last) = self.last {
-            let now = Instant::now();
-            eprintln!("trace {}: {phase} {:.2} ms", self.what, (now - last).as_secs_f64() * 1e3);
-            self.last = Some(now);
+        if let Some((last, cpu)) = self.last {
+            let (now, cpu_now) = (Instant::now(), process_cpu_ms());
+            eprintln!(
+                "trace {}: {phase} {:.2} ms (cpu {:.2} ms)",
+                self.what,
+                (now - last).as_secs_f64() * 1e3,
+                cpu_now - cpu
+            );
+            self.last = Some((now, cpu_now));
         }
     }
 }

@@ -737,3 +737,39 @@ fn solver_options_are_checked_by_the_library_parsers() {
         " auto ",
     ]));
 }
+
+/// `fit --size` surrounds the adapted mesh with two far-field rings by default (the mesh
+/// reaches 16 times the domain's size), `--far-rings 0` leaves the domain's border free,
+/// and `mesh --landmarks --far-rings 1` writes the rings too. Either fit covers the frame.
+#[test]
+fn far_rings_extend_the_fitted_mesh_and_can_be_turned_off() {
+    let dir = tempfile::tempdir().unwrap();
+    let lms = dir.path().join("l.csv");
+    write_landmarks(&lms, 30);
+    let bbox = |p: &Path| {
+        let text = fs::read_to_string(p).unwrap();
+        trimorph::io::deformation::from_str(&text).unwrap().0.mesh().bbox()
+    };
+    let fit = |extra: &[&str], name: &str| {
+        let (out, rep) = (dir.path().join(name), dir.path().join(format!("{name}.rep.json")));
+        let mut a = vec!["fit", "--landmarks", s(&lms), "--size", "200,150", "-o", s(&out)];
+        a.extend_from_slice(&["--report", s(&rep)]);
+        a.extend_from_slice(extra);
+        ok(&trimorph(&a));
+        let r: serde_json::Value =
+            serde_json::from_str(&fs::read_to_string(&rep).unwrap()).unwrap();
+        assert_eq!(r["frame"]["covers_frame"], true, "{r}");
+        assert_eq!(r["fold_free"], true, "{r}");
+        (bbox(&out), r["frame"]["margin"].as_f64().unwrap())
+    };
+    let ((lo, hi), m) = fit(&[], "ringed.json");
+    let (w, h) = (200.0 + 2.0 * m, 150.0 + 2.0 * m);
+    assert!((hi[0] - lo[0] - 16.0 * w).abs() < 1.0 && (hi[1] - lo[1] - 16.0 * h).abs() < 1.0);
+    let ((lo, hi), m) = fit(&["--far-rings", "0"], "free.json");
+    assert_eq!((lo, hi), ([-0.5 - m, -0.5 - m], [199.5 + m, 149.5 + m]));
+    let mesh = dir.path().join("mesh.json");
+    let a = ["mesh", "--landmarks", s(&lms), "--size", "200,150", "--far-rings", "1"];
+    ok(&trimorph(&[&a[..], &["-o", s(&mesh)]].concat()));
+    let (lo, hi) = bbox(&mesh);
+    assert!((hi[0] - lo[0] - 4.0 * 240.0).abs() < 1.0, "{lo:?} {hi:?}");
+}

@@ -33,7 +33,7 @@ impl Rng {
     }
 }
 
-/// The known smooth deformation of the cell image (pixels to pixels).
+/// The known smooth deformation of the cell image (pixels to pixels): long waves.
 fn truth(p: [f64; 2]) -> [f64; 2] {
     use std::f64::consts::TAU;
     let (x, y) = (p[0], p[1]);
@@ -41,6 +41,20 @@ fn truth(p: [f64; 2]) -> [f64; 2] {
         x + 9.0 * (TAU * y / 420.0).sin() + 4.0 * (TAU * (x + y) / 610.0).sin() + 3.0,
         y + 7.0 * (TAU * x / 380.0).cos() - 3.5 * (TAU * y / 500.0).sin() - 2.0,
     ]
+}
+
+/// A second known deformation: a local swirl (up to 0.25 rad about (300, 220)), a bulge
+/// near (150, 400) and a mild shear; most of the frame moves little, so how the map
+/// continues beyond the landmarks matters.
+fn swirl(p: [f64; 2]) -> [f64; 2] {
+    let (x, y) = (p[0], p[1]);
+    let (cx, cy) = (300.0, 220.0);
+    let (dx, dy) = (x - cx, y - cy);
+    let a = 0.25 * (-(dx * dx + dy * dy) / (2.0 * 140.0 * 140.0)).exp();
+    let (c, s) = (a.cos(), a.sin());
+    let (rx, ry) = (c * dx - s * dy, s * dx + c * dy);
+    let b = 1.0 + 0.08 * (-((x - 150.0).powi(2) + (y - 400.0).powi(2)) / (2.0 * 90.0 * 90.0)).exp();
+    [cx + rx * b + 0.02 * y + 4.0, cy + ry * b - 3.0]
 }
 
 fn cell() -> image::GrayImage {
@@ -53,8 +67,15 @@ fn rms(e: &[f64]) -> f64 {
 }
 
 /// Mean held-out TRE over 5 random splits of `n` feature points `sep` px apart, of which
-/// `n / 4` are held out: (trimorph, TPS).
-fn split_tre(n: usize, sep: f64, noise: f64) -> (f64, f64) {
+/// `n / 4` are held out, the targets given by `field` (with `noise` px of Gaussian noise per
+/// coordinate on the fitted ones): (trimorph with `opts`, TPS).
+fn split_tre_with(
+    field: fn([f64; 2]) -> [f64; 2],
+    n: usize,
+    sep: f64,
+    noise: f64,
+    opts: &FrameFitOptions,
+) -> (f64, f64) {
     let img = cell();
     let (w, h) = img.dimensions();
     let pts = common::features::feature_points(&img, n, sep);
@@ -69,7 +90,7 @@ fn split_tre(n: usize, sep: f64, noise: f64) -> (f64, f64) {
         }
         let lm = |i: usize, noisy: bool, rng: &mut Rng| {
             let p = pts[i];
-            let mut t = truth(p);
+            let mut t = field(p);
             if noisy {
                 t[0] += noise * rng.normal();
                 t[1] += noise * rng.normal();
@@ -78,7 +99,7 @@ fn split_tre(n: usize, sep: f64, noise: f64) -> (f64, f64) {
         };
         let fitted: Vec<Landmark> = idx[..k].iter().map(|&i| lm(i, true, &mut rng)).collect();
         let held: Vec<Landmark> = idx[k..].iter().map(|&i| lm(i, false, &mut rng)).collect();
-        let f = fit_frame(&fitted, [w as f64, h as f64], &FrameFitOptions::default()).unwrap();
+        let f = fit_frame(&fitted, [w as f64, h as f64], opts).unwrap();
         assert!(f.fit.report.fold_free && f.frame.covers_frame, "split {split}");
         let r: Vec<f64> =
             residuals(&f.fit.spline, &held).unwrap().iter().map(|r| r.residual).collect();
@@ -105,29 +126,69 @@ fn split_tre(n: usize, sep: f64, noise: f64) -> (f64, f64) {
     (mean(&ours), mean(&base))
 }
 
-// Measured (release, this data): without noise, 30 landmarks: trimorph 4.56 px, TPS 4.83 px;
-// 60 landmarks: 2.38 vs 2.14. With 1.5 px noise, 30 landmarks: 4.77 vs 4.72; 60 landmarks:
-// 3.10 vs 2.98. The bounds below hold those figures with a little room; being better than
-// TPS with noise is the aim, not yet reached with dense landmarks.
+/// [`split_tre_with`] with the default options.
+fn split_tre(field: fn([f64; 2]) -> [f64; 2], n: usize, sep: f64, noise: f64) -> (f64, f64) {
+    split_tre_with(field, n, sep, noise, &FrameFitOptions::default())
+}
+
+// Measured (release, this data, leave-one-out choice of the weight over the mesh with two
+// far-field rings), mean held-out TRE trimorph / TPS in px:
+//
+// | field | landmarks | no noise      | 1.5 px noise  |
+// |-------|-----------|---------------|---------------|
+// | waves | 30        | 4.801 / 4.829 | 4.841 / 4.716 |
+// | waves | 60        | 2.132 / 2.139 | 2.842 / 2.980 |
+// | swirl | 30        | 3.592 / 3.630 | 3.841 / 3.863 |
+// | swirl | 60        | 1.716 / 1.729 | 2.566 / 2.681 |
+//
+// Without noise the fit is at least as good as the interpolating TPS; with noise it is
+// better with 60 landmarks (4 to 5 %) and on the swirl with 30, but 2.7 % worse on the
+// waves with 30, where the model error (4.8 px) dwarfs the noise and the leave-one-out
+// score still asks for some smoothing. The bounds hold those figures with 1 % room for
+// floating-point differences between machines.
 
 #[test]
-fn without_noise_automatic_smoothing_beats_tps_on_sparse_landmarks() {
-    let (ours, tps) = split_tre(40, 45.0, 0.0);
-    eprintln!("no noise, 30 landmarks: mean held-out TRE trimorph {ours:.3} px, TPS {tps:.3} px");
-    assert!(ours <= tps, "trimorph {ours} vs TPS {tps}");
-    let (ours, tps) = split_tre(80, 35.0, 0.0);
-    eprintln!("no noise, 60 landmarks: trimorph {ours:.3} px, TPS {tps:.3} px");
-    assert!(ours <= 1.15 * tps, "trimorph {ours} vs TPS {tps}");
+fn without_noise_the_fit_is_at_least_as_good_as_tps() {
+    for (name, field) in [("waves", truth as fn([f64; 2]) -> [f64; 2]), ("swirl", swirl)] {
+        for (n, sep) in [(40, 45.0), (80, 35.0)] {
+            let (ours, tps) = split_tre(field, n, sep, 0.0);
+            eprintln!(
+                "{name}, no noise, {} landmarks: trimorph {ours:.3} px, TPS {tps:.3} px",
+                n - n / 4
+            );
+            assert!(ours <= 1.01 * tps, "{name} {n}: trimorph {ours} vs TPS {tps}");
+        }
+    }
 }
 
 #[test]
-fn with_noise_automatic_smoothing_stays_close_to_tps() {
-    let (ours, tps) = split_tre(40, 45.0, 1.5);
-    eprintln!("1.5 px noise, 30 landmarks: trimorph {ours:.3} px, TPS {tps:.3} px");
-    assert!(ours <= 1.05 * tps, "trimorph {ours} vs TPS {tps}");
-    let (ours, tps) = split_tre(80, 35.0, 1.5);
-    eprintln!("1.5 px noise, 60 landmarks: trimorph {ours:.3} px, TPS {tps:.3} px");
-    assert!(ours <= 1.10 * tps, "trimorph {ours} vs TPS {tps}");
+fn with_noise_the_fit_beats_tps_given_enough_landmarks() {
+    for (name, field) in [("waves", truth as fn([f64; 2]) -> [f64; 2]), ("swirl", swirl)] {
+        let (ours, tps) = split_tre(field, 80, 35.0, 1.5);
+        eprintln!("{name}, 1.5 px noise, 60 landmarks: trimorph {ours:.3} px, TPS {tps:.3} px");
+        assert!(ours <= 0.97 * tps, "{name}: trimorph {ours} vs TPS {tps}");
+        let (ours, tps) = split_tre(field, 40, 45.0, 1.5);
+        eprintln!("{name}, 1.5 px noise, 30 landmarks: trimorph {ours:.3} px, TPS {tps:.3} px");
+        let bound = if name == "waves" { 1.04 } else { 1.01 };
+        assert!(ours <= bound * tps, "{name}: trimorph {ours} vs TPS {tps}");
+    }
+}
+
+/// Bug: with the domain's border free (no far-field rings), the smoothest map through the
+/// landmarks bent for nothing near the border, and on the swirl its held-out error was
+/// 19 % above the thin-plate spline's (4.33 against 3.63 px, 30 landmarks, no noise). The
+/// rings bring it to the TPS's level.
+#[test]
+fn far_field_rings_bring_the_fit_to_the_thin_plate_level() {
+    let mut free = FrameFitOptions::default();
+    free.mesh.far_rings = 0;
+    let (open, tps) = split_tre_with(swirl, 40, 45.0, 0.0, &free);
+    let (ringed, _) = split_tre(swirl, 40, 45.0, 0.0);
+    eprintln!(
+        "swirl, 30 landmarks: free border {open:.3} px, far rings {ringed:.3} px, TPS {tps:.3} px"
+    );
+    assert!(open > 1.1 * tps, "the free border was expected to extrapolate worse: {open} vs {tps}");
+    assert!(ringed <= 1.01 * tps && ringed < 0.9 * open, "{ringed} vs {open} / {tps}");
 }
 
 /// 68 landmarks crowded into one corner of a small frame, with a strong local swirl: the fit

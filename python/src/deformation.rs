@@ -261,9 +261,10 @@ impl Deformation {
 
     /// The identity over a mesh adapted to landmark sources `src` ((n, 2) pixels) in a frame
     /// of `size = (w, h)`, like `trimorph mesh --landmarks`: refined where the landmarks are,
-    /// with a margin around the frame so a fit keeps the whole frame covered.
+    /// with a margin around the frame so a fit keeps the whole frame covered. `far_rings`
+    /// adds far-field rings around it (`trimorph mesh --far-rings`).
     #[staticmethod]
-    #[pyo3(signature = (src, size, margin = None, max_edge = None, min_angle = 20.0, degree = 5, snap = None))]
+    #[pyo3(signature = (src, size, margin = None, max_edge = None, min_angle = 20.0, degree = 5, snap = None, far_rings = 0))]
     fn mesh_landmarks(
         py: Python<'_>,
         src: &Bound<'_, PyAny>,
@@ -273,12 +274,14 @@ impl Deformation {
         min_angle: f64,
         degree: usize,
         snap: Option<i64>,
+        far_rings: usize,
     ) -> PyResult<Deformation> {
         let size = frame_size(size)?;
         let sources = points_in(py, src, "src")?;
         let lms = crate::fitting::landmarks_of(&sources, &sources, None, None)?;
         let grid = snap.unwrap_or_else(|| trimorph::fit::frame::source_grid(&lms));
-        let ao = AdaptOptions { margin, max_edge, min_angle, grid, extra_points: Vec::new() };
+        let ao =
+            AdaptOptions { margin, max_edge, min_angle, grid, extra_points: Vec::new(), far_rings };
         let mesh =
             py.detach(|| Mesh::landmark_adapted(&sources, size, &ao)).map_err(value_error)?.mesh;
         Ok(Deformation::new(Spline::identity(mesh, degree).map_err(value_error)?))

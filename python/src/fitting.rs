@@ -113,13 +113,15 @@ pub fn fit_options(
 /// Without `deformation`, the mesh is adapted to the landmarks over a frame of
 /// `size = (w, h)` pixels and the fit covers the whole frame (`trimorph fit --size`); with
 /// it, the fit runs on that deformation's mesh. `loss` is "squares", "huber" or "cauchy"
-/// (scale `loss_scale` px), `bend` "auto" (generalized cross-validation) or a weight >= 0,
+/// (scale `loss_scale` px), `bend` "auto" (leave-one-out cross-validation) or a weight >= 0,
 /// `hard=True` makes every landmark an exact constraint, `barrier` keeps det J above
-/// `min_det`. Returns a Deformation whose `report` holds the fit report. Releases the GIL.
+/// `min_det`. `far_rings` (with `size`) adds far-field rings around the adapted mesh
+/// (`trimorph fit --far-rings`, default 2). Returns a Deformation whose `report` holds the fit report. Releases the GIL.
 #[pyfunction]
 #[pyo3(signature = (src, dst, size = None, weights = None, names = None, loss = "squares",
     loss_scale = 2.0, bend = None, hard = false, barrier = true, min_det = 0.1, max_iters = 200,
-    radius = None, margin = None, max_edge = None, min_angle = 20.0, deformation = None))]
+    radius = None, margin = None, max_edge = None, min_angle = 20.0, deformation = None,
+    far_rings = trimorph::fit::frame::FAR_RINGS))]
 pub fn fit(
     py: Python<'_>,
     src: &Bound<'_, PyAny>,
@@ -139,6 +141,7 @@ pub fn fit(
     max_edge: Option<f64>,
     min_angle: f64,
     deformation: Option<PyRef<'_, Deformation>>,
+    far_rings: usize,
 ) -> PyResult<Deformation> {
     let (s, d) = (points_in(py, src, "src")?, points_in(py, dst, "dst")?);
     let lms = landmarks_of(&s, &d, weights, names)?;
@@ -162,7 +165,14 @@ pub fn fit(
         (None, Some(size)) => {
             let size = [size.0, size.1];
             let fopts = FrameFitOptions {
-                mesh: AdaptOptions { margin, max_edge, min_angle, grid: 0, extra_points: Vec::new() },
+                mesh: AdaptOptions {
+                    margin,
+                    max_edge,
+                    min_angle,
+                    grid: 0,
+                    extra_points: Vec::new(),
+                    far_rings,
+                },
                 degree: 5,
                 fit: opts,
             };

@@ -83,3 +83,16 @@ def test_morph_frames_equal_the_cli_frames(nuclei, cli, tmp_path):
         ref = trimorph.read_image(f)
         assert ours.shape[:2] == a.shape[:2]
         np.testing.assert_array_equal(ours, ref)
+
+
+def test_far_rings_extend_the_fitted_mesh(nuclei):
+    src, dst = nuclei["src"], nuclei["dst"]
+    ringed = trimorph.fit(src, dst, size=(184, 184))
+    free = trimorph.fit(src, dst, size=(184, 184), far_rings=0)
+    (lo, hi), (flo, fhi) = ringed.bbox, free.bbox
+    # Two rings by default: the mesh reaches 16 times the domain (frame plus margin).
+    assert hi[0] - lo[0] > 10 * (fhi[0] - flo[0])
+    assert flo[0] < 0 and fhi[0] > 183
+    m = trimorph.Deformation.mesh_landmarks(src, (184, 184), far_rings=1)
+    (mlo, mhi) = m.bbox
+    assert 3.5 * (fhi[0] - flo[0]) < mhi[0] - mlo[0] < 4.5 * (fhi[0] - flo[0])

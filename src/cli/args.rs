@@ -44,6 +44,10 @@ pub struct MeshCli {
     /// With --landmarks: the refinement's smallest angle in degrees (at most 33).
     #[arg(long, default_value_t = 20.0)]
     pub min_angle: f64,
+    /// With --landmarks: far-field rings around the domain, each 4 times the size of the
+    /// one inside (0 to 4; `trimorph fit --size` uses 2).
+    #[arg(long, default_value_t = 0)]
+    pub far_rings: usize,
     /// Spline degree (5 or more for local edits).
     #[arg(long, default_value_t = 5)]
     pub degree: usize,

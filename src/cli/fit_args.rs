@@ -34,9 +34,10 @@ pub struct FitCli {
     /// Scale of the huber / cauchy loss (pixels).
     #[arg(long, default_value_t = 2.0)]
     pub loss_scale: f64,
-    /// Weight of the bending (thin-plate) energy: `auto` (chosen by generalized
+    /// Weight of the bending (thin-plate) energy: `auto` (chosen by leave-one-out
     /// cross-validation on the landmarks) or a scale-free number (lambda = bend * sum of
-    /// landmark weights * mesh area; 1e-4 is close to interpolation, 1 is very stiff).
+    /// landmark weights * area, the frame and margin with --size, else the mesh's; 1e-4 is
+    /// close to interpolation, 1 is very stiff).
     #[arg(long, default_value = "auto", value_parser = text(str::parse::<Bend>))]
     pub bend: Bend,
     /// Landmarks become hard constraints phi(s) = t (exact, through ECLES).
@@ -109,6 +110,11 @@ pub struct FitCli {
     /// With --size: the adapted mesh's smallest angle in degrees.
     #[arg(long, default_value_t = 20.0)]
     pub min_angle: f64,
+    /// With --size: far-field rings around the adapted mesh (0 to 4), each 4 times the size
+    /// of the one inside: the bending energy then spans nearly the whole plane, as a
+    /// thin-plate spline's does. 0 leaves the border free (natural boundary).
+    #[arg(long, default_value_t = crate::fit::frame::FAR_RINGS)]
+    pub far_rings: usize,
 }
 
 impl FitCli {

@@ -34,6 +34,7 @@ pub fn run_single(a: &FitCli) -> Result<()> {
                 min_angle: a.min_angle,
                 grid: 0,
                 extra_points: Vec::new(),
+                far_rings: a.far_rings,
             };
             // `run` comes here only with --size when DEF is absent.
             let size = size.ok_or_else(|| anyhow!("give DEF.json or --size W,H"))?;

@@ -38,6 +38,7 @@ pub fn mesh(a: &MeshCli) -> Result<()> {
                 min_angle: a.min_angle,
                 grid: a.snap.unwrap_or(0),
                 extra_points: Vec::new(),
+                far_rings: a.far_rings,
             };
             MeshSource::Landmarks { path: l.clone(), size, adapt }
         }

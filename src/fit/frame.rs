@@ -9,10 +9,19 @@
 //! 2. The mesh is [`Mesh::landmark_adapted`] with a margin large enough that `A` maps the
 //!    domain over the whole frame: every frame corner `c` has `A^-1 c` inside the domain
 //!    (the default margin grows when it does not).
-//! 3. The warm start is `A` itself, exactly (its coefficients rounded to multiples of
-//!    [`AFFINE_BITS`] bits). The border is free (natural boundary): beyond the landmarks
-//!    the fit continues as smoothly as the bending energy allows, which is how a thin-plate
-//!    spline extrapolates (towards an affine map). Holding the border at `A` instead
+//! 3. Around the domain the mesh has [`FAR_RINGS`] far-field rings, rectangles 4 and 16
+//!    times its size ([`crate::mesh::AdaptOptions::far_rings`]), so the bending energy is
+//!    taken over nearly the whole plane, as a thin-plate spline's is: without them the
+//!    domain's free border (natural boundary) lets the map bend there for nothing, and the
+//!    smoothest map through the landmarks extrapolates worse near the frame's edges
+//!    (measured in `tests/fit_real.rs`: with two rings the noise-free held-out error equals
+//!    the thin-plate spline's to within 1 %; without, it was 11 % worse with 60 landmarks
+//!    and 20 % worse on a local swirl). Scale-free bending weights still refer to the
+//!    domain's area ([`FitOptions::bend_area`]).
+//! 4. The warm start is `A` itself, exactly (its coefficients rounded to multiples of
+//!    [`AFFINE_BITS`] bits). The outer border is free: beyond the landmarks the fit
+//!    continues as smoothly as the bending energy allows, which is how a thin-plate spline
+//!    extrapolates (towards an affine map). Holding the border at `A` instead
 //!    ([`FitOptions::pin_border`]) biases every landmark near the border and is not the
 //!    default.
 //!
@@ -42,6 +51,10 @@ const GRIDS: [i64; 6] = [16, 80, 400, 2000, 10_000, 50_000];
 /// Attempts at breaking up a vertex that has no local determining set.
 const MAX_MDS_RETRIES: usize = 8;
 
+/// Far-field rings of the frame fit's mesh (see the module docs and
+/// [`crate::mesh::AdaptOptions::far_rings`]): the outermost is 16 times the domain's size.
+pub const FAR_RINGS: usize = 2;
+
 /// Options of [`fit_frame`].
 #[derive(Clone, Debug, PartialEq)]
 pub struct FrameFitOptions {
@@ -56,7 +69,7 @@ pub struct FrameFitOptions {
 impl Default for FrameFitOptions {
     fn default() -> Self {
         FrameFitOptions {
-            mesh: AdaptOptions { grid: 0, ..AdaptOptions::default() },
+            mesh: AdaptOptions { grid: 0, far_rings: FAR_RINGS, ..AdaptOptions::default() },
             degree: 5,
             fit: FitOptions::default(),
         }
@@ -224,7 +237,11 @@ fn fit_on_mesh(
             Err(e) => return Err(e.into()),
         }
     };
-    let f = fit_with_terms(&spline, &mds, lms, &opts.fit, start, terms)?;
+    // Scale-free weights refer to the domain (frame and margin), not to the far rings.
+    let (lo, hi) = adapted.domain;
+    let mut fit_opts = opts.fit.clone();
+    fit_opts.bend_area.get_or_insert((hi[0] - lo[0]) * (hi[1] - lo[1]));
+    let f = fit_with_terms(&spline, &mds, lms, &fit_opts, start, terms)?;
     Ok((adapted, f))
 }
 

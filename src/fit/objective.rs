@@ -316,6 +316,9 @@ pub struct Objective {
     pub bend: f64,
     /// The barrier (None: off).
     pub barrier: Option<Barrier>,
+    /// The area `|Omega|` that scale-free bending weights refer to (`None`: the mesh's,
+    /// [`area`](Self::area)); see [`super::smooth`].
+    pub bend_area: Option<f64>,
 }
 
 impl Objective {
@@ -343,7 +346,7 @@ impl Objective {
         barrier: Option<Barrier>,
         terms: TriangleTerms,
     ) -> Objective {
-        Objective { param, rows, tris: terms.0, loss, bend, barrier }
+        Objective { param, rows, tris: terms.0, loss, bend, barrier, bend_area: None }
     }
 
     /// The triangles' terms.
@@ -495,6 +498,12 @@ impl Objective {
     /// The domain's area (sum of the triangle areas).
     pub fn area(&self) -> f64 {
         self.tris.iter().map(|t| t.sample_weight * t.samples.len() as f64).sum()
+    }
+
+    /// The area scale-free bending weights refer to: [`bend_area`](Self::bend_area) when
+    /// set, else [`area`](Self::area).
+    pub fn reference_area(&self) -> f64 {
+        self.bend_area.unwrap_or_else(|| self.area())
     }
 
     /// Each data row over the variables: `(a_i, r_i, t_i)` with `phi(s_i) = a_i^T x + r_i`

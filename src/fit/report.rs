@@ -5,7 +5,7 @@ use super::solve::FitReport;
 
 impl FitReport {
     /// One line per fit: landmark residuals, held-out TRE, the bending weight (when chosen
-    /// by GCV), `det J` (sampled and certified), the solver and its termination, and
+    /// by cross-validation), `det J` (sampled and certified), the solver and its termination, and
     /// whether C1 holds exactly.
     pub fn summary_line(&self) -> String {
         let r = self;

@@ -63,12 +63,17 @@ pub struct FitOptions {
     /// depends on varies, so `phi` on the border stays as in the warm start (default false;
     /// the landmark-adapted fit sets it, see [`super::frame`]).
     pub pin_border: bool,
+    /// The area `|Omega|` (square pixels) in `lambda = bend * sum w * |Omega|`, so that a
+    /// weight means the same whatever lies far outside the landmarks (`None`: the mesh's
+    /// area; [`super::frame`] sets the frame grown by its margin, leaving out the far-field
+    /// rings).
+    pub bend_area: Option<f64>,
 }
 
 /// The bending weight of a fit.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Bend {
-    /// Chosen by generalized cross-validation on the landmarks ([`super::smooth`]).
+    /// Chosen by leave-one-out cross-validation on the landmarks ([`super::smooth`]).
     Auto,
     /// This scale-free weight (`lambda = bend * sum w * |Omega|`).
     Weight(f64),
@@ -107,6 +112,7 @@ impl Default for FitOptions {
             det_level: crate::spline::jacobian::SAMPLE_LEVEL,
             pinned: Vec::new(),
             pin_border: false,
+            bend_area: None,
         }
     }
 }
@@ -162,11 +168,12 @@ pub struct FitReport {
     pub loss: String,
     /// The scale-free bending weight used.
     pub bend: f64,
-    /// Whether it was chosen by GCV.
+    /// Whether it was chosen by cross-validation (`--bend auto`).
     pub bend_auto: bool,
     /// The GCV estimate of the landmarks' prediction error at that weight (pixels; auto only).
     pub gcv_rms: Option<f64>,
-    /// Leave-one-out error of the landmarks' squares fit at that weight (pixels; auto only).
+    /// Leave-one-out error of the landmarks' squares fit at that weight, the score the
+    /// weight minimizes (pixels; auto only).
     pub loo_rms: Option<f64>,
     /// Why the solver stopped: `exact` (the squares minimizer, no barrier needed),
     /// `converged`, `no descent` or `iteration cap` (Newton with the barrier).
@@ -371,9 +378,10 @@ fn objective_with_terms(
         if opts.pin_border { border_closed(s, mds, is_var) } else { Param::new(s, mds, &is_var) };
     let terms = terms.unwrap_or_else(|| TriangleTerms::new(s, opts.det_level));
     let mut obj = Objective::with_terms(param, rows, opts.loss, 0.0, opts.barrier, terms);
+    obj.bend_area = opts.bend_area;
     // lambda = bend * sum w * area (see `super::smooth`); with `Bend::Auto` the solver sets it.
     if let Bend::Weight(w) = opts.bend {
-        obj.bend = w * lms.iter().map(|l| l.weight).sum::<f64>() * obj.area();
+        obj.bend = w * lms.iter().map(|l| l.weight).sum::<f64>() * obj.reference_area();
     }
     Ok(obj)
 }
@@ -526,7 +534,7 @@ fn fit_soft_terms(
 /// space solver stores `nv x k` numbers, the Newton step a sparse factor).
 pub const MAX_FIT_VARIABLES: usize = 32_768;
 
-/// The weight of a fixed [`Bend`], or the default where GCV cannot choose.
+/// The weight of a fixed [`Bend`], or the default where cross-validation cannot choose.
 fn bend_weight(b: Bend) -> f64 {
     match b {
         Bend::Weight(w) => w,
@@ -567,7 +575,7 @@ fn solve(
         Bend::Auto => sm.choose()?,
         Bend::Weight(_) => None,
     };
-    trace.mark("GCV choice");
+    trace.mark("cross-validated choice");
     let bend = choice.map_or(bend_weight(opts.bend), |c| c.bend);
     obj.bend = sm.lambda(bend);
     let mut x = sm.solve(bend, None)?;

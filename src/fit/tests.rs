@@ -359,3 +359,38 @@ fn pinned_points_keep_their_input_values_exactly() {
         )
     );
 }
+
+/// The automatic weight minimizes the leave-one-out score computed in closed form: that
+/// score equals the one got by refitting without each landmark in turn (its weight scaled
+/// by 1e-12), and no weight on a grid around the choice scores lower.
+#[test]
+fn leave_one_out_choice_matches_refits_without_each_landmark() {
+    use super::smooth::Smoother;
+    let s = grid_spline();
+    let mut rng = SmallRng::seed_from_u64(11);
+    let mut lms = landmarks(24, 5, smooth_map);
+    for l in &mut lms {
+        l.dst[0] += rng.gen_range(-1.5..1.5);
+        l.dst[1] += rng.gen_range(-1.5..1.5);
+    }
+    let obj = objective(&s, &lms, &FitOptions { barrier: None, ..FitOptions::default() }).unwrap();
+    let sm = Smoother::new(&obj).unwrap();
+    let c = sm.choose().unwrap().expect("24 landmarks are enough to choose");
+    let refit = |bend: f64| {
+        let k = lms.len();
+        let mut sum = 0.0;
+        for i in 0..k {
+            let mut scale = vec![1.0; k];
+            scale[i] = 1e-12; // effectively left out (0 would make the system singular)
+            let x = sm.solve(bend, Some(&scale)).unwrap();
+            sum += obj.residual_lengths(&x)[i].powi(2);
+        }
+        (sum / k as f64).sqrt()
+    };
+    let at = refit(c.bend);
+    assert!((at - c.loo_rms).abs() <= 1e-6 * at, "closed form {} vs refits {at}", c.loo_rms);
+    for f in [0.3, 0.6, 1.6, 3.0] {
+        assert!(refit(c.bend * f) >= at * (1.0 - 1e-9), "bend {} x {f} scores lower", c.bend);
+    }
+    assert!(c.bend > 1e-10 && c.bend < 1.0, "noisy targets call for some smoothing: {}", c.bend);
+}

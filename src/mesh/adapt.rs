@@ -21,6 +21,16 @@
 //!    of the snapped points inside the snapped border), so the result is a valid mesh in the
 //!    sense of [`Mesh`] whatever the rounding.
 //!
+//! 4. Optionally, `far_rings` *far-field rings* are added outside the domain: rectangles
+//!    about the domain's centre, each [`FAR_RING_RATIO`] times the size of the one inside it
+//!    (8 vertices each: corners and side midpoints, snapped), triangulated with the rest
+//!    (constrained Delaunay inside the outermost ring). They are not refined: a few dozen
+//!    large triangles. A fit's bending energy is then taken over a region 4^r times the
+//!    domain's size, close to the whole plane, so the smoothest map through the landmarks
+//!    approaches the thin-plate spline's (which minimizes the same energy over all of
+//!    `R^2`, Duchon 1977) instead of bending freely at the domain's border (the natural
+//!    boundary of a bounded domain). [`crate::fit::frame`] uses 2 rings by default.
+//!
 //! Each landmark source that is representable on the snapping grid is a mesh vertex
 //! exactly, so its image `phi(s)` is that vertex's control point: the spline has a value of
 //! its own at every landmark (local control).
@@ -46,7 +56,16 @@ pub struct AdaptOptions {
     pub grid: i64,
     /// Further points to insert as vertices (e.g. to break up a singular vertex).
     pub extra_points: Vec<[f64; 2]>,
+    /// Far-field rings around the domain (see the [module docs](self); default 0, at most
+    /// [`MAX_FAR_RINGS`]).
+    pub far_rings: usize,
 }
+
+/// Each far-field ring is this many times the size of the rectangle inside it.
+pub const FAR_RING_RATIO: f64 = 4.0;
+
+/// The most far-field rings (the outermost is then `4^4 = 256` times the domain's size).
+pub const MAX_FAR_RINGS: usize = 4;
 
 impl Default for AdaptOptions {
     fn default() -> Self {
@@ -56,6 +75,7 @@ impl Default for AdaptOptions {
             min_angle: 20.0,
             grid: 16,
             extra_points: Vec::new(),
+            far_rings: 0,
         }
     }
 }
@@ -75,6 +95,8 @@ pub struct AdaptedMesh {
     pub landmark_vertex: Vec<usize>,
     /// The domain rectangle `(lo, hi)` (the frame grown by the margin).
     pub domain: ([f64; 2], [f64; 2]),
+    /// The outermost rectangle of the mesh: the domain, or the last far-field ring.
+    pub outer: ([f64; 2], [f64; 2]),
     /// The margin used (pixels).
     pub margin: f64,
     /// Vertices added by the refinement (not landmarks, not border corners).
@@ -84,7 +106,8 @@ pub struct AdaptedMesh {
 }
 
 impl AdaptedMesh {
-    /// Whether vertex `v` lies on the domain's border.
+    /// Whether vertex `v` lies on the mesh's outer border (the domain's, or the outermost
+    /// far-field ring's).
     pub fn on_border(&self, v: usize) -> bool {
         self.mesh.is_border_vertex(v)
     }
@@ -120,6 +143,9 @@ impl Mesh {
                  terminate beyond)",
                 opts.min_angle
             ));
+        }
+        if opts.far_rings > MAX_FAR_RINGS {
+            return bad(format!("far rings {}: at most {MAX_FAR_RINGS}", opts.far_rings));
         }
         let grid = super::validate::check_grid(MeshOptions { grid: opts.grid })?;
         for (index, p) in sources.iter().enumerate() {
@@ -236,15 +262,42 @@ impl Mesh {
             }
         }
         let steiner = all.len() - pts.len();
-        let mut outline: Vec<usize> = (0..all.len()).filter(|&i| on_rect(all[i], lo, hi)).collect();
+        // The far-field rings: corners and side midpoints of growing rectangles.
+        let (mut olo, mut ohi) = (lo, hi);
+        let centre = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])];
+        let half = [0.5 * (hi[0] - lo[0]), 0.5 * (hi[1] - lo[1])];
+        let mut f = 1.0;
+        for _ in 0..opts.far_rings {
+            f *= FAR_RING_RATIO;
+            olo = [snap(centre[0] - f * half[0]), snap(centre[1] - f * half[1])];
+            ohi = [snap(centre[0] + f * half[0]), snap(centre[1] + f * half[1])];
+            let mid = [snap(centre[0]), snap(centre[1])];
+            for q in [
+                [olo[0], olo[1]],
+                [mid[0], olo[1]],
+                [ohi[0], olo[1]],
+                [ohi[0], mid[1]],
+                [ohi[0], ohi[1]],
+                [mid[0], ohi[1]],
+                [olo[0], ohi[1]],
+                [olo[0], mid[1]],
+            ] {
+                if at.insert(key(q), all.len()).is_none() {
+                    all.push(q);
+                }
+            }
+        }
+        let mut outline: Vec<usize> =
+            (0..all.len()).filter(|&i| on_rect(all[i], olo, ohi)).collect();
         outline.sort_by(|&a, &b| {
-            perimeter_pos(all[a], lo, hi).total_cmp(&perimeter_pos(all[b], lo, hi))
+            perimeter_pos(all[a], olo, ohi).total_cmp(&perimeter_pos(all[b], olo, ohi))
         });
         let mesh = Mesh::constrained_delaunay(&all, &outline, MeshOptions { grid })?;
         Ok(AdaptedMesh {
             mesh,
             landmark_vertex,
             domain: (lo, hi),
+            outer: (olo, ohi),
             margin,
             steiner,
             refinement_complete: result.refinement_complete,
@@ -360,5 +413,37 @@ mod tests {
         let a = Mesh::landmark_adapted(&[], [100.0, 80.0], &AdaptOptions::default()).unwrap();
         a.mesh.sanity_check().unwrap();
         assert!(a.mesh.num_triangles() < 80, "{}", a.mesh.num_triangles());
+    }
+
+    #[test]
+    fn far_rings_surround_the_domain_and_keep_its_mesh() {
+        let src = cluster();
+        let plain = Mesh::landmark_adapted(&src, [200.0, 150.0], &AdaptOptions::default()).unwrap();
+        let opts = AdaptOptions { far_rings: 2, ..AdaptOptions::default() };
+        let a = Mesh::landmark_adapted(&src, [200.0, 150.0], &opts).unwrap();
+        a.mesh.sanity_check().unwrap();
+        // The domain as before, the outer rectangle 16 times its size about its centre.
+        assert_eq!(a.domain, plain.domain);
+        assert_eq!(a.outer, ([-1820.5, -1445.5], [2019.5, 1594.5]));
+        assert_eq!(a.mesh.bbox(), a.outer);
+        // The same landmark vertices at the same places, 8 more vertices per ring.
+        assert_eq!(a.mesh.num_vertices(), plain.mesh.num_vertices() + 16);
+        for (&v, &w) in a.landmark_vertex.iter().zip(&plain.landmark_vertex) {
+            assert_eq!(a.mesh.vertex(v), plain.mesh.vertex(w));
+        }
+        // The whole outer rectangle is covered, the domain's border is inside.
+        let area: f64 = (0..a.mesh.num_triangles())
+            .map(|t| a.mesh.twice_area_int(t) as f64 / (2.0 * 256.0))
+            .sum();
+        assert!((area - 3840.0 * 3040.0).abs() < 1e-3, "{area}");
+        let corner = (0..a.mesh.num_vertices()).find(|&v| a.mesh.vertex(v) == [-20.5, -20.5]);
+        assert!(!a.on_border(corner.expect("the domain's corner is a vertex")));
+        let e = Mesh::landmark_adapted(
+            &src,
+            [200.0, 150.0],
+            &AdaptOptions { far_rings: MAX_FAR_RINGS + 1, ..AdaptOptions::default() },
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("far rings 5"), "{e}");
     }
 }

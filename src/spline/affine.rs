@@ -17,6 +17,7 @@ use super::{Spline, SplineError};
 use crate::exact::{Int, Rat};
 use crate::mesh::Mesh;
 use num_integer::Integer;
+use rayon::prelude::*;
 
 impl Spline {
     /// The spline of the affine map `x -> (a[0][0] x + a[0][1] y + a[0][2],
@@ -40,8 +41,9 @@ impl Spline {
         let nominal = layout.nominal_int(&mesh);
         let den = degree as i128 * mesh.grid_denominator() as i128;
         let rows = [row_on_common_denominator(&a[0]), row_on_common_denominator(&a[1])];
+        // One gcd per value: independent, so on rayon's workers.
         let points =
-            nominal.iter().map(|n| rows.iter().map(|r| r.apply(n, den)).collect()).collect();
+            nominal.par_iter().map(|n| rows.iter().map(|r| r.apply(n, den)).collect()).collect();
         Ok(Self::assemble(mesh, layout, points, None))
     }
 }

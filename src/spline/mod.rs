@@ -231,18 +231,24 @@ impl Spline {
     }
 
     fn assemble(mesh: Mesh, layout: Layout, points: Vec<Vec<Rat>>, z: Option<ZLayers>) -> Spline {
-        let quads = c1::quads(&mesh, &layout);
-        let r = c1::matrix(&quads, layout.len());
-        let system = ConstraintSystem::homogeneous(r, 2);
-        let tris: Vec<[[f64; 2]; 3]> =
-            mesh.triangles().iter().map(|t| t.map(|v| mesh.vertex(v))).collect();
-        let cache = EvalCache::new(layout.degree(), &tris, Vec::new());
-        let mut slots = vec![Vec::new(); layout.len()];
-        for (k, &p) in layout.patches().iter().flatten().enumerate() {
-            slots[p].push(k as u32);
-        }
+        // The exact C1 system and the evaluation side (slots, floating-point cache) are
+        // independent: built side by side.
+        let ((quads, system), (slots, cache)) = rayon::join(
+            || {
+                let quads = c1::quads(&mesh, &layout);
+                let r = c1::matrix(&quads, layout.len());
+                (quads, ConstraintSystem::homogeneous(r, 2))
+            },
+            || {
+                let mut slots = vec![Vec::new(); layout.len()];
+                for (k, &p) in layout.patches().iter().flatten().enumerate() {
+                    slots[p].push(k as u32);
+                }
+                (slots, xy_cache_of(&mesh, &layout, &points))
+            },
+        );
         let mut s = Spline { mesh, layout, quads, system, points, z, cache, z_cache: None, slots };
-        s.refresh_cache();
+        s.refresh_z_cache();
         s
     }
 
@@ -253,14 +259,7 @@ impl Spline {
 
     /// The evaluation cache of `points` (nearest `f64` of each coordinate) on this mesh.
     fn xy_cache(&self, points: &[Vec<Rat>]) -> EvalCache {
-        // Each control point converted once (a vertex's point is in every patch around it).
-        let per_point: Vec<[f64; 2]> =
-            points.par_iter().map(|q| [rat_to_f64(&q[0]), rat_to_f64(&q[1])]).collect();
-        let pts: Vec<[f64; 2]> =
-            self.layout.patches().iter().flatten().map(|&p| per_point[p]).collect();
-        let tris: Vec<[[f64; 2]; 3]> =
-            self.mesh.triangles().iter().map(|t| t.map(|v| self.mesh.vertex(v))).collect();
-        EvalCache::new(self.layout.degree(), &tris, pts)
+        xy_cache_of(&self.mesh, &self.layout, points)
     }
 
     fn refresh_z_cache(&mut self) {
@@ -579,3 +578,14 @@ impl Spline {
 
 #[cfg(test)]
 pub(crate) mod tests;
+
+/// The evaluation cache of `points` (nearest `f64` of each coordinate) on `mesh`.
+fn xy_cache_of(mesh: &Mesh, layout: &Layout, points: &[Vec<Rat>]) -> EvalCache {
+    // Each control point converted once (a vertex's point is in every patch around it).
+    let per_point: Vec<[f64; 2]> =
+        points.par_iter().map(|q| [rat_to_f64(&q[0]), rat_to_f64(&q[1])]).collect();
+    let pts: Vec<[f64; 2]> = layout.patches().iter().flatten().map(|&p| per_point[p]).collect();
+    let tris: Vec<[[f64; 2]; 3]> =
+        mesh.triangles().iter().map(|t| t.map(|v| mesh.vertex(v))).collect();
+    EvalCache::new(layout.degree(), &tris, pts)
+}
