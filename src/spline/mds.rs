@@ -154,14 +154,7 @@ fn rref_int(rows: &mut [Vec<i128>], ncand: usize) -> Option<Vec<(usize, usize)>>
                 if *x == 0 && (a == 0 || y == 0) {
                     continue;
                 }
-                let t = piv.checked_mul(*x)?.checked_sub(a.checked_mul(y)?)?;
-                if prev == 1 {
-                    *x = t;
-                } else if t % prev != 0 {
-                    return None;
-                } else {
-                    *x = t / prev;
-                }
+                *x = bareiss_step(piv, *x, a, y, prev)?;
             }
         }
         prev = piv;
@@ -170,6 +163,33 @@ fn rref_int(rows: &mut [Vec<i128>], ncand: usize) -> Option<Vec<(usize, usize)>>
     }
     rows.clone_from_slice(&work);
     Some(pivots)
+}
+
+/// One fraction-free step `(p x - a y) / prev` (exact: `prev` divides it), or `None` when
+/// the division is not exact or the quotient does not fit in `i128`. The minors of the
+/// elimination fit in `i128` far more often than the products before the division do (two
+/// minors' product), so those are formed in 256 bits (`ethnum`) when `i128` overflows.
+#[inline]
+fn bareiss_step(p: i128, x: i128, a: i128, y: i128, prev: i128) -> Option<i128> {
+    let narrow = p.checked_mul(x).and_then(|px| a.checked_mul(y).and_then(|ay| px.checked_sub(ay)));
+    if let Some(t) = narrow {
+        return if prev == 1 {
+            Some(t)
+        } else if t % prev != 0 {
+            None
+        } else {
+            Some(t / prev)
+        };
+    }
+    use ethnum::I256;
+    // |p x|, |a y| < 2^254: neither the products nor their difference overflow 256 bits.
+    let t = I256::from(p) * I256::from(x) - I256::from(a) * I256::from(y);
+    let w = I256::from(prev);
+    let q = t / w;
+    if q * w != t {
+        return None;
+    }
+    i128::try_from(q).ok()
 }
 
 /// [`rref_int`] in exact integers of any size (the same steps, each division checked):
@@ -240,17 +260,24 @@ fn rref_to_rat(rows: &[Vec<i128>], pivots: &[(usize, usize)]) -> Vec<Vec<Rat>> {
         .enumerate()
         .map(|(i, row)| {
             let den = pivots.iter().find(|&&(r, _)| r == i).map_or(1, |&(r, c)| rows[r][c]);
-            row.iter()
-                .map(|&x| {
-                    if x == 0 {
-                        Rat::zero()
-                    } else {
-                        Rat::new(Int::from_i128(x), Int::from_i128(den))
-                    }
-                })
-                .collect()
+            row.iter().map(|&x| if x == 0 { Rat::zero() } else { rat_i128(x, den) }).collect()
         })
         .collect()
+}
+
+/// `x / den` in lowest terms (`den != 0`), reduced on the machine words: the same value
+/// as `Rat::new`, without a `BigInt` gcd for values above `i64`.
+fn rat_i128(x: i128, den: i128) -> Rat {
+    let g = super::intform::gcd_u128(x.unsigned_abs(), den.unsigned_abs());
+    let (n, d) = (x.unsigned_abs() / g, den.unsigned_abs() / g);
+    // Both are below 2^127 unless g = 1 and a value is i128::MIN: then fall back.
+    match (i128::try_from(n), i128::try_from(d)) {
+        (Ok(n), Ok(d)) => {
+            let n = if (x < 0) != (den < 0) { -n } else { n };
+            Rat::new_raw(Int::from_i128(n), Int::from_i128(d))
+        }
+        _ => Rat::new(Int::from_i128(x), Int::from_i128(den)),
+    }
 }
 
 /// The quadrilateral conditions `quads` as rows of fractions over the points `all`.
@@ -670,6 +697,52 @@ mod tests {
             let mut rats = to_rat(&m);
             prop_assert_eq!(&pivots, &rref(&mut rats, ncand));
             same_reduced_rows(&big_rref_to_rat(&big, &pivots), &rats, &pivots)?;
+        }
+    }
+
+    #[test]
+    fn fraction_free_rref_forms_products_beyond_i128_in_256_bits() {
+        // Entries near 2^30: the 4 x 4 minors (about 2^122) fit in i128, but the products
+        // before each exact division (two minors, about 2^215) do not. The old i128-only step
+        // gave up here and sent most ring-2 systems of a fit to big integers.
+        let e = 1i128 << 30;
+        let m: Vec<Vec<i128>> = (0..4)
+            .map(|i| (0..6).map(|j| e + ((i * 7 + j * 13) % 11) * 1_000_003 - 5 * i).collect())
+            .collect();
+        let mut ints = m.clone();
+        let pivots = rref_int(&mut ints, 6).expect("the minors fit in i128");
+        let mut rats = to_rat(&m);
+        assert_eq!(pivots, rref(&mut rats, 6));
+        assert_eq!(rref_to_rat(&ints, &pivots), rats);
+        // The last step multiplies the leading 3 x 3 minor by another 3 x 3 minor: beyond
+        // i128, so the 256-bit branch was taken.
+        let det3 = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+            - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+            + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+        assert!(det3 != 0 && det3.checked_mul(det3).is_none(), "the test must reach 256 bits");
+    }
+
+    #[test]
+    fn a_step_whose_quotient_exceeds_i128_gives_up() {
+        let big = i128::MAX / 2;
+        assert_eq!(bareiss_step(big, big, 0, 0, 1), None);
+        assert_eq!(bareiss_step(big, big, 0, 0, 3), None, "quotient about 2^250");
+        assert_eq!(bareiss_step(big, 4, 1, 1, 2), None, "not exact: 4 big - 1 is odd");
+        assert_eq!(bareiss_step(big, 4, 2, 2, 2), Some(2 * big - 2));
+    }
+
+    proptest! {
+        /// Lowest terms on machine words equal `Rat::new`, signs and extremes included.
+        #[test]
+        fn fractions_reduced_on_words_equal_rat_new(
+            x in prop_oneof![any::<i128>(), -1000i128..1000, Just(i128::MIN)],
+            den in prop_oneof![any::<i128>(), -1000i128..1000, Just(i128::MIN)],
+        ) {
+            prop_assume!(x != 0 && den != 0);
+            prop_assert_eq!(
+                rat_i128(x, den),
+                Rat::new(Int::from_i128(x), Int::from_i128(den))
+            );
         }
     }
 
