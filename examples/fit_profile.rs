@@ -6,6 +6,8 @@
 //! ```sh
 //! TRIMORPH_TRACE=1 cargo run --release --example fit_profile -- 500 3
 //! ```
+//!
+//! A third argument sets the number of far-field rings (default: the frame fit's 2).
 
 use rand::rngs::SmallRng;
 use rand::{Rng, SeedableRng};
@@ -29,7 +31,10 @@ fn main() {
     let n: usize = args.next().and_then(|a| a.parse().ok()).unwrap_or(500);
     let reps: usize = args.next().and_then(|a| a.parse().ok()).unwrap_or(3);
     let lms = landmarks(n, 5);
-    let opts = FrameFitOptions::default();
+    let mut opts = FrameFitOptions::default();
+    if let Some(rings) = args.next().and_then(|a| a.parse().ok()) {
+        opts.mesh.far_rings = rings;
+    }
     for _ in 0..reps {
         let t = std::time::Instant::now();
         let f = fit_frame(&lms, [511.0, 511.0], &opts).expect("the bench's landmarks fit");

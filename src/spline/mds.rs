@@ -29,6 +29,8 @@ use super::layout::Layout;
 use super::Spline;
 use crate::exact::{Int, Rat};
 use crate::mesh::Mesh;
+use bnum::cast::As;
+use bnum::types::{I256, I512};
 use num_traits::{One, Signed, Zero};
 use rayon::prelude::*;
 
@@ -126,6 +128,82 @@ fn rref(rows: &mut [Vec<Rat>], ncand: usize) -> Vec<(usize, usize)> {
     pivots
 }
 
+/// A fixed-width integer for [`rref_fixed`]: the fraction-free step `(p x - a y) / prev`,
+/// exact (Bareiss: `prev` divides it), with the products formed in a type twice as wide.
+/// The minors of an elimination fit in a width far more often than the products before
+/// each division (two minors' product) do.
+trait Word: Copy + PartialEq + Send + Sync {
+    /// Zero.
+    fn zero() -> Self;
+    /// One.
+    fn one() -> Self;
+    /// `(p x - a y) / prev`, or `None` when the division is not exact or the quotient does
+    /// not fit.
+    fn step(p: Self, x: Self, a: Self, y: Self, prev: Self) -> Option<Self>;
+}
+
+impl Word for i128 {
+    fn zero() -> Self {
+        0
+    }
+    fn one() -> Self {
+        1
+    }
+    #[inline]
+    fn step(p: i128, x: i128, a: i128, y: i128, prev: i128) -> Option<i128> {
+        let narrow =
+            p.checked_mul(x).and_then(|px| a.checked_mul(y).and_then(|ay| px.checked_sub(ay)));
+        if let Some(t) = narrow {
+            return if prev == 1 {
+                Some(t)
+            } else if t % prev != 0 {
+                None
+            } else {
+                Some(t / prev)
+            };
+        }
+        // |p x|, |a y| <= 2^254: neither the products nor their difference overflow.
+        let w = |v: i128| -> I256 { v.as_() };
+        let t = w(p) * w(x) - w(a) * w(y);
+        let q = t.checked_div(w(prev))?;
+        if q * w(prev) != t {
+            return None;
+        }
+        i128::try_from(q).ok()
+    }
+}
+
+impl Word for I256 {
+    fn zero() -> Self {
+        0i128.as_()
+    }
+    fn one() -> Self {
+        1i128.as_()
+    }
+    #[inline]
+    fn step(p: I256, x: I256, a: I256, y: I256, prev: I256) -> Option<I256> {
+        let narrow =
+            p.checked_mul(x).and_then(|px| a.checked_mul(y).and_then(|ay| px.checked_sub(ay)));
+        if let Some(t) = narrow {
+            return if prev == I256::one() {
+                Some(t)
+            } else {
+                let q = t.checked_div(prev)?;
+                (q * prev == t).then_some(q)
+            };
+        }
+        // |p x|, |a y| <= 2^510: neither the products nor their difference overflow.
+        let w = |v: I256| -> I512 { v.as_() };
+        let t = w(p) * w(x) - w(a) * w(y);
+        let q = t.checked_div(w(prev))?;
+        if q * w(prev) != t {
+            return None;
+        }
+        let narrow: I256 = q.as_();
+        (w(narrow) == q).then_some(narrow)
+    }
+}
+
 /// [`rref`] of an integer matrix by fraction-free Gauss-Jordan elimination: each step
 /// replaces every other row by `(p row_i - a_i row_r) / p_prev` (`p` the pivot, `a_i` the
 /// row's entry in the pivot column, `p_prev` the previous pivot), an exact division, since
@@ -133,15 +211,17 @@ fn rref(rows: &mut [Vec<Rat>], ncand: usize) -> Vec<(usize, usize)> {
 /// chooses them (first nonzero row, columns in order among the first `ncand`), and the
 /// reduced row echelon form is unique, so dividing each pivot row by its pivot gives
 /// exactly [`rref`]'s rows, with integer operations instead of a gcd per operation.
-/// Returns the pivots, or `None` when a number does not fit in `i128` or a division is not
-/// exact (the caller then runs [`rref`]); the rows are left as they are then.
-fn rref_int(rows: &mut [Vec<i128>], ncand: usize) -> Option<Vec<(usize, usize)>> {
+/// Returns the pivots, or `None` when a number does not fit in `W` or a division is not
+/// exact (the caller then tries a wider type, then [`rref_big`]); the rows are left as they
+/// are then.
+fn rref_fixed<W: Word>(rows: &mut [Vec<W>], ncand: usize) -> Option<Vec<(usize, usize)>> {
     let mut pivots = Vec::new();
-    let mut prev: i128 = 1;
+    let (zero, one) = (W::zero(), W::one());
+    let mut prev = one;
     let mut r = 0;
-    let mut work: Vec<Vec<i128>> = rows.to_vec();
+    let mut work: Vec<Vec<W>> = rows.to_vec();
     for c in 0..ncand {
-        let Some(p) = (r..work.len()).find(|&i| work[i][c] != 0) else { continue };
+        let Some(p) = (r..work.len()).find(|&i| work[i][c] != zero) else { continue };
         work.swap(r, p);
         let piv = work[r][c];
         let (before, rest) = work.split_at_mut(r);
@@ -150,11 +230,11 @@ fn rref_int(rows: &mut [Vec<i128>], ncand: usize) -> Option<Vec<(usize, usize)>>
             let a = row[c];
             for (x, &y) in row.iter_mut().zip(pivot_row.iter()) {
                 // The rows are sparse: an entry with x = 0 and a y = 0 stays 0 (t = 0), and
-                // the first step divides by 1; both skip the i128 division.
-                if *x == 0 && (a == 0 || y == 0) {
+                // the first step divides by 1; both skip the division.
+                if *x == zero && (a == zero || y == zero) {
                     continue;
                 }
-                *x = bareiss_step(piv, *x, a, y, prev)?;
+                *x = W::step(piv, *x, a, y, prev)?;
             }
         }
         prev = piv;
@@ -165,31 +245,39 @@ fn rref_int(rows: &mut [Vec<i128>], ncand: usize) -> Option<Vec<(usize, usize)>>
     Some(pivots)
 }
 
-/// One fraction-free step `(p x - a y) / prev` (exact: `prev` divides it), or `None` when
-/// the division is not exact or the quotient does not fit in `i128`. The minors of the
-/// elimination fit in `i128` far more often than the products before the division do (two
-/// minors' product), so those are formed in 256 bits (`ethnum`) when `i128` overflows.
-#[inline]
-fn bareiss_step(p: i128, x: i128, a: i128, y: i128, prev: i128) -> Option<i128> {
-    let narrow = p.checked_mul(x).and_then(|px| a.checked_mul(y).and_then(|ay| px.checked_sub(ay)));
-    if let Some(t) = narrow {
-        return if prev == 1 {
-            Some(t)
-        } else if t % prev != 0 {
-            None
-        } else {
-            Some(t / prev)
-        };
+/// [`rref_fixed`] on `i128` entries.
+fn rref_int(rows: &mut [Vec<i128>], ncand: usize) -> Option<Vec<(usize, usize)>> {
+    rref_fixed(rows, ncand)
+}
+
+/// An exact integer from a 256-bit one.
+fn int_of_i256(x: I256) -> Int {
+    match i128::try_from(x) {
+        Ok(v) => Int::from_i128(v),
+        Err(_) => Int::from_big(num_bigint::BigInt::from_signed_bytes_le(&x.to_le_bytes())),
     }
-    use ethnum::I256;
-    // |p x|, |a y| < 2^254: neither the products nor their difference overflow 256 bits.
-    let t = I256::from(p) * I256::from(x) - I256::from(a) * I256::from(y);
-    let w = I256::from(prev);
-    let q = t / w;
-    if q * w != t {
-        return None;
-    }
-    i128::try_from(q).ok()
+}
+
+/// The fractions of a 256-bit [`rref_fixed`] result (as [`rref_to_rat`]).
+fn wide_rref_to_rat(rows: &[Vec<I256>], pivots: &[(usize, usize)]) -> Vec<Vec<Rat>> {
+    rows.iter()
+        .enumerate()
+        .map(|(i, row)| {
+            let den = pivots
+                .iter()
+                .find(|&&(r, _)| r == i)
+                .map_or_else(|| Int::from(1), |&(r, c)| int_of_i256(rows[r][c]));
+            row.iter()
+                .map(|&x| {
+                    if x == I256::zero() {
+                        Rat::zero()
+                    } else {
+                        Rat::new(int_of_i256(x), den.clone())
+                    }
+                })
+                .collect()
+        })
+        .collect()
 }
 
 /// [`rref_int`] in exact integers of any size (the same steps, each division checked):
@@ -394,20 +482,27 @@ impl Mds {
                     pivots
                 }
                 None => {
-                    // Too large for i128 (fine snapping grids): the same fraction-free
-                    // elimination in exact integers, else in fractions.
-                    let mut brows: Vec<Vec<Int>> = irows
-                        .iter()
-                        .map(|r| r.iter().map(|&x| Int::from_i128(x)).collect())
-                        .collect();
-                    match rref_big(&mut brows, ncand) {
-                        Some(pivots) => {
-                            rows = big_rref_to_rat(&brows, &pivots);
-                            pivots
-                        }
-                        None => {
-                            rows = irows_to_rat(&quads, s, &all);
-                            rref(&mut rows, ncand)
+                    // Too large for i128: the same fraction-free elimination in 256 bits,
+                    // else in exact integers, else in fractions.
+                    let mut wrows: Vec<Vec<I256>> =
+                        irows.iter().map(|r| r.iter().map(|&x| x.as_()).collect()).collect();
+                    if let Some(pivots) = rref_fixed(&mut wrows, ncand) {
+                        rows = wide_rref_to_rat(&wrows, &pivots);
+                        pivots
+                    } else {
+                        let mut brows: Vec<Vec<Int>> = irows
+                            .iter()
+                            .map(|r| r.iter().map(|&x| Int::from_i128(x)).collect())
+                            .collect();
+                        match rref_big(&mut brows, ncand) {
+                            Some(pivots) => {
+                                rows = big_rref_to_rat(&brows, &pivots);
+                                pivots
+                            }
+                            None => {
+                                rows = irows_to_rat(&quads, s, &all);
+                                rref(&mut rows, ncand)
+                            }
                         }
                     }
                 }
@@ -724,11 +819,46 @@ mod tests {
 
     #[test]
     fn a_step_whose_quotient_exceeds_i128_gives_up() {
+        let step = <i128 as Word>::step;
         let big = i128::MAX / 2;
-        assert_eq!(bareiss_step(big, big, 0, 0, 1), None);
-        assert_eq!(bareiss_step(big, big, 0, 0, 3), None, "quotient about 2^250");
-        assert_eq!(bareiss_step(big, 4, 1, 1, 2), None, "not exact: 4 big - 1 is odd");
-        assert_eq!(bareiss_step(big, 4, 2, 2, 2), Some(2 * big - 2));
+        assert_eq!(step(big, big, 0, 0, 1), None);
+        assert_eq!(step(big, big, 0, 0, 3), None, "quotient about 2^250");
+        assert_eq!(step(big, 4, 1, 1, 2), None, "not exact: 4 big - 1 is odd");
+        assert_eq!(step(big, 4, 2, 2, 2), Some(2 * big - 2));
+    }
+
+    #[test]
+    fn a_256_bit_step_forms_its_products_in_512_bits() {
+        let w = |v: i128| -> I256 { v.as_() };
+        let step = <I256 as Word>::step;
+        let big = w(i128::MAX) * w(1 << 100); // about 2^227
+        assert_eq!(step(big, big, w(0), w(0), w(1)), None, "quotient about 2^454");
+        assert_eq!(step(big, w(4), w(2), w(2), w(2)), Some(big * w(2) - w(2)));
+        assert_eq!(step(big, big, w(1), big, big), Some(big - w(1)), "products near 2^454");
+        assert_eq!(step(big, w(4), w(1), w(1), w(2)), None, "not exact");
+    }
+
+    fn w256(v: i128) -> I256 {
+        v.as_()
+    }
+
+    #[test]
+    fn minors_beyond_i128_are_eliminated_in_256_bits() {
+        // 3 x 3 minors of 2^44-sized entries (about 2^132) overflow i128 but fit 256 bits.
+        let e = 1i128 << 44;
+        let m = vec![vec![e + 1, e - 3, 7, 1], vec![e - 5, e + 9, e, 2], vec![3, e + 1, e - 1, 3]];
+        assert_eq!(rref_int(&mut m.clone(), 3), None);
+        let mut wide: Vec<Vec<I256>> =
+            m.iter().map(|r| r.iter().map(|&x| x.as_()).collect()).collect();
+        let pivots = rref_fixed(&mut wide, 3).expect("the minors fit in 256 bits");
+        let mut rats = to_rat(&m);
+        assert_eq!(pivots, rref(&mut rats, 3));
+        assert_eq!(wide_rref_to_rat(&wide, &pivots), rats);
+        // Values beyond i128 convert exactly, with their sign.
+        let x = w256(i128::MIN) * w256(1 << 90) + w256(3);
+        let want = num_bigint::BigInt::from(i128::MIN) * (num_bigint::BigInt::from(1) << 90) + 3;
+        assert_eq!(int_of_i256(x), Int::from_big(want));
+        assert_eq!(int_of_i256(w256(-5)), Int::from(-5));
     }
 
     proptest! {
