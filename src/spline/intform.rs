@@ -87,6 +87,64 @@ pub(crate) fn comb_is_zero(terms: &[(i64, &Rat)]) -> bool {
     acc.is_zero_int()
 }
 
+/// A dependent's denominator `E_p = lcm_j (d_j E_j)` and multipliers
+/// `m_j = n_j E_p / (d_j E_j)` (for `c_j = n_j / d_j`) on machine words: the values
+/// [`IntPlan::new`] computes in exact integers, or `None` when one does not fit in `i128`.
+fn dependent_i128(f: &[(usize, Rat)], den: &[Int]) -> Option<(Int, Vec<(usize, Int)>)> {
+    let mut parts: Vec<(usize, i128, i128)> = Vec::with_capacity(f.len());
+    let mut e: i128 = 1;
+    for (j, c) in f {
+        let t = int_i128(c.denom())?.checked_mul(int_i128(&den[*j])?)?;
+        e = lcm_i128(e, t)?;
+        parts.push((*j, int_i128(c.numer())?, t));
+    }
+    let mut row = Vec::with_capacity(parts.len());
+    for (j, a, t) in parts {
+        row.push((j, Int::from_i128(a.checked_mul(e / t)?)));
+    }
+    Some((Int::from_i128(e), row))
+}
+
+/// [`dependent_i128`] in exact integers of any size.
+fn dependent_big(f: &[(usize, Rat)], den: &[Int]) -> (Int, Vec<(usize, Int)>) {
+    let mut e = Int::from(1);
+    let parts: Vec<(usize, &Int, Int)> =
+        f.iter().map(|(j, c)| (*j, c.numer(), c.denom() * &den[*j])).collect();
+    for (_, _, t) in &parts {
+        e = e.lcm(t);
+    }
+    let row = parts.into_iter().map(|(j, a, t)| (j, a * &e.div_exact(&t))).collect();
+    (e, row)
+}
+
+/// [`check_i128`] in exact integers of any size.
+fn check_big(m: &[usize; 4], c: &[i64; 4], den: &[Int]) -> [(usize, Int); 4] {
+    let mut l = Int::from(1);
+    for &j in m {
+        if den[j] != l {
+            l = l.lcm(&den[j]);
+        }
+    }
+    [0, 1, 2, 3].map(|k| (m[k], &Int::from(c[k]) * &l.div_exact(&den[m[k]])))
+}
+
+/// A condition's multipliers `c_k L / E_(m_k)`, `L = lcm_k E_(m_k)`, on machine words (as
+/// [`IntPlan::new`] computes them in exact integers), or `None` when one does not fit in
+/// `i128`.
+fn check_i128(m: &[usize; 4], c: &[i64; 4], den: &[Int]) -> Option<[(usize, Int); 4]> {
+    let mut l: i128 = 1;
+    let mut d = [0i128; 4];
+    for k in 0..4 {
+        d[k] = int_i128(&den[m[k]])?;
+        l = lcm_i128(l, d[k])?;
+    }
+    let mut out = [0i128; 4];
+    for k in 0..4 {
+        out[k] = i128::from(c[k]).checked_mul(l / d[k])?;
+    }
+    Some([0, 1, 2, 3].map(|k| (m[k], Int::from_i128(out[k]))))
+}
+
 /// The determining-set formulas on common denominators (see [`super::mds::Mds`]): each
 /// point `p` gets a structural denominator `E_p` (1 for free points) and each dependent
 /// `p = sum_j c_j x_j` the integer multipliers `m_j = c_j E_p / E_j`, so that with the free
@@ -120,27 +178,13 @@ impl IntPlan {
         let mut terms = Vec::with_capacity(order.len());
         for &p in order {
             let f = formula(p);
-            let mut e = Int::from(1);
-            let parts: Vec<(usize, &Int, Int)> =
-                f.iter().map(|(j, c)| (*j, c.numer(), c.denom() * &den[*j])).collect();
-            for (_, _, t) in &parts {
-                e = e.lcm(t);
-            }
-            let row = parts.into_iter().map(|(j, a, t)| (j, a * &e.div_exact(&t))).collect();
+            let (e, row) = dependent_i128(f, &den).unwrap_or_else(|| dependent_big(f, &den));
             den[p] = e;
             terms.push((p, row));
         }
         let checks = conditions
             .par_iter()
-            .map(|(m, c)| {
-                let mut l = Int::from(1);
-                for &j in m {
-                    if den[j] != l {
-                        l = l.lcm(&den[j]);
-                    }
-                }
-                [0, 1, 2, 3].map(|k| (m[k], &Int::from(c[k]) * &l.div_exact(&den[m[k]])))
-            })
+            .map(|(m, c)| check_i128(m, c, &den).unwrap_or_else(|| check_big(m, c, &den)))
             .collect();
         IntPlan { den, terms, checks }
     }
@@ -251,6 +295,30 @@ mod tests {
 
     fn r(n: i64, d: i64) -> Rat {
         Rat::new(Int::from(n), Int::from(d))
+    }
+
+    proptest! {
+        /// The machine-word plan steps give exactly the exact-integer ones, or give up.
+        #[test]
+        fn word_plan_steps_equal_exact_integer_ones(
+            coefs in proptest::collection::vec((-(1i64 << 40)..(1 << 40), 1i64..(1 << 40)), 1..8),
+            dens in proptest::collection::vec(prop_oneof![1i64..1000, 1i64..(1 << 62)], 8),
+            c in proptest::array::uniform4(-(1i64 << 30)..(1 << 30)),
+        ) {
+            let den: Vec<Int> = dens.iter().map(|&d| Int::from(d)).collect();
+            let f: Vec<(usize, Rat)> =
+                coefs.iter().enumerate().map(|(j, &(n, d))| (j, r(n, d))).collect();
+            if let Some(got) = dependent_i128(&f, &den) {
+                prop_assert_eq!(got, dependent_big(&f, &den));
+            }
+            let m = [0, 3, 5, 7];
+            if let Some(got) = check_i128(&m, &c, &den) {
+                prop_assert_eq!(got, check_big(&m, &c, &den));
+            }
+            // Small values always stay on the words.
+            let small: Vec<Int> = dens.iter().map(|&d| Int::from(d % 1000 + 1)).collect();
+            prop_assert!(check_i128(&m, &c, &small).is_some());
+        }
     }
 
     #[test]
