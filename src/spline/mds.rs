@@ -258,28 +258,6 @@ fn int_of_i256(x: I256) -> Int {
     }
 }
 
-/// The fractions of a 256-bit [`rref_fixed`] result (as [`rref_to_rat`]).
-fn wide_rref_to_rat(rows: &[Vec<I256>], pivots: &[(usize, usize)]) -> Vec<Vec<Rat>> {
-    rows.iter()
-        .enumerate()
-        .map(|(i, row)| {
-            let den = pivots
-                .iter()
-                .find(|&&(r, _)| r == i)
-                .map_or_else(|| Int::from(1), |&(r, c)| int_of_i256(rows[r][c]));
-            row.iter()
-                .map(|&x| {
-                    if x == I256::zero() {
-                        Rat::zero()
-                    } else {
-                        Rat::new(int_of_i256(x), den.clone())
-                    }
-                })
-                .collect()
-        })
-        .collect()
-}
-
 /// [`rref_int`] in exact integers of any size (the same steps, each division checked):
 /// for eliminations whose minors do not fit in `i128`. Returns the pivots, or `None` when a
 /// division is not exact (the caller then runs [`rref`]); the rows are then unspecified.
@@ -317,42 +295,6 @@ fn rref_big(rows: &mut [Vec<Int>], ncand: usize) -> Option<Vec<(usize, usize)>> 
     Some(pivots)
 }
 
-/// The fractions of a [`rref_big`] result (as [`rref_to_rat`]).
-fn big_rref_to_rat(rows: &[Vec<Int>], pivots: &[(usize, usize)]) -> Vec<Vec<Rat>> {
-    rows.iter()
-        .enumerate()
-        .map(|(i, row)| {
-            let den = pivots
-                .iter()
-                .find(|&&(r, _)| r == i)
-                .map_or_else(|| Int::from(1), |&(r, c)| rows[r][c].clone());
-            row.iter()
-                .map(
-                    |x| {
-                        if x.is_zero_int() {
-                            Rat::zero()
-                        } else {
-                            Rat::new(x.clone(), den.clone())
-                        }
-                    },
-                )
-                .collect()
-        })
-        .collect()
-}
-
-/// The fractions of a [`rref_int`] result: pivot rows divided by their pivot, other rows
-/// as they are (they are zero exactly where [`rref`]'s are).
-fn rref_to_rat(rows: &[Vec<i128>], pivots: &[(usize, usize)]) -> Vec<Vec<Rat>> {
-    rows.iter()
-        .enumerate()
-        .map(|(i, row)| {
-            let den = pivots.iter().find(|&&(r, _)| r == i).map_or(1, |&(r, c)| rows[r][c]);
-            row.iter().map(|&x| if x == 0 { Rat::zero() } else { rat_i128(x, den) }).collect()
-        })
-        .collect()
-}
-
 /// `x / den` in lowest terms (`den != 0`), reduced on the machine words: the same value
 /// as `Rat::new`, without a `BigInt` gcd for values above `i64`.
 fn rat_i128(x: i128, den: i128) -> Rat {
@@ -366,6 +308,96 @@ fn rat_i128(x: i128, den: i128) -> Rat {
         }
         _ => Rat::new(Int::from_i128(x), Int::from_i128(den)),
     }
+}
+
+/// An entry of a reduced row: an exact integer of some width, or a fraction.
+trait Entry {
+    /// Whether it is zero.
+    fn is_zero_entry(&self) -> bool;
+    /// `self / den` in lowest terms (`den` nonzero).
+    fn ratio(&self, den: &Self) -> Rat;
+}
+
+impl Entry for i128 {
+    fn is_zero_entry(&self) -> bool {
+        *self == 0
+    }
+    fn ratio(&self, den: &i128) -> Rat {
+        rat_i128(*self, *den)
+    }
+}
+
+impl Entry for I256 {
+    fn is_zero_entry(&self) -> bool {
+        *self == I256::zero()
+    }
+    fn ratio(&self, den: &I256) -> Rat {
+        match (i128::try_from(*self), i128::try_from(*den)) {
+            (Ok(x), Ok(d)) => rat_i128(x, d),
+            _ => Rat::new(int_of_i256(*self), int_of_i256(*den)),
+        }
+    }
+}
+
+impl Entry for Int {
+    fn is_zero_entry(&self) -> bool {
+        self.is_zero_int()
+    }
+    fn ratio(&self, den: &Int) -> Rat {
+        Rat::new(self.clone(), den.clone())
+    }
+}
+
+impl Entry for Rat {
+    fn is_zero_entry(&self) -> bool {
+        self.is_zero()
+    }
+    fn ratio(&self, den: &Rat) -> Rat {
+        self / den
+    }
+}
+
+/// The dependents of a reduced system (rows after [`rref_fixed`], [`rref_big`] or
+/// [`rref`]): each pivot `(r, c)` makes `cols[c] = -sum_(j != c) (row_r[j] / row_r[c])
+/// all[j]`. `None` when a row without a pivot is not zero (the conditions constrain the
+/// parameters: a singular vertex).
+fn pivot_formulas<E: Entry>(
+    rows: &[Vec<E>],
+    pivots: &[(usize, usize)],
+    cols: &[usize],
+    all: &[usize],
+) -> Option<Vec<(usize, Formula)>> {
+    for (i, row) in rows.iter().enumerate() {
+        if !pivots.iter().any(|&(r, _)| r == i) && row.iter().any(|x| !x.is_zero_entry()) {
+            return None;
+        }
+    }
+    Some(
+        pivots
+            .iter()
+            .map(|&(r, c)| {
+                let den = &rows[r][c];
+                let f: Formula = (0..all.len())
+                    .filter(|&j| j != c && !rows[r][j].is_zero_entry())
+                    .map(|j| (all[j], -rows[r][j].ratio(den)))
+                    .collect();
+                (cols[c], f)
+            })
+            .collect(),
+    )
+}
+
+/// The fractions of reduced rows: pivot rows divided by their pivot, other rows as they
+/// are (the rows [`rref`] gives, for comparing the integer eliminations with it).
+#[cfg(test)]
+fn rows_to_rat<E: Entry>(rows: &[Vec<E>], pivots: &[(usize, usize)], one: &E) -> Vec<Vec<Rat>> {
+    rows.iter()
+        .enumerate()
+        .map(|(i, row)| {
+            let den = pivots.iter().find(|&&(r, _)| r == i).map_or(one, |&(r, c)| &rows[r][c]);
+            row.iter().map(|x| if x.is_zero_entry() { Rat::zero() } else { x.ratio(den) }).collect()
+        })
+        .collect()
 }
 
 /// The quadrilateral conditions `quads` as rows of fractions over the points `all`.
@@ -455,7 +487,6 @@ impl Mds {
             let _ = ncorners;
             // Parameter columns: ring-1 members.
             let mut params: Vec<usize> = Vec::new();
-            let mut rows: Vec<Vec<Rat>>;
             let col_of = |p: usize, cols: &Vec<usize>| cols.iter().position(|&c| c == p);
             for &qi in &quads {
                 let q = s.quads()[qi];
@@ -476,52 +507,31 @@ impl Mds {
                 }
                 irows.push(row);
             }
-            let pivots = match rref_int(&mut irows, ncand) {
-                Some(pivots) => {
-                    rows = rref_to_rat(&irows, &pivots);
-                    pivots
-                }
-                None => {
-                    // Too large for i128: the same fraction-free elimination in 256 bits,
-                    // else in exact integers, else in fractions.
-                    let mut wrows: Vec<Vec<I256>> =
-                        irows.iter().map(|r| r.iter().map(|&x| x.as_()).collect()).collect();
-                    if let Some(pivots) = rref_fixed(&mut wrows, ncand) {
-                        rows = wide_rref_to_rat(&wrows, &pivots);
-                        pivots
+            // The reduced rows in the narrowest exact type that holds them: i128, then 256
+            // bits, then exact integers, then fractions. Only the pivot rows' entries become
+            // fractions (the formulas).
+            let formulas = if let Some(pivots) = rref_int(&mut irows, ncand) {
+                pivot_formulas(&irows, &pivots, &cols, &all)
+            } else {
+                let mut wrows: Vec<Vec<I256>> =
+                    irows.iter().map(|r| r.iter().map(|&x| x.as_()).collect()).collect();
+                if let Some(pivots) = rref_fixed(&mut wrows, ncand) {
+                    pivot_formulas(&wrows, &pivots, &cols, &all)
+                } else {
+                    let mut brows: Vec<Vec<Int>> = irows
+                        .iter()
+                        .map(|r| r.iter().map(|&x| Int::from_i128(x)).collect())
+                        .collect();
+                    if let Some(pivots) = rref_big(&mut brows, ncand) {
+                        pivot_formulas(&brows, &pivots, &cols, &all)
                     } else {
-                        let mut brows: Vec<Vec<Int>> = irows
-                            .iter()
-                            .map(|r| r.iter().map(|&x| Int::from_i128(x)).collect())
-                            .collect();
-                        match rref_big(&mut brows, ncand) {
-                            Some(pivots) => {
-                                rows = big_rref_to_rat(&brows, &pivots);
-                                pivots
-                            }
-                            None => {
-                                rows = irows_to_rat(&quads, s, &all);
-                                rref(&mut rows, ncand)
-                            }
-                        }
+                        let mut rows = irows_to_rat(&quads, s, &all);
+                        let pivots = rref(&mut rows, ncand);
+                        pivot_formulas(&rows, &pivots, &cols, &all)
                     }
                 }
             };
-            for (i, row) in rows.iter().enumerate() {
-                if !pivots.iter().any(|&(r, _)| r == i) && row.iter().any(|x| !x.is_zero()) {
-                    return Err(MdsError::Singular(v));
-                }
-            }
-            Ok(pivots
-                .iter()
-                .map(|&(r, c)| {
-                    let f: Vec<(usize, Rat)> = (0..all.len())
-                        .filter(|&j| j != c && !rows[r][j].is_zero())
-                        .map(|j| (all[j], -rows[r][j].clone()))
-                        .collect();
-                    (cols[c], f)
-                })
-                .collect())
+            formulas.ok_or(MdsError::Singular(v))
         };
         let per_vertex: Vec<_> = (0..mesh.num_vertices()).into_par_iter().map(ring2).collect();
         for r in per_vertex {
@@ -712,7 +722,7 @@ mod tests {
         let mut rats = to_rat(&m);
         assert_eq!(pivots, rref(&mut rats, 4));
         assert_eq!(pivots, vec![(0, 0), (1, 2), (2, 3)]);
-        assert_eq!(rref_to_rat(&ints, &pivots), rats);
+        assert_eq!(rows_to_rat(&ints, &pivots, &1), rats);
     }
 
     #[test]
@@ -764,7 +774,7 @@ mod tests {
             let pivots = rref_int(&mut ints, ncand.min(7)).expect("small numbers fit");
             let mut rats = to_rat(&m);
             prop_assert_eq!(&pivots, &rref(&mut rats, ncand.min(7)));
-            same_reduced_rows(&rref_to_rat(&ints, &pivots), &rats, &pivots)?;
+            same_reduced_rows(&rows_to_rat(&ints, &pivots, &1), &rats, &pivots)?;
         }
 
         /// Matrices whose minors overflow `i128` (entries up to 2^45, as C1 conditions on a
@@ -791,7 +801,7 @@ mod tests {
             let pivots = rref_big(&mut big, ncand).expect("fraction-free divisions are exact");
             let mut rats = to_rat(&m);
             prop_assert_eq!(&pivots, &rref(&mut rats, ncand));
-            same_reduced_rows(&big_rref_to_rat(&big, &pivots), &rats, &pivots)?;
+            same_reduced_rows(&rows_to_rat(&big, &pivots, &Int::from(1)), &rats, &pivots)?;
         }
     }
 
@@ -808,7 +818,7 @@ mod tests {
         let pivots = rref_int(&mut ints, 6).expect("the minors fit in i128");
         let mut rats = to_rat(&m);
         assert_eq!(pivots, rref(&mut rats, 6));
-        assert_eq!(rref_to_rat(&ints, &pivots), rats);
+        assert_eq!(rows_to_rat(&ints, &pivots, &1), rats);
         // The last step multiplies the leading 3 x 3 minor by another 3 x 3 minor: beyond
         // i128, so the 256-bit branch was taken.
         let det3 = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
@@ -853,7 +863,7 @@ mod tests {
         let pivots = rref_fixed(&mut wide, 3).expect("the minors fit in 256 bits");
         let mut rats = to_rat(&m);
         assert_eq!(pivots, rref(&mut rats, 3));
-        assert_eq!(wide_rref_to_rat(&wide, &pivots), rats);
+        assert_eq!(rows_to_rat(&wide, &pivots, &w256(1)), rats);
         // Values beyond i128 convert exactly, with their sign.
         let x = w256(i128::MIN) * w256(1 << 90) + w256(3);
         let want = num_bigint::BigInt::from(i128::MIN) * (num_bigint::BigInt::from(1) << 90) + 3;
@@ -887,6 +897,6 @@ mod tests {
         let pivots = rref_big(&mut big, 3).unwrap();
         let mut rats = to_rat(&m);
         assert_eq!(pivots, rref(&mut rats, 3));
-        assert_eq!(big_rref_to_rat(&big, &pivots), rats);
+        assert_eq!(rows_to_rat(&big, &pivots, &Int::from(1)), rats);
     }
 }
