@@ -87,6 +87,25 @@ pub(crate) fn comb_is_zero(terms: &[(i64, &Rat)]) -> bool {
     acc.is_zero_int()
 }
 
+/// `sum_j m_j N_j` on machine words, or `None` when a term or a partial sum does not fit
+/// in `i128` (most of a plan's sums do: one allocation per value instead of one per term).
+fn dot_i128(row: &[(usize, Int)], num: &[Int]) -> Option<i128> {
+    let mut acc: i128 = 0;
+    for (j, m) in row {
+        acc = acc.checked_add(int_i128(m)?.checked_mul(int_i128(&num[*j])?)?)?;
+    }
+    Some(acc)
+}
+
+/// `sum_j m_j N_j` in exact integers of any size.
+fn dot_big(row: &[(usize, Int)], num: &[Int]) -> Int {
+    let mut acc = Int::from(0);
+    for (j, m) in row {
+        acc += &(m * &num[*j]);
+    }
+    acc
+}
+
 /// A dependent's denominator `E_p = lcm_j (d_j E_j)` and multipliers
 /// `m_j = n_j E_p / (d_j E_j)` (for `c_j = n_j / d_j`) on machine words: the values
 /// [`IntPlan::new`] computes in exact integers, or `None` when one does not fit in `i128`.
@@ -211,12 +230,9 @@ impl IntPlan {
     ) -> Result<(), usize> {
         let (dd, num) = self.numerators(values, is_free);
         let bad = self.checks.par_iter().position_first(|row| {
-            num.iter().any(|num| {
-                let mut acc = Int::from(0);
-                for (j, m) in row {
-                    acc += &(m * &num[*j]);
-                }
-                !acc.is_zero_int()
+            num.iter().any(|num| match dot_i128(row, num) {
+                Some(acc) => acc != 0,
+                None => !dot_big(row, num).is_zero_int(),
             })
         });
         if let Some(i) = bad {
@@ -258,11 +274,10 @@ impl IntPlan {
                     }
                 }
                 for (p, row) in &self.terms {
-                    let mut acc = Int::from(0);
-                    for (j, m) in row {
-                        acc += &(m * &num[*j]);
-                    }
-                    num[*p] = acc;
+                    num[*p] = match dot_i128(row, &num) {
+                        Some(acc) => Int::from_i128(acc),
+                        None => dot_big(row, &num),
+                    };
                 }
                 num
             })
@@ -298,6 +313,39 @@ mod tests {
     }
 
     proptest! {
+        /// Sums on machine words equal the exact ones, or give up only when a value does not
+        /// fit.
+        #[test]
+        fn word_sums_equal_exact_sums(
+            terms in proptest::collection::vec(
+                (0usize..6, prop_oneof![-(1i64 << 20)..(1 << 20), any::<i64>()]),
+                0..8,
+            ),
+            num in proptest::collection::vec(prop_oneof![-(1i64 << 30)..(1 << 30), any::<i64>()], 6),
+            wide in proptest::option::of(0usize..6),
+        ) {
+            let mut num: Vec<Int> = num.iter().map(|&x| Int::from(x)).collect();
+            if let Some(j) = wide {
+                num[j] = &num[j] * &Int::from_i128(1i128 << 100);
+            }
+            let row: Vec<(usize, Int)> = terms.iter().map(|&(j, m)| (j, Int::from(m))).collect();
+            let exact = dot_big(&row, &num);
+            match dot_i128(&row, &num) {
+                Some(v) => prop_assert_eq!(Int::from_i128(v), exact),
+                None => {
+                    // Some term or partial sum is beyond i128.
+                    let mut acc = Int::from(0);
+                    let mut beyond = false;
+                    for (j, m) in &row {
+                        let t = m * &num[*j];
+                        acc += &t;
+                        beyond |= int_i128(&t).is_none() || int_i128(&acc).is_none();
+                    }
+                    prop_assert!(beyond, "gave up on sums that fit");
+                }
+            }
+        }
+
         /// The machine-word plan steps give exactly the exact-integer ones, or give up.
         #[test]
         fn word_plan_steps_equal_exact_integer_ones(
