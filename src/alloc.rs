@@ -104,6 +104,14 @@ unsafe impl GlobalAlloc for HugePages {
 /// Extra bytes glibc's heap asks the kernel for each time it grows (`M_TOP_PAD`): 16 MiB.
 pub const HEAP_TOP_PAD: usize = 16 << 20;
 
+/// Drops `value` on one of rayon's workers instead of the calling thread: freeing a large
+/// structure of many small allocations (a fit's objective, an exact spline's fractions) takes
+/// a few milliseconds that need not delay the caller. The value is freed as soon as a worker
+/// is free; if the process exits first, the operating system reclaims it.
+pub fn drop_in_background<T: Send + 'static>(value: T) {
+    rayon::spawn(move || drop(value));
+}
+
 /// Lets the process's main heap grow in [`HEAP_TOP_PAD`] steps (glibc's default pad is
 /// 128 KiB), so that a job that allocates and frees many medium blocks (an exact solve's
 /// thousands of big integers) does not move the heap's top back and forth, each move a
@@ -125,6 +133,20 @@ pub fn tune_heap() {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_value_dropped_in_the_background_is_dropped() {
+        struct Signal(std::sync::mpsc::Sender<&'static str>);
+        impl Drop for Signal {
+            fn drop(&mut self) {
+                let _ = self.0.send("dropped");
+            }
+        }
+        let (tx, rx) = std::sync::mpsc::channel();
+        drop_in_background((Signal(tx), vec![0u8; 1 << 20]));
+        let got = rx.recv_timeout(std::time::Duration::from_secs(30));
+        assert_eq!(got, Ok("dropped"));
+    }
 
     #[test]
     fn heap_tuning_keeps_allocations_working() {

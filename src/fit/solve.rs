@@ -504,6 +504,7 @@ fn fit_soft_terms(
     );
     let fitted = fitted?;
     trace.mark("exact points + C1 check | costs");
+    crate::alloc::drop_in_background(obj);
     let mut rep = report(
         &fitted,
         lms,
