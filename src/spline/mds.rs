@@ -852,12 +852,18 @@ mod tests {
         v.as_()
     }
 
-    #[test]
-    fn minors_beyond_i128_are_eliminated_in_256_bits() {
-        // 3 x 3 minors of 2^44-sized entries (about 2^132) overflow i128 but fit 256 bits.
+    /// A matrix whose 3 x 3 minors (of 2^44-sized entries, about 2^132) overflow i128 but
+    /// fit 256 bits.
+    fn minors_beyond_i128() -> Vec<Vec<i128>> {
         let e = 1i128 << 44;
         let m = vec![vec![e + 1, e - 3, 7, 1], vec![e - 5, e + 9, e, 2], vec![3, e + 1, e - 1, 3]];
         assert_eq!(rref_int(&mut m.clone(), 3), None);
+        m
+    }
+
+    #[test]
+    fn minors_beyond_i128_are_eliminated_in_256_bits() {
+        let m = minors_beyond_i128();
         let mut wide: Vec<Vec<I256>> =
             m.iter().map(|r| r.iter().map(|&x| x.as_()).collect()).collect();
         let pivots = rref_fixed(&mut wide, 3).expect("the minors fit in 256 bits");
@@ -888,10 +894,7 @@ mod tests {
 
     #[test]
     fn fraction_free_rref_in_big_integers_takes_over_from_i128() {
-        // 3 x 3 minors of 2^44-sized entries exceed i128 (2^132).
-        let e = 1i128 << 44;
-        let m = vec![vec![e + 1, e - 3, 7, 1], vec![e - 5, e + 9, e, 2], vec![3, e + 1, e - 1, 3]];
-        assert_eq!(rref_int(&mut m.clone(), 3), None);
+        let m = minors_beyond_i128();
         let mut big: Vec<Vec<Int>> =
             m.iter().map(|r| r.iter().map(|&x| Int::from_i128(x)).collect()).collect();
         let pivots = rref_big(&mut big, 3).unwrap();
