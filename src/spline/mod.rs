@@ -30,6 +30,7 @@ mod intform;
 pub mod jacobian;
 pub mod layout;
 pub mod mds;
+mod rref;
 pub mod trace;
 
 use crate::ecles::ConstraintSystem;
