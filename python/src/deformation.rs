@@ -264,7 +264,7 @@ impl Deformation {
     /// with a margin around the frame so a fit keeps the whole frame covered. `far_rings`
     /// adds far-field rings around it (`trimorph mesh --far-rings`).
     #[staticmethod]
-    #[pyo3(signature = (src, size, margin = None, max_edge = None, min_angle = 20.0, degree = 5, snap = None, far_rings = 0))]
+    #[pyo3(signature = (src, size, margin = None, max_edge = None, min_angle = 15.0, degree = 5, snap = None, far_rings = 0))]
     fn mesh_landmarks(
         py: Python<'_>,
         src: &Bound<'_, PyAny>,

@@ -120,7 +120,7 @@ pub fn fit_options(
 #[pyfunction]
 #[pyo3(signature = (src, dst, size = None, weights = None, names = None, loss = "squares",
     loss_scale = 2.0, bend = None, hard = false, barrier = true, min_det = 0.1, max_iters = 200,
-    radius = None, margin = None, max_edge = None, min_angle = 20.0, deformation = None,
+    radius = None, margin = None, max_edge = None, min_angle = 15.0, deformation = None,
     far_rings = trimorph::fit::frame::FAR_RINGS))]
 pub fn fit(
     py: Python<'_>,

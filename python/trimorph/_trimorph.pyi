@@ -46,7 +46,7 @@ class Deformation:
         size: Tuple[float, float],
         margin: Optional[float] = None,
         max_edge: Optional[float] = None,
-        min_angle: float = 20.0,
+        min_angle: float = 15.0,
         degree: int = 5,
         snap: Optional[int] = None,
     ) -> "Deformation":
@@ -179,7 +179,7 @@ def fit(
     radius: Optional[int] = None,
     margin: Optional[float] = None,
     max_edge: Optional[float] = None,
-    min_angle: float = 20.0,
+    min_angle: float = 15.0,
     deformation: Optional[Deformation] = None,
 ) -> Deformation:
     """Fits phi with phi(src) ~ dst; the result's `report` holds the fit report."""

@@ -42,7 +42,7 @@ pub struct MeshCli {
     #[arg(long)]
     pub max_edge: Option<f64>,
     /// With --landmarks: the refinement's smallest angle in degrees (at most 33).
-    #[arg(long, default_value_t = 20.0)]
+    #[arg(long, default_value_t = crate::mesh::DEFAULT_MIN_ANGLE)]
     pub min_angle: f64,
     /// With --landmarks: far-field rings around the domain, each 4 times the size of the
     /// one inside (0 to 4; `trimorph fit --size` uses 2).

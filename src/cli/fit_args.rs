@@ -108,7 +108,7 @@ pub struct FitCli {
     #[arg(long)]
     pub max_edge: Option<f64>,
     /// With --size: the adapted mesh's smallest angle in degrees.
-    #[arg(long, default_value_t = 20.0)]
+    #[arg(long, default_value_t = crate::mesh::DEFAULT_MIN_ANGLE)]
     pub min_angle: f64,
     /// With --size: far-field rings around the adapted mesh (0 to 4), each 4 times the size
     /// of the one inside: the bending energy then spans nearly the whole plane, as a
