@@ -25,6 +25,31 @@ pub fn rat_to_big(r: &Rat) -> BigRational {
     BigRational::new_raw(r.numer().to_big(), r.denom().to_big())
 }
 
+/// `n / d` in lowest terms with a positive denominator, reduced on machine words: the same
+/// value as `Rat::new(n.into(), d.into())` without a `BigInt` gcd for values beyond `i64`.
+///
+/// # Panics
+/// Panics if `d` is zero.
+///
+/// ```
+/// use trimorph::exact::{rat_from_i128, Int, Rat};
+/// let r = rat_from_i128(-(1i128 << 100), -(3i128 << 98));
+/// assert_eq!(r, Rat::new(Int::from(4), Int::from(3)));
+/// ```
+pub fn rat_from_i128(n: i128, d: i128) -> Rat {
+    assert!(d != 0, "rational with a zero denominator");
+    let g = num_integer::Integer::gcd(&n.unsigned_abs(), &d.unsigned_abs());
+    let (p, q) = (n.unsigned_abs() / g, d.unsigned_abs() / g);
+    // Both are below 2^127 unless g = 1 and a value is i128::MIN: then the general path.
+    match (i128::try_from(p), i128::try_from(q)) {
+        (Ok(p), Ok(q)) => {
+            let p = if (n < 0) != (d < 0) { -p } else { p };
+            Rat::new_raw(Int::from_i128(p), Int::from_i128(q))
+        }
+        _ => Rat::new(Int::from_i128(n), Int::from_i128(d)),
+    }
+}
+
 /// A [`Rat`] from an integer.
 pub fn rat_int(v: i64) -> Rat {
     Rat::from_integer(Int::from(v))
@@ -98,11 +123,7 @@ pub fn parse_rat(text: &str) -> Result<Rat, ParseRatError> {
             if q == 0 {
                 return Err(err());
             }
-            let (p, q) = (p as i128, q as i128);
-            let g = num_integer::Integer::gcd(&p, &q);
-            let s = if q < 0 { -1 } else { 1 };
-            let (p, q) = (s * p / g, s * q / g);
-            return Ok(Rat::new_raw(Int::from_i128(p), Int::from_i128(q)));
+            return Ok(rat_from_i128(p.into(), q.into()));
         }
         let p: BigInt = p.trim().parse().map_err(|_| err())?;
         let q: BigInt = q.trim().parse().map_err(|_| err())?;
@@ -145,13 +166,8 @@ pub fn parse_rat(text: &str) -> Result<Rat, ParseRatError> {
     if ip.len() + fp.len() <= 18 && scale.abs() <= 18 {
         let m = ip.bytes().chain(fp.bytes()).fold(0u64, |m, b| m * 10 + u64::from(b - b'0'));
         let (m, p) = (m as i128, 10i128.pow(scale.unsigned_abs() as u32));
-        let (p, q) = if scale >= 0 {
-            (m * p, 1)
-        } else {
-            let g = num_integer::Integer::gcd(&m, &p);
-            (m / g, p / g)
-        };
-        return Ok(Rat::new_raw(Int::from_i128(if neg { -p } else { p }), Int::from_i128(q)));
+        let m = if neg { -m } else { m };
+        return Ok(if scale >= 0 { rat_from_i128(m * p, 1) } else { rat_from_i128(m, p) });
     }
     let digits: BigInt = format!("0{ip}{fp}").parse().map_err(|_| err())?;
     let ten = BigInt::from(10);
@@ -462,6 +478,22 @@ mod tests {
             BigRational::new(digits, p)
         };
         rat_from_big(&if neg { -v } else { v })
+    }
+
+    proptest::proptest! {
+        /// Lowest terms on machine words equal `Rat::new`, signs and extremes included (zero
+        /// numerators too: `0 / d` is `0 / 1`).
+        #[test]
+        fn fractions_reduced_on_words_equal_rat_new(
+            x in proptest::prop_oneof![proptest::num::i128::ANY, -1000i128..1000, proptest::strategy::Just(i128::MIN)],
+            den in proptest::prop_oneof![proptest::num::i128::ANY, -1000i128..1000, proptest::strategy::Just(i128::MIN)],
+        ) {
+            proptest::prop_assume!(den != 0);
+            proptest::prop_assert_eq!(
+                rat_from_i128(x, den),
+                Rat::new(Int::from_i128(x), Int::from_i128(den))
+            );
+        }
     }
 
     proptest::proptest! {

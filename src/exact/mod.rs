@@ -32,6 +32,6 @@ pub use int::{Int, IntView};
 pub use ldu::{Ldu, LduOptions, Pivoting, Simplification};
 pub use lsq::WeightedLsq;
 pub use matrix::{
-    exact_decimal, parse_rat, rat_from_big, rat_from_f64, rat_int, rat_to_big, rat_to_f64,
-    rat_to_string, IntMatrix, ParseRatError, Rat, ScaledVec, SparseIntMatrix,
+    exact_decimal, parse_rat, rat_from_big, rat_from_f64, rat_from_i128, rat_int, rat_to_big,
+    rat_to_f64, rat_to_string, IntMatrix, ParseRatError, Rat, ScaledVec, SparseIntMatrix,
 };

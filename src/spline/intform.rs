@@ -9,7 +9,7 @@
 //! determining-set plan ([`IntPlan`]) uses exact integers of any size. Either way the
 //! results are the same exact values as fraction arithmetic, only with far fewer gcds.
 
-use crate::exact::{Int, IntView, Rat};
+use crate::exact::{rat_from_i128, Int, IntView, Rat};
 use num_integer::Integer;
 use num_traits::ToPrimitive;
 use rayon::prelude::*;
@@ -87,21 +87,54 @@ pub(crate) fn comb_is_zero(terms: &[(i64, &Rat)]) -> bool {
     acc.is_zero_int()
 }
 
-/// `sum_j m_j N_j` on machine words, or `None` when a term or a partial sum does not fit
-/// in `i128` (most of a plan's sums do: one allocation per value instead of one per term).
-fn dot_i128(row: &[(usize, Int)], num: &[Int]) -> Option<i128> {
+/// One coordinate's numerators `N_p` (see [`IntPlan`]): `word[p]` while the value fits in
+/// `i128`, `wide[p]` otherwise (most values fit: one allocation per wide value only).
+struct Numerators {
+    word: Vec<i128>,
+    wide: Vec<Option<Int>>,
+}
+
+impl Numerators {
+    fn zeros(n: usize) -> Numerators {
+        Numerators { word: vec![0; n], wide: vec![None; n] }
+    }
+
+    /// `N_p` as an exact integer.
+    fn get(&self, p: usize) -> Int {
+        match &self.wide[p] {
+            Some(v) => v.clone(),
+            None => Int::from_i128(self.word[p]),
+        }
+    }
+
+    fn set(&mut self, p: usize, v: Int) {
+        match int_i128(&v) {
+            Some(x) => self.word[p] = x,
+            None => self.wide[p] = Some(v),
+        }
+    }
+
+    /// `N_p` on a machine word, if it fits.
+    fn word(&self, p: usize) -> Option<i128> {
+        self.wide[p].is_none().then(|| self.word[p])
+    }
+}
+
+/// `sum_j m_j N_j` on machine words, or `None` when a value, a term or a partial sum does
+/// not fit in `i128`.
+fn word_dot(row: &[(usize, i128)], num: &Numerators) -> Option<i128> {
     let mut acc: i128 = 0;
-    for (j, m) in row {
-        acc = acc.checked_add(int_i128(m)?.checked_mul(int_i128(&num[*j])?)?)?;
+    for &(j, m) in row {
+        acc = acc.checked_add(m.checked_mul(num.word(j)?)?)?;
     }
     Some(acc)
 }
 
 /// `sum_j m_j N_j` in exact integers of any size.
-fn dot_big(row: &[(usize, Int)], num: &[Int]) -> Int {
+fn exact_dot(row: &[(usize, Int)], num: &Numerators) -> Int {
     let mut acc = Int::from(0);
     for (j, m) in row {
-        acc += &(m * &num[*j]);
+        acc += &(m * &num.get(*j));
     }
     acc
 }
@@ -181,6 +214,52 @@ pub(crate) struct IntPlan {
     /// condition holds iff `sum_k c_k (L / E_(m_k)) N_(m_k) = 0` on the numerators (the
     /// common factor `D L` dropped).
     checks: Vec<[(usize, Int); 4]>,
+    /// The same values as `i128` where they fit (the common case): the numerator sweep and
+    /// the checks then run on machine words while their sums fit.
+    words: WordPlan,
+}
+
+/// [`IntPlan`]'s denominators and multipliers as `i128`, where they fit.
+#[derive(Clone, Debug, Default)]
+struct WordPlan {
+    /// `E_p` per point.
+    den: Vec<Option<i128>>,
+    /// Per dependent (in the order of [`IntPlan::terms`]): its `(j, m_j)` in `mult`, when
+    /// every `m_j` fits.
+    rows: Vec<Option<std::ops::Range<usize>>>,
+    mult: Vec<(usize, i128)>,
+    /// The check multipliers, per condition.
+    checks: Vec<Option<[(usize, i128); 4]>>,
+}
+
+impl WordPlan {
+    fn of(den: &[Int], terms: &[(usize, Vec<(usize, Int)>)], checks: &[[(usize, Int); 4]]) -> Self {
+        let mut mult = Vec::new();
+        let rows = terms
+            .iter()
+            .map(|(_, row)| {
+                let start = mult.len();
+                for (j, m) in row {
+                    match int_i128(m) {
+                        Some(m) => mult.push((*j, m)),
+                        None => {
+                            mult.truncate(start);
+                            return None;
+                        }
+                    }
+                }
+                Some(start..mult.len())
+            })
+            .collect();
+        let checks = checks
+            .iter()
+            .map(|row| {
+                let w = row.each_ref().map(|(j, m)| int_i128(m).map(|m| (*j, m)));
+                Some([w[0]?, w[1]?, w[2]?, w[3]?])
+            })
+            .collect();
+        WordPlan { den: den.iter().map(int_i128).collect(), rows, mult, checks }
+    }
 }
 
 impl IntPlan {
@@ -201,11 +280,12 @@ impl IntPlan {
             den[p] = e;
             terms.push((p, row));
         }
-        let checks = conditions
+        let checks: Vec<_> = conditions
             .par_iter()
             .map(|(m, c)| check_i128(m, c, &den).unwrap_or_else(|| check_big(m, c, &den)))
             .collect();
-        IntPlan { den, terms, checks }
+        let words = WordPlan::of(&den, &terms, &checks);
+        IntPlan { den, terms, checks, words }
     }
 
     /// Recomputes every dependent from the current values of the free points (`values[p]`
@@ -229,17 +309,22 @@ impl IntPlan {
         is_free: impl Fn(usize) -> bool + Sync,
     ) -> Result<(), usize> {
         let (dd, num) = self.numerators(values, is_free);
-        let bad = self.checks.par_iter().position_first(|row| {
-            num.iter().any(|num| match dot_i128(row, num) {
-                Some(acc) => acc != 0,
-                None => !dot_big(row, num).is_zero_int(),
-            })
-        });
+        let bad = (0..self.checks.len())
+            .into_par_iter()
+            .position_first(|i| num.iter().any(|num| !self.condition_holds(i, num)));
         if let Some(i) = bad {
             return Err(i);
         }
         self.reduce(values, &dd, &num);
         Ok(())
+    }
+
+    /// Whether condition `i` holds on one coordinate's numerators, exactly.
+    fn condition_holds(&self, i: usize, num: &Numerators) -> bool {
+        match self.words.checks[i].as_ref().and_then(|row| word_dot(row, num)) {
+            Some(acc) => acc == 0,
+            None => exact_dot(&self.checks[i], num).is_zero_int(),
+        }
     }
 
     /// The common denominator `D` of the free values and every point's numerator `N_p`
@@ -248,7 +333,7 @@ impl IntPlan {
         &self,
         values: &[Vec<Rat>],
         is_free: impl Fn(usize) -> bool + Sync,
-    ) -> (Int, Vec<Vec<Int>>) {
+    ) -> (Int, Vec<Numerators>) {
         let n = values.len();
         let dim = values.first().map_or(0, |v| v.len());
         // D: the lcm of the free values' denominators.
@@ -262,22 +347,35 @@ impl IntPlan {
                 }
             }
         }
+        let dd_word = int_i128(&dd);
         // The coordinates are independent: one numerator sweep per coordinate, in parallel
-        // (the sweep itself follows the evaluation order).
-        let num: Vec<Vec<Int>> = (0..dim)
+        // (the sweep itself follows the evaluation order); each sum on machine words when
+        // it fits, in exact integers otherwise.
+        let num: Vec<Numerators> = (0..dim)
             .into_par_iter()
             .map(|a| {
-                let mut num = vec![Int::from(0); n];
+                let mut num = Numerators::zeros(n);
                 for (p, v) in values.iter().enumerate() {
                     if is_free(p) {
-                        num[p] = v[a].numer() * &dd.div_exact(v[a].denom());
+                        let x = &v[a];
+                        let word =
+                            (|| int_i128(x.numer())?.checked_mul(dd_word? / int_i128(x.denom())?))(
+                            );
+                        match word {
+                            Some(w) => num.word[p] = w,
+                            None => num.set(p, x.numer() * &dd.div_exact(x.denom())),
+                        }
                     }
                 }
-                for (p, row) in &self.terms {
-                    num[*p] = match dot_i128(row, &num) {
-                        Some(acc) => Int::from_i128(acc),
-                        None => dot_big(row, &num),
-                    };
+                for ((p, row), range) in self.terms.iter().zip(&self.words.rows) {
+                    let word = range.clone().and_then(|r| word_dot(&self.words.mult[r], &num));
+                    match word {
+                        Some(w) => num.word[*p] = w,
+                        None => {
+                            let v = exact_dot(row, &num);
+                            num.set(*p, v);
+                        }
+                    }
                 }
                 num
             })
@@ -286,14 +384,21 @@ impl IntPlan {
     }
 
     /// Writes the dependents' values `N_p / (D E_p)` in lowest terms.
-    fn reduce(&self, values: &mut [Vec<Rat>], dd: &Int, num: &[Vec<Int>]) {
-        // The reductions (one gcd per value) are independent: in parallel.
+    fn reduce(&self, values: &mut [Vec<Rat>], dd: &Int, num: &[Numerators]) {
+        let dd_word = int_i128(dd);
+        // The reductions (one gcd per value, on machine words where the numerator and
+        // `D E_p` fit) are independent: in parallel.
         let reduced: Vec<Vec<Rat>> = self
             .terms
             .par_iter()
-            .map(|(p, _)| {
-                let d = dd * &self.den[*p];
-                num.iter().map(|num| Rat::new(num[*p].clone(), d.clone())).collect()
+            .map(|&(p, _)| {
+                let d_word = dd_word.zip(self.words.den[p]).and_then(|(a, b)| a.checked_mul(b));
+                num.iter()
+                    .map(|num| match (num.word(p), d_word) {
+                        (Some(x), Some(d)) => rat_from_i128(x, d),
+                        _ => Rat::new(num.get(p), dd * &self.den[p]),
+                    })
+                    .collect()
             })
             .collect();
         for ((p, _), v) in self.terms.iter().zip(reduced) {
@@ -314,7 +419,7 @@ mod tests {
 
     proptest! {
         /// Sums on machine words equal the exact ones, or give up only when a value does not
-        /// fit.
+        /// fit (a wide numerator, a term or a partial sum beyond `i128`).
         #[test]
         fn word_sums_equal_exact_sums(
             terms in proptest::collection::vec(
@@ -322,27 +427,94 @@ mod tests {
                 0..8,
             ),
             num in proptest::collection::vec(prop_oneof![-(1i64 << 30)..(1 << 30), any::<i64>()], 6),
-            wide in proptest::option::of(0usize..6),
+            wide in proptest::option::of((0usize..6, 40u32..100)),
         ) {
-            let mut num: Vec<Int> = num.iter().map(|&x| Int::from(x)).collect();
-            if let Some(j) = wide {
-                num[j] = &num[j] * &Int::from_i128(1i128 << 100);
+            let mut vals = Numerators::zeros(6);
+            for (p, &x) in num.iter().enumerate() {
+                let mut v = Int::from(x);
+                if let Some((j, bits)) = wide {
+                    if j == p {
+                        v = &v * &Int::from_i128(1i128 << bits);
+                    }
+                }
+                vals.set(p, v);
             }
             let row: Vec<(usize, Int)> = terms.iter().map(|&(j, m)| (j, Int::from(m))).collect();
-            let exact = dot_big(&row, &num);
-            match dot_i128(&row, &num) {
+            let words: Vec<(usize, i128)> = terms.iter().map(|&(j, m)| (j, i128::from(m))).collect();
+            let exact = exact_dot(&row, &vals);
+            match word_dot(&words, &vals) {
                 Some(v) => prop_assert_eq!(Int::from_i128(v), exact),
                 None => {
-                    // Some term or partial sum is beyond i128.
                     let mut acc = Int::from(0);
                     let mut beyond = false;
                     for (j, m) in &row {
-                        let t = m * &num[*j];
+                        let t = m * &vals.get(*j);
                         acc += &t;
-                        beyond |= int_i128(&t).is_none() || int_i128(&acc).is_none();
+                        beyond |= vals.word(*j).is_none()
+                            || int_i128(&t).is_none()
+                            || int_i128(&acc).is_none();
                     }
                     prop_assert!(beyond, "gave up on sums that fit");
                 }
+            }
+        }
+
+        /// A plan whose formulas mix multipliers on words and beyond `i128` (so the sweep
+        /// switches between machine words and exact integers point by point) gives the
+        /// values of rational arithmetic, and its checks decide exactly.
+        #[test]
+        fn mixed_width_plans_equal_rational_evaluation(
+            coefs in proptest::collection::vec(
+                proptest::collection::vec((-(1i64 << 40)..(1 << 40), 1i64..(1 << 40), 0u32..3), 1..4),
+                1..6,
+            ),
+            free in proptest::collection::vec((any::<i64>(), 0u32..40), 3),
+        ) {
+            // Points 0..3 free, then one dependent per formula, each using the points
+            // before it; a power `p` scales a coefficient by 2^(60 p) / 3^p.
+            let big = Rat::new(Int::from_i128(1i128 << 60), Int::from(3));
+            let formulas: Vec<Vec<(usize, Rat)>> = coefs
+                .iter()
+                .enumerate()
+                .map(|(k, f)| {
+                    f.iter()
+                        .enumerate()
+                        .map(|(i, &(n, d, p))| {
+                            let mut c = r(n, d);
+                            for _ in 0..p {
+                                c = &c * &big;
+                            }
+                            ((i * 7 + k) % (3 + k), c)
+                        })
+                        .collect()
+                })
+                .collect();
+            let n = 3 + formulas.len();
+            let order: Vec<usize> = (3..n).collect();
+            // One condition per dependent that holds (x_p - sum c_j x_j = 0 is not a
+            // 4-member integer condition in general, so use x_p - x_p = 0 and one that fails
+            // unless x_p = 0).
+            let conditions: Vec<([usize; 4], [i64; 4])> =
+                (3..n).map(|p| ([p, p, 0, 0], [1, -1, 0, 0])).collect();
+            let plan = IntPlan::new(n, &order, |p| &formulas[p - 3][..], &conditions);
+            let mut values: Vec<Vec<Rat>> = free
+                .iter()
+                .map(|&(x, b)| vec![Rat::new(Int::from(x), Int::from_i128(1i128 << b))])
+                .chain((3..n).map(|_| vec![Rat::zero()]))
+                .collect();
+            let mut want = values.clone();
+            for p in 3..n {
+                let v = formulas[p - 3].iter().fold(Rat::zero(), |a, (j, c)| a + c * &want[*j][0]);
+                want[p][0] = v;
+            }
+            prop_assert_eq!(plan.recompute_verified(&mut values, |p| p < 3), Ok(()));
+            prop_assert_eq!(&values, &want);
+            // A condition that fails on a nonzero value is reported.
+            if let Some(p) = (3..n).find(|&p| !want[p][0].is_zero()) {
+                let bad = IntPlan::new(n, &order, |q| &formulas[q - 3][..], &[([p, 0, 0, 0], [1, 0, 0, 0])]);
+                let mut v = want.clone();
+                v[p][0] = Rat::zero();
+                prop_assert_eq!(bad.recompute_verified(&mut v, |q| q < 3), Err(0));
             }
         }
 

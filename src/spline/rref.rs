@@ -6,7 +6,7 @@
 //! in fractions ([`rref`]). The reduced row echelon form is unique, so every path gives the
 //! same rows; only the pivot rows become fractions ([`pivot_formulas`]).
 
-use crate::exact::{Int, Rat};
+use crate::exact::{rat_from_i128, Int, Rat};
 use bnum::cast::As;
 use bnum::types::{I256, I512};
 use num_traits::Zero;
@@ -217,21 +217,6 @@ pub(super) fn rref_big(rows: &mut [Vec<Int>], ncand: usize) -> Option<Vec<(usize
     Some(pivots)
 }
 
-/// `x / den` in lowest terms (`den != 0`), reduced on the machine words: the same value
-/// as `Rat::new`, without a `BigInt` gcd for values above `i64`.
-fn rat_i128(x: i128, den: i128) -> Rat {
-    let g = super::intform::gcd_u128(x.unsigned_abs(), den.unsigned_abs());
-    let (n, d) = (x.unsigned_abs() / g, den.unsigned_abs() / g);
-    // Both are below 2^127 unless g = 1 and a value is i128::MIN: then fall back.
-    match (i128::try_from(n), i128::try_from(d)) {
-        (Ok(n), Ok(d)) => {
-            let n = if (x < 0) != (den < 0) { -n } else { n };
-            Rat::new_raw(Int::from_i128(n), Int::from_i128(d))
-        }
-        _ => Rat::new(Int::from_i128(x), Int::from_i128(den)),
-    }
-}
-
 /// An entry of a reduced row: an exact integer of some width, or a fraction.
 pub(super) trait Entry {
     /// Whether it is zero.
@@ -245,7 +230,7 @@ impl Entry for i128 {
         *self == 0
     }
     fn ratio(&self, den: &i128) -> Rat {
-        rat_i128(*self, *den)
+        rat_from_i128(*self, *den)
     }
 }
 
@@ -255,7 +240,7 @@ impl Entry for I256 {
     }
     fn ratio(&self, den: &I256) -> Rat {
         match (i128::try_from(*self), i128::try_from(*den)) {
-            (Ok(x), Ok(d)) => rat_i128(x, d),
+            (Ok(x), Ok(d)) => rat_from_i128(x, d),
             _ => Rat::new(int_of_i256(*self), int_of_i256(*den)),
         }
     }
@@ -504,21 +489,6 @@ mod tests {
         let want = num_bigint::BigInt::from(i128::MIN) * (num_bigint::BigInt::from(1) << 90) + 3;
         assert_eq!(int_of_i256(x), Int::from_big(want));
         assert_eq!(int_of_i256(w256(-5)), Int::from(-5));
-    }
-
-    proptest! {
-        /// Lowest terms on machine words equal `Rat::new`, signs and extremes included.
-        #[test]
-        fn fractions_reduced_on_words_equal_rat_new(
-            x in prop_oneof![any::<i128>(), -1000i128..1000, Just(i128::MIN)],
-            den in prop_oneof![any::<i128>(), -1000i128..1000, Just(i128::MIN)],
-        ) {
-            prop_assume!(x != 0 && den != 0);
-            prop_assert_eq!(
-                rat_i128(x, den),
-                Rat::new(Int::from_i128(x), Int::from_i128(den))
-            );
-        }
     }
 
     #[test]
