@@ -41,6 +41,7 @@ use eval::EvalCache;
 use layout::Layout;
 use num_traits::Zero;
 use rayon::prelude::*;
+use std::sync::Arc;
 
 /// The bottom and top scalar splines of a 2.5D deformation (thesis ch. 17).
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -165,17 +166,19 @@ impl std::fmt::Display for ControlPoint {
 /// A spline deformation of the plane; see the module docs.
 #[derive(Clone, Debug)]
 pub struct Spline {
-    mesh: Mesh,
-    layout: Layout,
-    quads: Vec<Quad>,
-    system: ConstraintSystem,
+    // The mesh, layout and C1 system depend on the mesh and degree only: shared between a
+    // spline and its copies with other control points (a fit's result, an edit's state).
+    mesh: Arc<Mesh>,
+    layout: Arc<Layout>,
+    quads: Arc<Vec<Quad>>,
+    system: Arc<ConstraintSystem>,
     points: Vec<Vec<Rat>>,
     z: Option<ZLayers>,
     cache: EvalCache,
     /// `(sigma0, sigma1)` coefficients of the 2.5D layers, in the cache's patch layout.
     z_cache: Option<EvalCache>,
     /// For each control point, its slots in the flattened patch array of the cache.
-    slots: Vec<Vec<u32>>,
+    slots: Arc<Vec<Vec<u32>>>,
 }
 
 impl Spline {
@@ -248,7 +251,17 @@ impl Spline {
                 (slots, xy_cache_of(&mesh, &layout, &points))
             },
         );
-        let mut s = Spline { mesh, layout, quads, system, points, z, cache, z_cache: None, slots };
+        let mut s = Spline {
+            mesh: Arc::new(mesh),
+            layout: Arc::new(layout),
+            quads: Arc::new(quads),
+            system: Arc::new(system),
+            points,
+            z,
+            cache,
+            z_cache: None,
+            slots: Arc::new(slots),
+        };
         s.refresh_z_cache();
         s
     }
