@@ -458,4 +458,34 @@ mod tests {
         .unwrap_err();
         assert!(e.to_string().contains("far rings 5"), "{e}");
     }
+
+    /// Bug: with far-field rings the bounding box is 16 times the domain's size, and the
+    /// uniform bucket grid of point location put the whole domain into a handful of buckets
+    /// (about 400 triangles each for 500 landmarks), so each query tested them all. Crowded
+    /// buckets now get grids of their own.
+    #[test]
+    fn far_ring_meshes_locate_points_without_scanning_the_domain() {
+        let mut state = 12345u64;
+        let mut next = || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let src: Vec<[f64; 2]> =
+            (0..500).map(|_| [5.0 + 500.0 * next(), 5.0 + 500.0 * next()]).collect();
+        let opts = AdaptOptions { far_rings: 2, ..AdaptOptions::default() };
+        let a = Mesh::landmark_adapted(&src, [511.0, 511.0], &opts).unwrap();
+        a.mesh.sanity_check().unwrap();
+        let most = a.mesh.locator.max_bucket();
+        assert!(most <= 40, "a query tests up to {most} triangles");
+        // Every landmark is found in a triangle that contains it (checked exactly against
+        // the barycentric coordinates' signs), from scratch.
+        for &p in &src {
+            let (t, b) = a.mesh.locate(p, None).expect("inside the mesh");
+            assert!(b.iter().all(|&l| l >= -1e-9), "{p:?} in {t}: {b:?}");
+        }
+        // Points far out in the rings too.
+        for p in [[-1500.0, -1200.0], [1900.0, 1500.0], [255.0, -1000.0]] {
+            assert!(a.mesh.locate(p, None).is_some(), "{p:?}");
+        }
+    }
 }
