@@ -73,23 +73,53 @@ impl Word for i128 {
         let narrow =
             p.checked_mul(x).and_then(|px| a.checked_mul(y).and_then(|ay| px.checked_sub(ay)));
         if let Some(t) = narrow {
-            return if prev == 1 {
-                Some(t)
-            } else if t % prev != 0 {
-                None
-            } else {
-                Some(t / prev)
+            if prev == 1 {
+                return Some(t);
+            }
+            // One division (on 64 bits when both fit), checked by multiplying back:
+            // |q prev| <= |t|, so the product cannot overflow.
+            let q = match (i64::try_from(t), i64::try_from(prev)) {
+                (Ok(t), Ok(d)) => i128::from(t.checked_div(d)?),
+                _ => t.checked_div(prev)?,
             };
+            return (q * prev == t).then_some(q);
         }
         // |p x|, |a y| <= 2^254: neither the products nor their difference overflow.
         let w = |v: i128| -> I256 { v.as_() };
-        let t = w(p) * w(x) - w(a) * w(y);
-        let q = t.checked_div(w(prev))?;
-        if q * w(prev) != t {
-            return None;
-        }
-        i128::try_from(q).ok()
+        exact_quotient(w(p) * w(x) - w(a) * w(y), prev)
     }
+}
+
+/// The inverse of an odd `d` modulo 2^128 (Newton's iteration `x <- x (2 - d x)` doubles
+/// the number of correct low bits; `x = d` is right to 3 bits, as `d^2 = 1 mod 8`).
+fn inverse_mod_2_128(d: u128) -> u128 {
+    debug_assert!(d & 1 == 1, "only odd numbers are invertible modulo 2^128");
+    let mut x = d;
+    for _ in 0..6 {
+        x = x.wrapping_mul(2u128.wrapping_sub(d.wrapping_mul(x)));
+    }
+    x
+}
+
+/// `t / d` when the division is exact and the quotient fits in `i128` (`d != 0`), else
+/// `None`: by exact division (Jebelean 1993) instead of a long division. With
+/// `d = 2^s d'` (`d'` odd), an exact quotient `q` satisfies `t / 2^s = q d'`, so
+/// `q = (t / 2^s) d'^-1 mod 2^128`, which is `q` itself when `q` fits in `i128`. One
+/// 256-bit product then checks the candidate: `q d = t` holds exactly when both conditions
+/// do.
+fn exact_quotient(t: I256, d: i128) -> Option<i128> {
+    if d == 0 {
+        return None;
+    }
+    let s = d.trailing_zeros();
+    let low: u128 = t.as_();
+    if low & ((1u128 << s) - 1) != 0 {
+        return None;
+    }
+    let shifted: u128 = (t >> s).as_();
+    let q = shifted.wrapping_mul(inverse_mod_2_128((d >> s) as u128)) as i128;
+    let w = |v: i128| -> I256 { v.as_() };
+    (w(q) * w(d) == t).then_some(q)
 }
 
 impl Word for I256 {
@@ -489,6 +519,37 @@ mod tests {
         let want = num_bigint::BigInt::from(i128::MIN) * (num_bigint::BigInt::from(1) << 90) + 3;
         assert_eq!(int_of_i256(x), Int::from_big(want));
         assert_eq!(int_of_i256(w256(-5)), Int::from(-5));
+    }
+
+    proptest! {
+        /// Exact division by the inverse modulo 2^128 gives the quotient exactly when the
+        /// division is exact and the quotient fits in i128 (signs, powers of two in the
+        /// divisor and extremes included), and nothing otherwise.
+        #[test]
+        fn exact_quotients_equal_long_division(
+            q in prop_oneof![any::<i128>(), -1000i128..1000, Just(i128::MIN), Just(i128::MAX)],
+            d in prop_oneof![any::<i128>(), -1000i128..1000, Just(i128::MIN), Just(1i128 << 100)],
+            shift in 0u32..130,
+            off in prop_oneof![Just(0i128), -3i128..4],
+        ) {
+            prop_assume!(d != 0);
+            let w = |v: i128| -> I256 { v.as_() };
+            // Products beyond i128, shifted quotients and inexact divisions.
+            let t = w(q) * w(d) + w(off);
+            let qq = if shift < 128 { q >> shift } else { 0 };
+            let t2 = w(qq) * w(d) + w(off);
+            for t in [t, t2, w(q) << (shift % 120)] {
+                let want = t.checked_div(w(d)).filter(|x| *x * w(d) == t).and_then(|x| i128::try_from(x).ok());
+                prop_assert_eq!(exact_quotient(t, d), want);
+            }
+        }
+    }
+
+    #[test]
+    fn inverses_modulo_2_128_invert() {
+        for d in [1u128, 3, 5, 7, 255, u128::MAX, (1u128 << 127) + 1, 0x1234_5678_9abc_def1] {
+            assert_eq!(d.wrapping_mul(inverse_mod_2_128(d)), 1, "{d}");
+        }
     }
 
     #[test]
