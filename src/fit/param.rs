@@ -16,6 +16,8 @@
 use crate::exact::{rat_to_f64, Rat};
 use crate::spline::mds::{Mds, Role};
 use crate::spline::Spline;
+use num_traits::Zero;
+use rayon::prelude::*;
 
 /// `v` rounded to the nearest multiple of `2^-bits`, as an exact rational.
 pub fn grid_rat(v: f64, bits: u32) -> Rat {
@@ -170,14 +172,23 @@ impl Param {
     }
 
     /// `s`'s control points with the variables set to `x` rounded to multiples of
-    /// `2^-bits` (the first step of [`exact_points`](Self::exact_points); the dependents
-    /// are stale until recomputed, e.g. by [`Spline::with_determined_points`]).
+    /// `2^-bits` (the first step of [`exact_points`](Self::exact_points)). The dependents
+    /// are 0 until recomputed, e.g. by [`Spline::with_determined_points`] (their old values
+    /// would be stale anyway, and copying them costs as much as the rest).
     pub fn rounded_points(&self, s: &Spline, x: &[f64], bits: u32) -> Vec<Vec<Rat>> {
         let nv = self.nv();
-        let mut vals: Vec<Vec<Rat>> = s.points().to_vec();
-        for (k, &p) in self.vars.iter().enumerate() {
-            vals[p] = [x[k], x[nv + k]].iter().map(|&v| grid_rat(v, bits)).collect();
+        let mut dependent = vec![false; s.num_points()];
+        for (p, _) in &self.deps {
+            dependent[*p] = true;
         }
-        vals
+        s.points()
+            .par_iter()
+            .enumerate()
+            .map(|(p, old)| match self.var_of[p] {
+                Some(k) => [x[k], x[nv + k]].iter().map(|&v| grid_rat(v, bits)).collect(),
+                None if dependent[p] => vec![Rat::zero(); old.len()],
+                None => old.clone(),
+            })
+            .collect()
     }
 }
