@@ -5,7 +5,8 @@
 //!   exact certification, report). Target 20 ms.
 //! * `fit_cauchy_50_landmarks_100_triangles`: the same with the Cauchy loss (IRLS).
 //! * `fit_frame_50_auto` / `fit_frame_500_auto`: 50 / 500 landmarks over a 511 x 511 frame,
-//!   no deformation given: the landmark-adapted mesh, the GCV choice of the smoothing weight,
+//!   no deformation given: the landmark-adapted mesh (two far-field rings, 15-degree
+//!   refinement), the leave-one-out choice of the smoothing weight,
 //!   the fit, the fold certificate and the coverage check (`fit::frame::fit_frame`). Targets
 //!   20 ms and 200 ms.
 //! * `track_and_fit_511`: one frame of a sequence: 50 landmarks tracked (pyramidal

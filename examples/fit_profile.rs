@@ -1,7 +1,7 @@
-//! Times `fit_frame` (the landmark-adapted mesh, GCV smoothing, the fit, the fold certificate
-//! and the coverage check) on the `fit_frame` bench's landmarks: `N` random landmarks over a
-//! 511 x 511 frame, displaced by a smooth field. With `TRIMORPH_TRACE=1` each phase prints
-//! its wall time on stderr.
+//! Times `fit_frame` (the landmark-adapted mesh, leave-one-out smoothing, the fit, the fold
+//! certificate and the coverage check) on the `fit_frame` bench's landmarks: `N` random
+//! landmarks over a 511 x 511 frame, displaced by a smooth field. With `TRIMORPH_TRACE=1`
+//! each phase prints its wall time on stderr.
 //!
 //! ```sh
 //! TRIMORPH_TRACE=1 cargo run --release --example fit_profile -- 500 3
