@@ -132,14 +132,14 @@ fn split_tre(field: fn([f64; 2]) -> [f64; 2], n: usize, sep: f64, noise: f64) ->
 }
 
 // Measured (release, this data, leave-one-out choice of the weight over the mesh with two
-// far-field rings), mean held-out TRE trimorph / TPS in px:
+// far-field rings, 15-degree refinement), mean held-out TRE trimorph / TPS in px:
 //
 // | field | landmarks | no noise      | 1.5 px noise  |
 // |-------|-----------|---------------|---------------|
-// | waves | 30        | 4.801 / 4.829 | 4.841 / 4.716 |
-// | waves | 60        | 2.132 / 2.139 | 2.842 / 2.980 |
-// | swirl | 30        | 3.592 / 3.630 | 3.841 / 3.863 |
-// | swirl | 60        | 1.716 / 1.729 | 2.566 / 2.681 |
+// | waves | 30        | 4.793 / 4.829 | 4.835 / 4.716 |
+// | waves | 60        | 2.128 / 2.139 | 2.838 / 2.980 |
+// | swirl | 30        | 3.591 / 3.630 | 3.845 / 3.863 |
+// | swirl | 60        | 1.710 / 1.729 | 2.562 / 2.681 |
 //
 // Without noise the fit is at least as good as the interpolating TPS; with noise it is
 // better with 60 landmarks (4 to 5 %) and on the swirl with 30, but 2.7 % worse on the
