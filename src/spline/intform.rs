@@ -6,8 +6,10 @@
 //! one common denominator `L = lcm(d_k)` and evaluated as the integer `sum_k c_k n_k L / d_k`,
 //! with one gcd at the end. The C1 check ([`comb_is_zero`]) runs in `i128` with every
 //! operation checked, and on overflow in exact integers on the same common denominator; the
-//! determining-set plan ([`IntPlan`]) uses exact integers of any size. Either way the
-//! results are the same exact values as fraction arithmetic, only with far fewer gcds.
+//! determining-set plan ([`IntPlan`]) does the same value by value: each numerator, sum and
+//! reduction on `i128` while it fits, in exact integers of any size where it does not.
+//! Either way the results are the same exact values as fraction arithmetic, only with far
+//! fewer gcds and allocations.
 
 use crate::exact::{rat_from_i128, Int, IntView, Rat};
 use num_integer::Integer;
@@ -220,7 +222,7 @@ pub(crate) struct IntPlan {
 }
 
 /// [`IntPlan`]'s denominators and multipliers as `i128`, where they fit.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 struct WordPlan {
     /// `E_p` per point.
     den: Vec<Option<i128>>,
