@@ -477,6 +477,8 @@ mod tests {
         a.mesh.sanity_check().unwrap();
         let most = a.mesh.locator.max_bucket();
         assert!(most <= 40, "a query tests up to {most} triangles");
+        // Buckets split into grids of their own keep no list of their own.
+        assert_eq!(a.mesh.locator.stored(), a.mesh.locator.stats().1);
         // Every landmark is found in a triangle that contains it (checked exactly against
         // the barycentric coordinates' signs), from scratch.
         for &p in &src {

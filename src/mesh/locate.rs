@@ -145,6 +145,17 @@ impl Grid {
                 }
             }
         }
+        if !g.children.is_empty() {
+            // A bucket with a grid of its own keeps no list: no query reads it.
+            let (mut items, mut start) = (Vec::new(), vec![0u32; nx * ny + 1]);
+            for b in 0..nx * ny {
+                if g.child[b] == 0 {
+                    items.extend_from_slice(&g.items[g.start[b] as usize..g.start[b + 1] as usize]);
+                }
+                start[b + 1] = items.len() as u32;
+            }
+            (g.items, g.start) = (items, start);
+        }
         g
     }
 
@@ -192,6 +203,12 @@ impl Grid {
             }
         }
         out
+    }
+
+    /// Entries stored over all levels (leaf lists only, when nothing is kept twice).
+    #[cfg(test)]
+    fn stored(&self) -> usize {
+        self.items.len() + self.children.iter().map(Grid::stored).sum::<usize>()
     }
 
     /// The largest number of triangles in a leaf bucket.
@@ -254,6 +271,12 @@ impl Locator {
     #[cfg(test)]
     pub(super) fn stats(&self) -> (usize, usize) {
         self.grid.stats()
+    }
+
+    /// Entries stored over all levels of the grid.
+    #[cfg(test)]
+    pub(super) fn stored(&self) -> usize {
+        self.grid.stored()
     }
 
     /// The largest number of triangles a query tests (in a leaf bucket).

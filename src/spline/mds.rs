@@ -55,8 +55,8 @@ pub struct Mds {
     /// The formulas on common denominators ([`IntPlan`]), built on first use.
     plan: std::sync::OnceLock<IntPlan>,
     /// The spline's C1 conditions (its quads, in order), checked by
-    /// [`recompute_verified`](Self::recompute_verified).
-    quads: Vec<Quad>,
+    /// [`recompute_verified`](Self::recompute_verified). Shared with the spline (no copy).
+    quads: std::sync::Arc<Vec<Quad>>,
 }
 
 /// Why no MDS could be built.
@@ -255,13 +255,7 @@ impl Mds {
                 }
             }
         }
-        Ok(Mds {
-            roles,
-            order,
-            used_by,
-            plan: std::sync::OnceLock::new(),
-            quads: s.quads().to_vec(),
-        })
+        Ok(Mds { roles, order, used_by, plan: std::sync::OnceLock::new(), quads: s.shared_quads() })
     }
 
     /// Builds the integer form of the formulas ([`IntPlan`], used by
@@ -356,7 +350,8 @@ impl Mds {
 
     /// Whether this set was built for a spline with these C1 conditions.
     pub fn is_for(&self, quads: &[Quad]) -> bool {
-        self.quads == quads
+        // The spline that built this set shares its quads: equal by address, no comparison.
+        std::ptr::eq(self.quads.as_slice(), quads) || self.quads.as_slice() == quads
     }
 
     /// [`recompute`](Self::recompute) in reduced-fraction arithmetic only (the reference).

@@ -315,6 +315,10 @@ impl Spline {
     pub fn quads(&self) -> &[Quad] {
         &self.quads
     }
+    /// The quadrilateral conditions, shared (copies of this spline share them too).
+    pub(crate) fn shared_quads(&self) -> Arc<Vec<Quad>> {
+        Arc::clone(&self.quads)
+    }
     /// The C1 conditions as an ECLES constraint system (`R P = 0`, `d = 2`).
     pub fn system(&self) -> &ConstraintSystem {
         &self.system
