@@ -64,7 +64,8 @@ pub struct FitCli {
     /// Turn the fold barrier off.
     #[arg(long)]
     pub no_barrier: bool,
-    /// Iteration cap of L-BFGS.
+    /// Iteration cap of the fit's Newton method (with the fold barrier; each accepted step is
+    /// certified fold-free).
     #[arg(long, default_value_t = 200)]
     pub max_iters: u64,
     /// Scene (deformation, usually from `model bind`) for a frame sequence.
