@@ -248,10 +248,11 @@ pub(super) fn fit_hard(
 ) -> Result<Fit, FitError> {
     // The exact step corrects the soft fit landmark by landmark, so the soft fit should aim
     // at the targets: with hard landmarks, `Bend::Auto` (which may smooth far away from them)
-    // means the near-interpolating default weight.
+    // means the interpolating weight. (The earlier `DEFAULT_BEND` left up to 1.8 px for the
+    // exact step, which folded tiny triangles between close landmarks.)
     let soft_opts = match opts.bend {
         Bend::Auto if opts.hard => {
-            FitOptions { bend: Bend::Weight(super::smooth::DEFAULT_BEND), ..opts.clone() }
+            FitOptions { bend: Bend::Weight(super::smooth::INTERPOLATING_BEND), ..opts.clone() }
         }
         _ => opts.clone(),
     };
