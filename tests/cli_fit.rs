@@ -664,6 +664,27 @@ fn fit_with_size_adapts_the_mesh_and_reports_certificate_smoothing_and_coverage(
     assert!(String::from_utf8_lossy(&o.stderr).contains("--bend"));
 }
 
+/// Bug: with a landmark outside `--size` whose target also made the landmarks' affine map
+/// degenerate, `fit --size` blamed the whole set ("reverses orientation (determinant
+/// 0.000)") instead of the landmark outside the frame. Each landmark's own problem now comes
+/// first, named, exit 1, nothing written.
+#[test]
+fn a_source_outside_the_frame_is_named_before_the_sets_degenerate_map() {
+    let dir = tempfile::tempdir().unwrap();
+    let lms = dir.path().join("l.csv");
+    fs::write(&lms, "name,src_x,src_y,dst_x,dst_y\na,10,10,11,11\nb,600,20,21,21\nc,30,90,31,31\n")
+        .unwrap();
+    let out = dir.path().join("f.json");
+    for cmd in ["fit", "mesh"] {
+        let o = trimorph(&[cmd, "--size", "512,512", "--landmarks", s(&lms), "-o", s(&out)]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{cmd}: {err}");
+        assert!(err.contains("l.csv") && err.contains("landmark 1"), "{cmd}: {err}");
+        assert!(err.contains("(600, 20) lies outside the 512 x 512 frame"), "{cmd}: {err}");
+        assert!(!out.exists());
+    }
+}
+
 /// Issue 23: a deformation translated by 1e160 (exactly C1, but its f64 positions keep no
 /// digit of the mesh) made the fit blame the landmark file for a singular system; it is
 /// refused naming the deformation and the point.

@@ -154,6 +154,9 @@ pub fn fit_frame(
     opts: &FrameFitOptions,
 ) -> Result<FrameFit, FitError> {
     validate(lms)?;
+    // Each landmark's own problems (outside the frame) before the set's (degenerate map).
+    let sources: Vec<[f64; 2]> = lms.iter().map(|l| l.src).collect();
+    crate::mesh::check_frame(&sources, size).map_err(|e| mesh_error(lms, e))?;
     let a = affine_fit(lms)?;
     let [w, h] = size;
     let base = opts.mesh.margin.unwrap_or_else(|| default_margin(w, h));
@@ -184,6 +187,21 @@ pub fn fit_frame(
     }
 }
 
+/// A landmark-adapted mesh's error as a fit error, naming the landmark outside the frame.
+fn mesh_error(lms: &[Landmark], e: MeshError) -> FitError {
+    match e {
+        MeshError::OutsideFrame { index, x, y, w, h } => FitError::BadLandmark {
+            index,
+            name: lms[index].name.clone().unwrap_or_else(|| "-".into()),
+            why: format!(
+                "source point ({x}, {y}) lies outside the {w} x {h} frame (pixel centres run \
+                 from 0 to width - 1 and height - 1); check --size and the columns"
+            ),
+        },
+        e => FitError::AdaptedMesh(e),
+    }
+}
+
 /// The adapted mesh with this margin and the fit over it.
 fn fit_on_mesh(
     lms: &[Landmark],
@@ -199,17 +217,8 @@ fn fit_on_mesh(
     let start = std::time::Instant::now();
     let mut trace = crate::timing::Trace::new("fit_frame");
     let (adapted, spline, mds, terms) = loop {
-        let adapted = Mesh::landmark_adapted(&sources, size, &mesh_opts).map_err(|e| match e {
-            MeshError::OutsideFrame { index, x, y, w, h } => FitError::BadLandmark {
-                index,
-                name: lms[index].name.clone().unwrap_or_else(|| "-".into()),
-                why: format!(
-                    "source point ({x}, {y}) lies outside the {w} x {h} frame (pixel centres \
-                     run from 0 to width - 1 and height - 1); check --size and the columns"
-                ),
-            },
-            e => FitError::AdaptedMesh(e),
-        })?;
+        let adapted =
+            Mesh::landmark_adapted(&sources, size, &mesh_opts).map_err(|e| mesh_error(lms, e))?;
         trace.mark("adapted mesh");
         let spline = affine_spline(adapted.mesh.clone(), opts.degree, a)?;
         trace.mark("affine spline");

@@ -128,19 +128,38 @@ impl AdaptedMesh {
 /// The most points the refinement may add per input point (a bound on the mesh size).
 const STEINER_PER_POINT: usize = 8;
 
+/// Checks a frame size (finite, from 1 to 1e6 pixels each way) and that every source lies
+/// in the frame `[-1/2, w - 1/2] x [-1/2, h - 1/2]`, in that order: the input checks of
+/// [`Mesh::landmark_adapted`], for callers that want them before other work.
+pub fn check_frame(sources: &[[f64; 2]], size: [f64; 2]) -> Result<(), MeshError> {
+    let [w, h] = size;
+    if !(w.is_finite() && h.is_finite() && w >= 1.0 && h >= 1.0 && w <= 1e6 && h <= 1e6) {
+        return Err(MeshError::BadAdapt(format!(
+            "frame size {w} x {h}: width and height must be from 1 to 1e6"
+        )));
+    }
+    for (index, p) in sources.iter().enumerate() {
+        if !(p[0].is_finite() && p[1].is_finite()) {
+            return Err(MeshError::NotFinite { vertex: index });
+        }
+        if p[0] < -0.5 || p[1] < -0.5 || p[0] > w - 0.5 || p[1] > h - 0.5 {
+            return Err(MeshError::OutsideFrame { index, x: p[0], y: p[1], w, h });
+        }
+    }
+    Ok(())
+}
+
 impl Mesh {
     /// The landmark-adapted mesh of a `size = [w, h]` frame (see the module docs). Every
-    /// source must lie in the frame `[-1/2, w - 1/2] x [-1/2, h - 1/2]`.
+    /// source must lie in the frame `[-1/2, w - 1/2] x [-1/2, h - 1/2]` ([`check_frame`]).
     pub fn landmark_adapted(
         sources: &[[f64; 2]],
         size: [f64; 2],
         opts: &AdaptOptions,
     ) -> Result<AdaptedMesh, MeshError> {
         let bad = |m: String| Err(MeshError::BadAdapt(m));
+        check_frame(sources, size)?;
         let [w, h] = size;
-        if !(w.is_finite() && h.is_finite() && w >= 1.0 && h >= 1.0 && w <= 1e6 && h <= 1e6) {
-            return bad(format!("frame size {w} x {h}: width and height must be from 1 to 1e6"));
-        }
         let margin = opts.margin.unwrap_or_else(|| default_margin(w, h));
         if !(margin.is_finite() && (0.0..=1e6).contains(&margin)) {
             return bad(format!("margin {margin} must be a finite number from 0 to 1e6"));
@@ -160,14 +179,6 @@ impl Mesh {
             return bad(format!("far rings {}: at most {MAX_FAR_RINGS}", opts.far_rings));
         }
         let grid = super::validate::check_grid(MeshOptions { grid: opts.grid })?;
-        for (index, p) in sources.iter().enumerate() {
-            if !(p[0].is_finite() && p[1].is_finite()) {
-                return Err(MeshError::NotFinite { vertex: index });
-            }
-            if p[0] < -0.5 || p[1] < -0.5 || p[0] > w - 0.5 || p[1] > h - 0.5 {
-                return Err(MeshError::OutsideFrame { index, x: p[0], y: p[1], w, h });
-            }
-        }
         let g = grid as f64;
         let snap = |v: f64| (v * g).round() / g;
         let lo = [snap(-0.5 - margin), snap(-0.5 - margin)];

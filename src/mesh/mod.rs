@@ -67,7 +67,7 @@ mod locate;
 mod tests;
 mod validate;
 
-pub use adapt::{default_margin, AdaptOptions, AdaptedMesh, DEFAULT_MIN_ANGLE};
+pub use adapt::{check_frame, default_margin, AdaptOptions, AdaptedMesh, DEFAULT_MIN_ANGLE};
 use locate::Locator;
 
 /// Options shared by all mesh builders.
