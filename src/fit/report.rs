@@ -41,7 +41,7 @@ impl FitReport {
         s
     }
 
-    /// The warnings of a fit: landmark pairs that cross (they demand a fold), and a result
+    /// The warnings of a fit: landmark pairs that cross (a fold or a strong twist), and a result
     /// that folds or is not certified fold-free, with what to do (`barrier`: whether the
     /// fold barrier was on).
     pub fn warnings(&self, barrier: bool) -> Vec<String> {
@@ -50,8 +50,9 @@ impl FitReport {
             let pairs: Vec<String> =
                 self.conflicts.iter().map(|[a, b]| format!("{a} and {b}")).collect();
             out.push(format!(
-                "these landmark pairs cross (the targets reverse their order), which demands a \
-                 fold between them: {}; check or remove one of each pair",
+                "these landmark pairs cross (the targets reverse their order against the \
+                 landmarks' affine map), which a fold-free map follows only by twisting \
+                 strongly between them: {}; check or remove one of each pair",
                 pairs.join(", ")
             ));
         }

@@ -200,9 +200,11 @@ pub struct FitReport {
     pub fold_free: bool,
     /// A certified lower bound of `det J` over the whole mesh.
     pub det_j_lower_bound: f64,
-    /// Nearby landmark pairs whose order the targets reverse (names, or `#index`), listed
-    /// when the fold barrier had to act or the result is not certified fold-free: the
-    /// landmarks that demand a fold ([`super::affine::crossing_pairs`]).
+    /// Nearby landmark pairs whose order the targets reverse against the landmarks' affine
+    /// map (names, or `#index`, [`super::affine::crossing_pairs`]): swapped or crossing
+    /// landmarks, which a fold-free fit follows only by a strong twist, if at all. Listed
+    /// for every fit; a strong local rotation (over 90 degrees against the affine map) lists
+    /// pairs too, though it needs no fold.
     pub conflicts: Vec<[String; 2]>,
     /// The result satisfies every C1 condition exactly (checked in rational arithmetic).
     pub exact_c1: bool,
@@ -522,12 +524,10 @@ fn fit_soft_terms(
     rep.loo_rms = out.choice.map(|c| c.loo_rms);
     rep.termination = out.termination;
     trace.mark("report (residuals, certificate)");
-    if rep.method.contains("newton") || !rep.fold_free {
-        rep.conflicts = super::affine::crossing_pairs(lms)
-            .into_iter()
-            .map(|(i, j)| [i, j].map(|k| lms[k].name.clone().unwrap_or_else(|| format!("#{k}"))))
-            .collect();
-    }
+    rep.conflicts = super::affine::crossing_pairs(lms)
+        .into_iter()
+        .map(|(i, j)| [i, j].map(|k| lms[k].name.clone().unwrap_or_else(|| format!("#{k}"))))
+        .collect();
     Ok(Fit { spline: fitted, report: rep })
 }
 
