@@ -58,14 +58,7 @@ fn spline_fit_is_no_worse_than_thin_plate_spline_on_held_out_landmarks() {
     let bend = Bend::Weight(1e-4 / (30.0 * W * H));
     let f = fit(&s, &fitted, &FitOptions { bend, ..FitOptions::default() }).unwrap();
     let ours: Vec<f64> = residuals(&f.spline, &held).unwrap().iter().map(|r| r.residual).collect();
-    let tps = Tps::new(&fitted);
-    let base: Vec<f64> = held
-        .iter()
-        .map(|l| {
-            let m = tps.eval(l.src);
-            (m[0] - l.dst[0]).hypot(m[1] - l.dst[1])
-        })
-        .collect();
+    let base = Tps::new(&fitted).errors(&held);
     let (tre, tre_tps) = (rms(&ours), rms(&base));
     eprintln!(
         "held-out TRE (rms px): spline {tre:.3}, thin-plate spline {tre_tps:.3}; fit rms {:.4}; \

@@ -65,6 +65,16 @@ impl Tps {
         Tps { src: lms.iter().map(|l| l.src).collect(), coef: [solve(rhs(0)), solve(rhs(1))] }
     }
 
+    /// The distances `|tps(s) - t|` of held-out landmarks (pixels), in their order.
+    pub fn errors(&self, held: &[Landmark]) -> Vec<f64> {
+        held.iter()
+            .map(|l| {
+                let m = self.eval(l.src);
+                (m[0] - l.dst[0]).hypot(m[1] - l.dst[1])
+            })
+            .collect()
+    }
+
     pub fn eval(&self, p: [f64; 2]) -> [f64; 2] {
         let n = self.src.len();
         [0, 1].map(|c| {
