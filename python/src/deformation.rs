@@ -37,13 +37,12 @@ pub struct Deformation {
     pub(crate) last: Option<LastEdit>,
     pub(crate) extras: Vec<Extra>,
     pub(crate) kept: Map<String, Value>,
-    pub(crate) report: Option<Py<PyAny>>,
 }
 
 impl Deformation {
     /// A deformation without edit history or report.
     pub fn new(spline: Spline) -> Deformation {
-        Deformation { spline, last: None, extras: Vec::new(), kept: Map::new(), report: None }
+        Deformation { spline, last: None, extras: Vec::new(), kept: Map::new() }
     }
 
     /// A deformation from a file's text (`source` names it in errors).
@@ -58,7 +57,7 @@ impl Deformation {
             Value::Object(m) => m.into_iter().filter(|(k, _)| written.get(k).is_none()).collect(),
             _ => Map::new(),
         };
-        Ok(Deformation { spline, last, extras, kept, report: None })
+        Ok(Deformation { spline, last, extras, kept })
     }
 
     /// The file's JSON text.
@@ -94,10 +93,7 @@ pub(crate) fn warp_options(interp: &str, background: f64, tolerance: f64) -> PyR
 fn grid_size(size: Option<(u32, u32)>, s: &Spline) -> PyResult<(u32, u32)> {
     let (w, h) = match size {
         Some(wh) => wh,
-        None => {
-            let (_, hi) = s.mesh().bbox();
-            (hi[0].max(0.0).floor() as u32 + 1, hi[1].max(0.0).floor() as u32 + 1)
-        }
+        None => trimorph::jobs::field::default_size(s),
     };
     if w == 0 || h == 0 || w as u64 * h as u64 > MAX_FIELD_PIXELS {
         return Err(value_error(format!(
@@ -284,7 +280,9 @@ impl Deformation {
             AdaptOptions { margin, max_edge, min_angle, grid, extra_points: Vec::new(), far_rings };
         let mesh =
             py.detach(|| Mesh::landmark_adapted(&sources, size, &ao)).map_err(value_error)?.mesh;
-        Ok(Deformation::new(Spline::identity(mesh, degree).map_err(value_error)?))
+        let mut s = Spline::identity(mesh, degree).map_err(value_error)?;
+        s.set_frame(trimorph::spline::ImageFrame::new(size).ok());
+        Ok(Deformation::new(s))
     }
 
     /// Warps an image array: `O(q) = I(phi^-1(q))`, same shape and dtype (uint8, uint16 or
@@ -360,8 +358,8 @@ impl Deformation {
         Ok(points_out(py, &out)?.into_any())
     }
 
-    /// The displacement field on a `size = (W, H)` pixel grid (default: the mesh's extent
-    /// from 0) as an (H, W, 2) float32 array, NaN where undefined: forward `phi(p) - p`, or
+    /// The displacement field on a `size = (W, H)` pixel grid (default: the image frame the
+    /// deformation was made for, `frame`, else the mesh's extent from 0) as an (H, W, 2) float32 array, NaN where undefined: forward `phi(p) - p`, or
     /// with `inverse=True` `phi^-1(q) - q` (the same values as `trimorph field`).
     #[pyo3(signature = (inverse = false, size = None))]
     fn field<'py>(
@@ -384,7 +382,7 @@ impl Deformation {
 
     /// Writes an ITK HDF5 transform (`DisplacementFieldTransform_double_2_2`, ITK's pixel
     /// grid: origin 0, spacing 1, identity direction) over `size = (W, H)` (default: the
-    /// mesh's extent from 0), exactly as `trimorph field DEF -o F.h5`.
+    /// image frame, `frame`, else the mesh's extent from 0), exactly as `trimorph field DEF -o F.h5`.
     ///
     /// Direction: by default the file holds `phi^-1(q) - q`, the direction ITK resamples in:
     /// SimpleITK's `Resample(moving, reference, transform)` reproduces `warp`, and
@@ -453,10 +451,30 @@ impl Deformation {
     }
 
     /// The fit report (a dict, the same keys as `trimorph fit --report`) when this
-    /// deformation was made by `trimorph.fit`, else None.
+    /// deformation was made by `trimorph.fit`, else None. It is stored in the deformation's
+    /// file (key `"report"`), so it survives `save` / `load`, `copy` and pickling.
     #[getter]
-    fn report(&self, py: Python<'_>) -> Option<Py<PyAny>> {
-        self.report.as_ref().map(|r| r.clone_ref(py))
+    fn report(&self, py: Python<'_>) -> PyResult<Option<Py<PyAny>>> {
+        self.kept.get("report").map(|v| crate::fitting::to_dict(py, v)).transpose()
+    }
+
+    /// Stores a fit report with the deformation (key `"report"` of its file).
+    pub(crate) fn set_report(&mut self, report: Value) {
+        self.kept.insert("report".into(), report);
+    }
+
+    /// The image frame the deformation was made for, as a dict (`size` = `(w, h)` pixels;
+    /// `spacing`, `origin`, `unit` when known), or None. `trimorph.fit(..., size=)` and
+    /// `Deformation.landmark_mesh` record it; `field`, `to_itk` and `to_ngff` default to it.
+    #[getter]
+    fn frame(&self, py: Python<'_>) -> PyResult<Option<Py<PyAny>>> {
+        self.spline
+            .frame()
+            .map(|f| {
+                let v = serde_json::to_value(f).map_err(value_error)?;
+                crate::fitting::to_dict(py, &v)
+            })
+            .transpose()
     }
 
     /// The spline's degree.
@@ -491,22 +509,21 @@ impl Deformation {
     }
 
     /// An independent copy.
-    fn copy(&self, py: Python<'_>) -> Deformation {
+    fn copy(&self) -> Deformation {
         Deformation {
             spline: self.spline.clone(),
             last: self.last.clone(),
             extras: self.extras.clone(),
             kept: self.kept.clone(),
-            report: self.report.as_ref().map(|r| r.clone_ref(py)),
         }
     }
 
-    fn __copy__(&self, py: Python<'_>) -> Deformation {
-        self.copy(py)
+    fn __copy__(&self) -> Deformation {
+        self.copy()
     }
 
-    fn __deepcopy__(&self, py: Python<'_>, _memo: &Bound<'_, PyDict>) -> Deformation {
-        self.copy(py)
+    fn __deepcopy__(&self, _memo: &Bound<'_, PyDict>) -> Deformation {
+        self.copy()
     }
 
     /// Pickling (for `copy`, `multiprocessing`, Dask workers): the deformation file's text,

@@ -159,7 +159,7 @@ pub fn fit(
                 .map_err(|e| fit_exc(py, e))?;
             let report = serde_json::to_value(&f.1).map_err(value_error)?;
             let mut d = Deformation::new(f.0);
-            d.report = Some(to_dict(py, &report)?);
+            d.set_report(report);
             Ok(d)
         }
         (None, Some(size)) => {
@@ -181,7 +181,7 @@ pub fn fit(
             let mut v = serde_json::to_value(&rep).map_err(value_error)?;
             v["frame"] = serde_json::to_value(&r.frame).map_err(value_error)?;
             let mut d = Deformation::new(r.fit.spline);
-            d.report = Some(to_dict(py, &v)?);
+            d.set_report(v);
             Ok(d)
         }
         (None, None) => Err(value_error(

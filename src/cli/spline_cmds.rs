@@ -54,7 +54,7 @@ pub fn mesh(a: &MeshCli) -> Result<()> {
         _ => bail!("give exactly one of --points, --grid, --obj or --landmarks"),
     };
     let mesh = build_mesh(&source, opts)?;
-    say(write_identity(mesh, a.degree, a.z_range.clone(), &a.output)?)?;
+    say(write_identity(mesh, a.degree, a.z_range.clone(), source.frame(), &a.output)?)?;
     Ok(())
 }
 

@@ -180,6 +180,10 @@ pub fn fit_frame(
                 affine: a,
                 covers_frame: covered,
             };
+            let mut f = f;
+            // The frame the fit is for, recorded with the spline (fields and exports default
+            // to it, not to the far rings' extent). `check_frame` has validated the size.
+            f.spline.set_frame(crate::spline::ImageFrame::new(size).ok());
             return Ok(FrameFit { fit: f, frame });
         }
         margin *= 2.0;

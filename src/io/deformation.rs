@@ -2,8 +2,10 @@
 //! `triangles`, `points`, `patches`, optional `z_range` / `z0` / `z1`, and the `exact` block
 //! with every value as a `"p/q"` string in lowest terms. trimorph always writes the exact
 //! block and reads it when present, so save -> load -> save is bit-exact. Extra keys written
-//! by trimorph: `grid` (the vertex snapping denominator) and `last_edit` (anchors and derived
-//! points of the last edit, for rendering).
+//! by trimorph: `grid` (the vertex snapping denominator), `last_edit` (anchors and derived
+//! points of the last edit, for rendering) and `frame` (the image frame the deformation was
+//! made for, [`crate::spline::frame`]: `{"size": [w, h]}` in pixels, with `"spacing"`,
+//! `"origin"` and `"unit"` when known).
 //!
 //! Reading accepts files from other tools: the control-point numbering is taken from
 //! `patches` (points at one nominal position must be one point), and without an exact block
@@ -12,7 +14,7 @@
 
 use crate::exact::{parse_rat, rat_from_f64, rat_to_f64, rat_to_string, Int, Rat};
 use crate::mesh::{Mesh, MeshError, MeshOptions};
-use crate::spline::{ControlPoint, Spline, SplineError, ZLayers};
+use crate::spline::{ControlPoint, ImageFrame, Spline, SplineError, ZLayers};
 use num_integer::Integer;
 use num_traits::One;
 use rayon::prelude::*;
@@ -114,6 +116,9 @@ pub fn to_json_with(s: &Spline, last: Option<&LastEdit>, extras: &[Extra]) -> Va
         exact.insert("z1".into(), Value::Array(z.z1.par_iter().map(rstr).collect()));
     }
     doc.insert("exact".into(), Value::Object(exact));
+    if let Some(f) = s.frame() {
+        doc.insert("frame".into(), serde_json::to_value(f).expect("a frame is plain data"));
+    }
     if let Some(l) = last {
         doc.insert("last_edit".into(), json!({"anchors": l.anchors, "derived": l.derived}));
     }
@@ -383,12 +388,48 @@ fn read(text: &str, require_c1: bool) -> Result<(Spline, Option<LastEdit>), Defo
         }
         _ => None,
     };
-    let spline = if require_c1 {
+    let frame = doc.get("frame").map(read_frame).transpose()?;
+    let mut spline = if require_c1 {
         Spline::from_points(mesh, degree, points, z)?
     } else {
         Spline::from_points_unchecked(mesh, degree, points, z)?
     };
+    spline.set_frame(frame);
     Ok((spline, last))
+}
+
+/// The `"frame"` object: `size` (required), `spacing`, `origin` (pairs of numbers) and
+/// `unit` (a string), each checked ([`ImageFrame::validate`]).
+fn read_frame(v: &Value) -> Result<ImageFrame, DeformationError> {
+    let o =
+        v.as_object().ok_or_else(|| key("frame", "expected an object with \"size\": [w, h]"))?;
+    let pair = |k: &str| -> Result<Option<[f64; 2]>, DeformationError> {
+        match o.get(k) {
+            None | Some(Value::Null) => Ok(None),
+            Some(Value::Array(a)) if a.len() == 2 => {
+                let mut out = [0.0; 2];
+                for (i, x) in a.iter().enumerate() {
+                    out[i] = x.as_f64().filter(|f| f.is_finite()).ok_or_else(|| {
+                        key(
+                            &format!("frame.{k}[{i}]"),
+                            format!("expected a finite number, found {x}"),
+                        )
+                    })?;
+                }
+                Ok(Some(out))
+            }
+            Some(x) => Err(key(&format!("frame.{k}"), format!("expected [x, y], found {x}"))),
+        }
+    };
+    let size = pair("size")?.ok_or_else(|| key("frame.size", "missing"))?;
+    let unit = match o.get("unit") {
+        None | Some(Value::Null) => None,
+        Some(Value::String(u)) => Some(u.clone()),
+        Some(x) => return Err(key("frame.unit", format!("expected a string, found {x}"))),
+    };
+    let f = ImageFrame { size, spacing: pair("spacing")?, origin: pair("origin")?, unit };
+    f.validate().map_err(|e| key("frame", e.to_string()))?;
+    Ok(f)
 }
 
 #[cfg(test)]
@@ -417,6 +458,33 @@ mod tests {
         assert_eq!(back.points(), s.points());
         assert_eq!(back.z_layers(), s.z_layers());
         assert_eq!(to_string(&back, Some(&last)), text);
+    }
+
+    #[test]
+    fn the_frame_survives_a_round_trip_and_bad_frames_are_named() {
+        let pts = [[0.0, 0.0], [10.0, 0.5], [3.3, 7.1], [8.0, 9.0]];
+        let mesh = Mesh::delaunay(&pts, MeshOptions::default()).unwrap();
+        let mut s = Spline::identity(mesh, 5).unwrap();
+        let mut f = ImageFrame::new([11.0, 10.0]).unwrap();
+        f.spacing = Some([0.5, 0.25]);
+        f.unit = Some("micrometer".into());
+        s.set_frame(Some(f.clone()));
+        let text = to_string(&s, None);
+        let (back, _) = from_str(&text).unwrap();
+        assert_eq!(back.frame(), Some(&f));
+        assert_eq!(to_string(&back, None), text);
+        // A copy with other points keeps it.
+        let copy = back.with_points_c1_by_construction(back.points().to_vec()).unwrap();
+        assert_eq!(copy.frame(), Some(&f));
+        let with = |k: &str, v: Value| {
+            let mut doc: Value = serde_json::from_str(&text).unwrap();
+            doc["frame"][k] = v;
+            from_str(&doc.to_string()).unwrap_err().to_string()
+        };
+        let e = with("size", json!([11.0, -1.0]));
+        assert!(e.contains("frame") && e.contains("positive"), "{e}");
+        let e = with("unit", json!(3));
+        assert!(e.contains("frame.unit"), "{e}");
     }
 
     #[test]

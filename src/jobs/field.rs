@@ -58,8 +58,13 @@ impl FieldOptions {
     }
 }
 
-/// The grid of a field of `s` with no size given: the mesh's extent from 0.
+/// The grid of a field of `s` with no size given: the image frame recorded with it
+/// ([`Spline::frame`], written by `fit --size`, `mesh --landmarks` and the morph), else the
+/// mesh's extent from 0 (pixel centres `0 ..= floor(x_max)`).
 pub fn default_size(s: &Spline) -> (u32, u32) {
+    if let Some(f) = s.frame() {
+        return f.grid();
+    }
     let (_, hi) = s.mesh().bbox();
     (hi[0].max(0.0).floor() as u32 + 1, hi[1].max(0.0).floor() as u32 + 1)
 }

@@ -17,7 +17,7 @@ use crate::mesh::{AdaptOptions, Mesh, MeshOptions};
 use crate::prism::ZRange;
 use crate::spline::check::absurd_point;
 use crate::spline::jacobian::{certify, CertifyOptions, DetJ};
-use crate::spline::Spline;
+use crate::spline::{ImageFrame, Spline};
 use std::path::{Path, PathBuf};
 
 /// Where a reference mesh comes from.
@@ -56,6 +56,16 @@ pub enum MeshSource {
         /// Margin, longest edge, smallest angle and snap grid.
         adapt: AdaptOptions,
     },
+}
+
+impl MeshSource {
+    /// The image frame of a landmark mesh (its `size`); other meshes have none.
+    pub fn frame(&self) -> Option<ImageFrame> {
+        match self {
+            MeshSource::Landmarks { size, .. } => ImageFrame::new(*size).ok(),
+            _ => None,
+        }
+    }
 }
 
 /// Builds the reference mesh of `source`, vertices snapped to `opts.grid` (landmark meshes
@@ -112,13 +122,18 @@ pub fn build_mesh(source: &MeshSource, opts: MeshOptions) -> JobResult<Mesh> {
 /// Writes the identity deformation of `degree` over `mesh` to `output` (2.5D with
 /// constant layers `z0 = lo`, `z1 = hi` when `z_range = [lo, hi]` is given). Returns the report
 /// lines (three).
+///
+/// `frame`: the image frame the mesh is for, recorded in the file (a landmark mesh's
+/// `--size`; [`MeshSource::frame`]).
 pub fn write_identity(
     mesh: Mesh,
     degree: usize,
     z_range: Option<ZRange>,
+    frame: Option<ImageFrame>,
     output: &Path,
 ) -> JobResult<String> {
     let mut spline = Spline::identity(mesh, degree)?;
+    spline.set_frame(frame);
     if let Some(r) = z_range {
         let z = r.layers(&spline);
         spline.set_z_layers(Some(z));

@@ -448,6 +448,46 @@ impl EvalCache {
         (lo, hi)
     }
 
+    /// The images `[phi(v0), phi(v1), phi(v2)]` of triangle `t`'s vertices and a bound
+    /// `delta` with `|phi(p) - A(p)| <= delta` on the whole triangle, `A` the affine map
+    /// through those three images.
+    ///
+    /// `A` written in degree `d` has the control points `a_m = (m0 q_d00 + m1 q_0d0 + m2
+    /// q_00d) / d` (degree elevation of a linear polynomial), so `phi - A` has the control
+    /// points `q_m - a_m`; Bernstein weights are non-negative and sum to one, so
+    /// `|phi(p) - A(p)| <= max_m |q_m - a_m|` (Euclidean norm; `delta` carries a relative
+    /// slack of `1e-9` and `1e-9` absolute for its own rounding).
+    pub fn affine_defect(&self, t: usize) -> ([[f64; 2]; 3], f64) {
+        let d = self.degree;
+        let n = self.mi.len();
+        let q = &self.pts[t * n..(t + 1) * n];
+        let mut corner = [[0.0f64; 2]; 3];
+        for (m, p) in self.mi.iter().zip(q) {
+            for (c, v) in corner.iter_mut().enumerate() {
+                if m[c] == d {
+                    *v = *p;
+                }
+            }
+        }
+        if d == 0 {
+            return ([q[0]; 3], 0.0);
+        }
+        let df = d as f64;
+        let mut worst = 0.0f64;
+        let mut scale = 0.0f64;
+        for (m, p) in self.mi.iter().zip(q) {
+            let a = [0, 1].map(|r| {
+                (m[0] as f64 * corner[0][r]
+                    + m[1] as f64 * corner[1][r]
+                    + m[2] as f64 * corner[2][r])
+                    / df
+            });
+            worst = worst.max((p[0] - a[0]).hypot(p[1] - a[1]));
+            scale = scale.max(p[0].abs().max(p[1].abs()));
+        }
+        (corner, worst * (1.0 + 1e-9) + 1e-9 * (1.0 + scale))
+    }
+
     /// A bound `L` with `|J(p) u| <= L |u|` for every `p` in triangle `t` (spectral norm of
     /// the Jacobian; mesh units in and out).
     ///

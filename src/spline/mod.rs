@@ -26,6 +26,7 @@ mod affine;
 pub mod c1;
 pub mod check;
 pub mod eval;
+pub mod frame;
 mod intform;
 pub mod jacobian;
 pub mod layout;
@@ -38,6 +39,7 @@ use crate::exact::{rat_to_f64, Int, Rat, SparseIntMatrix};
 use crate::mesh::Mesh;
 use c1::Quad;
 use eval::EvalCache;
+pub use frame::ImageFrame;
 use layout::Layout;
 use num_traits::Zero;
 use rayon::prelude::*;
@@ -179,6 +181,8 @@ pub struct Spline {
     z_cache: Option<EvalCache>,
     /// For each control point, its slots in the flattened patch array of the cache.
     slots: Arc<Vec<Vec<u32>>>,
+    /// The image frame the spline was made for ([`frame`]), kept by copies and edits.
+    frame: Option<ImageFrame>,
 }
 
 impl Spline {
@@ -261,9 +265,20 @@ impl Spline {
             cache,
             z_cache: None,
             slots: Arc::new(slots),
+            frame: None,
         };
         s.refresh_z_cache();
         s
+    }
+
+    /// The image frame the spline was made for, if recorded ([`frame`]).
+    pub fn frame(&self) -> Option<&ImageFrame> {
+        self.frame.as_ref()
+    }
+
+    /// Records (or clears) the image frame ([`frame`]).
+    pub fn set_frame(&mut self, frame: Option<ImageFrame>) {
+        self.frame = frame;
     }
 
     fn refresh_cache(&mut self) {
@@ -467,6 +482,7 @@ impl Spline {
             cache,
             z_cache: self.z_cache.clone(),
             slots: self.slots.clone(),
+            frame: self.frame.clone(),
         })
     }
 

@@ -45,6 +45,7 @@
 //! the pixels [`super::warp_samples_into`] writes for the whole image. It checks the margin
 //! on every preimage and fails with [`TileError::Window`] rather than return other values.
 
+use super::remap::reach::lattice_reach;
 use super::remap::{mesh_is_convex, BandScratch, RemapOptions, RemapPlan};
 use super::sample::{fast_floor, Source};
 use super::{fill, LayoutError, Samples, SamplesMut, WarpError, WarpOptions, WarpReport};
@@ -306,12 +307,6 @@ impl TilePlanner {
     pub fn size(&self) -> (u32, u32) {
         self.size
     }
-}
-
-/// How far (output pixels) a piece of the plan that draws into a tile can have its
-/// corners' images from the tile: `sqrt 2 L c + 2 L + 2` (module docs).
-fn lattice_reach(lip: f64, cell: f64) -> f64 {
-    std::f64::consts::SQRT_2 * lip * cell + 2.0 * lip + 2.0
 }
 
 fn inside(r: Rect, (w, h): (u32, u32)) -> bool {

@@ -109,6 +109,11 @@ impl CurvatureBounds {
 pub(super) struct CurvatureGrid {
     lo: [f64; 2],
     cell: f64,
+    /// Buckets of the whole grid over the mesh's bounding box, per axis.
+    full: [usize; 2],
+    /// The buckets stored: `off[a] .. off[a] + n[a]` of the whole grid per axis (all of
+    /// them without a window; those a window's queries can touch with one).
+    off: [usize; 2],
     nx: usize,
     ny: usize,
     m2: Vec<f64>,
@@ -138,11 +143,27 @@ impl CurvatureGrid {
         while ((hi[0] - lo[0]) / cell) * ((hi[1] - lo[1]) / cell) > 1.0e6 {
             cell *= 2.0;
         }
-        let nx = ((hi[0] - lo[0]) / cell) as usize + 1;
-        let ny = ((hi[1] - lo[1]) / cell) as usize + 1;
+        let full = [((hi[0] - lo[0]) / cell) as usize + 1, ((hi[1] - lo[1]) / cell) as usize + 1];
+        // With a window, only the buckets its queries can touch (the window's, one more on
+        // every side) are stored: on a mesh with far-field rings the whole grid is a million
+        // buckets, of which a warp of the frame asks a few thousand.
+        let (off, nx, ny) = match window {
+            None => ([0, 0], full[0], full[1]),
+            Some((wlo, whi)) => {
+                let r = |a: usize| {
+                    let f = |v: f64| ((v - lo[a]) / cell).floor().clamp(0.0, (full[a] - 1) as f64);
+                    let (a0, a1) = (f(wlo[a]) as usize, f(whi[a]) as usize);
+                    (a0.saturating_sub(1), (a1 + 1).min(full[a] - 1))
+                };
+                let ((x0, x1), (y0, y1)) = (r(0), r(1));
+                ([x0, y0], x1 + 1 - x0, y1 + 1 - y0)
+            }
+        };
         let mut g = CurvatureGrid {
             lo,
             cell,
+            full,
+            off,
             nx,
             ny,
             m2: vec![0.0; nx * ny],
@@ -195,19 +216,37 @@ impl CurvatureGrid {
         g
     }
 
-    fn range(&self, lo: f64, hi: f64, axis: usize, n: usize) -> (usize, usize) {
+    /// The buckets of the whole grid that the box `[lo, hi]` overlaps along `axis`
+    /// (clamped to the grid), as stored indices: `None` where that range leaves the stored
+    /// part (only possible with a window).
+    fn range(&self, lo: f64, hi: f64, axis: usize) -> Option<(usize, usize)> {
+        let n = self.full[axis];
         let f = |v: f64| ((v - self.lo[axis]) / self.cell).floor().clamp(0.0, (n - 1) as f64);
-        (f(lo) as usize, f(hi) as usize)
+        let (a, b) = (f(lo) as usize, f(hi) as usize);
+        let (o, m) = (self.off[axis], if axis == 0 { self.nx } else { self.ny });
+        (a >= o && b < o + m).then(|| (a - o, b - o))
     }
 
+    /// Calls `f` on the stored buckets that the box overlaps (the part of the box outside
+    /// the stored buckets is no window query's business).
     fn for_buckets(
         &mut self,
         lo: [f64; 2],
         hi: [f64; 2],
         mut f: impl FnMut(usize, &mut [f64], &mut [Vec<u32>]),
     ) {
-        let (x0, x1) = self.range(lo[0], hi[0], 0, self.nx);
-        let (y0, y1) = self.range(lo[1], hi[1], 1, self.ny);
+        let clip = |g: &CurvatureGrid, a: usize, l: f64, h: f64| {
+            let n = g.full[a];
+            let idx = |v: f64| ((v - g.lo[a]) / g.cell).floor().clamp(0.0, (n - 1) as f64) as usize;
+            let (o, m) = (g.off[a], if a == 0 { g.nx } else { g.ny });
+            let (x0, x1) = (idx(l).max(o), idx(h).min(o + m - 1));
+            (x0 <= x1).then(|| (x0 - o, x1 - o))
+        };
+        let (Some((x0, x1)), Some((y0, y1))) =
+            (clip(self, 0, lo[0], hi[0]), clip(self, 1, lo[1], hi[1]))
+        else {
+            return;
+        };
         for y in y0..=y1 {
             for x in x0..=x1 {
                 f(y * self.nx + x, &mut self.m2, &mut self.border);
@@ -215,10 +254,14 @@ impl CurvatureGrid {
         }
     }
 
-    /// The largest bound over the buckets overlapping the box.
+    /// The largest bound over the buckets overlapping the box (infinite for a box that
+    /// leaves a window's stored buckets: no bound is known there).
     pub(super) fn bound(&self, lo: [f64; 2], hi: [f64; 2]) -> f64 {
-        let (x0, x1) = self.range(lo[0], hi[0], 0, self.nx);
-        let (y0, y1) = self.range(lo[1], hi[1], 1, self.ny);
+        let (Some((x0, x1)), Some((y0, y1))) =
+            (self.range(lo[0], hi[0], 0), self.range(lo[1], hi[1], 1))
+        else {
+            return f64::INFINITY;
+        };
         let mut m = 0.0f64;
         for y in y0..=y1 {
             for x in x0..=x1 {
@@ -228,10 +271,14 @@ impl CurvatureGrid {
         m
     }
 
-    /// Whether a border edge of the mesh meets the open box `(lo, hi)`.
+    /// Whether a border edge of the mesh meets the open box `(lo, hi)` (assumed to, for a
+    /// box that leaves a window's stored buckets).
     pub(super) fn crosses_border(&self, lo: [f64; 2], hi: [f64; 2]) -> bool {
-        let (x0, x1) = self.range(lo[0], hi[0], 0, self.nx);
-        let (y0, y1) = self.range(lo[1], hi[1], 1, self.ny);
+        let (Some((x0, x1)), Some((y0, y1))) =
+            (self.range(lo[0], hi[0], 0), self.range(lo[1], hi[1], 1))
+        else {
+            return true;
+        };
         for y in y0..=y1 {
             for x in x0..=x1 {
                 for &e in &self.border[y * self.nx + x] {
@@ -242,6 +289,12 @@ impl CurvatureGrid {
             }
         }
         false
+    }
+
+    /// Buckets stored (for tests and diagnostics).
+    #[cfg(test)]
+    pub(super) fn stored(&self) -> usize {
+        self.m2.len()
     }
 }
 

@@ -82,6 +82,7 @@
 mod fill;
 mod geometry;
 mod raster;
+pub(crate) mod reach;
 mod refine;
 mod stats;
 
@@ -350,7 +351,25 @@ pub struct RemapPlan<'a> {
 
 impl<'a> RemapPlan<'a> {
     /// Maps the lattice forward, refines it under the bound and bins the triangles by band.
+    ///
+    /// Only the lattice squares that can draw into the output are mapped and refined
+    /// ([`reach`]: on a mesh with far-field rings, a few thousand of a million), with the
+    /// same pieces as a plan over the whole mesh, so the preimages are the same.
     pub fn new(s: &'a Spline, w: u32, h: u32, opts: RemapOptions) -> RemapPlan<'a> {
+        let window = match reach::plan_window(s, w, h, opts.lattice_cell()) {
+            reach::Reach::All => None,
+            reach::Reach::Window(lo, hi) => Some((lo, hi)),
+            // No square draws into the output: the plan of one corner square, whose pieces
+            // are dropped as out of reach.
+            reach::Reach::Nothing => Some(s.mesh().bbox()).map(|(lo, _)| (lo, lo)),
+        };
+        RemapPlan::new_window(s, w, h, opts, window)
+    }
+
+    /// [`RemapPlan::new`] over every lattice square of the mesh (the plan before the
+    /// reach window), for tests that compare the two.
+    #[cfg(test)]
+    pub(crate) fn whole(s: &'a Spline, w: u32, h: u32, opts: RemapOptions) -> RemapPlan<'a> {
         RemapPlan::new_window(s, w, h, opts, None)
     }
 

@@ -371,3 +371,94 @@ fn shared_whole_square_edges_need_no_gap_search() {
     }
     assert!(skipped > 500, "{skipped}");
 }
+
+/// A default frame fit (far-field rings, 16 times the frame) of the bundled time-lapse
+/// tracks, scaled to a `side x side` frame.
+fn ringed_fit(side: f64) -> Spline {
+    let text = include_str!("../../../data/microscopy/timelapse/tracks_0_9.csv");
+    let k = side / 511.0;
+    let lms: Vec<crate::fit::landmarks::Landmark> = text
+        .lines()
+        .skip(1)
+        .map(|l| {
+            let v: Vec<f64> = l.split(',').skip(1).map(|x| x.parse::<f64>().unwrap() * k).collect();
+            crate::fit::landmarks::Landmark {
+                name: None,
+                src: [v[0], v[1]],
+                dst: [v[2], v[3]],
+                weight: 1.0,
+            }
+        })
+        .collect();
+    let f = crate::fit::frame::fit_frame(&lms, [side, side], &Default::default()).unwrap();
+    assert!(f.frame.covers_frame);
+    f.fit.spline
+}
+
+/// Issue 51: the plan of a default fit maps and refines only the lattice squares that can
+/// reach the frame (the far-field rings made it about 256 times as many), and its
+/// preimages and fold marks are bit-identical to the plan over the whole mesh.
+#[test]
+fn a_plan_over_far_rings_covers_only_the_frame_and_matches_the_whole_plan_bit_for_bit() {
+    let s = ringed_fit(511.0);
+    let (blo, bhi) = s.mesh().bbox();
+    assert!(bhi[0] - blo[0] > 8000.0, "far rings present: {blo:?} {bhi:?}");
+    let o = RemapOptions::default();
+    for (w, h) in [(511, 511), (300, 200)] {
+        let (near, whole) = (RemapPlan::new(&s, w, h, o), RemapPlan::whole(&s, w, h, o));
+        let count =
+            |p: &RemapPlan<'_>| p.rows.iter().map(|r| r.blocks.len() + r.tris.len()).sum::<usize>();
+        let (a, b) = (fill_all(&near), fill_all(&whole));
+        assert_eq!(a.0.len(), b.0.len());
+        for (k, (x, y)) in a.0.iter().zip(&b.0).enumerate() {
+            assert!(
+                x[0].to_bits() == y[0].to_bits() && x[1].to_bits() == y[1].to_bits(),
+                "pixel {k}: {x:?} vs {y:?}"
+            );
+        }
+        assert_eq!(a.1, b.1);
+        assert_eq!(format!("{:?}", a.2), format!("{:?}", b.2));
+        assert_eq!(a.2.outside, 0, "the fit covers the frame");
+        // Only squares near the frame are planned (the whole plan keeps every piece whose
+        // rows meet the output's, across the rings' whole width).
+        assert!(count(&near) * 5 < count(&whole), "{} vs {} pieces", count(&near), count(&whole));
+        assert!(
+            near.rows.len() * 10 < whole.rows.len(),
+            "{} vs {} lattice rows",
+            near.rows.len(),
+            whole.rows.len()
+        );
+    }
+    // The curvature grid stores the window's buckets only.
+    let lat = Lattice::new(&s, 32.0);
+    let Some((lo, hi)) = (match reach::plan_window(&s, 511, 511, 32.0) {
+        reach::Reach::Window(lo, hi) => Some((lo, hi)),
+        _ => None,
+    }) else {
+        panic!("a window on a convex mesh")
+    };
+    let (ia, ib, ja, jb) = lat.span(Some((lo, hi)));
+    let covered = Some((lat.at(ia, ja), lat.at(ib, jb)));
+    let part = CurvatureGrid::new(&s, bucket_for(s.mesh()), covered);
+    let all = CurvatureGrid::new(&s, bucket_for(s.mesh()), None);
+    assert!(part.stored() * 50 < all.stored(), "{} of {}", part.stored(), all.stored());
+}
+
+/// The window is exact on maps that fold and bend strongly too (no far rings there: the
+/// window is most of the mesh, and every preimage is the whole plan's).
+#[test]
+fn windowed_plans_of_the_hard_maps_equal_the_whole_plans() {
+    for (name, w, h) in [("folded", 150, 225), ("bent", 700, 500)] {
+        let s = load(name);
+        let o = RemapOptions::default();
+        let (a, b) =
+            (fill_all(&RemapPlan::new(&s, w, h, o)), fill_all(&RemapPlan::whole(&s, w, h, o)));
+        assert!(
+            a.0.iter()
+                .zip(&b.0)
+                .all(|(x, y)| x[0].to_bits() == y[0].to_bits() && x[1].to_bits() == y[1].to_bits()),
+            "{name}"
+        );
+        assert_eq!(a.1, b.1, "{name}");
+    }
+}
