@@ -45,7 +45,7 @@
 //! the pixels [`super::warp_samples_into`] writes for the whole image. It checks the margin
 //! on every preimage and fails with [`TileError::Window`] rather than return other values.
 
-use super::remap::reach::lattice_reach;
+use super::remap::reach::{lattice_reach, triangle_part, Part};
 use super::remap::{mesh_is_convex, BandScratch, RemapOptions, RemapPlan};
 use super::sample::{fast_floor, Source};
 use super::{fill, LayoutError, Samples, SamplesMut, WarpError, WarpOptions, WarpReport};
@@ -184,6 +184,14 @@ impl TilePlanner {
         let convex = mesh_is_convex(m);
         // The largest reach a query uses (the lattice window's), for skipping triangles.
         let reach = lattice_reach(lip, cell) + 1.0;
+        // The pixel centres planned for: the region's, or the whole output's.
+        let target = match region {
+            Some(r) => (
+                [r.x0 as f64, r.y0 as f64],
+                [(r.x0 + r.w.max(1)) as f64 - 1.0, (r.y0 + r.h.max(1)) as f64 - 1.0],
+            ),
+            None => ([0.0, 0.0], [size.0.max(1) as f64 - 1.0, size.1.max(1) as f64 - 1.0]),
+        };
         let keep = |img: ([f64; 2], [f64; 2])| match region {
             Some(r) if convex => {
                 let (lo, hi) = img;
@@ -218,6 +226,41 @@ impl TilePlanner {
             };
             let k = ((diam / res).ceil() as usize).clamp(1, 4096);
             let kf = k as f64;
+            // Pieces `(i, j)` of the k-fold subdivision: the point `v0 + (i e1 + j e2) / k`
+            // with `e1 = v1 - v0`, `e2 = v2 - v0`. On a convex mesh only those meeting the
+            // part of the triangle that can map near the planned region are made (far-field
+            // ring triangles are thousands of pieces across, of which a frame needs a strip).
+            let (mut ia, mut ib, mut ja, mut jb) = (0usize, k, 0usize, k);
+            if convex {
+                match triangle_part(s, t, target, reach + 1.0) {
+                    Part::Outside => continue,
+                    Part::Unbounded => {}
+                    Part::Box(lo, hi) => {
+                        let (e1, e2) = (
+                            [v[1][0] - v[0][0], v[1][1] - v[0][1]],
+                            [v[2][0] - v[0][0], v[2][1] - v[0][1]],
+                        );
+                        let det = e1[0] * e2[1] - e2[0] * e1[1];
+                        if det != 0.0 && det.is_finite() {
+                            let (mut umin, mut umax, mut wmin, mut wmax) =
+                                (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
+                            for c in [lo, [hi[0], lo[1]], [lo[0], hi[1]], hi] {
+                                let d = [c[0] - v[0][0], c[1] - v[0][1]];
+                                let u = (d[0] * e2[1] - e2[0] * d[1]) / det;
+                                let w = (e1[0] * d[1] - d[0] * e1[1]) / det;
+                                (umin, umax) = (umin.min(u), umax.max(u));
+                                (wmin, wmax) = (wmin.min(w), wmax.max(w));
+                            }
+                            // One piece of slack on each side for rounding.
+                            let idx = |x: f64, up: bool| {
+                                let y = if up { (x * kf).ceil() + 1.0 } else { (x * kf).floor() - 1.0 };
+                                y.clamp(0.0, kf) as usize
+                            };
+                            (ia, ib, ja, jb) = (idx(umin, false), idx(umax, true), idx(wmin, false), idx(wmax, true));
+                        }
+                    }
+                }
+            }
             let at = |i: usize, j: usize| {
                 let b = [(k - i - j) as f64 / kf, i as f64 / kf, j as f64 / kf];
                 let p = [0, 1].map(|a| b[0] * v[0][a] + b[1] * v[1][a] + b[2] * v[2][a]);
@@ -225,18 +268,23 @@ impl TilePlanner {
             };
             // Pieces are similar to the triangle: `rho / k` for each.
             let r = lt * rho / kf;
-            let corners: Vec<Vec<([f64; 2], [f64; 2])>> =
-                (0..=k).map(|i| (0..=k - i).map(|j| at(i, j)).collect()).collect();
+            // The corners of the pieces made: `i in ia..=ib`, `j in ja..=jb`, `i + j <= k`.
+            let nj = jb + 1 - ja;
+            let corners: Vec<Option<([f64; 2], [f64; 2])>> = (ia..=ib)
+                .flat_map(|i| (ja..=jb).map(move |j| (i, j)))
+                .map(|(i, j)| (i + j <= k).then(|| at(i, j)))
+                .collect();
+            let corner = |i: usize, j: usize| corners[(i - ia) * nj + j - ja].expect("inside");
             let mut push = |c: [(usize, usize); 3]| {
-                let [a, b, c] = c.map(|(i, j)| corners[i][j]);
+                let [a, b, c] = c.map(|(i, j)| corner(i, j));
                 let lo = [0, 1].map(|x| a.0[x].min(b.0[x]).min(c.0[x]));
                 let hi = [0, 1].map(|x| a.0[x].max(b.0[x]).max(c.0[x]));
                 let qlo = [0, 1].map(|x| a.1[x].min(b.1[x]).min(c.1[x]) - r);
                 let qhi = [0, 1].map(|x| a.1[x].max(b.1[x]).max(c.1[x]) + r);
                 pieces.push(Piece { q: (qlo, qhi), dom: (lo, hi), img });
             };
-            for i in 0..k {
-                for j in 0..k - i {
+            for i in ia..ib {
+                for j in ja..jb.min(k - i) {
                     push([(i, j), (i + 1, j), (i, j + 1)]);
                     if i + j + 2 <= k {
                         push([(i + 1, j), (i, j + 1), (i + 1, j + 1)]);

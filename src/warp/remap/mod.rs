@@ -594,4 +594,4 @@ pub fn preimage_grid(
 }
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;

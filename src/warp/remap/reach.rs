@@ -48,6 +48,54 @@ pub(crate) fn lattice_reach(lip: f64, cell: f64) -> f64 {
     std::f64::consts::SQRT_2 * lip * cell + 2.0 * lip + 2.0
 }
 
+/// What part of one triangle can map near an output rectangle ([`triangle_part`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Part {
+    /// No bound (a control point that is not finite).
+    Unbounded,
+    /// No point of the triangle maps within the reach.
+    Outside,
+    /// The points that can are inside this box `(lo, hi)` (not grown for rounding).
+    Box([f64; 2], [f64; 2]),
+}
+
+/// The box of the points of triangle `t` whose image can come within `reach` of the
+/// rectangle `out = ([x0, y0], [x1, y1])` (module docs).
+pub(crate) fn triangle_part(s: &Spline, t: usize, out: ([f64; 2], [f64; 2]), reach: f64) -> Part {
+    let (m, cache) = (s.mesh(), s.eval_cache());
+    let (olo, ohi) = out;
+    let (q, delta) = cache.affine_defect(t);
+    if !delta.is_finite() || q.iter().flatten().any(|v| !v.is_finite()) {
+        return Part::Unbounded;
+    }
+    let g = reach + delta;
+    let (rlo, rhi) = ([olo[0] - g, olo[1] - g], [ohi[0] + g, ohi[1] + g]);
+    let v = m.triangle(t).map(|i| m.vertex(i));
+    let area = signed_area(q);
+    let scale = q.iter().flatten().fold(1.0f64, |a, x| a.max(x.abs()));
+    if area.abs() <= 1e-9 * scale * scale {
+        // Degenerate image: the whole triangle if its control points come near.
+        let (clo, chi) = cache.patch_bbox(t);
+        let near = (0..2).all(|a| clo[a] <= rhi[a] + delta && chi[a] >= rlo[a] - delta);
+        let (lo, hi) = super::geometry::bbox(&v);
+        return if near { Part::Box(lo, hi) } else { Part::Outside };
+    }
+    let poly = clip_to_box(&q, rlo, rhi);
+    if poly.is_empty() {
+        return Part::Outside;
+    }
+    // Back to the reference triangle through barycentric coordinates in the image.
+    let mut pts = [[0.0f64; 2]; 7];
+    for (x, p) in poly.iter().zip(pts.iter_mut()) {
+        let l1 = (signed_area([q[0], *x, q[2]]) / area).clamp(0.0, 1.0);
+        let l2 = (signed_area([q[0], q[1], *x]) / area).clamp(0.0, 1.0);
+        let l0 = (1.0 - l1 - l2).max(0.0);
+        *p = [0, 1].map(|a| l0 * v[0][a] + l1 * v[1][a] + l2 * v[2][a]);
+    }
+    let (lo, hi) = super::geometry::bbox(&pts[..poly.len()]);
+    Part::Box(lo, hi)
+}
+
 /// The window of the reference domain whose image comes within `reach` of the output
 /// rectangle `[x0, x1] x [y0, y1]` (pixel centres), as in the module docs.
 pub(crate) fn reach_window(s: &Spline, out: ([f64; 2], [f64; 2]), reach: f64) -> Reach {
@@ -55,44 +103,14 @@ pub(crate) fn reach_window(s: &Spline, out: ([f64; 2], [f64; 2]), reach: f64) ->
     if !reach.is_finite() || !super::mesh_is_convex(m) {
         return Reach::All;
     }
-    let cache = s.eval_cache();
-    let (olo, ohi) = out;
-    // Per triangle: `Err(())` for a bound that is not finite, `Ok(None)` when it cannot
-    // reach, else its part's box.
-    let part = |t: usize| -> Result<Option<([f64; 2], [f64; 2])>, ()> {
-        let (q, delta) = cache.affine_defect(t);
-        if !delta.is_finite() || q.iter().flatten().any(|v| !v.is_finite()) {
-            return Err(());
-        }
-        let g = reach + delta;
-        let (rlo, rhi) = ([olo[0] - g, olo[1] - g], [ohi[0] + g, ohi[1] + g]);
-        let v = m.triangle(t).map(|i| m.vertex(i));
-        let area = signed_area(q);
-        let scale = q.iter().flatten().fold(1.0f64, |a, x| a.max(x.abs()));
-        if area.abs() <= 1e-9 * scale * scale {
-            // Degenerate image: the whole triangle if its control points come near.
-            let (clo, chi) = cache.patch_bbox(t);
-            let near = (0..2).all(|a| clo[a] <= rhi[a] + delta && chi[a] >= rlo[a] - delta);
-            return Ok(near.then(|| super::geometry::bbox(&v)));
-        }
-        let poly = clip_to_box(&q, rlo, rhi);
-        if poly.is_empty() {
-            return Ok(None);
-        }
-        // Back to the reference triangle through barycentric coordinates in the image.
-        let pts: Vec<[f64; 2]> = poly
-            .iter()
-            .map(|&x| {
-                let l1 = signed_area([q[0], x, q[2]]) / area;
-                let l2 = signed_area([q[0], q[1], x]) / area;
-                let (l1, l2) = (l1.clamp(0.0, 1.0), l2.clamp(0.0, 1.0));
-                let l0 = (1.0 - l1 - l2).max(0.0);
-                [0, 1].map(|a| l0 * v[0][a] + l1 * v[1][a] + l2 * v[2][a])
-            })
-            .collect();
-        Ok(Some(super::geometry::bbox(&pts)))
-    };
-    let parts: Result<Vec<_>, ()> = (0..m.num_triangles()).into_par_iter().map(part).collect();
+    let parts: Result<Vec<_>, ()> = (0..m.num_triangles())
+        .into_par_iter()
+        .map(|t| match triangle_part(s, t, out, reach) {
+            Part::Unbounded => Err(()),
+            Part::Outside => Ok(None),
+            Part::Box(lo, hi) => Ok(Some((lo, hi))),
+        })
+        .collect();
     let Ok(parts) = parts else { return Reach::All };
     let mut acc: Option<([f64; 2], [f64; 2])> = None;
     for (lo, hi) in parts.into_iter().flatten() {

@@ -374,7 +374,7 @@ fn shared_whole_square_edges_need_no_gap_search() {
 
 /// A default frame fit (far-field rings, 16 times the frame) of the bundled time-lapse
 /// tracks, scaled to a `side x side` frame.
-fn ringed_fit(side: f64) -> Spline {
+pub(crate) fn ringed_fit(side: f64) -> Spline {
     let text = include_str!("../../../data/microscopy/timelapse/tracks_0_9.csv");
     let k = side / 511.0;
     let lms: Vec<crate::fit::landmarks::Landmark> = text

@@ -97,6 +97,20 @@ fn tiles_of_a_strongly_bent_map_are_bit_identical_and_read_little() {
     assert!(r.len() < 2048 * 2048 / 4, "{r:?}");
 }
 
+/// Issue 51: over a default fit's far-field rings the planner makes pieces only where the
+/// frame can be reached (the rings' triangles are hundreds of pieces across), and the tiles
+/// stay bit-identical to the whole warp.
+#[test]
+fn tiles_of_a_fit_with_far_rings_are_bit_identical_and_plan_few_pieces() {
+    let s = crate::warp::remap::tests::ringed_fit(511.0);
+    let o = opts(Interp::Bilinear);
+    check_tiling(&s, 511, 511, 1, 128, 200, &o);
+    let planner = TilePlanner::new(&s, (511, 511), &o.remap);
+    // The frame and its margin need a few thousand pieces (5,844 when written); the rings'
+    // sixteen triangles alone would add about 800,000 (k = 107 and 425 pieces across).
+    assert!(planner.pieces.len() < 20_000, "{} pieces", planner.pieces.len());
+}
+
 #[test]
 fn sixteen_bit_and_float_tiles_match_too() {
     let s = load("folded");
