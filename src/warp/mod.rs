@@ -381,7 +381,15 @@ pub fn warp_samples_into(
             Samples::F32(data) => Src::F32(Source { data, w: wu, h: hu, nc }),
         })
         .collect();
-    let plan = RemapPlan::new(s, w, h, opts.remap);
+    // The plan gets what the memory budget leaves beside the pages in and out.
+    let sample_bytes = |k: usize, p: &Samples<'_>| match p {
+        Samples::U8(_) => k as u64,
+        Samples::U16(_) => 2 * k as u64,
+        Samples::F32(_) => 4 * k as u64,
+    };
+    let held: u64 = pages.iter().map(|p| sample_bytes(p.len(), p)).sum::<u64>().saturating_mul(2);
+    let plan =
+        RemapPlan::new_within(s, w, h, opts.remap, crate::memory::limit().saturating_sub(held))?;
     let band_px = plan.band_rows() as usize * wu;
     if plan.num_bands() == 0 {
         return Err(WarpError::Empty);

@@ -242,8 +242,12 @@ impl TilePlanner {
                         );
                         let det = e1[0] * e2[1] - e2[0] * e1[1];
                         if det != 0.0 && det.is_finite() {
-                            let (mut umin, mut umax, mut wmin, mut wmax) =
-                                (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
+                            let (mut umin, mut umax, mut wmin, mut wmax) = (
+                                f64::INFINITY,
+                                f64::NEG_INFINITY,
+                                f64::INFINITY,
+                                f64::NEG_INFINITY,
+                            );
                             for c in [lo, [hi[0], lo[1]], [lo[0], hi[1]], hi] {
                                 let d = [c[0] - v[0][0], c[1] - v[0][1]];
                                 let u = (d[0] * e2[1] - e2[0] * d[1]) / det;
@@ -253,10 +257,16 @@ impl TilePlanner {
                             }
                             // One piece of slack on each side for rounding.
                             let idx = |x: f64, up: bool| {
-                                let y = if up { (x * kf).ceil() + 1.0 } else { (x * kf).floor() - 1.0 };
+                                let y =
+                                    if up { (x * kf).ceil() + 1.0 } else { (x * kf).floor() - 1.0 };
                                 y.clamp(0.0, kf) as usize
                             };
-                            (ia, ib, ja, jb) = (idx(umin, false), idx(umax, true), idx(wmin, false), idx(wmax, true));
+                            (ia, ib, ja, jb) = (
+                                idx(umin, false),
+                                idx(umax, true),
+                                idx(wmin, false),
+                                idx(wmax, true),
+                            );
                         }
                     }
                 }

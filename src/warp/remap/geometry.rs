@@ -132,13 +132,15 @@ impl CurvatureGrid {
     /// the whole grid's bounds (a bucket's bound is the largest over the sub-triangles
     /// overlapping it, all of which belong to such triangles); the others stay 0 and must
     /// not be asked.
-    pub(super) fn new(
+    /// The grid's origin, bucket side, whole size, and the offset and size of the part
+    /// stored for `window`.
+    #[allow(clippy::type_complexity)]
+    fn dims(
         s: &Spline,
         bucket: f64,
         window: Option<([f64; 2], [f64; 2])>,
-    ) -> CurvatureGrid {
-        let m = s.mesh();
-        let (lo, hi) = m.bbox();
+    ) -> ([f64; 2], f64, [usize; 2], [usize; 2], usize, usize) {
+        let (lo, hi) = s.mesh().bbox();
         let mut cell = bucket.max(1e-9);
         while ((hi[0] - lo[0]) / cell) * ((hi[1] - lo[1]) / cell) > 1.0e6 {
             cell *= 2.0;
@@ -159,6 +161,22 @@ impl CurvatureGrid {
                 ([x0, y0], x1 + 1 - x0, y1 + 1 - y0)
             }
         };
+        (lo, cell, full, off, nx, ny)
+    }
+
+    /// The number of buckets [`CurvatureGrid::new`] stores (to check a budget first).
+    pub(super) fn stored_for(s: &Spline, bucket: f64, window: Option<([f64; 2], [f64; 2])>) -> u64 {
+        let (.., nx, ny) = CurvatureGrid::dims(s, bucket, window);
+        nx as u64 * ny as u64
+    }
+
+    pub(super) fn new(
+        s: &Spline,
+        bucket: f64,
+        window: Option<([f64; 2], [f64; 2])>,
+    ) -> CurvatureGrid {
+        let m = s.mesh();
+        let (lo, cell, full, off, nx, ny) = CurvatureGrid::dims(s, bucket, window);
         let mut g = CurvatureGrid {
             lo,
             cell,

@@ -90,6 +90,7 @@ pub use geometry::CurvatureBounds;
 pub use stats::RemapStats;
 
 use super::inverse::{InverseMap, InverseOptions};
+use crate::memory::OverBudget;
 use crate::spline::Spline;
 use geometry::{bucket_for, CurvatureGrid, Lattice};
 use rayon::prelude::*;
@@ -338,6 +339,34 @@ impl Default for Pieces {
     }
 }
 
+impl Pieces {
+    /// Releases the capacity that dropping the out-of-reach pieces left.
+    fn shrink(&mut self) {
+        self.blocks.shrink_to_fit();
+        self.pool.shrink_to_fit();
+        self.tris.shrink_to_fit();
+        self.newton.shrink_to_fit();
+    }
+
+    /// Bytes held by the row's tables.
+    fn bytes(&self) -> u64 {
+        use std::mem::size_of;
+        (self.blocks.capacity() * size_of::<Block>()
+            + self.pool.capacity() * size_of::<[f64; 2]>()
+            + self.tris.capacity() * size_of::<Tri>()
+            + self.newton.capacity() * size_of::<NewtonBox>()
+            + size_of::<Pieces>()) as u64
+    }
+}
+
+/// Bytes a plan holds per lattice point while it is built: the point and its image with
+/// its triangle ([`Corner`]).
+const LATTICE_POINT_BYTES: u64 =
+    (std::mem::size_of::<[f64; 2]>() + std::mem::size_of::<Corner>()) as u64;
+
+/// Bytes of one bucket of the curvature grid (its bound and its list of border edges).
+const BUCKET_BYTES: u64 = (std::mem::size_of::<f64>() + std::mem::size_of::<Vec<u32>>()) as u64;
+
 /// A plan for the preimages of a `w x h` output: the forward lattice, refined and binned.
 pub struct RemapPlan<'a> {
     map: InverseMap<'a>,
@@ -356,14 +385,7 @@ impl<'a> RemapPlan<'a> {
     /// ([`reach`]: on a mesh with far-field rings, a few thousand of a million), with the
     /// same pieces as a plan over the whole mesh, so the preimages are the same.
     pub fn new(s: &'a Spline, w: u32, h: u32, opts: RemapOptions) -> RemapPlan<'a> {
-        let window = match reach::plan_window(s, w, h, opts.lattice_cell()) {
-            reach::Reach::All => None,
-            reach::Reach::Window(lo, hi) => Some((lo, hi)),
-            // No square draws into the output: the plan of one corner square, whose pieces
-            // are dropped as out of reach.
-            reach::Reach::Nothing => Some(s.mesh().bbox()).map(|(lo, _)| (lo, lo)),
-        };
-        RemapPlan::new_window(s, w, h, opts, window)
+        RemapPlan::new_within(s, w, h, opts, u64::MAX).expect("no plan exceeds an unbounded budget")
     }
 
     /// [`RemapPlan::new`] over every lattice square of the mesh (the plan before the
@@ -387,12 +409,56 @@ impl<'a> RemapPlan<'a> {
         opts: RemapOptions,
         window: Option<([f64; 2], [f64; 2])>,
     ) -> RemapPlan<'a> {
+        RemapPlan::new_window_within(s, w, h, opts, window, u64::MAX)
+            .expect("no plan exceeds an unbounded budget")
+    }
+
+    /// [`RemapPlan::new`] within `budget` bytes for the plan's own tables: the lattice and
+    /// curvature grid are counted before they are allocated, the pieces as each lattice
+    /// row is refined (the rows still to be refined are skipped once the budget is
+    /// passed). Warps pass what the process's budget ([`crate::memory`]) leaves beside
+    /// their pixel buffers.
+    pub fn new_within(
+        s: &'a Spline,
+        w: u32,
+        h: u32,
+        opts: RemapOptions,
+        budget: u64,
+    ) -> Result<RemapPlan<'a>, OverBudget> {
+        let window = match reach::plan_window(s, w, h, opts.lattice_cell()) {
+            reach::Reach::All => None,
+            reach::Reach::Window(lo, hi) => Some((lo, hi)),
+            // No square draws into the output: the plan of one corner square, whose pieces
+            // are dropped as out of reach.
+            reach::Reach::Nothing => Some(s.mesh().bbox()).map(|(lo, _)| (lo, lo)),
+        };
+        RemapPlan::new_window_within(s, w, h, opts, window, budget)
+    }
+
+    /// [`RemapPlan::new_window`] within `budget` bytes ([`RemapPlan::new_within`]).
+    pub fn new_window_within(
+        s: &'a Spline,
+        w: u32,
+        h: u32,
+        opts: RemapOptions,
+        window: Option<([f64; 2], [f64; 2])>,
+        budget: u64,
+    ) -> Result<RemapPlan<'a>, OverBudget> {
         let lat = Lattice::new(s, opts.lattice_cell());
         let (ia, ib, ja, jb) = lat.span(window);
         // Curvature bounds for the squares covered (all of the mesh without a window).
         let covered = window.map(|_| (lat.at(ia, ja), lat.at(ib, jb)));
-        let curv = CurvatureGrid::new(s, bucket_for(s.mesh()), covered);
-        RemapPlan::with_grid(s, w, h, opts, window, &curv, 1.0, 0.0, DENSE)
+        let bucket = bucket_for(s.mesh());
+        let points = (ib + 1 - ia.min(ib)) as u64 * (jb + 1 - ja.min(jb)) as u64;
+        let fixed = points.saturating_mul(LATTICE_POINT_BYTES).saturating_add(
+            CurvatureGrid::stored_for(s, bucket, covered).saturating_mul(BUCKET_BYTES),
+        );
+        let what = || format!("the inverse-map plan of a {w} x {h} warp ({points} lattice points)");
+        crate::memory::check_against(budget, fixed, what)?;
+        let curv = CurvatureGrid::new(s, bucket, covered);
+        RemapPlan::with_grid(s, w, h, opts, window, &curv, 1.0, 0.0, DENSE, budget - fixed).map_err(
+            |used| OverBudget { what: what(), needed: fixed.saturating_add(used), limit: budget },
+        )
     }
 
     /// [`RemapPlan::new`] with the curvature bounds of `base` scaled by `factor`, plus the
@@ -417,7 +483,8 @@ impl<'a> RemapPlan<'a> {
         if !add.is_finite() || !scale.is_finite() || base.bucket() != bucket_for(s.mesh()) {
             return RemapPlan::new(s, w, h, opts);
         }
-        RemapPlan::with_grid(s, w, h, opts, None, base.grid(), scale, add, DENSE)
+        RemapPlan::with_grid(s, w, h, opts, None, base.grid(), scale, add, DENSE, u64::MAX)
+            .expect("no plan exceeds an unbounded budget")
     }
 
     /// [`RemapPlan::new`] with compressed squares refined like any other
@@ -425,12 +492,14 @@ impl<'a> RemapPlan<'a> {
     #[cfg(test)]
     fn without_compressed(s: &'a Spline, w: u32, h: u32, opts: RemapOptions) -> RemapPlan<'a> {
         let curv = CurvatureGrid::new(s, bucket_for(s.mesh()), None);
-        RemapPlan::with_grid(s, w, h, opts, None, &curv, 1.0, 0.0, f64::INFINITY)
+        RemapPlan::with_grid(s, w, h, opts, None, &curv, 1.0, 0.0, f64::INFINITY, u64::MAX)
+            .expect("no plan exceeds an unbounded budget")
     }
 
     /// The plan with the curvature bounds `scale * curv + add` (`curv` covers at least the
     /// squares meeting `window`), leaving squares denser than `dense` evaluations per output
-    /// pixel to Newton ([`Refiner::compressed`]).
+    /// pixel to Newton ([`Refiner::compressed`]). The pieces may hold at most `budget`
+    /// bytes: past that the remaining rows are skipped and the bytes held are the error.
     #[allow(clippy::too_many_arguments)]
     fn with_grid(
         s: &'a Spline,
@@ -442,7 +511,9 @@ impl<'a> RemapPlan<'a> {
         scale: f64,
         add: f64,
         dense: f64,
-    ) -> RemapPlan<'a> {
+        budget: u64,
+    ) -> Result<RemapPlan<'a>, u64> {
+        let used = std::sync::atomic::AtomicU64::new(0);
         let lat = Lattice::new(s, opts.lattice_cell());
         let opts = RemapOptions { cell: lat.cell, band_rows: opts.band_rows.max(1), ..opts };
         let map = InverseMap::new(s, opts.inverse);
@@ -459,6 +530,9 @@ impl<'a> RemapPlan<'a> {
             .into_par_iter()
             .map(|j| {
                 let mut out = Pieces::default();
+                if used.load(std::sync::atomic::Ordering::Relaxed) > budget {
+                    return out;
+                }
                 for i in 0..nx - 1 {
                     let k = j * nx + i;
                     let (p, q) = (
@@ -492,13 +566,19 @@ impl<'a> RemapPlan<'a> {
                 for r in out.newton.iter().map(|b| b.r) {
                     out.y = [out.y[0].min(r[1]), out.y[1].max(r[3])];
                 }
+                out.shrink();
+                used.fetch_add(out.bytes(), std::sync::atomic::Ordering::Relaxed);
                 out
             })
             .collect();
+        let used = used.into_inner();
+        if used > budget {
+            return Err(used);
+        }
         let mut rows = rows;
         mark_conforming(&mut rows, nx.saturating_sub(1));
         let bands = (h as usize).div_ceil(opts.band_rows as usize);
-        RemapPlan { map, opts, w, h, rows, bands }
+        Ok(RemapPlan { map, opts, w, h, rows, bands })
     }
 
     /// Triangles rasterized and Newton boxes (for diagnostics).

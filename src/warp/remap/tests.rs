@@ -462,3 +462,26 @@ fn windowed_plans_of_the_hard_maps_equal_the_whole_plans() {
         assert_eq!(a.1, b.1, "{name}");
     }
 }
+
+/// Issue 51: a plan stays within the memory budget it is given, refusing cleanly (the
+/// lattice counted before it is allocated, the pieces as rows are refined).
+#[test]
+fn a_plan_over_its_budget_is_refused_not_allocated() {
+    let s = ringed_fit(511.0);
+    let o = RemapOptions::default();
+    // Too small for the lattice itself.
+    let e = RemapPlan::new_within(&s, 511, 511, o, 1_000).err().expect("refused");
+    assert!(e.what.contains("inverse-map plan of a 511 x 511 warp"), "{e}");
+    assert_eq!(e.limit, 1_000);
+    // Enough for the lattice, not for the pieces.
+    let e = RemapPlan::new_within(&s, 511, 511, o, 40_000).err().expect("refused");
+    assert!(e.needed > 40_000, "{e:?}");
+    // Enough: the same plan as without a budget.
+    let plan = RemapPlan::new_within(&s, 511, 511, o, 16 << 20).expect("fits in 16 MiB");
+    let (a, b) = (fill_all(&plan), fill_all(&RemapPlan::new(&s, 511, 511, o)));
+    assert!(a
+        .0
+        .iter()
+        .zip(&b.0)
+        .all(|(x, y)| x[0].to_bits() == y[0].to_bits() && x[1].to_bits() == y[1].to_bits()));
+}
