@@ -11,7 +11,10 @@ Setup (from PyPI):  pip install opencv-python-headless numpy tifffile
 Run (repo root):    cargo build --release && python3 benches/remap_compare.py [--size 4096]
 
 The deformation: a 10 x 10 grid over the image (degree 5) fitted to 12 landmarks, two
-interior ones dragged by size/40 px (the scale of `benches/warp.rs`), the rest held.
+interior ones dragged by size/40 px (the scale of `benches/warp.rs`), the rest held. With
+`--default-fit` (issue 51): the bundled time-lapse tracks of frames 0 and 9, scaled from 511
+px to the size, fitted with all defaults (`trimorph fit --size N,N`: a landmark-adapted
+mesh with far-field rings 16 times the frame), the map a new user warps through.
 """
 import argparse
 import os
@@ -47,6 +50,8 @@ def main():
     ap.add_argument("--size", type=int, default=4096)
     ap.add_argument("--runs", type=int, default=3)
     ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--default-fit", action="store_true",
+                    help="warp through a default fit of the scaled time-lapse tracks")
     a = ap.parse_args()
     n = a.size
     tm = a.trimorph
@@ -63,8 +68,19 @@ def main():
                 f.write(f"h{k},{u * s},{v * s},{u * s},{v * s}\n")
             f.write(f"a,{0.3 * s},{0.3 * s},{0.3 * s - drag},{0.3 * s + drag / 2}\n")
             f.write(f"b,{0.6 * s},{0.7 * s},{0.6 * s + drag},{0.7 * s + drag / 2}\n")
-        run([tm, "fit", p("id.json"), "--landmarks", p("lm.csv"), "--bend", "1e-3",
-             "-o", p("def.json")])
+        if a.default_fit:
+            k = n / 511
+            src = os.path.join(os.path.dirname(__file__), "..", "data", "microscopy",
+                               "timelapse", "tracks_0_9.csv")
+            with open(src) as f, open(p("lm.csv"), "w") as o:
+                o.write(f.readline())
+                for line in f:
+                    name, *v = line.strip().split(",")
+                    o.write(name + "," + ",".join(f"{float(x) * k:.3f}" for x in v) + "\n")
+            run([tm, "fit", "--size", f"{n},{n}", "--landmarks", p("lm.csv"), "-o", p("def.json")])
+        else:
+            run([tm, "fit", p("id.json"), "--landmarks", p("lm.csv"), "--bend", "1e-3",
+                 "-o", p("def.json")])
         run([tm, "field", p("def.json"), "--inverse", "-o", p("inv.npy"), "--size", f"{n},{n}"])
         inv = np.load(p("inv.npy"))
         yy, xx = np.mgrid[0:n, 0:n].astype(np.float32)

@@ -139,3 +139,37 @@ fn bad_names_and_sizes_are_refused_naming_the_file() {
     let e = read_h5(&h5).unwrap_err().to_string();
     assert!(e.contains("F.h5"), "{e}");
 }
+
+/// Issue 51: a fit over `--size W,H` records its frame (the file's `"frame"` key), and
+/// `field` without `--size` writes that frame's grid, not the far-field rings' extent
+/// (16 times the frame: a 511 x 511 fit gave a 5176 x 5176 field, 428 MB). An edit keeps
+/// the frame; `--size` still overrides it.
+#[test]
+fn field_defaults_to_the_frame_a_fit_was_made_for() {
+    let dir = tempfile::tempdir().unwrap();
+    let def = dir.path().join("fit.json");
+    let lms = concat!(env!("CARGO_MANIFEST_DIR"), "/data/microscopy/timelapse/tracks_0_9.csv");
+    ok(&trimorph(&["fit", "--size", "520,515", "--landmarks", lms, "-o", s(&def)]));
+    let text = std::fs::read_to_string(&def).unwrap();
+    let doc: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(doc["frame"]["size"], serde_json::json!([520.0, 515.0]), "{}", doc["frame"]);
+    let sp = spline(&def);
+    assert!(sp.mesh().bbox().1[0] > 3000.0, "far rings present");
+    let h5 = dir.path().join("F.h5");
+    let o = trimorph(&["field", s(&def), "-o", s(&h5)]);
+    ok(&o);
+    let f = read_h5(&h5).unwrap();
+    assert_eq!(f.fixed_parameters()[..2], [520.0, 515.0]);
+    assert_eq!(f.data.len(), 520 * 515);
+    // An edit keeps the frame.
+    let script = dir.path().join("e.json");
+    std::fs::write(&script, r#"[{"op": "translate", "anchors": [0], "by": [0.5, 0.0]}]"#).unwrap();
+    let edited = dir.path().join("edited.json");
+    ok(&common::edit_script(&def, &script, &edited));
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&edited).unwrap()).unwrap();
+    assert_eq!(doc["frame"]["size"], serde_json::json!([520.0, 515.0]));
+    // --size overrides it.
+    ok(&trimorph(&["field", s(&def), "-o", s(&h5), "--size", "40,30"]));
+    assert_eq!(read_h5(&h5).unwrap().data.len(), 40 * 30);
+}

@@ -209,6 +209,8 @@ impl Deformation {
         }
         self.extras = ed.constraints().to_vec();
         self.spline = ed.into_spline();
+        // The fit report described the map before the edit.
+        self.kept.remove("report");
         let v = serde_json::to_value(&reports).map_err(value_error)?;
         crate::fitting::to_dict(py, &v)
     }

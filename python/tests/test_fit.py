@@ -12,7 +12,10 @@ def test_fit_equals_cli_fit_frame_and_report(nuclei, cli, tmp_path):
     out, rep = tmp_path / "phi.json", tmp_path / "rep.json"
     cli("fit", "--size", "184,184", "--landmarks", nuclei["landmarks"], "-o", out, "--report", rep)
     d = trimorph.fit(nuclei["src"], nuclei["dst"], size=(184, 184), names=nuclei["names"])
-    assert d.to_json() == out.read_text()
+    # The same file, plus the report Python keeps in it (so it survives save and pickle).
+    doc = json.loads(d.to_json())
+    assert doc.pop("report") == d.report
+    assert doc == json.loads(out.read_text())
     ref = json.loads(rep.read_text())
     # Everything but the wall-clock time is the same.
     assert {k: v for k, v in d.report.items() if k != "time_ms"} == {
@@ -96,3 +99,40 @@ def test_far_rings_extend_the_fitted_mesh(nuclei):
     m = trimorph.Deformation.mesh_landmarks(src, (184, 184), far_rings=1)
     (mlo, mhi) = m.bbox
     assert 3.5 * (fhi[0] - flo[0]) < mhi[0] - mlo[0] < 4.5 * (fhi[0] - flo[0])
+
+
+def test_a_fit_records_its_frame_and_fields_default_to_it(nuclei, tmp_path):
+    """Issue 51: `fit(..., size=(w, h))` records the frame; `field()`, `to_itk` and `to_ngff`
+    default to it, not to the far-field rings' extent (16 times the frame)."""
+    d = trimorph.fit(nuclei["src"], nuclei["dst"], size=(184, 150))
+    assert d.frame == {"size": [184.0, 150.0]}
+    (x0, y0), (x1, y1) = d.bbox
+    assert x1 - x0 > 1000, "far-field rings"
+    assert d.field().shape == (150, 184, 2)
+    assert d.field(size=(20, 10)).shape == (10, 20, 2)
+    assert d.to_itk(tmp_path / "phi.h5") >= 0
+    assert (tmp_path / "phi.h5").stat().st_size < 5_000_000
+    # Kept by save / load, pickling and edits; meshes made from landmarks record it too.
+    d.save(tmp_path / "d.json")
+    assert trimorph.Deformation.load(tmp_path / "d.json").frame == d.frame
+    import pickle
+
+    assert pickle.loads(pickle.dumps(d)).frame == d.frame
+    m = trimorph.Deformation.mesh_landmarks(nuclei["src"], size=(184, 184))
+    assert m.frame == {"size": [184.0, 184.0]}
+    assert trimorph.Deformation.mesh_grid(4, 4, (100, 80)).frame is None
+
+
+def test_the_fit_report_survives_save_load_and_pickle(nuclei, tmp_path):
+    import pickle
+
+    d = trimorph.fit(nuclei["src"], nuclei["dst"], size=(184, 184))
+    rep = d.report
+    assert rep["frame"]["covers_frame"] is True
+    d.save(tmp_path / "d.json")
+    assert trimorph.Deformation.load(tmp_path / "d.json").report == rep
+    assert pickle.loads(pickle.dumps(d)).report == rep
+    assert d.copy().report == rep
+    # An edit makes it stale: it is dropped.
+    d.edit([{"op": "translate", "anchors": [0], "by": [0.25, 0.0]}])
+    assert d.report is None

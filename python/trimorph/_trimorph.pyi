@@ -101,7 +101,12 @@ class Deformation:
         """Writes an OME-Zarr NGFF displacement store ((2, H, W) float64, c = 0 is dy)."""
     @property
     def report(self) -> Optional[Dict[str, Any]]:
-        """The fit report when made by `trimorph.fit`, else None."""
+        """The fit report when made by `trimorph.fit`, else None (kept in the file: it
+        survives save, load and pickling; an edit drops it)."""
+    @property
+    def frame(self) -> Optional[Dict[str, Any]]:
+        """The image frame the deformation was made for (`size` = [w, h] pixels; `spacing`,
+        `origin`, `unit` when known), or None. `field`, `to_itk`, `to_ngff` default to it."""
     @property
     def degree(self) -> int: ...
     @property

@@ -217,6 +217,16 @@ fn fit_on_mesh(
 ) -> Result<(crate::mesh::AdaptedMesh, Fit), FitError> {
     let sources: Vec<[f64; 2]> = lms.iter().map(|l| l.src).collect();
     let mut mesh_opts = AdaptOptions { margin: Some(margin), grid, ..opts.mesh.clone() };
+    // The default longest edge is a quarter of the frame's larger side *in the frame*: a
+    // map that shrinks (`det A < 1`, a large image's landmarks onto a small one) shows the
+    // reference plane reduced by `sqrt(det A)`, and its covering margin is as much larger,
+    // so its reference edges may be as much longer (for the same look in the frame, and
+    // far fewer triangles in the margin).
+    if mesh_opts.max_edge.is_none() {
+        let det_a = a[0][0] * a[1][1] - a[0][1] * a[1][0];
+        let shrink = if det_a.is_finite() && det_a > 0.0 { det_a.sqrt().min(1.0) } else { 1.0 };
+        mesh_opts.max_edge = Some(0.25 * size[0].max(size[1]) / shrink);
+    }
     let mut tries = 0;
     let start = std::time::Instant::now();
     let mut trace = crate::timing::Trace::new("fit_frame");
@@ -254,6 +264,9 @@ fn fit_on_mesh(
     let (lo, hi) = adapted.domain;
     let mut fit_opts = opts.fit.clone();
     fit_opts.bend_area.get_or_insert((hi[0] - lo[0]) * (hi[1] - lo[1]));
+    // det J measured against the landmarks' own scale of area (`Barrier::relative_to`).
+    let det_a = a[0][0] * a[1][1] - a[0][1] * a[1][0];
+    fit_opts.barrier = fit_opts.barrier.map(|b| b.relative_to(det_a));
     let f = fit_with_terms(&spline, &mds, lms, &fit_opts, start, terms)?;
     crate::alloc::drop_in_background((spline, mds));
     Ok((adapted, f))

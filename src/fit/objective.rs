@@ -185,6 +185,18 @@ impl Barrier {
         Ok(Barrier { floor, tau: floor + Self::BAND, mu: 1.0 })
     }
 
+    /// The barrier for a map whose natural scale of area is `det_a` (the determinant of
+    /// the landmarks' affine map): floor and threshold times `min(1, det_a)`. A map that
+    /// shrinks the frame as a whole (`det_a < 1`, e.g. a landmark set from a large image to
+    /// a small one) is held to the same *relative* compression as a map of scale 1
+    /// (`beta` depends on `(tau - f) / (det - f)` only, so it is `beta(det / det_a)`); an
+    /// absolute floor above `det_a` would fight the data everywhere. Maps that enlarge keep
+    /// the absolute floor.
+    pub fn relative_to(self, det_a: f64) -> Barrier {
+        let k = if det_a.is_finite() && det_a > 0.0 { det_a.min(1.0) } else { 1.0 };
+        Barrier { floor: self.floor * k, tau: self.tau * k, mu: self.mu }
+    }
+
     /// `(beta, beta')` at `det`.
     #[inline]
     pub fn eval(&self, det: f64) -> (f64, f64) {

@@ -394,3 +394,36 @@ fn leave_one_out_choice_matches_refits_without_each_landmark() {
     }
     assert!(c.bend > 1e-10 && c.bend < 1.0, "noisy targets call for some smoothing: {}", c.bend);
 }
+
+/// Bug (issue 51, found this session): landmarks of a large image onto a small one (a
+/// morph's B -> A fit, det A about 0.04) ran Newton with the fold barrier to its 200-iteration
+/// cap for 540 s over 3,732 triangles: the barrier's absolute floor (det J >= 0.1) was above
+/// the whole map's own det, and the default edge length filled the covering margin (3,641
+/// px) with frame-sized triangles. The floor is now relative to det A and the edges follow
+/// the frame's scale: the fit is exact (no barrier needed), certified and small.
+#[test]
+fn a_shrinking_landmark_set_fits_without_fighting_the_barrier() {
+    use super::frame::{fit_frame, FrameFitOptions};
+    let mut rng = SmallRng::seed_from_u64(68);
+    let lms: Vec<Landmark> = (0..40)
+        .map(|k| {
+            let src: [f64; 2] = [rng.gen_range(200.0..600.0), rng.gen_range(250.0..750.0)];
+            let wob = [(src[1] / 90.0).sin() * 2.0, (src[0] / 70.0).cos() * 2.0];
+            let dst = [src[0] * 0.19 + wob[0], src[1] * 0.21 + wob[1]];
+            Landmark { name: Some(format!("p{k}")), src, dst, weight: 1.0 }
+        })
+        .collect();
+    let f = fit_frame(&lms, [817.0, 1024.0], &FrameFitOptions::default()).unwrap();
+    let r = &f.fit.report;
+    assert_ne!(r.termination, "iteration cap", "{r:?}");
+    assert!(r.fold_free, "{r:?}");
+    assert!(f.frame.covers_frame);
+    assert!(f.frame.margin > 2000.0, "the covering margin is large: {}", f.frame.margin);
+    assert!(f.frame.triangles < 1_000, "{} triangles", f.frame.triangles);
+    // The barrier relative to the affine map: same shape, floor and threshold scaled.
+    let b = Barrier::with_floor(0.1).unwrap();
+    let rel = b.relative_to(0.04);
+    assert!((rel.floor - 0.004).abs() < 1e-15 && (rel.tau - 0.012).abs() < 1e-15);
+    assert!((b.eval2(0.2).0 - rel.eval2(0.008).0).abs() < 1e-12, "beta(det / det_a)");
+    assert_eq!(b.relative_to(3.0), b, "maps that enlarge keep the absolute floor");
+}
