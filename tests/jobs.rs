@@ -16,7 +16,7 @@ use trimorph::warp::{Interp, WarpOptions};
 fn identity(path: &Path, w: f64, h: f64) -> String {
     let grid = MeshSource::Grid { cols: 4, rows: 3, width: w, height: h };
     let mesh = build_mesh(&grid, MeshOptions { grid: 16 }).unwrap();
-    write_identity(mesh, 5, None, path).unwrap()
+    write_identity(mesh, 5, None, None, path).unwrap()
 }
 
 #[test]
