@@ -415,3 +415,52 @@ fn no_align_keeps_raw_coordinates_and_says_so() {
         d.map(|(x, y)| last.get_pixel(x, y)[0].abs_diff(bi.get_pixel(x, y)[0])).max().unwrap();
     assert!(worst <= 257, "{worst}");
 }
+
+/// Issue 52: `morph --landmarks-src A.pts --landmarks-dst B.txt` (iBUG `.pts`, 1-based, and an
+/// ITK point set) makes the same fits as the equivalent landmark CSV: the same `phi_ab.json`
+/// and `phi_ba.json`, byte for byte.
+#[test]
+fn a_point_file_pair_morphs_as_the_equivalent_landmark_csv() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let (a, b) = (real("nuclei_a.png"), real("nuclei_b.png"));
+    // The real landmarks on a grid of 1/16 px, so that the .pts shift by 1 is exact.
+    let text = std::fs::read_to_string(real("nuclei_landmarks.csv")).unwrap();
+    let q = |v: &str| (v.parse::<f64>().unwrap() * 16.0).round() / 16.0;
+    let (mut csv, mut pts, mut itk) =
+        (String::from("name,src_x,src_y,dst_x,dst_y\n"), String::new(), String::new());
+    let mut n = 0;
+    for line in text.lines().skip(1) {
+        let f: Vec<&str> = line.split(',').collect();
+        let v = [q(f[1]), q(f[2]), q(f[3]), q(f[4])];
+        csv += &format!(",{},{},{},{}\n", v[0], v[1], v[2], v[3]);
+        pts += &format!("{} {}\n", v[0] + 1.0, v[1] + 1.0);
+        itk += &format!("{} {}\n", v[2], v[3]);
+        n += 1;
+    }
+    let (l, src, dst) = (p("l.csv"), p("a.pts"), p("b.txt"));
+    std::fs::write(&l, csv).unwrap();
+    std::fs::write(&src, format!("version: 1\nn_points: {n}\n{{\n{pts}}}\n")).unwrap();
+    std::fs::write(&dst, format!("index\n{n}\n{itk}")).unwrap();
+    let morph = |landmarks: &[&str], out: &str| {
+        let out = p(out);
+        let args = ["morph", &a, &b, "--frames", "2", "--quiet", "-o", &out];
+        common::ok(&trimorph(&[&args[..], landmarks].concat()));
+        let read = |f: &str| std::fs::read_to_string(Path::new(&out).join(f)).unwrap();
+        (read("phi_ab.json"), read("phi_ba.json"))
+    };
+    let want = morph(&["--landmarks", &l], "csv");
+    let got = morph(&["--landmarks-src", &src, "--landmarks-dst", &dst], "pair");
+    assert!(got == want, "the pair's fits differ from the CSV's");
+    // The pair excludes --landmarks and --phi-ab, and needs both files.
+    let out = p("refused");
+    for extra in [
+        vec!["--landmarks-src", &src, "--landmarks-dst", &dst, "--landmarks", &l],
+        vec!["--landmarks-src", &src, "--landmarks-dst", &dst, "--phi-ab", &l],
+        vec!["--landmarks-src", &src],
+    ] {
+        let o = trimorph(&[&["morph", &a, &b, "-o", &out][..], &extra].concat());
+        assert_eq!(o.status.code(), Some(1), "{extra:?}");
+        assert!(!Path::new(&out).exists(), "{extra:?}");
+    }
+}

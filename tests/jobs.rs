@@ -160,7 +160,7 @@ fn a_fit_over_an_adapted_mesh_writes_its_report() {
     std::fs::write(&lms, csv).unwrap();
     let job = FitJob {
         start: FitStart::Frame { size: [100.0, 100.0], adapt: AdaptOptions::default() },
-        landmarks: lms,
+        landmarks: lms.into(),
         output: dir.path().join("fit.json"),
         report: Some(dir.path().join("fit.report.json")),
         holdout: 0,

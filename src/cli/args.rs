@@ -171,8 +171,18 @@ pub struct MorphCli {
     /// Image B (last frame).
     pub b: PathBuf,
     /// Landmark pairs (CSV `name,src_x,src_y,dst_x,dst_y[,weight]`, BigWarp CSV or JSON).
-    #[arg(long, required_unless_present = "phi_ab", conflicts_with = "phi_ab")]
+    #[arg(long, required_unless_present_any = ["phi_ab", "landmarks_src"],
+          conflicts_with = "phi_ab")]
     pub landmarks: Option<PathBuf>,
+    /// Instead of --landmarks: the landmarks in A, one point file (iBUG/menpo .pts,
+    /// 1-based; ITK/elastix point set; or CSV `x,y`), paired point by point with
+    /// --landmarks-dst.
+    #[arg(long, value_name = "FILE", requires = "landmarks_dst",
+          conflicts_with_all = ["landmarks", "phi_ab"])]
+    pub landmarks_src: Option<PathBuf>,
+    /// The landmarks in B (see --landmarks-src), as many as there.
+    #[arg(long, value_name = "FILE", requires = "landmarks_src")]
+    pub landmarks_dst: Option<PathBuf>,
     /// Instead of landmarks: a deformation (format v1) mapping A's pixel coordinates to
     /// B's, e.g. the output of `trimorph fit`.
     #[arg(long, value_name = "DEF")]

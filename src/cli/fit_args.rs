@@ -6,6 +6,7 @@ use super::common::{choice, text};
 use super::{fit_batch, fit_cmd};
 use crate::fit::objective::{Barrier, Loss, LossKind};
 use crate::fit::solve::{Bend, FitOptions};
+use crate::io::landmarks::LandmarkSource;
 use crate::jobs::fit::Pin;
 use crate::jobs::values::{parse_frame_size, parse_shard};
 use crate::render::sequence::AnchorKind;
@@ -19,8 +20,17 @@ pub struct FitCli {
     pub deformation: Option<PathBuf>,
     /// Landmarks: CSV `name,src_x,src_y,dst_x,dst_y[,weight]`, Fiji BigWarp CSV or JSON
     /// (with --frames: targets in the first frame, or a directory of per-frame files).
-    #[arg(long)]
-    pub landmarks: PathBuf,
+    #[arg(long, required_unless_present = "landmarks_src")]
+    pub landmarks: Option<PathBuf>,
+    /// Instead of --landmarks: the landmarks' source points, one point file (iBUG/menpo
+    /// .pts, 1-based; ITK/elastix point set; or CSV `x,y`), paired point by point with
+    /// --landmarks-dst. Not with --frames.
+    #[arg(long, value_name = "FILE", requires = "landmarks_dst",
+          conflicts_with_all = ["landmarks", "frames"])]
+    pub landmarks_src: Option<PathBuf>,
+    /// The landmarks' target points (see --landmarks-src), as many as there.
+    #[arg(long, value_name = "FILE", requires = "landmarks_src")]
+    pub landmarks_dst: Option<PathBuf>,
     /// Output deformation (single fit) or output folder (with --frames).
     #[arg(short, long)]
     pub output: PathBuf,
@@ -119,6 +129,20 @@ pub struct FitCli {
 }
 
 impl FitCli {
+    /// The landmarks given: --landmarks, or --landmarks-src with --landmarks-dst (clap
+    /// makes sure one of them is there).
+    pub fn landmark_source(&self) -> anyhow::Result<LandmarkSource> {
+        match (&self.landmarks, &self.landmarks_src, &self.landmarks_dst) {
+            (Some(l), None, None) => Ok(LandmarkSource::File(l.clone())),
+            (None, Some(src), Some(dst)) => {
+                Ok(LandmarkSource::Pair { src: src.clone(), dst: dst.clone() })
+            }
+            _ => {
+                Err(anyhow!("give --landmarks FILE, or --landmarks-src FILE --landmarks-dst FILE"))
+            }
+        }
+    }
+
     /// Runs `trimorph fit`: one fit ([`fit_cmd::run_single`]) or a sequence
     /// ([`fit_batch::run`]), by which of DEF, --size and --model/--frames are given.
     pub fn run(self) -> anyhow::Result<()> {

@@ -50,7 +50,10 @@ pub fn run(a: &FitCli, scene: &Path, frames: &Path) -> Result<()> {
         scene: scene.into(),
         model: a.model_file.clone(),
         frames: frames.into(),
-        landmarks: a.landmarks.clone(),
+        // clap refuses --landmarks-src/--landmarks-dst with --frames.
+        landmarks: a.landmarks.clone().ok_or_else(|| {
+            anyhow::anyhow!("--frames needs --landmarks (a landmark file or folder)")
+        })?,
         track,
         background: a.background,
         fit,

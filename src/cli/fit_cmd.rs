@@ -1,4 +1,5 @@
-//! `trimorph fit DEF.json --landmarks L -o OUT.json`: one deformation fitted to landmarks
+//! `trimorph fit DEF.json --landmarks L -o OUT.json` (or `--landmarks-src S --landmarks-dst D`
+//! instead of `--landmarks`): one deformation fitted to landmarks
 //! ([`crate::jobs::fit::FitJob`]); this layer parses the options, maps errors to exit codes
 //! and prints.
 
@@ -44,7 +45,7 @@ pub fn run_single(a: &FitCli) -> Result<()> {
     let barrier = fit.barrier.is_some();
     let job = FitJob {
         start,
-        landmarks: a.landmarks.clone(),
+        landmarks: a.landmark_source()?,
         output: a.output.clone(),
         report: a.report.clone(),
         holdout: a.holdout,

@@ -4,7 +4,7 @@
 
 use super::args::MorphCli;
 use super::common::progress_bar;
-use crate::io::landmarks::read_landmarks;
+use crate::io::landmarks::LandmarkSource;
 use crate::io::raster::read_stack;
 use crate::io::{deformation, read_text};
 use crate::morph::align::{Similarity, SIMILARITY_KEY};
@@ -55,12 +55,18 @@ pub fn run(a: &MorphCli) -> Result<()> {
             .with_context(|| format!("cannot read deformation {}", p.display()))?;
         Ok(s)
     };
-    let morph = match (&a.landmarks, &a.phi_ab) {
+    let source = match (&a.landmarks, &a.landmarks_src, &a.landmarks_dst) {
+        (Some(l), _, _) => Some(LandmarkSource::File(l.clone())),
+        (None, Some(src), Some(dst)) => {
+            Some(LandmarkSource::Pair { src: src.clone(), dst: dst.clone() })
+        }
+        _ => None,
+    };
+    let morph = match (&source, &a.phi_ab) {
         (Some(l), _) => {
-            let lms = read_landmarks(l)
-                .with_context(|| format!("cannot read landmarks {}", l.display()))?;
+            let lms = l.read().with_context(|| format!("cannot read landmarks {l}"))?;
             let m = Morph::new(&img_a, &img_b, &lms, &opts)
-                .with_context(|| format!("landmarks {}", l.display()))?;
+                .with_context(|| format!("landmarks {l}"))?;
             if let (Some([ab, ba]), false) = (m.fit_summaries(), a.quiet) {
                 for (dir, f) in [("A->B", ab), ("B->A", ba)] {
                     eprintln!(
@@ -108,7 +114,9 @@ pub fn run(a: &MorphCli) -> Result<()> {
             }
             m
         }
-        (None, None) => bail!("give --landmarks L.csv or --phi-ab DEF.json"),
+        (None, None) => bail!(
+            "give --landmarks L.csv, --landmarks-src A.pts --landmarks-dst B.pts, or --phi-ab DEF.json"
+        ),
     };
     if !a.quiet {
         if align {
@@ -160,7 +168,7 @@ pub fn run(a: &MorphCli) -> Result<()> {
         eprintln!("timings (ms): {}", ph.line());
     }
     if !a.quiet {
-        let residual = if a.landmarks.is_some() {
+        let residual = if source.is_some() {
             format!("; largest landmark fit residual {:.3} px", rep.largest_residual)
         } else {
             String::new()

@@ -172,7 +172,7 @@ pub fn fit_frame(
         if covered || opts.mesh.margin.is_some() || doublings == MAX_MARGIN_DOUBLINGS {
             let frame = FrameReport {
                 size,
-                margin,
+                margin: adapted.margin,
                 grid,
                 vertices: adapted.mesh.num_vertices(),
                 triangles: adapted.mesh.num_triangles(),
@@ -199,7 +199,8 @@ fn mesh_error(lms: &[Landmark], e: MeshError) -> FitError {
             name: lms[index].name.clone().unwrap_or_else(|| "-".into()),
             why: format!(
                 "source point ({x}, {y}) lies outside the {w} x {h} frame (pixel centres run \
-                 from 0 to width - 1 and height - 1); check --size and the columns"
+                 from 0 to width - 1 and height - 1; a landmark may lie up to one pixel beyond \
+                 them, x from -1 to width, y from -1 to height); check --size and the columns"
             ),
         },
         e => FitError::AdaptedMesh(e),

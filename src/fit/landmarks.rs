@@ -36,14 +36,20 @@
 //!   `{"landmarks":[{"name":"a","src":[x,y],"dst":[x,y],"weight":1.0}, ...]}`, name and
 //!   weight optional.
 //!
+//! Landmarks may also come as two point files, the sources in one and the targets in the
+//! other, point `i` of each making landmark `i`: iBUG / menpo `.pts` (1-based), ITK / elastix
+//! point sets and CSV `x,y` ([`point_files`], which converts each to the coordinates above).
+//!
 //! Everything here works on strings; reading and writing files is in `crate::io::landmarks`.
 
 use crate::rng::SplitMix64;
 
 mod bigwarp;
+pub mod point_files;
 pub use bigwarp::{
     parse_bigwarp, parse_bigwarp_noted, parse_bigwarp_with_notes, to_bigwarp, ConstantZ,
 };
+pub use point_files::{parse_points, PointFormat};
 use serde::{Deserialize, Serialize};
 
 /// One matched pair: `src` in the reference domain (mesh coordinates), `dst` where the
@@ -166,6 +172,10 @@ pub enum LandmarkError {
     /// An unknown format name.
     #[error("unknown landmark format {0:?} (expected csv, bigwarp or json)")]
     UnknownFormat(String),
+    /// A point file ([`point_files`]) is malformed as a whole (no points, a missing part);
+    /// the message names the format and, where there is one, the line.
+    #[error("{0}")]
+    PointFile(String),
 }
 
 /// A landmark text format (see the module documentation).

@@ -14,7 +14,7 @@ use crate::fit::frame::{fit_frame, FrameFitOptions, FrameReport};
 use crate::fit::landmarks::{holdout, Landmark};
 use crate::fit::sequence::{Anchor, Event, Frame, SequenceError};
 use crate::fit::solve::{fit, with_holdout, FitError, FitOptions, FitReport};
-use crate::io::landmarks::read_landmarks_with_notes;
+use crate::io::landmarks::LandmarkSource;
 use crate::io::{deformation, read_text, write_atomic};
 use crate::mesh::AdaptOptions;
 use crate::render::sequence::{SequenceInputs, SequenceInputsError};
@@ -223,8 +223,9 @@ pub enum FitStart {
 pub struct FitJob {
     /// Where the fit starts.
     pub start: FitStart,
-    /// The landmark file (CSV, BigWarp CSV or JSON).
-    pub landmarks: PathBuf,
+    /// The landmarks: a landmark file (CSV, BigWarp CSV or JSON), or two point files
+    /// (sources and targets: iBUG `.pts`, ITK point sets, CSV `x,y`).
+    pub landmarks: LandmarkSource,
     /// The fitted deformation's file.
     pub output: PathBuf,
     /// The report (JSON), if wanted.
@@ -280,7 +281,7 @@ pub enum FitJobError {
     /// The fit failed on the landmarks of `file` (see [`FitError::is_unsolvable`]).
     #[error("{file}: {error}")]
     Landmarks {
-        /// The landmark file.
+        /// The landmark file (or both point files, `SRC and DST`).
         file: String,
         /// The fit's error.
         error: FitError,
@@ -331,10 +332,8 @@ impl FitJob {
     /// coordinates an `f64` cannot hold as written).
     pub fn run(&self, warn: &mut dyn FnMut(String)) -> Result<FitOutcome, FitJobError> {
         let landmarks = &self.landmarks;
-        let in_landmarks = |error: FitError| FitJobError::Landmarks {
-            file: landmarks.display().to_string(),
-            error,
-        };
+        let in_landmarks =
+            |error: FitError| FitJobError::Landmarks { file: landmarks.to_string(), error };
         let mut opts = self.fit.clone();
         let def = match &self.start {
             FitStart::Deformation(d) => d,
@@ -387,15 +386,15 @@ impl FitJob {
         warn: &mut dyn FnMut(String),
     ) -> Result<(Vec<Landmark>, Vec<Landmark>), JobError> {
         let (path, k) = (&self.landmarks, self.holdout);
-        let (lms, notes) = read_landmarks_with_notes(path).map_err(|e| {
-            JobError::context(format!("cannot read landmarks {}", path.display()), e)
-        })?;
+        let (lms, notes) = path
+            .read_with_notes()
+            .map_err(|e| JobError::context(format!("cannot read landmarks {path}"), e))?;
         if let Some(z) = &notes.constant_z {
-            warn(format!("{}: {z}", path.display()));
+            warn(format!("{path}: {z}"));
         }
         if self.fit.hard {
             for n in &notes.approximations {
-                warn(format!("{}: {n}", path.display()));
+                warn(format!("{path}: {n}"));
             }
         }
         if k == 0 {

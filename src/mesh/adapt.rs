@@ -128,9 +128,39 @@ impl AdaptedMesh {
 /// The most points the refinement may add per input point (a bound on the mesh size).
 const STEINER_PER_POINT: usize = 8;
 
+/// How far (pixels) a landmark may lie past the frame's outer edge: 1/2, so a `w x h` frame
+/// accepts landmarks in `[-1, w] x [-1, h]`, up to one pixel beyond the outermost pixel
+/// centres (`0` and `w - 1`).
+///
+/// Landmark files written by other tools put border points there: ITK and elastix point
+/// sets often mark the far edge of a 221-pixel-wide image as `x = 221` (the image's extent
+/// read as `[0, w]`), and 1-based files (iBUG `.pts`) give the edge as `0.5` or `0` before
+/// the shift to 0-based, `-0.5` or `-1` after. A point further out than that is a wrong
+/// `--size` or a wrong column rather than a border point, and is refused. The mesh's domain
+/// always contains such points ([`Mesh::landmark_adapted`] grows a smaller margin to
+/// reach them), so the fit has a value of its own at each.
+pub const FRAME_SLACK: f64 = 0.5;
+
+/// Whether `p` lies in a `size = [w, h]` frame grown by [`FRAME_SLACK`], that is in
+/// `[-1, w] x [-1, h]` (finite coordinates only).
+pub fn in_landmark_frame(p: [f64; 2], size: [f64; 2]) -> bool {
+    let lo = -0.5 - FRAME_SLACK;
+    let [w, h] = size;
+    p[0] >= lo && p[1] >= lo && p[0] <= w - 0.5 + FRAME_SLACK && p[1] <= h - 0.5 + FRAME_SLACK
+}
+
+/// How far (pixels, `>= 0`) the farthest source lies past the frame `[-1/2, w - 1/2] x
+/// [-1/2, h - 1/2]` (0 when all lie in it).
+fn overshoot(sources: &[[f64; 2]], [w, h]: [f64; 2]) -> f64 {
+    sources.iter().fold(0.0f64, |m, p| {
+        m.max(-0.5 - p[0]).max(-0.5 - p[1]).max(p[0] - (w - 0.5)).max(p[1] - (h - 0.5))
+    })
+}
+
 /// Checks a frame size (finite, from 1 to 1e6 pixels each way) and that every source lies
-/// in the frame `[-1/2, w - 1/2] x [-1/2, h - 1/2]`, in that order: the input checks of
-/// [`Mesh::landmark_adapted`], for callers that want them before other work.
+/// in the frame `[-1/2, w - 1/2] x [-1/2, h - 1/2]` grown by [`FRAME_SLACK`] (that is in
+/// `[-1, w] x [-1, h]`), in that order: the input checks of [`Mesh::landmark_adapted`], for
+/// callers that want them before other work.
 pub fn check_frame(sources: &[[f64; 2]], size: [f64; 2]) -> Result<(), MeshError> {
     let [w, h] = size;
     if !(w.is_finite() && h.is_finite() && w >= 1.0 && h >= 1.0 && w <= 1e6 && h <= 1e6) {
@@ -142,7 +172,7 @@ pub fn check_frame(sources: &[[f64; 2]], size: [f64; 2]) -> Result<(), MeshError
         if !(p[0].is_finite() && p[1].is_finite()) {
             return Err(MeshError::NotFinite { vertex: index });
         }
-        if p[0] < -0.5 || p[1] < -0.5 || p[0] > w - 0.5 || p[1] > h - 0.5 {
+        if !in_landmark_frame(*p, size) {
             return Err(MeshError::OutsideFrame { index, x: p[0], y: p[1], w, h });
         }
     }
@@ -151,7 +181,10 @@ pub fn check_frame(sources: &[[f64; 2]], size: [f64; 2]) -> Result<(), MeshError
 
 impl Mesh {
     /// The landmark-adapted mesh of a `size = [w, h]` frame (see the module docs). Every
-    /// source must lie in the frame `[-1/2, w - 1/2] x [-1/2, h - 1/2]` ([`check_frame`]).
+    /// source must lie in the frame `[-1/2, w - 1/2] x [-1/2, h - 1/2]` grown by
+    /// [`FRAME_SLACK`] ([`check_frame`]). A margin smaller than the distance from the frame
+    /// to the farthest source is grown to it (rounded up to the snapping grid), so the
+    /// domain contains every source; [`AdaptedMesh::margin`] is the margin used.
     pub fn landmark_adapted(
         sources: &[[f64; 2]],
         size: [f64; 2],
@@ -181,6 +214,8 @@ impl Mesh {
         let grid = super::validate::check_grid(MeshOptions { grid: opts.grid })?;
         let g = grid as f64;
         let snap = |v: f64| (v * g).round() / g;
+        // Sources past the frame's edge (at most FRAME_SLACK) stay inside the domain.
+        let margin = margin.max((overshoot(sources, size) * g).ceil() / g);
         let lo = [snap(-0.5 - margin), snap(-0.5 - margin)];
         let hi = [snap(w - 0.5 + margin), snap(h - 0.5 + margin)];
 
@@ -217,8 +252,8 @@ impl Mesh {
         let first_border = pts.len();
         for &p in &border {
             if at.insert(key(p), pts.len()).is_some() {
-                // A source on the domain border cannot happen (sources are inside the frame,
-                // the border is a margin away) unless the margin is 0: keep the source there.
+                // A source on the domain border happens only when the margin is no more
+                // than the source's distance past the frame (e.g. 0): keep the source there.
                 continue;
             }
             pts.push(p);
@@ -429,6 +464,46 @@ mod tests {
         let e = Mesh::landmark_adapted(&[[70.0, 3.0]], [64.0, 64.0], &AdaptOptions::default())
             .unwrap_err();
         assert!(matches!(e, MeshError::OutsideFrame { index: 0, .. }), "{e}");
+    }
+
+    /// Issue 52: landmarks on the frame's outer edge, as ITK (`x = w`) and 1-based files
+    /// (`-0.5` or `-1` after the shift) write them, are accepted: up to FRAME_SLACK past the
+    /// frame, `[-1, w] x [-1, h]`, and no further.
+    #[test]
+    fn border_landmarks_up_to_one_pixel_past_the_last_centre_are_accepted() {
+        assert_eq!(FRAME_SLACK, 0.5);
+        let size = [221.0, 160.0];
+        for p in [[220.5, 3.0], [221.0, 3.0], [-1.0, -1.0], [-0.5, 160.0], [221.0, 160.0]] {
+            check_frame(&[p], size).unwrap_or_else(|e| panic!("{p:?}: {e}"));
+            assert!(in_landmark_frame(p, size), "{p:?}");
+        }
+        for p in [[222.5, 3.0], [221.25, 3.0], [3.0, 160.01], [-1.5, 3.0], [3.0, -1.0625]] {
+            let e = check_frame(&[[5.0, 5.0], p], size).unwrap_err();
+            assert!(matches!(e, MeshError::OutsideFrame { index: 1, .. }), "{p:?}: {e}");
+            assert!(e.to_string().contains("x from -1 to width"), "{e}");
+        }
+        // The domain contains border sources, also with no margin asked for: the margin
+        // grows to the farthest source (rounded up to the grid).
+        let src = [[221.0, 3.0], [-1.0, 80.0], [100.0, 160.0], [100.0, 50.0], [30.0, 20.0]];
+        for margin in [None, Some(0.0), Some(0.2)] {
+            let opts = AdaptOptions { margin, ..AdaptOptions::default() };
+            let a = Mesh::landmark_adapted(&src, size, &opts).unwrap();
+            a.mesh.sanity_check().unwrap();
+            let (lo, hi) = a.domain;
+            assert!(lo[0] <= -1.0 && hi[0] >= 221.0 && hi[1] >= 160.0, "{margin:?}: {lo:?} {hi:?}");
+            assert!(a.margin >= 0.5, "{margin:?}: {}", a.margin);
+            for (i, &v) in a.landmark_vertex.iter().enumerate() {
+                assert_eq!(a.mesh.vertex(v), src[i], "{margin:?}");
+            }
+        }
+        let opts = AdaptOptions { margin: Some(0.0), ..AdaptOptions::default() };
+        let a =
+            Mesh::landmark_adapted(&[[220.8, 3.0], [3.0, 3.0], [9.0, 90.0]], size, &opts).unwrap();
+        assert_eq!((a.margin, a.domain.1[0]), (0.3125, 220.8125));
+        // Sources inside the frame keep a margin of 0 (nothing changes for them).
+        let a =
+            Mesh::landmark_adapted(&[[220.5, 3.0], [3.0, 3.0], [9.0, 90.0]], size, &opts).unwrap();
+        assert_eq!((a.margin, a.domain), (0.0, ([-0.5, -0.5], [220.5, 159.5])));
     }
 
     #[test]

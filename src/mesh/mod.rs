@@ -67,7 +67,10 @@ mod locate;
 mod tests;
 mod validate;
 
-pub use adapt::{check_frame, default_margin, AdaptOptions, AdaptedMesh, DEFAULT_MIN_ANGLE};
+pub use adapt::{
+    check_frame, default_margin, in_landmark_frame, AdaptOptions, AdaptedMesh, DEFAULT_MIN_ANGLE,
+    FRAME_SLACK,
+};
 use locate::Locator;
 
 /// Options shared by all mesh builders.
@@ -238,7 +241,7 @@ pub enum MeshError {
         message: String,
     },
     /// A landmark source outside the frame of a landmark-adapted mesh.
-    #[error("landmark {index}: source point ({x}, {y}) lies outside the {w} x {h} frame (pixel centres run from 0 to width - 1 and height - 1); check --size and the landmark file's columns")]
+    #[error("landmark {index}: source point ({x}, {y}) lies outside the {w} x {h} frame (pixel centres run from 0 to width - 1 and height - 1; a landmark may lie up to one pixel beyond them, x from -1 to width, y from -1 to height); check --size and the landmark file's columns")]
     OutsideFrame {
         /// Index of the source.
         index: usize,

@@ -89,7 +89,8 @@ pub enum MorphError {
     /// A landmark outside its image.
     #[error(
         "landmark {index} ({name}): point ({x}, {y}) lies outside image {image} \
-         ({w} x {h} px: x must lie in 0..={wm}, y in 0..={hm}); correct or remove it",
+         ({w} x {h} px: pixel centres run from 0 to {wm} and {hm}, and a landmark may lie up \
+         to one pixel beyond them, x from -1 to {w}, y from -1 to {h}); correct or remove it",
         wm = .w.saturating_sub(1),
         hm = .h.saturating_sub(1)
     )]
@@ -368,8 +369,8 @@ pub struct FrameStats {
 fn check_inside(lms: &[Landmark], w: u32, h: u32, image: char) -> Result<(), MorphError> {
     for (index, l) in lms.iter().enumerate() {
         let p = if image == 'A' { l.src } else { l.dst };
-        let inside = p[0] >= 0.0 && p[1] >= 0.0 && p[0] <= (w - 1) as f64 && p[1] <= (h - 1) as f64;
-        if !inside {
+        // The fits' own rule ([`crate::mesh::FRAME_SLACK`]): border landmarks are accepted.
+        if !crate::mesh::in_landmark_frame(p, [f64::from(w), f64::from(h)]) {
             return Err(MorphError::OutsideImage {
                 index,
                 name: l.name.clone().unwrap_or_else(|| "-".into()),

@@ -208,6 +208,25 @@ fn bad_inputs_are_refused() {
     assert!(matches!(m.frames(1, &|| {}), Err(MorphError::Frames(1))));
 }
 
+/// Issue 52: landmarks on an image's outer edge (up to one pixel past the last pixel
+/// centre, as ITK writes them) are accepted on both sides; further out is refused.
+#[test]
+fn border_landmarks_are_accepted_up_to_one_pixel_past_the_last_centre() {
+    let (a, b) = (pattern(64, 48, 0.0), pattern(66, 50, 2.0));
+    let o = MorphOptions::default();
+    let mut lms = landmarks();
+    lms.push(lm([64.0, 20.0], [66.0, 18.0]));
+    lms.push(lm([-1.0, 47.5], [-0.5, 50.0]));
+    let m = Morph::new(&a, &b, &lms, &o).unwrap();
+    for e in m.landmark_errors(1.0).unwrap() {
+        assert!(e[0].is_finite(), "{e:?}");
+    }
+    lms[5].dst = [67.5, 18.0];
+    let e = Morph::new(&a, &b, &lms, &o).unwrap_err();
+    assert!(matches!(e, MorphError::OutsideImage { index: 5, image: 'B', .. }), "{e}");
+    assert!(e.to_string().contains("x from -1 to 66, y from -1 to 50"), "{e}");
+}
+
 #[test]
 fn preview_starts_at_a_and_moves_with_phi() {
     let (a, b) = (pattern(64, 48, 0.0), pattern(64, 48, 3.0));

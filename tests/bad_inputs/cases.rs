@@ -110,6 +110,15 @@ fn fit_size(fx: &Fixture, id: &str, text: &str) -> (Vec<String>, PathBuf) {
     (args(&["fit", "--size", "40,40", "--landmarks", s(&p), "-o", &fx.out("f.json")]), p)
 }
 
+/// `trimorph fit --size 40,40 --landmarks-src FILE --landmarks-dst B -o f.json`, FILE a point
+/// file with `text`, B a valid ITK point set of three points.
+fn fit_pair(fx: &Fixture, id: &str, ext: &str, text: &str) -> (Vec<String>, PathBuf) {
+    let p = fx.file(&format!("{id}.{ext}"), text);
+    let b = fx.file("pair_dst.txt", "point\n3\n10 10\n20 30\n30 5\n");
+    let a = ["fit", "--size", "40,40", "--landmarks-src", s(&p), "--landmarks-dst", s(&b)];
+    (args(&[&a[..], &["-o", &fx.out("f.json")]].concat()), p)
+}
+
 /// `trimorph warp OK --image FILE -o out.png` with `bytes`.
 fn warp_image(fx: &Fixture, id: &str, ext: &str, bytes: &[u8]) -> (Vec<String>, PathBuf) {
     let p = fx.file(&format!("{id}.{ext}"), bytes);
@@ -407,6 +416,18 @@ pub fn cases() -> Vec<Case> {
             setup: |fx, id| {
                 fit(fx, id, "csv", &format!("{LM_HEAD}a,10,10,11,11\nb,20,20,1e300,21\n"), &[])
             },
+        },
+        Case {
+            id: "lm_pts_row",
+            setup: |fx, id| fit_pair(fx, id, "pts", "n_points: 2\n{\n1 2\n3\n}\n"),
+        },
+        Case {
+            id: "lm_itk_truncated",
+            setup: |fx, id| fit_pair(fx, id, "txt", "point\n3\n1 2\n3 4\n"),
+        },
+        Case {
+            id: "lm_pair_counts",
+            setup: |fx, id| fit_pair(fx, id, "pts", "n_points: 2\n{\n11 11\n21 31\n}\n"),
         },
         Case {
             id: "lm_duplicate",
