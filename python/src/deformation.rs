@@ -60,6 +60,11 @@ impl Deformation {
         Ok(Deformation { spline, last, extras, kept })
     }
 
+    /// Stores a fit report with the deformation (key `"report"` of its file).
+    pub(crate) fn set_report(&mut self, report: Value) {
+        self.kept.insert("report".into(), report);
+    }
+
     /// The file's JSON text.
     fn text(&self) -> String {
         let mut v = dio::to_json_with(&self.spline, self.last.as_ref(), &self.extras);
@@ -458,11 +463,6 @@ impl Deformation {
     #[getter]
     fn report(&self, py: Python<'_>) -> PyResult<Option<Py<PyAny>>> {
         self.kept.get("report").map(|v| crate::fitting::to_dict(py, v)).transpose()
-    }
-
-    /// Stores a fit report with the deformation (key `"report"` of its file).
-    pub(crate) fn set_report(&mut self, report: Value) {
-        self.kept.insert("report".into(), report);
     }
 
     /// The image frame the deformation was made for, as a dict (`size` = `(w, h)` pixels;
