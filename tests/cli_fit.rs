@@ -938,3 +938,97 @@ fn border_landmarks_are_accepted_up_to_one_pixel_past_the_last_centre() {
         assert!(!Path::new(&out).exists());
     }
 }
+
+/// Issue 52: a 2D sequence needs no 3D scene. Real time-lapse frames with per-frame
+/// landmark files made from the bundled nucleus tracks (source: the nucleus in frame 0,
+/// target: the same nucleus in frame k): `fit --size W,H --frames` builds the scene itself
+/// (the identity over a mesh adapted to every frame's sources, frame recorded), and `fit
+/// DEF --frames` starts from a given 2D deformation; both fit every frame certified.
+#[test]
+fn two_d_sequences_run_without_a_scene() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/microscopy/timelapse");
+    // track_id,frame,y,x -> per frame k: name,src_x,src_y,dst_x,dst_y (frame 0 -> frame k).
+    let text = fs::read_to_string(data.join("tracks.csv")).unwrap();
+    let mut at: std::collections::BTreeMap<(u32, u32), (f64, f64)> = Default::default();
+    for line in text.lines().skip(1) {
+        let v: Vec<f64> = line.split(',').map(|x| x.parse().unwrap()).collect();
+        at.insert((v[0] as u32, v[1] as u32), (v[3], v[2]));
+    }
+    let (lms, frames) = (dir.path().join("lms"), dir.path().join("frames"));
+    fs::create_dir_all(&lms).unwrap();
+    fs::create_dir_all(&frames).unwrap();
+    for k in 0..4u32 {
+        let name = format!("frame_{k:02}");
+        fs::copy(data.join(format!("{name}.png")), frames.join(format!("{name}.png"))).unwrap();
+        let mut csv = String::from("name,src_x,src_y,dst_x,dst_y\n");
+        for (&(id, f), &(x, y)) in &at {
+            if f == 0 {
+                if let Some(&(u, v)) = at.get(&(id, k)) {
+                    csv += &format!("n{id},{x},{y},{u},{v}\n");
+                }
+            }
+        }
+        fs::write(lms.join(format!("{name}.csv")), csv).unwrap();
+    }
+    let out = dir.path().join("out");
+    let o = trimorph(&[
+        "fit",
+        "--size",
+        "511,511",
+        "--frames",
+        s(&frames),
+        "--landmarks",
+        s(&lms),
+        "-o",
+        s(&out),
+        "--hard",
+    ]);
+    ok(&o);
+    for k in 0..4 {
+        let rep: serde_json::Value = serde_json::from_str(
+            &fs::read_to_string(out.join(format!("frame_{k:02}.report.json"))).unwrap(),
+        )
+        .unwrap();
+        assert_eq!(rep["fold_free"], true, "frame {k}: {rep}");
+        // Hard: the landmarks are hit (the nuclei move independently, so a smoothed fit
+        // would not follow them all).
+        assert!(rep["fit"]["max"].as_f64().unwrap() < 1e-3, "frame {k}: {}", rep["fit"]);
+        let def: serde_json::Value = serde_json::from_str(
+            &fs::read_to_string(out.join(format!("frame_{k:02}.json"))).unwrap(),
+        )
+        .unwrap();
+        assert_eq!(def["frame"]["size"], serde_json::json!([511.0, 511.0]));
+        assert!(out.join(format!("frame_{k:02}.registered.png")).exists());
+    }
+    // A given 2D deformation as the scene (positional DEF).
+    let reference = dir.path().join("ref.json");
+    ok(&trimorph(&["mesh", "--grid", "6x6", "--size", "510,510", "-o", s(&reference)]));
+    let out2 = dir.path().join("out2");
+    ok(&trimorph(&[
+        "fit",
+        s(&reference),
+        "--frames",
+        s(&frames),
+        "--landmarks",
+        s(&lms),
+        "-o",
+        s(&out2),
+    ]));
+    assert!(out2.join("frame_03.json").exists());
+    // --size with a scene is a contradiction, named.
+    let o = trimorph(&[
+        "fit",
+        s(&reference),
+        "--size",
+        "511,511",
+        "--frames",
+        s(&frames),
+        "--landmarks",
+        s(&lms),
+        "-o",
+        s(&out2),
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--frames with one of"), "{o:?}");
+}

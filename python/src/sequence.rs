@@ -24,8 +24,9 @@ use pyo3::types::{PyDict, PyTuple};
 use std::path::{Path, PathBuf};
 use trimorph::fit::sequence::{Action, SequenceError};
 use trimorph::fit::solve::FitOptions;
+use trimorph::mesh::AdaptOptions;
 use trimorph::render::sequence::{
-    choose_anchor, AnchorChoiceError, AnchorKind, SequenceInputs, SequenceInputsError,
+    choose_anchor, AnchorChoiceError, AnchorKind, SceneSource, SequenceInputs, SequenceInputsError,
 };
 
 /// A sequence's input error as a Python exception: unreadable files `OSError`, the rest
@@ -67,8 +68,11 @@ pub struct FrameSequence {
     holdout: usize,
     seed: u64,
     out: PathBuf,
-    /// The positional arguments (absolute paths), for pickling.
-    paths: [PathBuf; 4],
+    /// The scene's path (absolute), or None for a 2D scene made from the landmarks.
+    model: Option<PathBuf>,
+    /// The other positional arguments (absolute paths: frames, landmarks, out_dir), for
+    /// pickling.
+    paths: [PathBuf; 3],
     /// The keyword arguments as given, for pickling.
     kwargs: Py<PyDict>,
 }
@@ -84,16 +88,17 @@ impl FrameSequence {
     /// `bend`, `hard`, `barrier` (False is `--no-barrier`), `min_det`, `max_iters`, `radius`.
     /// Bad input raises ValueError naming the file; unreadable files OSError.
     #[new]
-    #[pyo3(signature = (model, frames, landmarks, out_dir, *, track = false, anchor = None,
+    #[pyo3(signature = (model, frames, landmarks, out_dir, *, size = None, track = false, anchor = None,
         key_every = None, holdout = 0, seed = 1, background = 0.0, model_file = None,
         loss = "squares", loss_scale = 2.0, bend = None, hard = false, barrier = true,
         min_det = 0.1, max_iters = 200, radius = None))]
     fn new(
         py: Python<'_>,
-        model: PathBuf,
+        model: Option<PathBuf>,
         frames: PathBuf,
         landmarks: PathBuf,
         out_dir: PathBuf,
+        size: Option<(f64, f64)>,
         track: bool,
         anchor: Option<String>,
         key_every: Option<usize>,
@@ -111,6 +116,7 @@ impl FrameSequence {
         radius: Option<usize>,
     ) -> PyResult<FrameSequence> {
         let kwargs = PyDict::new(py);
+        kwargs.set_item("size", size)?;
         kwargs.set_item("track", track)?;
         kwargs.set_item("anchor", &anchor)?;
         kwargs.set_item("key_every", key_every)?;
@@ -144,14 +150,32 @@ impl FrameSequence {
             .map_err(AnchorChoiceError::from)
             .and_then(|kind| choose_anchor(track, kind, key_every))
             .map_err(value_error)?;
-        let paths = [absolute(model)?, absolute(frames)?, absolute(landmarks)?, absolute(out_dir)?];
+        let model = model.map(absolute).transpose()?;
+        let scene = match (&model, size) {
+            (Some(m), None) => SceneSource::File(m.clone()),
+            (None, Some((w, h))) => SceneSource::Landmarks {
+                size: [w, h],
+                adapt: AdaptOptions {
+                    far_rings: trimorph::fit::frame::FAR_RINGS,
+                    ..AdaptOptions::default()
+                },
+                degree: 5,
+            },
+            _ => {
+                return Err(value_error(
+                    "give the scene (model=SCENE.json, or any 2D deformation) or size=(w, h) \
+                     (a 2D scene over a mesh adapted to the landmarks), not both",
+                ))
+            }
+        };
+        let paths = [absolute(frames)?, absolute(landmarks)?, absolute(out_dir)?];
         let inputs = py
             .detach(|| {
                 SequenceInputs::load(
-                    &paths[0],
+                    &scene,
                     model_file.as_deref(),
+                    &paths[0],
                     &paths[1],
-                    &paths[2],
                     anchor,
                     background,
                 )
@@ -164,7 +188,8 @@ impl FrameSequence {
             fit,
             holdout,
             seed,
-            out: paths[3].clone(),
+            out: paths[2].clone(),
+            model,
             paths,
             kwargs: kwargs.unbind(),
         })
@@ -241,7 +266,16 @@ impl FrameSequence {
         let me = slf.borrow();
         let partial = py.import("functools")?.getattr("partial")?;
         let make = partial.call((slf.get_type(),), Some(me.kwargs.bind(py)))?;
-        let args = PyTuple::new(py, me.paths.iter().map(|p| p.as_path()))?;
+        let model = me.model.as_ref().map(|p| p.as_path().into_pyobject(py)).transpose()?;
+        let model = match model {
+            Some(m) => m.into_any(),
+            None => py.None().into_bound(py),
+        };
+        let mut args = vec![model];
+        for p in &me.paths {
+            args.push(p.as_path().into_pyobject(py)?.into_any());
+        }
+        let args = PyTuple::new(py, args)?;
         Ok((make, args))
     }
 
@@ -250,9 +284,9 @@ impl FrameSequence {
         format!(
             "FrameSequence({} frames of {}, scene {}, landmarks {}{}, out {})",
             self.inputs.frames.len(),
-            show(&self.paths[1]),
             show(&self.paths[0]),
-            show(&self.paths[2]),
+            self.model.as_deref().map_or("made from the landmarks".to_string(), show),
+            show(&self.paths[1]),
             if self.tracked() { ", tracked" } else { "" },
             show(&self.out)
         )

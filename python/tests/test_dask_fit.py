@@ -163,3 +163,25 @@ def test_bad_input_raises_a_value_error_naming_the_file(demo, tmp_path):
         fit_frames(scene, frames, demo / "landmarks", tmp_path / "out", batch=0)
     with pytest.raises(ValueError, match="no landmarks for frame frame_00"):
         fit_frames(scene, frames, tmp_path, tmp_path / "out")
+
+
+def test_a_2d_sequence_needs_no_scene(demo, cli, tmp_path):
+    """Issue 52: `model=None, size=(w, h)` is `trimorph fit --size W,H --frames`: the scene
+    is the identity over a mesh adapted to the landmarks, made from the inputs alone."""
+    frames, lms = demo / "frames4", demo / "landmarks"
+    seq = trimorph.FrameSequence(None, frames, lms, tmp_path / "py", size=(511, 511), bend=0.01)
+    back = pickle.loads(pickle.dumps(seq))
+    assert len(back) == FRAMES_TRACKED
+    assert back.run_frame(1)["status"] == "fitted"
+    cli_out = tmp_path / "cli"
+    cli("fit", "--size", "511,511", "--frames", frames, "--landmarks", lms, "-o", cli_out,
+        "--bend", "0.01")
+    for ext in ["json", "registered.png"]:
+        assert (tmp_path / "py" / f"frame_01.{ext}").read_bytes() == (
+            cli_out / f"frame_01.{ext}"
+        ).read_bytes(), ext
+    assert json.loads((cli_out / "frame_01.json").read_text())["frame"] == {"size": [511.0, 511.0]}
+    with pytest.raises(ValueError, match="not both"):
+        trimorph.FrameSequence(demo / "scene.json", frames, lms, tmp_path / "x", size=(511, 511))
+    with pytest.raises(ValueError, match="size"):
+        trimorph.FrameSequence(None, frames, lms, tmp_path / "x")

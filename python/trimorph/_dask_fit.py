@@ -42,7 +42,7 @@ def _run(seq: FrameSequence, ks: List[int], after: Any = None) -> List[Dict[str,
 
 
 def fit_frames(
-    model: _Path,
+    model: Optional[_Path],
     frames: _Path,
     landmarks: _Path,
     out_dir: _Path,
@@ -55,8 +55,10 @@ def fit_frames(
     """Fits the scene ``model`` to every frame on Dask; returns the per-frame report dicts.
 
     ``model``, ``frames``, ``landmarks`` and ``out_dir`` are ``trimorph fit --model``,
-    ``--frames``, ``--landmarks`` and ``-o``; ``options`` are the keywords of
-    ``trimorph.FrameSequence`` (``track``, ``anchor``, ``key_every``, ``holdout``, ``seed``,
+    ``--frames``, ``--landmarks`` and ``-o``; 2D frames need no scene: ``model=None`` with
+    ``size=(w, h)`` fits from the identity over a mesh adapted to the landmarks (``trimorph
+    fit --size W,H --frames``). ``options`` are the keywords of
+    ``trimorph.FrameSequence`` (``size``, ``track``, ``anchor``, ``key_every``, ``holdout``, ``seed``,
     ``background``, ``model_file``, ``loss``, ``loss_scale``, ``bend``, ``hard``,
     ``barrier``, ``min_det``, ``max_iters``, ``radius``). The inputs are read and checked
     here first, so bad input raises ``ValueError`` (naming the file) before any task runs.

@@ -127,15 +127,18 @@ class FrameSequence:
     landmarks (a file: first-frame targets, tracked with `track=True`; a folder: one
     `<frame>.csv`/`.json` per frame) as `fit --frames` does; bad input raises ValueError
     naming the file. Picklable: the receiver rebuilds it from its (absolute) arguments.
+    2D frames need no scene: `model=None` with `size=(w, h)` starts every frame from the
+    identity over a mesh adapted to the landmarks (`trimorph fit --size W,H --frames`).
     """
 
     def __init__(
         self,
-        model: _Path,
+        model: Optional[_Path],
         frames: _Path,
         landmarks: _Path,
         out_dir: _Path,
         *,
+        size: Optional[Tuple[float, float]] = None,
         track: bool = False,
         anchor: Optional[str] = None,
         key_every: Optional[int] = None,

@@ -146,12 +146,33 @@ impl FitCli {
     /// Runs `trimorph fit`: one fit ([`fit_cmd::run_single`]) or a sequence
     /// ([`fit_batch::run`]), by which of DEF, --size and --model/--frames are given.
     pub fn run(self) -> anyhow::Result<()> {
-        match (&self.deformation, &self.model, &self.frames) {
-            (d, None, None) if d.is_some() != self.size.is_some() => fit_cmd::run_single(&self),
-            (None, Some(scene), Some(frames)) => fit_batch::run(&self, scene, frames),
+        use crate::render::sequence::SceneSource;
+        match (&self.deformation, &self.model, &self.frames, self.size) {
+            (d, None, None, size) if d.is_some() != size.is_some() => fit_cmd::run_single(&self),
+            // A sequence: a 2.5D scene, any 2D deformation, or a 2D scene over the frame.
+            (None, Some(scene), Some(frames), None) | (Some(scene), None, Some(frames), None) => {
+                fit_batch::run(&self, SceneSource::File(scene.clone()), frames)
+            }
+            (None, None, Some(frames), Some(size)) => {
+                let adapt = self.adapt_options();
+                fit_batch::run(&self, SceneSource::Landmarks { size, adapt, degree: 5 }, frames)
+            }
             _ => Err(anyhow::anyhow!(
-                "give DEF.json (one fit), or --size W,H instead of DEF (one fit over a mesh adapted to the landmarks), or --model SCENE.json with --frames (a sequence)"
+                "give DEF.json (one fit), or --size W,H instead of DEF (one fit over a mesh adapted to the landmarks); for a sequence, --frames with one of --model SCENE.json, DEF.json or --size W,H"
             )),
+        }
+    }
+
+    /// The adapted mesh's options of `--size` (margin, longest edge, smallest angle, far
+    /// rings; the grid from the sources).
+    pub fn adapt_options(&self) -> crate::mesh::AdaptOptions {
+        crate::mesh::AdaptOptions {
+            margin: self.margin,
+            max_edge: self.max_edge,
+            min_angle: self.min_angle,
+            grid: 0,
+            extra_points: Vec::new(),
+            far_rings: self.far_rings,
         }
     }
 

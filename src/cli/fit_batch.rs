@@ -1,7 +1,9 @@
 //! `trimorph fit --model SCENE.json --frames DIR|STACK.tif --landmarks L -o OUTDIR`: a scene
 //! (a deformation, usually 2.5D, with its model) fitted to every frame of a sequence. The
 //! work is [`crate::fit::sequence`]; this layer reads the inputs, writes the outputs and
-//! prints.
+//! prints. 2D frames need no scene: `trimorph fit DEF.json --frames ...` starts every frame
+//! from any deformation, and `trimorph fit --size W,H --frames ...` from the identity over
+//! a mesh adapted to the landmarks' sources ([`SceneSource::Landmarks`]).
 //!
 //! * Landmarks: `L` gives sources in the scene's reference domain and targets in the first
 //!   frame; with `--track` the targets are followed by pyramidal Lucas-Kanade, from the
@@ -30,7 +32,7 @@ use super::common::{progress_bar, say};
 use super::fit_args::FitCli;
 use super::fit_cmd::fit_error;
 use crate::jobs::fit::{SequenceJob, SequenceJobError};
-use crate::render::sequence::choose_anchor;
+use crate::render::sequence::{choose_anchor, SceneSource};
 use anyhow::Result;
 use std::path::Path;
 
@@ -43,11 +45,11 @@ fn sequence_error(e: SequenceJobError) -> anyhow::Error {
 }
 
 /// Runs the batch fit of `scene` over `frames`; see the module docs.
-pub fn run(a: &FitCli, scene: &Path, frames: &Path) -> Result<()> {
+pub fn run(a: &FitCli, scene: SceneSource, frames: &Path) -> Result<()> {
     let fit = a.fit_options()?;
     let track = choose_anchor(a.track, a.anchor, a.key_every)?;
     let job = SequenceJob {
-        scene: scene.into(),
+        scene,
         model: a.model_file.clone(),
         frames: frames.into(),
         // clap refuses --landmarks-src/--landmarks-dst with --frames.

@@ -8,7 +8,6 @@ use super::fit_args::FitCli;
 use super::{Exit, EXIT_UNSOLVABLE};
 use crate::fit::solve::FitError;
 use crate::jobs::fit::{FitJob, FitJobError, FitStart};
-use crate::mesh::AdaptOptions;
 use anyhow::{anyhow, Result};
 
 /// Maps a fit error to the CLI's exit codes: unsolvable hard constraints exit 2.
@@ -29,14 +28,7 @@ pub fn run_single(a: &FitCli) -> Result<()> {
             if a.pin.is_some() {
                 anyhow::bail!("--pin needs a deformation (DEF) whose control points it names");
             }
-            let adapt = AdaptOptions {
-                margin: a.margin,
-                max_edge: a.max_edge,
-                min_angle: a.min_angle,
-                grid: 0,
-                extra_points: Vec::new(),
-                far_rings: a.far_rings,
-            };
+            let adapt = a.adapt_options();
             // `run` comes here only with --size when DEF is absent.
             let size = size.ok_or_else(|| anyhow!("give DEF.json or --size W,H"))?;
             FitStart::Frame { size, adapt }

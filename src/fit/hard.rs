@@ -392,7 +392,9 @@ pub(super) fn fit_hard(
     if let Some(p) = opts.pinned.iter().find(|p| values[p.index()] != s.points()[p.index()]) {
         return Err(FitError::Internal(format!("pinned control point {p} moved in the solve")));
     }
-    let spline = Spline::from_points(s.mesh().clone(), s.degree(), values, s.z_layers().cloned())?;
+    // `with_points` checks every C1 condition exactly, as `from_points` did, and keeps the
+    // spline's z layers and recorded frame (a hard fit over `--size` lost its frame).
+    let spline = s.with_points(values)?;
     let mut rep = report(
         &spline,
         lms,

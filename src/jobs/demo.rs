@@ -325,7 +325,7 @@ fn fit_part(dir: &Path, log: &mut Log) -> JobResult<()> {
         ..FitOptions::default()
     };
     let job = SequenceJob {
-        scene: scene.clone(),
+        scene: scene.clone().into(),
         model: None,
         frames: frames.clone(),
         landmarks: lms.clone(),

@@ -17,7 +17,7 @@ use crate::fit::solve::{fit, with_holdout, FitError, FitOptions, FitReport};
 use crate::io::landmarks::LandmarkSource;
 use crate::io::{deformation, read_text, write_atomic};
 use crate::mesh::AdaptOptions;
-use crate::render::sequence::{SequenceInputs, SequenceInputsError};
+use crate::render::sequence::{SceneSource, SequenceInputs, SequenceInputsError};
 use crate::spline::check::absurd_point;
 use crate::spline::{ControlPoint, Spline};
 use std::path::{Path, PathBuf};
@@ -26,8 +26,9 @@ use std::time::Instant;
 /// What to fit and where (see `trimorph fit --help` for the files).
 #[derive(Clone, Debug)]
 pub struct SequenceJob {
-    /// The scene (a deformation, usually from `model bind`).
-    pub scene: PathBuf,
+    /// The scene: a deformation file (usually from `model bind`), or a 2D scene made from
+    /// the landmarks ([`SceneSource`]).
+    pub scene: SceneSource,
     /// The scene's model file (default: the scene's `"model"` key).
     pub model: Option<PathBuf>,
     /// A folder of images or a multi-page TIFF.

@@ -273,6 +273,80 @@ pub enum SequenceInputsError {
     /// Frames with one name.
     #[error(transparent)]
     Sequence(#[from] SequenceError),
+    /// The 2D scene cannot be built from the landmarks ([`SceneSource::Landmarks`]).
+    #[error("cannot build the reference mesh from the landmarks' sources: {0}")]
+    SceneMesh(String),
+}
+
+/// Where a sequence's scene (the deformation every frame's fit starts from) comes from.
+#[derive(Clone, Debug, PartialEq)]
+pub enum SceneSource {
+    /// A deformation file: a 2.5D scene from `trimorph model bind`, or any 2D deformation
+    /// (`trimorph fit DEF --frames ...`).
+    File(PathBuf),
+    /// A 2D scene made from the landmarks, for frames without a scene (`trimorph fit
+    /// --frames DIR --landmarks L --size W,H`): the identity of degree `degree` over the
+    /// mesh adapted to every source of every frame over the `size` frame (as `trimorph mesh
+    /// --landmarks --size`, with `adapt`; `adapt.grid` 0 takes the sources' grid), its
+    /// frame recorded.
+    Landmarks {
+        /// The frame `[width, height]` in pixels.
+        size: [f64; 2],
+        /// The adapted mesh's options (far-field rings included).
+        adapt: crate::mesh::AdaptOptions,
+        /// The spline's degree.
+        degree: usize,
+    },
+}
+
+impl From<PathBuf> for SceneSource {
+    fn from(p: PathBuf) -> SceneSource {
+        SceneSource::File(p)
+    }
+}
+
+impl From<&Path> for SceneSource {
+    fn from(p: &Path) -> SceneSource {
+        SceneSource::File(p.to_path_buf())
+    }
+}
+
+/// Every distinct source of the targets (all frames'), in order of first appearance.
+fn all_sources(t: &Targets) -> Vec<crate::fit::landmarks::Landmark> {
+    let lists: Vec<&[crate::fit::landmarks::Landmark]> = match t {
+        Targets::Fixed(l) => vec![&l[..]],
+        Targets::PerFrame(v) => v.iter().map(|l| &l[..]).collect(),
+        Targets::Tracked { first, .. } => vec![&first[..]],
+    };
+    let mut seen = std::collections::HashSet::new();
+    lists
+        .into_iter()
+        .flatten()
+        .filter(|l| seen.insert((l.src[0].to_bits(), l.src[1].to_bits())))
+        .cloned()
+        .collect()
+}
+
+/// The identity over the mesh adapted to the targets' sources ([`SceneSource::Landmarks`]).
+fn landmark_scene(
+    t: &Targets,
+    size: [f64; 2],
+    adapt: &crate::mesh::AdaptOptions,
+    degree: usize,
+) -> Result<Spline, SequenceInputsError> {
+    let lms = all_sources(t);
+    let sources: Vec<[f64; 2]> = lms.iter().map(|l| l.src).collect();
+    let mut ao = adapt.clone();
+    if ao.grid == 0 {
+        ao.grid = crate::fit::frame::source_grid(&lms);
+    }
+    let bad = |e: String| SequenceInputsError::SceneMesh(e);
+    let mesh = crate::mesh::Mesh::landmark_adapted(&sources, size, &ao)
+        .map_err(|e| bad(e.to_string()))?
+        .mesh;
+    let mut s = Spline::identity(mesh, degree).map_err(|e| bad(e.to_string()))?;
+    s.set_frame(crate::spline::ImageFrame::new(size).ok());
+    Ok(s)
 }
 
 /// Everything a sequence fit reads, loaded (see the module docs).
@@ -299,7 +373,7 @@ impl SequenceInputs {
     /// ([`read_targets`]; tracked with `track`), in this order, as `trimorph fit --frames`
     /// (the error is boxed: it is large).
     pub fn load(
-        scene: &Path,
+        scene: &SceneSource,
         model: Option<&Path>,
         frames: &Path,
         landmarks: &Path,
@@ -310,7 +384,7 @@ impl SequenceInputs {
     }
 
     fn read(
-        scene: &Path,
+        scene: &SceneSource,
         model: Option<&Path>,
         frames: &Path,
         landmarks: &Path,
@@ -320,6 +394,29 @@ impl SequenceInputs {
         if !background.is_finite() {
             return Err(SequenceInputsError::Background(background));
         }
+        let scene = match scene {
+            SceneSource::File(p) => p,
+            SceneSource::Landmarks { size, adapt, degree } => {
+                // A 2D scene: no model; the mesh comes from the landmarks, read first.
+                let mut key_extra = BTreeMap::new();
+                key_extra
+                    .insert("registered".to_string(), format!("bilinear, background {background}"));
+                let (frames, gray_float) = read_frames(frames)?;
+                check_names(&frames)?;
+                let track = track.map(|a| (a, TrackOptions::default()));
+                let targets = read_targets(landmarks, &frames, None, track)?;
+                let spline = landmark_scene(&targets, *size, adapt, *degree)?;
+                return Ok(SequenceInputs {
+                    scene: spline,
+                    model: None,
+                    frames,
+                    gray_float,
+                    targets,
+                    key_extra,
+                    background,
+                });
+            }
+        };
         let text = read_text(scene).map_err(SequenceInputsError::SceneIo)?;
         let (spline, _) = deformation::from_str(&text)
             .map_err(|source| SequenceInputsError::Scene { path: scene.to_path_buf(), source })?;
@@ -422,12 +519,17 @@ mod tests {
         let scene = dir.path().join("scene.json");
         std::fs::write(&scene, "{\"not\": \"a deformation\"}").unwrap();
         let lms = dir.path().join("l.csv");
-        let e = SequenceInputs::load(&scene, None, dir.path(), &lms, None, 0.0).err().unwrap();
+        let e = SequenceInputs::load(&scene.as_path().into(), None, dir.path(), &lms, None, 0.0)
+            .err()
+            .unwrap();
         assert!(
             e.to_string().starts_with(&format!("cannot read scene {}", scene.display())),
             "{e}"
         );
-        let e = SequenceInputs::load(&scene, None, dir.path(), &lms, None, f64::NAN).err().unwrap();
+        let e =
+            SequenceInputs::load(&scene.as_path().into(), None, dir.path(), &lms, None, f64::NAN)
+                .err()
+                .unwrap();
         assert!(matches!(*e, SequenceInputsError::Background(_)), "{e}");
     }
 
