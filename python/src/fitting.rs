@@ -117,11 +117,15 @@ pub fn fit_options(
 /// `hard=True` makes every landmark an exact constraint, `barrier` keeps det J above
 /// `min_det`. `far_rings` (with `size`) adds far-field rings around the adapted mesh
 /// (`trimorph fit --far-rings`, default 2). Returns a Deformation whose `report` holds the fit report. Releases the GIL.
+// The signature spells the default as a literal so that `inspect.signature` shows it (a
+// path shows as `...`); this keeps it the library's.
+const _: () = assert!(trimorph::fit::frame::FAR_RINGS == 2);
+
 #[pyfunction]
 #[pyo3(signature = (src, dst, size = None, weights = None, names = None, loss = "squares",
     loss_scale = 2.0, bend = None, hard = false, barrier = true, min_det = 0.1, max_iters = 200,
     radius = None, margin = None, max_edge = None, min_angle = 15.0, deformation = None,
-    far_rings = trimorph::fit::frame::FAR_RINGS))]
+    far_rings = 2))]
 pub fn fit(
     py: Python<'_>,
     src: &Bound<'_, PyAny>,

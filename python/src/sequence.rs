@@ -169,6 +169,19 @@ impl FrameSequence {
             }
         };
         let paths = [absolute(frames)?, absolute(landmarks)?, absolute(out_dir)?];
+        // Missing inputs are FileNotFoundError, as documented for unreadable files.
+        for (what, p) in [
+            ("scene", model.as_deref()),
+            ("frames", Some(&*paths[0])),
+            ("landmarks", Some(&*paths[1])),
+        ] {
+            if let Some(p) = p.filter(|p| !p.exists()) {
+                return Err(pyo3::exceptions::PyFileNotFoundError::new_err(format!(
+                    "{what} {} does not exist",
+                    p.display()
+                )));
+            }
+        }
         let inputs = py
             .detach(|| {
                 SequenceInputs::load(

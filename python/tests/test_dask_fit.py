@@ -185,3 +185,15 @@ def test_a_2d_sequence_needs_no_scene(demo, cli, tmp_path):
         trimorph.FrameSequence(demo / "scene.json", frames, lms, tmp_path / "x", size=(511, 511))
     with pytest.raises(ValueError, match="size"):
         trimorph.FrameSequence(None, frames, lms, tmp_path / "x")
+
+
+def test_missing_inputs_are_file_not_found(demo, tmp_path):
+    """Issue 55: a missing folder raised ValueError; missing inputs are FileNotFoundError."""
+    frames, lms, scene = demo / "frames4", demo / "landmarks", demo / "scene.json"
+    with pytest.raises(FileNotFoundError, match="frames .*nowhere"):
+        trimorph.FrameSequence(scene, tmp_path / "nowhere", lms, tmp_path / "out")
+    with pytest.raises(FileNotFoundError, match="landmarks"):
+        fit_frames(scene, frames, tmp_path / "none.csv", tmp_path / "out")
+    with pytest.raises(FileNotFoundError, match="scene"):
+        trimorph.FrameSequence(tmp_path / "none.json", frames, lms, tmp_path / "out")
+    assert not (tmp_path / "out").exists()

@@ -136,3 +136,12 @@ def test_the_fit_report_survives_save_load_and_pickle(nuclei, tmp_path):
     # An edit makes it stale: it is dropped.
     d.edit([{"op": "translate", "anchors": [0], "by": [0.25, 0.0]}])
     assert d.report is None
+
+
+def test_fit_signature_shows_every_default():
+    """Issue 55: `inspect.signature(trimorph.fit)` showed `far_rings=Ellipsis`."""
+    import inspect
+
+    params = inspect.signature(trimorph.fit).parameters
+    assert params["far_rings"].default == 2
+    assert all(p.default is not Ellipsis for p in params.values())

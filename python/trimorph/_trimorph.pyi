@@ -189,8 +189,12 @@ def fit(
     max_edge: Optional[float] = None,
     min_angle: float = 15.0,
     deformation: Optional[Deformation] = None,
+    far_rings: int = 2,
 ) -> Deformation:
-    """Fits phi with phi(src) ~ dst; the result's `report` holds the fit report."""
+    """Fits phi with phi(src) ~ dst; the result's `report` holds the fit report. With
+    `size`, the mesh is adapted to the landmarks over that frame, with `far_rings`
+    far-field rings around it (`trimorph fit --far-rings`); the frame is recorded
+    (`Deformation.frame`)."""
 
 def morph(
     a: _Image,
