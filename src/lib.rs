@@ -25,6 +25,8 @@
 //! * [`prism`]: 2.5D deformations of 3D models in a layer of prisms (PrisMystic);
 //! * [`bundled`]: the data compiled in (microscope image, time-lapse, the bundled scene);
 //! * [`fit`]: deformations fitted to matched landmarks (argmin over ECLES);
+//! * [`register`]: registration from the images themselves (intensity metrics, argmin's
+//!   L-BFGS, landmarks and exact constraints in the same solve);
 //! * [`morph`]: image morphing through two fitted deformations blended exactly;
 //! * [`render`]: pictures (plots, deformations);
 //! * [`io`]: atomic file output;
@@ -55,6 +57,7 @@ pub mod memory;
 pub mod mesh;
 pub mod morph;
 pub mod prism;
+pub mod register;
 pub mod render;
 pub mod rng;
 pub mod server;

@@ -14,6 +14,7 @@ mod fit_cmd;
 mod match_cmd;
 mod model_cmd;
 mod morph_cmd;
+mod register_cmd;
 mod solve;
 mod spline_cmds;
 mod warp_cmd;
@@ -110,6 +111,10 @@ enum Command {
     /// Fit a deformation to landmarks (`fit DEF --landmarks L -o OUT.json`), or a scene to
     /// every frame of a sequence (`fit --model SCENE.json --frames DIR --landmarks L -o DIR`).
     Fit(fit_args::FitCli),
+    /// Register MOVING to FIXED from the images themselves (ncc, ssd or Mattes mutual
+    /// information; affine pre-alignment, then the C1 spline coarse to fine, certified
+    /// fold-free), optionally with landmarks (soft or exact) or from a start deformation.
+    Register(Box<register_cmd::RegisterCli>),
     /// Measurements and experiments.
     Bench {
         #[command(subcommand)]
@@ -179,6 +184,7 @@ pub fn run() -> i32 {
         Command::Field(a) => a.run(),
         Command::Match(m) => match_cmd::run(m),
         Command::Fit(f) => f.run(),
+        Command::Register(r) => register_cmd::run(*r),
         Command::Bench { which: BenchCommand::Bitgrowth { output, trials, quick, seed, only } } => {
             bench::bitgrowth(&output, trials, quick, seed, only.as_deref())
         }

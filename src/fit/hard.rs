@@ -257,8 +257,43 @@ pub(super) fn fit_hard(
         _ => opts.clone(),
     };
     let soft = fit_soft(s, mds, lms, &soft_opts, start)?;
+    let spline = exact_constraints(s, mds, &soft.spline, lms, opts)?;
+    let mut rep = report(
+        &spline,
+        lms,
+        opts,
+        format!("{}+{}", soft.report.method, if opts.hard { "hard" } else { "pinned" }),
+        soft.report.variables / 2,
+        soft.report.iterations,
+        soft.report.cost_initial,
+        soft.report.cost_final,
+        start,
+    )?;
+    rep.bend = soft.report.bend;
+    rep.bend_auto = soft.report.bend_auto;
+    rep.gcv_rms = soft.report.gcv_rms;
+    rep.loo_rms = soft.report.loo_rms;
+    rep.termination = soft.report.termination.clone();
+    rep.conflicts = soft.report.conflicts.clone();
+    rep.time_ms = start.elapsed().as_secs_f64() * 1e3;
+    Ok(Fit { spline, report: rep })
+}
+
+/// The exact step of the hard fit (module docs) on its own: from `soft` (a spline over
+/// `s`'s mesh whose free points lie on the `2^-opts.grid_bits` grid), the spline with every
+/// landmark met exactly (when `opts.hard`) and every pinned control point
+/// ([`FitOptions::pinned`]) at its value in `s`, changing as few free points as the rows
+/// need. Checked exactly; C1 exactly by [`Spline::with_points`]. Also used by image
+/// registration ([`crate::register`]) after its own soft solve.
+pub fn exact_constraints(
+    s: &Spline,
+    mds: &Mds,
+    soft: &Spline,
+    lms: &[Landmark],
+    opts: &FitOptions,
+) -> Result<Spline, FitError> {
     let n = s.num_points();
-    let mut values: Vec<Vec<Rat>> = soft.spline.points().to_vec();
+    let mut values: Vec<Vec<Rat>> = soft.points().to_vec();
     for p in opts.pinned.iter().map(|p| p.index()) {
         values[p] = s.points()[p].clone();
     }
@@ -394,24 +429,5 @@ pub(super) fn fit_hard(
     }
     // `with_points` checks every C1 condition exactly, as `from_points` did, and keeps the
     // spline's z layers and recorded frame (a hard fit over `--size` lost its frame).
-    let spline = s.with_points(values)?;
-    let mut rep = report(
-        &spline,
-        lms,
-        opts,
-        format!("{}+{}", soft.report.method, if opts.hard { "hard" } else { "pinned" }),
-        soft.report.variables / 2,
-        soft.report.iterations,
-        soft.report.cost_initial,
-        soft.report.cost_final,
-        start,
-    )?;
-    rep.bend = soft.report.bend;
-    rep.bend_auto = soft.report.bend_auto;
-    rep.gcv_rms = soft.report.gcv_rms;
-    rep.loo_rms = soft.report.loo_rms;
-    rep.termination = soft.report.termination.clone();
-    rep.conflicts = soft.report.conflicts.clone();
-    rep.time_ms = start.elapsed().as_secs_f64() * 1e3;
-    Ok(Fit { spline, report: rep })
+    Ok(s.with_points(values)?)
 }

@@ -29,6 +29,7 @@ mod hard_tests;
 pub mod landmarks;
 pub mod newton;
 pub mod objective;
+pub mod optim;
 pub mod param;
 mod report;
 pub mod sequence;

@@ -26,6 +26,7 @@ pub mod field;
 pub mod fit;
 pub mod model;
 pub mod options;
+pub mod register;
 pub mod spline;
 pub mod values;
 pub mod warp;
@@ -173,6 +174,8 @@ lib_errors!(
     Json(serde_json::Error),
     /// The bundled data.
     Bundled(crate::bundled::BundledError),
+    /// Registration.
+    Register(crate::register::RegisterError),
 );
 
 impl JobError {

@@ -8,4 +8,5 @@ pub mod model;
 pub mod morph_files;
 pub mod overlay;
 pub mod plot;
+pub mod registration;
 pub mod sequence;

@@ -345,7 +345,23 @@ pub fn warp_samples_into(
     opts: &WarpOptions,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<WarpReport, WarpError> {
-    let Layout { width: w, height: h, channels: nc } = layout;
+    warp_samples_sized_into(s, layout, pages, (layout.width, layout.height), outs, opts, progress)
+}
+
+/// [`warp_samples_into`] onto an output grid of another size: `pages` have `layout`, each
+/// output `out_size.0 x out_size.1` pixels with `layout.channels` channels (e.g. a moving
+/// image resampled onto a fixed image's grid by a registration).
+pub fn warp_samples_sized_into(
+    s: &Spline,
+    layout: Layout,
+    pages: &[Samples<'_>],
+    out_size: (u32, u32),
+    outs: &mut [SamplesMut<'_>],
+    opts: &WarpOptions,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<WarpReport, WarpError> {
+    let Layout { width: iw, height: ih, channels: nc } = layout;
+    let (w, h) = out_size;
     if !(1..=4).contains(&nc) {
         return Err(LayoutError::Channels(nc).into());
     }
@@ -360,19 +376,22 @@ pub fn warp_samples_into(
     if pages.len() != outs.len() || !same_types {
         return Err(LayoutError::Mismatch { inputs: pages.len(), outputs: outs.len() }.into());
     }
-    let expected = w as usize * h as usize * nc;
-    let lens = pages.iter().map(|p| p.len()).chain(outs.iter().map(|o| o.len()));
-    for (index, found) in lens.enumerate() {
+    let expected_in = iw as usize * ih as usize * nc;
+    let expected_out = w as usize * h as usize * nc;
+    let lens = pages
+        .iter()
+        .map(|p| (p.len(), expected_in, iw, ih))
+        .chain(outs.iter().map(|o| (o.len(), expected_out, w, h)));
+    for (index, (found, expected, width, height)) in lens.enumerate() {
         if found != expected {
-            let e =
-                LayoutError::Length { index, found, expected, width: w, height: h, channels: nc };
+            let e = LayoutError::Length { index, found, expected, width, height, channels: nc };
             return Err(e.into());
         }
     }
     if pages.is_empty() {
         return Ok(WarpReport::default());
     }
-    let (wu, hu) = (w as usize, h as usize);
+    let (wu, hu) = (iw as usize, ih as usize);
     let srcs: Vec<Src<'_>> = pages
         .iter()
         .map(|p| match *p {
@@ -390,7 +409,7 @@ pub fn warp_samples_into(
     let held: u64 = pages.iter().map(|p| sample_bytes(p.len(), p)).sum::<u64>().saturating_mul(2);
     let plan =
         RemapPlan::new_within(s, w, h, opts.remap, crate::memory::limit().saturating_sub(held))?;
-    let band_px = plan.band_rows() as usize * wu;
+    let band_px = plan.band_rows() as usize * w as usize;
     if plan.num_bands() == 0 {
         return Err(WarpError::Empty);
     }
@@ -462,8 +481,22 @@ pub fn warp_pages(
     opts: &WarpOptions,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<(Vec<DynamicImage>, WarpReport), WarpError> {
+    let size = pages.first().map_or((0, 0), |p| (p.width(), p.height()));
+    warp_pages_sized(s, pages, size, opts, progress)
+}
+
+/// [`warp_pages`] onto an output grid of `out_size` pixels (each output of its input's
+/// type).
+pub fn warp_pages_sized(
+    s: &Spline,
+    pages: &[DynamicImage],
+    out_size: (u32, u32),
+    opts: &WarpOptions,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<(Vec<DynamicImage>, WarpReport), WarpError> {
     let Some(first) = pages.first() else { return Ok((Vec::new(), WarpReport::default())) };
     let (w, h) = (first.width(), first.height());
+    let (ow, oh) = out_size;
     if let Some(p) = pages.iter().find(|p| (p.width(), p.height()) != (w, h)) {
         return Err(WarpError::PageSize { expected: (w, h), found: (p.width(), p.height()) });
     }
@@ -489,12 +522,13 @@ pub fn warp_pages(
             first.color()
         )
     })?;
+    let out_len = ow as usize * oh as usize * nc;
     let mut bufs: Vec<Buf> = samples
         .iter()
         .map(|s| match s {
-            Samples::U8(d) => Buf::U8(vec![0; d.len()]),
-            Samples::U16(d) => Buf::U16(vec![0; d.len()]),
-            Samples::F32(d) => Buf::F32(vec![0.0; d.len()]),
+            Samples::U8(_) => Buf::U8(vec![0; out_len]),
+            Samples::U16(_) => Buf::U16(vec![0; out_len]),
+            Samples::F32(_) => Buf::F32(vec![0.0; out_len]),
         })
         .collect();
     let mut outs: Vec<SamplesMut<'_>> = bufs
@@ -506,9 +540,9 @@ pub fn warp_pages(
         })
         .collect();
     let layout = Layout { width: w, height: h, channels: nc };
-    let stats = warp_samples_into(s, layout, &samples, &mut outs, opts, progress)?;
+    let stats = warp_samples_sized_into(s, layout, &samples, out_size, &mut outs, opts, progress)?;
     drop(outs);
-    let out = pages.iter().zip(bufs).map(|(p, b)| rebuild(p, p.width(), p.height(), b)).collect();
+    let out = pages.iter().zip(bufs).map(|(p, b)| rebuild(p, ow, oh, b)).collect();
     Ok((out, stats))
 }
 

@@ -1,0 +1,502 @@
+//! Registration from the images themselves: a C1 spline `phi` from MOVING's pixels to
+//! FIXED's pixels that makes `F(phi(y))` look like `M(y)`, with optional landmarks (soft or
+//! exact) and points pinned in the editor, certified fold-free.
+//!
+//! **Direction.** `phi` maps MOVING pixel coordinates to FIXED pixel coordinates, as a fit
+//! with `src` in MOVING and `dst` in FIXED does; warping MOVING through `phi`
+//! (`O(q) = M(phi^-1(q))`, [`crate::warp`]) resamples it onto FIXED. The cost is measured
+//! on MOVING's grid: `E = sum_i rho(M(y_i), F(phi(y_i)))` over MOVING's pixels `y_i`. There
+//! the spline is linear in its control points with fixed Bernstein weights (the mesh lives
+//! in MOVING's pixels), so the gradient is exact and cheap: `dE/dq = sum_i dE/df_i
+//! grad F(phi(y_i)) B(y_i)`, the image gradient at `phi(y_i)` times `dphi/dq`
+//! ([`samples`]).
+//!
+//! **Steps** ([`register`]):
+//! 1. Both images become grey `f32` ([`image::Channel`]), with masks; Gaussian pyramids of
+//!    up to 4 levels ([`image::pyramid`], `imageproc`).
+//! 2. Pre-alignment ([`affine`]): an affine map (or a translation) from the images,
+//!    coarse to fine, by L-BFGS under argmin's `Executor`.
+//! 3. The spline: degree 5 over a regular mesh of MOVING's frame (cells of
+//!    [`RegisterOptions::spacing`] pixels), exactly the pre-alignment to start with
+//!    ([`Spline::affine`], coefficients rounded to `2^-24`), or the `--init` deformation.
+//! 4. The spline stage ([`deform`]) coarse to fine: image term + bending + soft landmarks +
+//!    fold barrier, by L-BFGS under argmin's `Executor` ([`crate::fit::optim`]).
+//! 5. Exact output: the free points rounded to `2^-grid_bits`, the dependents computed
+//!    exactly (so the spline is exactly C1), then with `hard` every landmark met exactly
+//!    and every pinned point restored ([`crate::fit::hard::exact_constraints`]), and the
+//!    Bernstein certificate of `det J > 0` ([`crate::spline::jacobian::certify`]).
+//!
+//! Metrics: [`metric`]. Positions are pixels: pixel `(i, j)` centred at `(i, j)`.
+
+pub mod affine;
+pub mod deform;
+mod error;
+pub mod image;
+pub mod metric;
+pub mod samples;
+#[cfg(test)]
+mod tests;
+
+pub use affine::Prealign;
+pub use error::RegisterError;
+pub use metric::Metric;
+
+use crate::fit::landmarks::Landmark;
+use crate::fit::objective::{data_row, Barrier, Loss, Objective};
+use crate::fit::optim::Termination;
+use crate::fit::param::{grid_rat, Param};
+use crate::fit::solve::{residuals, FitOptions, Residual, Stats};
+use crate::mesh::{Mesh, MeshOptions};
+use crate::spline::jacobian::CertifyOptions;
+use crate::spline::mds::Mds;
+use crate::spline::{ControlPoint, Spline};
+use image::{Channel, Mask};
+use samples::SampleOptions;
+use serde::Serialize;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Instant;
+
+/// Called during the solves with `(stage, iteration, cost)`.
+pub type Progress = Arc<dyn Fn(&str, u64, f64) + Send + Sync>;
+
+/// An image to register: its grey channel and optional mask, and the names errors use.
+#[derive(Clone, Debug)]
+pub struct Input {
+    /// The grey values.
+    pub image: Channel,
+    /// The image's name (its file).
+    pub name: PathBuf,
+    /// The mask and its name.
+    pub mask: Option<(Mask, PathBuf)>,
+}
+
+impl Input {
+    /// Checks the size, the mask (same size, not empty) and that the image is not constant
+    /// inside its mask.
+    pub fn validate(&self) -> Result<(), RegisterError> {
+        let (w, h) = (self.image.w, self.image.h);
+        if w < 16 || h < 16 {
+            return Err(RegisterError::TooSmall { image: self.name.clone(), w, h });
+        }
+        if let Some((m, mp)) = &self.mask {
+            if (m.w, m.h) != (w, h) {
+                return Err(RegisterError::MaskSize {
+                    mask: mp.clone(),
+                    image: self.name.clone(),
+                    mask_w: m.w,
+                    mask_h: m.h,
+                    image_w: w,
+                    image_h: h,
+                });
+            }
+            if m.count() == 0 {
+                return Err(RegisterError::EmptyMask { mask: mp.clone() });
+            }
+        }
+        let (lo, hi) = self.image.range(self.mask.as_ref().map(|m| &m.0));
+        if lo >= hi {
+            return Err(RegisterError::Constant { image: self.name.clone(), value: lo });
+        }
+        Ok(())
+    }
+}
+
+/// Options of [`register`].
+#[derive(Clone)]
+pub struct RegisterOptions {
+    /// The metric (default [`Metric::Ncc`]).
+    pub metric: Metric,
+    /// Pyramid levels (`None`: up to 4, the coarsest at least 48 pixels across).
+    pub levels: Option<u32>,
+    /// The pre-alignment (default affine; skipped when starting from `init`).
+    pub prealign: Prealign,
+    /// Mesh cell size in MOVING's pixels (default 48).
+    pub spacing: f64,
+    /// Spline degree (default 5).
+    pub degree: usize,
+    /// Bending weight `lambda` (default [`DEFAULT_BEND`]).
+    pub bend: f64,
+    /// The fold barrier's floor (relative to the pre-alignment's area scale; default 0.1).
+    pub floor: f64,
+    /// L-BFGS iterations per level of the spline stage (default 30).
+    pub max_iters: u64,
+    /// L-BFGS iterations per level of the pre-alignment (default 60).
+    pub affine_iters: u64,
+    /// Samples per level.
+    pub samples: SampleOptions,
+    /// Landmarks (`src` in MOVING, `dst` in FIXED), with their weights.
+    pub landmarks: Vec<Landmark>,
+    /// Weight of the landmark term (per mean squared pixel; default 1).
+    pub landmark_weight: f64,
+    /// Landmarks are met exactly.
+    pub hard: bool,
+    /// The start (`None`: the pre-alignment over a new mesh).
+    pub init: Option<Spline>,
+    /// Control points of `init` held at their values (pinned in the editor).
+    pub pinned: Vec<ControlPoint>,
+    /// Free points are rounded to multiples of `2^-grid_bits` (default 20).
+    pub grid_bits: u32,
+    /// Observes every solver iteration.
+    pub progress: Option<Progress>,
+}
+
+/// The default bending weight: chosen on the synthetic pairs of `tests/register.rs`
+/// (known smooth warps of real microscopy images with noise).
+pub const DEFAULT_BEND: f64 = 1.0;
+
+impl Default for RegisterOptions {
+    fn default() -> Self {
+        RegisterOptions {
+            metric: Metric::Ncc,
+            levels: None,
+            prealign: Prealign::Affine,
+            spacing: 48.0,
+            degree: 5,
+            bend: DEFAULT_BEND,
+            floor: 0.1,
+            max_iters: 30,
+            affine_iters: 60,
+            samples: SampleOptions::default(),
+            landmarks: Vec::new(),
+            landmark_weight: 1.0,
+            hard: false,
+            init: None,
+            pinned: Vec::new(),
+            grid_bits: 20,
+            progress: None,
+        }
+    }
+}
+
+impl std::fmt::Debug for RegisterOptions {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("RegisterOptions")
+            .field("metric", &self.metric)
+            .field("levels", &self.levels)
+            .field("prealign", &self.prealign)
+            .field("spacing", &self.spacing)
+            .field("bend", &self.bend)
+            .field("landmarks", &self.landmarks.len())
+            .field("hard", &self.hard)
+            .finish_non_exhaustive()
+    }
+}
+
+/// One solver run of a registration.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct LevelReport {
+    /// `affine` or `spline`.
+    pub stage: String,
+    /// Pyramid level (0 is full resolution).
+    pub level: u32,
+    /// Moving samples.
+    pub samples: usize,
+    /// Unknowns.
+    pub variables: usize,
+    /// Solver iterations.
+    pub iterations: u64,
+    /// Cost and gradient evaluations.
+    pub evaluations: u64,
+    /// Why the run stopped.
+    pub termination: Termination,
+    /// The metric at the start of the run (this level's images).
+    pub metric_before: f64,
+    /// The metric at its end.
+    pub metric_after: f64,
+    /// Wall time (ms).
+    pub time_ms: f64,
+}
+
+/// The landmarks' share of a registration report.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct LandmarkReport {
+    /// Landmarks given.
+    pub count: usize,
+    /// Met exactly.
+    pub hard: bool,
+    /// Residual statistics (pixels).
+    pub fit: Stats,
+    /// Per landmark.
+    pub residuals: Vec<Residual>,
+}
+
+/// What [`register`] reports.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct RegisterReport {
+    /// The metric's name.
+    pub metric: Metric,
+    /// The metric at full resolution before registering (the images as given, identity).
+    pub metric_before: f64,
+    /// After the pre-alignment.
+    pub metric_prealigned: f64,
+    /// After the whole registration (the exact output spline).
+    pub metric_after: f64,
+    /// The pre-alignment's kind.
+    pub prealign: Prealign,
+    /// The pre-alignment map `[[a, b, c], [d, e, f]]`.
+    pub affine: [[f64; 3]; 2],
+    /// Every solver run, in order.
+    pub levels: Vec<LevelReport>,
+    /// Pyramid levels.
+    pub pyramid_levels: u32,
+    /// Mesh triangles and vertices.
+    pub triangles: usize,
+    /// Mesh vertices.
+    pub vertices: usize,
+    /// Free variables of the spline stage.
+    pub variables: usize,
+    /// Certified `det J > 0` everywhere (Bernstein certificate).
+    pub fold_free: bool,
+    /// The certified lower bound of `det J`.
+    pub det_j_lower_bound: f64,
+    /// The smallest sampled `det J`.
+    pub min_det_j: f64,
+    /// Exactly C1 (always, by construction; checked in rationals).
+    pub exact_c1: bool,
+    /// The landmarks, when given.
+    pub landmarks: Option<LandmarkReport>,
+    /// Wall time (ms).
+    pub time_ms: f64,
+}
+
+/// A registration: the spline and its report.
+#[derive(Clone, Debug)]
+pub struct Registration {
+    /// `phi`: MOVING pixels -> FIXED pixels.
+    pub spline: Spline,
+    /// The report.
+    pub report: RegisterReport,
+}
+
+/// The share of MOVING's samples that must land on FIXED after the pre-alignment.
+pub const MIN_OVERLAP: f64 = 0.1;
+
+/// A regular mesh of `cols x rows` cells of about `spacing` pixels over MOVING's frame
+/// `[-0.5, w - 0.5] x [-0.5, h - 0.5]`, each cell split along its rising diagonal.
+pub fn frame_mesh(w: usize, h: usize, spacing: f64) -> Result<Mesh, RegisterError> {
+    if !(spacing.is_finite() && spacing >= 4.0) {
+        return Err(RegisterError::Option(format!(
+            "the mesh spacing must be at least 4 pixels, got {spacing}"
+        )));
+    }
+    let cols = ((w as f64 / spacing).round() as usize).max(1);
+    let rows = ((h as f64 / spacing).round() as usize).max(1);
+    let mut verts = Vec::with_capacity((cols + 1) * (rows + 1));
+    for r in 0..=rows {
+        for c in 0..=cols {
+            verts.push([
+                -0.5 + c as f64 * w as f64 / cols as f64,
+                -0.5 + r as f64 * h as f64 / rows as f64,
+            ]);
+        }
+    }
+    let mut tris = Vec::with_capacity(2 * cols * rows);
+    for r in 0..rows {
+        for c in 0..cols {
+            let v00 = r * (cols + 1) + c;
+            let (v10, v01, v11) = (v00 + 1, v00 + cols + 1, v00 + cols + 2);
+            tris.push([v00, v10, v11]);
+            tris.push([v00, v11, v01]);
+        }
+    }
+    Ok(Mesh::from_triangles(&verts, &tris, MeshOptions { grid: 16 })?)
+}
+
+/// The metric of the whole images at full resolution for control points `pts` of `s`.
+fn full_metric(
+    s: &Spline,
+    pts: &[[f64; 2]],
+    metric: Metric,
+    fixed: &image::Level,
+    moving: &image::Level,
+    samples: SampleOptions,
+) -> f64 {
+    deform::LevelTerm::new(s, fixed, moving, metric, samples).eval(pts, false).0
+}
+
+fn points_f64(s: &Spline) -> Vec<[f64; 2]> {
+    (0..s.num_points()).map(|p| s.point_f64(p)).collect()
+}
+
+/// Registers MOVING to FIXED (module docs).
+pub fn register(
+    fixed: &Input,
+    moving: &Input,
+    opts: &RegisterOptions,
+) -> Result<Registration, RegisterError> {
+    let start = Instant::now();
+    fixed.validate()?;
+    moving.validate()?;
+    if !(opts.bend.is_finite() && opts.bend >= 0.0) {
+        return Err(RegisterError::Option(format!(
+            "the bending weight must be >= 0, got {}",
+            opts.bend
+        )));
+    }
+    if !(opts.landmark_weight.is_finite() && opts.landmark_weight >= 0.0) {
+        return Err(RegisterError::Option(format!(
+            "the landmark weight must be >= 0, got {}",
+            opts.landmark_weight
+        )));
+    }
+    if !(opts.floor.is_finite() && opts.floor < 1.0) {
+        return Err(RegisterError::Option(format!(
+            "the determinant floor must be below 1, got {}",
+            opts.floor
+        )));
+    }
+    if opts.hard && opts.landmarks.is_empty() {
+        return Err(RegisterError::Option("--hard needs landmarks".into()));
+    }
+    if let Some((i, l)) =
+        opts.landmarks.iter().enumerate().find(|(_, l)| !(l.weight.is_finite() && l.weight >= 0.0))
+    {
+        return Err(RegisterError::Option(format!(
+            "landmark {} has weight {}; weights must be finite and >= 0",
+            l.name.clone().unwrap_or_else(|| format!("#{i}")),
+            l.weight
+        )));
+    }
+    let side = fixed.image.w.min(fixed.image.h).min(moving.image.w).min(moving.image.h);
+    let nl = opts.levels.unwrap_or_else(|| image::auto_levels(side, 4)).clamp(1, 8);
+    let fp = image::pyramid(&fixed.image, fixed.mask.as_ref().map(|m| &m.0), nl);
+    let mp = image::pyramid(&moving.image, moving.mask.as_ref().map(|m| &m.0), nl);
+    let frame = affine::AffineFrame::new(moving.image.w, moving.image.h);
+    let mut levels = Vec::new();
+
+    // The start: the pre-alignment over a new mesh, or the given deformation.
+    let (s0, th) = match &opts.init {
+        Some(s) => (s.clone(), frame.start(fixed.image.w, fixed.image.h)),
+        None => {
+            let (th, reps) = affine::prealign(
+                opts.prealign,
+                opts.metric,
+                &fp,
+                &mp,
+                &frame,
+                opts.affine_iters,
+                opts.progress.as_ref(),
+            );
+            levels.extend(reps);
+            let a = frame.matrix(&th);
+            let ar = a.map(|row| row.map(|v| grid_rat(v, crate::fit::frame::AFFINE_BITS)));
+            let mesh = frame_mesh(moving.image.w, moving.image.h, opts.spacing)?;
+            (Spline::affine(mesh, opts.degree, &ar)?, th)
+        }
+    };
+    let affine =
+        if opts.init.is_some() { [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]] } else { frame.matrix(&th) };
+    let det_a = affine[0][0] * affine[1][1] - affine[0][1] * affine[1][0];
+
+    // Overlap after the pre-alignment, on the finest level.
+    let p0 = points_f64(&s0);
+    let check = deform::LevelTerm::new(&s0, &fp[0], &mp[0], opts.metric, opts.samples);
+    let (metric_prealigned, _, valid) = check.eval(&p0, false);
+    let share = valid as f64 / check.set.len().max(1) as f64;
+    if share < MIN_OVERLAP {
+        return Err(RegisterError::NoOverlap {
+            percent: 100.0 * share,
+            needed: 100.0 * MIN_OVERLAP,
+        });
+    }
+    let metric_before = {
+        let id = Spline::identity(s0.mesh().clone(), 1)?;
+        full_metric(&id, &points_f64(&id), opts.metric, &fp[0], &mp[0], opts.samples)
+    };
+    drop(check);
+
+    // The spline stage.
+    let mds = Mds::new(&s0)?;
+    let n = s0.num_points();
+    let mut is_var = vec![true; n];
+    for p in &opts.pinned {
+        if p.index() < n {
+            is_var[p.index()] = false;
+        }
+    }
+    let param = Param::new(&s0, &mds, &is_var);
+    let area = (moving.image.w * moving.image.h) as f64;
+    let rows: Vec<_> = opts
+        .landmarks
+        .iter()
+        .filter_map(|l| {
+            data_row(
+                &s0,
+                l.src,
+                l.dst,
+                opts.landmark_weight * l.weight / opts.landmarks.len() as f64,
+            )
+        })
+        .collect();
+    let barrier = Barrier::with_floor(opts.floor)
+        .map_err(|e| RegisterError::Option(e.to_string()))?
+        .relative_to(det_a);
+    let obj = Objective::new(
+        &s0,
+        param,
+        rows,
+        Loss::Squares,
+        opts.bend / area,
+        Some(barrier),
+        crate::spline::jacobian::SAMPLE_LEVEL,
+    );
+    let mut x = obj.param.x0();
+    let variables = x.len();
+    for l in (0..nl as usize).rev() {
+        let term = deform::LevelTerm::new(&s0, &fp[l], &mp[l], opts.metric, opts.samples);
+        let (nx, rep) =
+            deform::run_level(&obj, &term, x, l as u32, opts.max_iters, opts.progress.as_ref());
+        x = nx;
+        levels.push(rep);
+    }
+
+    // Exact output.
+    let rounded = obj.param.rounded_points(&s0, &x, opts.grid_bits);
+    let soft = s0.with_determined_points(&mds, rounded)?;
+    let spline = if opts.hard || !opts.pinned.is_empty() {
+        let fo = FitOptions {
+            hard: opts.hard,
+            pinned: opts.pinned.clone(),
+            grid_bits: opts.grid_bits,
+            ..FitOptions::default()
+        };
+        crate::fit::hard::exact_constraints(&s0, &mds, &soft, &opts.landmarks, &fo)?
+    } else {
+        soft
+    };
+    let cert = crate::spline::jacobian::certify(&spline, &CertifyOptions::default());
+    let metric_after =
+        full_metric(&spline, &points_f64(&spline), opts.metric, &fp[0], &mp[0], opts.samples);
+    let landmarks = if opts.landmarks.is_empty() {
+        None
+    } else {
+        let res = residuals(&spline, &opts.landmarks)?;
+        Some(LandmarkReport {
+            count: opts.landmarks.len(),
+            hard: opts.hard,
+            fit: Stats::of(&res),
+            residuals: res,
+        })
+    };
+    let report = RegisterReport {
+        metric: opts.metric,
+        metric_before,
+        metric_prealigned,
+        metric_after,
+        prealign: if opts.init.is_some() { Prealign::None } else { opts.prealign },
+        affine,
+        levels,
+        pyramid_levels: nl,
+        triangles: spline.mesh().num_triangles(),
+        vertices: spline.mesh().num_vertices(),
+        variables,
+        fold_free: cert.fold_free,
+        det_j_lower_bound: cert.lower_bound,
+        min_det_j: cert.sampled_min,
+        exact_c1: true,
+        landmarks,
+        time_ms: start.elapsed().as_secs_f64() * 1e3,
+    };
+    Ok(Registration { spline, report })
+}
