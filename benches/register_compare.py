@@ -9,7 +9,8 @@ the mean endpoint error of its FIXED -> MOVING map against psi over the image co
 `|phi^-1(x) - psi(x)|` for trimorph (`trimorph field --inverse`), `|T(x) - psi(x)|` for
 elastix (`transformix` deformation field of its default B-spline registration).
 
-Usage: register_compare.py TRIMORPH_BIN [--pairs ihc,cell,nuclei] [--mi] [--out DIR]
+Usage: register_compare.py TRIMORPH_BIN [--pairs ihc,cell,nuclei] [--mi] [--write-pair DIR]
+(needs numpy, scipy, pillow, tifffile and itk-elastix)
 Prints one JSON line per pair and method.
 """
 import argparse
@@ -119,8 +120,19 @@ def main():
     ap.add_argument("--noise", type=float, default=0.02)
     ap.add_argument("--mi", action="store_true", help="inverted + gamma FIXED, --metric mi")
     ap.add_argument("--extra", default="", help="extra trimorph register arguments")
+    ap.add_argument("--write-pair", metavar="DIR",
+                    help="only write the first pair as DIR/fixed.tif and DIR/moving.tif")
     args = ap.parse_args()
     imgs = images()
+    if args.write_pair:
+        import tifffile
+
+        m = imgs[args.pairs.split(",")[0]]
+        f, _, _ = make_pair(m, args.amp, args.noise, 10, invert_gamma=args.mi)
+        os.makedirs(args.write_pair, exist_ok=True)
+        tifffile.imwrite(os.path.join(args.write_pair, "fixed.tif"), f)
+        tifffile.imwrite(os.path.join(args.write_pair, "moving.tif"), m.astype(np.float32))
+        return
     for k, name in enumerate(args.pairs.split(",")):
         m = imgs[name]
         f, dy, dx = make_pair(m, args.amp, args.noise, 10 + k, invert_gamma=args.mi)

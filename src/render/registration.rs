@@ -1,7 +1,8 @@
 //! The registration overlay: FIXED and MOVING in two colours, before and after, side by side.
 //!
 //! Each panel has FIXED's size. FIXED is drawn in magenta (red + blue) and MOVING in green,
-//! each grey level stretched between its 1st and 99th percentile: where the two agree the
+//! each grey level stretched between its 1st and 99th percentile (MOVING's as given for
+//! both of its panels): where the two agree the
 //! panel is grey-white, where they disagree it is magenta or green. The left panel shows
 //! MOVING as given, on the same pixel grid (no transform); the right one MOVING resampled
 //! onto FIXED through the registration.
@@ -9,15 +10,18 @@
 use super::font::draw_text;
 use tiny_skia::{Color, Pixmap};
 
-/// Values stretched to `[0, 1]` between their 1st and 99th percentiles.
-fn stretch(v: &[f32]) -> Vec<f32> {
+/// The 1st and 99th percentiles of the finite values.
+fn percentiles(v: &[f32]) -> (f32, f32) {
     let mut s: Vec<f32> = v.iter().copied().filter(|x| x.is_finite()).collect();
     if s.is_empty() {
-        return vec![0.0; v.len()];
+        return (0.0, 1.0);
     }
     s.sort_by(f32::total_cmp);
-    let lo = s[s.len() / 100];
-    let hi = s[(s.len() * 99) / 100];
+    (s[s.len() / 100], s[(s.len() * 99) / 100])
+}
+
+/// Values stretched to `[0, 1]` between `lo` and `hi`.
+fn stretch(v: &[f32], (lo, hi): (f32, f32)) -> Vec<f32> {
     let d = if hi > lo { hi - lo } else { 1.0 };
     v.iter().map(|&x| ((x - lo) / d).clamp(0.0, 1.0)).collect()
 }
@@ -36,10 +40,13 @@ pub fn overlay(
     let (pw, ph) = ((2 * w + gap) as u32, h as u32);
     let mut pm = Pixmap::new(pw.max(1), ph.max(1)).expect("non-empty");
     pm.fill(Color::from_rgba8(255, 255, 255, 255));
-    let f = stretch(fixed);
+    let f = stretch(fixed, percentiles(fixed));
+    // Both MOVING panels with MOVING's own percentiles (the resampled one has background
+    // where MOVING does not reach, which would shift its percentiles).
+    let range = percentiles(moving_as_given);
     let to8 = |v: f32| (v * 255.0).round() as u8;
     for (panel, mov) in [moving_as_given, moving_after].into_iter().enumerate() {
-        let m = stretch(mov);
+        let m = stretch(mov, range);
         let x0 = panel * (w + gap);
         let data = pm.data_mut();
         for y in 0..h {
