@@ -127,7 +127,8 @@ pub struct RegisterOptions {
     pub samples: SampleOptions,
     /// Landmarks (`src` in MOVING, `dst` in FIXED), with their weights.
     pub landmarks: Vec<Landmark>,
-    /// Weight of the landmark term (per mean squared pixel; default 1).
+    /// Weight of each landmark: `landmark_weight * w_i` times one image sample (its squared
+    /// distance in pixels against one sample's metric term; default [`DEFAULT_LANDMARK_WEIGHT`]).
     pub landmark_weight: f64,
     /// Landmarks are met exactly.
     pub hard: bool,
@@ -159,7 +160,7 @@ impl Default for RegisterOptions {
             affine_iters: 60,
             samples: SampleOptions::default(),
             landmarks: Vec::new(),
-            landmark_weight: 1.0,
+            landmark_weight: DEFAULT_LANDMARK_WEIGHT,
             hard: false,
             init: None,
             pinned: Vec::new(),
@@ -268,6 +269,10 @@ pub struct Registration {
     /// The report.
     pub report: RegisterReport,
 }
+
+/// The default landmark weight: one landmark counts as this many image samples (per squared
+/// pixel; `tests/register_real.rs`).
+pub const DEFAULT_LANDMARK_WEIGHT: f64 = 1.0;
 
 /// The share of MOVING's samples that must land on FIXED after the pre-alignment.
 pub const MIN_OVERLAP: f64 = 0.1;
@@ -415,24 +420,50 @@ pub fn register(
             is_var[p.index()] = false;
         }
     }
-    let param = Param::new(&s0, &mds, &is_var);
+    // With landmarks, the spline stage starts from the landmark fit (bending and landmarks
+    // only, solved directly, [`crate::fit::solve::fit_with`]): where the image term sees
+    // nothing (flat or masked parts) L-BFGS would take many iterations to carry the
+    // landmarks' pull there, and the fit puts it there at once.
+    // The fit's weights are those of the finest level: there the registration's objective
+    // is `sum LW w_i |r_i|^2 / N + (bend / A) E` (N samples, A MOVING's area) away from the
+    // image term, which is the fit's `sum w_i |r_i|^2 + lambda E` with
+    // `lambda = bend N / (A LW)`, and the fit's scale-free weight is `lambda / (sum w_i A)`.
+    let s_start = if opts.landmarks.len() >= 3 && opts.landmark_weight > 0.0 {
+        let area = (moving.image.w * moving.image.h) as f64;
+        let n = samples::SampleSet::new(&mp[0], &fp[0], opts.samples).len().max(1) as f64;
+        let sum_w: f64 = opts.landmarks.iter().map(|l| l.weight).sum::<f64>().max(1e-300);
+        let lambda = opts.bend * n / (area * opts.landmark_weight);
+        let fo = FitOptions {
+            pinned: opts.pinned.clone(),
+            bend: crate::fit::solve::Bend::Weight(lambda / (sum_w * area)),
+            bend_area: Some(area),
+            ..FitOptions::default()
+        };
+        crate::fit::solve::fit_with(&s0, &mds, &opts.landmarks, &fo, Instant::now())?.spline
+    } else {
+        s0.clone()
+    };
+    let param = Param::new(&s_start, &mds, &is_var);
     let area = (moving.image.w * moving.image.h) as f64;
-    let rows: Vec<_> = opts
-        .landmarks
-        .iter()
-        .filter_map(|l| {
-            data_row(
-                &s0,
-                l.src,
-                l.dst,
-                opts.landmark_weight * l.weight / opts.landmarks.len() as f64,
-            )
-        })
-        .collect();
+    // Each landmark weighs `landmark_weight * w_i` times one image sample (the image term is
+    // a mean over the level's samples, so the rows are rescaled by 1 / samples per level).
+    let mut rows = Vec::with_capacity(opts.landmarks.len());
+    for (i, l) in opts.landmarks.iter().enumerate() {
+        let row =
+            data_row(&s0, l.src, l.dst, opts.landmark_weight * l.weight).ok_or_else(|| {
+                RegisterError::Option(format!(
+                    "landmark {} at ({}, {}) lies outside MOVING's mesh",
+                    l.name.clone().unwrap_or_else(|| format!("#{i}")),
+                    l.src[0],
+                    l.src[1]
+                ))
+            })?;
+        rows.push(row);
+    }
     let barrier = Barrier::with_floor(opts.floor)
         .map_err(|e| RegisterError::Option(e.to_string()))?
         .relative_to(det_a);
-    let obj = Objective::new(
+    let mut obj = Objective::new(
         &s0,
         param,
         rows,
@@ -443,8 +474,12 @@ pub fn register(
     );
     let mut x = obj.param.x0();
     let variables = x.len();
+    let mut row_scale = 1.0;
     for l in (0..nl as usize).rev() {
         let term = deform::LevelTerm::new(&s0, &fp[l], &mp[l], opts.metric, opts.samples);
+        let scale = 1.0 / term.set.len().max(1) as f64;
+        obj.scale_weights(&vec![scale / row_scale; obj.rows().len()]);
+        row_scale = scale;
         let (nx, rep) =
             deform::run_level(&obj, &term, x, l as u32, opts.max_iters, opts.progress.as_ref());
         x = nx;

@@ -212,6 +212,25 @@ impl SplineSamples {
         u
     }
 
+    /// `sum_i B_m(b_i)^2 v_i` per control point and coordinate (the Gauss-Newton diagonal
+    /// of a term whose Hessian in `u_i` is `diag(v_i)`).
+    pub fn pull_squared(&self, v: &[[f64; 2]], n_points: usize) -> Vec<[f64; 2]> {
+        let nb = self.coefs.len();
+        let mut out = vec![[0.0; 2]; n_points];
+        let mut pw = vec![[0.0; 3]; self.degree + 1];
+        let mut w = vec![0.0; nb];
+        for ((idx, bs), patch) in self.tris.iter().zip(&self.patch) {
+            for (&i, &b) in idx.iter().zip(bs) {
+                self.basis(b, &mut pw, &mut w);
+                for (wk, &p) in w.iter().zip(patch) {
+                    out[p][0] += wk * wk * v[i][0];
+                    out[p][1] += wk * wk * v[i][1];
+                }
+            }
+        }
+        out
+    }
+
     /// `dE/dq_m = sum_i B_m(b_i) dE/du_i`, over all control points (`n_points` entries).
     pub fn pull(&self, d_u: &[[f64; 2]], n_points: usize) -> Vec<[f64; 2]> {
         let nb = self.coefs.len();

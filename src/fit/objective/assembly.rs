@@ -162,6 +162,18 @@ impl Objective {
         BendingValues { values, b, diag }
     }
 
+    /// The diagonal of the bending matrix over the variables (`nv` entries, the same for
+    /// both coordinates; without `lambda`).
+    pub fn bending_diagonal(&self) -> Vec<f64> {
+        let mut d = vec![0.0; self.param.nv()];
+        self.bending_entries(|a, b, v| {
+            if a == b {
+                d[a] += v;
+            }
+        });
+        d
+    }
+
     /// Calls `emit(a, b, v)` for every contribution `v` to `K[a][b]` of the bending matrix
     /// over the variables (`K = sum_T S_T^T K_T S_T`, both triangles, without `lambda`).
     pub(super) fn bending_entries(&self, mut emit: impl FnMut(usize, usize, f64)) {
