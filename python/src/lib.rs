@@ -19,6 +19,7 @@ mod deformation;
 mod errors;
 mod fitting;
 mod memory;
+mod registration;
 mod sequence;
 mod tiles;
 
@@ -34,6 +35,7 @@ fn _trimorph(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<sequence::FrameSequence>()?;
     m.add_function(wrap_pyfunction!(fitting::fit, m)?)?;
     m.add_function(wrap_pyfunction!(fitting::morph, m)?)?;
+    m.add_function(wrap_pyfunction!(registration::register, m)?)?;
     m.add_function(wrap_pyfunction!(arrays::read_image, m)?)?;
     m.add_function(wrap_pyfunction!(arrays::read_ome_zarr, m)?)?;
     m.add_function(wrap_pyfunction!(tiles::tile_inputs, m)?)?;

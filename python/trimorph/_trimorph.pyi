@@ -196,6 +196,29 @@ def fit(
     far-field rings around it (`trimorph fit --far-rings`); the frame is recorded
     (`Deformation.frame`)."""
 
+def register(
+    fixed: _Image,
+    moving: _Image,
+    metric: str = "ncc",
+    mask_fixed: Optional[_Image] = None,
+    mask_moving: Optional[_Image] = None,
+    src: Optional[_Points] = None,
+    dst: Optional[_Points] = None,
+    weights: Optional[Sequence[float]] = None,
+    hard: bool = False,
+    landmark_weight: float = 1.0,
+    init: Optional[Deformation] = None,
+    prealign: str = "affine",
+    levels: Optional[int] = None,
+    spacing: float = 48.0,
+    bend: float = 1.0,
+    iterations: int = 30,
+    samples: int = 32768,
+) -> Deformation:
+    """Registers MOVING to FIXED from the images (`trimorph register`): phi maps MOVING
+    pixels to FIXED pixels, exactly C1 and certified fold-free; `report` holds the
+    registration report. Releases the GIL."""
+
 def morph(
     a: _Image,
     b: _Image,
