@@ -1,4 +1,5 @@
-//! Newton's method for the fit with the fold barrier on, with a certified line search.
+//! Newton's method for the fit with the fold barrier on, with a certified line search, as an
+//! argmin `Solver` ([`CertifiedNewton`]) run by argmin's `Executor` ([`newton`]).
 //!
 //! The objective `F` ([`super::objective`]) is the data term, the bending energy and the
 //! barrier `mu sum_s w_s beta(det J(s))` over the `det J` samples. Its Gauss-Newton Hessian
@@ -29,6 +30,10 @@
 use super::objective::{det_gradient, sample_jacobian, Objective, TriangleBlock as TriInfo};
 use super::solve::FitError;
 use super::sparse::Pattern;
+use argmin::core::{
+    CostFunction, Error as ArgminError, Executor, Gradient, IterState, Problem, Solver, State,
+    TerminationReason, KV,
+};
 
 /// Relative size of the Newton decrement at which the run stops.
 pub const NEWTON_TOL: f64 = 1e-10;
@@ -203,34 +208,90 @@ impl Structure {
     }
 }
 
-/// Runs Newton's method from `start` (see the module docs). `certify` receives the control
-/// points of a trial iterate and answers whether `det J > 0` is proven on every triangle;
-/// with `require`, trial points it refuses, or whose sampled `det J` is not above the
-/// barrier's floor, are never accepted (the start must satisfy both).
-pub fn newton(
-    obj: &Objective,
-    start: &[f64],
-    max_iters: u64,
+/// The fit's objective as an argmin problem (cost and gradient of [`Objective::eval`]).
+pub struct FitProblem<'a>(pub &'a Objective);
+
+impl CostFunction for FitProblem<'_> {
+    type Param = Vec<f64>;
+    type Output = f64;
+    fn cost(&self, x: &Vec<f64>) -> Result<f64, ArgminError> {
+        Ok(self.0.eval(x, None).total)
+    }
+}
+
+impl Gradient for FitProblem<'_> {
+    type Param = Vec<f64>;
+    type Gradient = Vec<f64>;
+    fn gradient(&self, x: &Vec<f64>) -> Result<Vec<f64>, ArgminError> {
+        let mut g = vec![0.0; x.len()];
+        self.0.eval(x, Some(&mut g));
+        Ok(g)
+    }
+}
+
+type NewtonState = IterState<Vec<f64>, Vec<f64>, (), (), (), f64>;
+
+/// Newton's method with the fold barrier and the certified backtracking line search (module
+/// docs) as an argmin [`Solver`]: one `next_iter` is one Newton step (Hessian values,
+/// sparse Cholesky with a growing ridge when it fails, the step, the certified line
+/// search). It ends the run itself with `SolverConverged` (the decrement is below the
+/// tolerance) or `SolverExit("no descent")`; argmin's `Executor` adds the iteration cap.
+pub struct CertifiedNewton<'a> {
+    obj: &'a Objective,
+    st: Structure,
+    pairs: Vec<(usize, usize)>,
     require: bool,
-    certify: &dyn Fn(&[[f64; 2]]) -> bool,
-) -> Result<Outcome, FitError> {
-    let nv = obj.param.nv();
-    let st = Structure::new(obj)?;
-    let mut x = start.to_vec();
-    let mut g = vec![0.0; 2 * nv];
-    let mut f = obj.eval(&x, Some(&mut g)).total;
-    let mut vals = Vec::with_capacity(st.pattern.len());
-    let mut pts = vec![[0.0f64; 2]; obj.param.var_of.len()];
-    let mut termination = "iteration cap".to_string();
-    let mut iterations = 0;
-    let mut ridge_scale = 1e-12;
-    let pairs = pattern_pairs(&st);
-    let settled = NEWTON_TOL_PX * NEWTON_TOL_PX * obj.rows().iter().map(|r| r.weight).sum::<f64>();
-    while iterations < max_iters {
-        st.values(obj, &x, 0.0, &mut vals);
+    certify: &'a dyn Fn(&[[f64; 2]]) -> bool,
+    ridge_scale: f64,
+    settled: f64,
+}
+
+impl<'a> CertifiedNewton<'a> {
+    /// The solver for `obj`; see [`newton`] for `require` and `certify`.
+    pub fn new(
+        obj: &'a Objective,
+        require: bool,
+        certify: &'a dyn Fn(&[[f64; 2]]) -> bool,
+    ) -> Result<CertifiedNewton<'a>, FitError> {
+        let st = Structure::new(obj)?;
+        let pairs = pattern_pairs(&st);
+        let settled =
+            NEWTON_TOL_PX * NEWTON_TOL_PX * obj.rows().iter().map(|r| r.weight).sum::<f64>();
+        Ok(CertifiedNewton { obj, st, pairs, require, certify, ridge_scale: 1e-12, settled })
+    }
+}
+
+impl<'a> Solver<FitProblem<'a>, NewtonState> for CertifiedNewton<'a> {
+    fn name(&self) -> &str {
+        "certified Newton"
+    }
+
+    fn init(
+        &mut self,
+        problem: &mut Problem<FitProblem<'a>>,
+        state: NewtonState,
+    ) -> Result<(NewtonState, Option<KV>), ArgminError> {
+        let x = state.get_param().cloned().unwrap_or_default();
+        let f = problem.cost(&x)?;
+        let g = problem.gradient(&x)?;
+        Ok((state.param(x).cost(f).gradient(g), None))
+    }
+
+    fn next_iter(
+        &mut self,
+        problem: &mut Problem<FitProblem<'a>>,
+        mut state: NewtonState,
+    ) -> Result<(NewtonState, Option<KV>), ArgminError> {
+        let obj = self.obj;
+        let nv = obj.param.nv();
+        let x = state.take_param().unwrap_or_default();
+        let g = state.take_gradient().unwrap_or_default();
+        let f = state.get_cost();
+        let mut vals = Vec::with_capacity(self.st.pattern.len());
+        self.st.values(obj, &x, 0.0, &mut vals);
         let mean_diag = {
             let mut s = 0.0;
-            for (&(r, c), v) in pairs.iter().zip(&vals) {
+            for (&(r, c), v) in self.pairs.iter().zip(&vals) {
                 if r == c {
                     s += v;
                 }
@@ -240,54 +301,89 @@ pub fn newton(
         let n = vals.len();
         let factor = loop {
             for v in &mut vals[n - 2 * nv..] {
-                *v = ridge_scale * mean_diag;
+                *v = self.ridge_scale * mean_diag;
             }
-            match st.pattern.factor(&vals) {
+            match self.st.pattern.factor(&vals) {
                 Ok(fa) => break fa,
-                Err(_) if ridge_scale < 1e-2 => ridge_scale *= 100.0,
-                Err(e) => return Err(FitError::Solver(e.to_string())),
+                Err(_) if self.ridge_scale < 1e-2 => self.ridge_scale *= 100.0,
+                Err(e) => return Err(FitError::Solver(e.to_string()).into()),
             }
         };
         let mut dx: Vec<f64> = g.iter().map(|v| -v).collect();
         factor.solve(&mut dx);
         let slope: f64 = g.iter().zip(&dx).map(|(a, b)| a * b).sum();
-        iterations += 1;
-        if -slope * 0.5 < (NEWTON_TOL * f.abs().max(1.0)).max(settled) {
-            termination = "converged".into();
-            break;
+        if -slope * 0.5 < (NEWTON_TOL * f.abs().max(1.0)).max(self.settled) {
+            let state = state.param(x).cost(f).gradient(g);
+            return Ok((state.terminate_with(TerminationReason::SolverConverged), None));
         }
+        let mut pts = vec![[0.0f64; 2]; obj.param.var_of.len()];
         let mut alpha = 1.0;
-        let mut accepted = false;
         let mut xt = vec![0.0; 2 * nv];
         for _ in 0..MAX_HALVINGS {
             for ((t, a), d) in xt.iter_mut().zip(&x).zip(&dx) {
                 *t = a + alpha * d;
             }
-            let ok = !require || {
+            let ok = !self.require || {
                 obj.param.points_into(&xt, &mut pts);
-                certify(&pts)
+                (self.certify)(&pts)
             };
             if ok {
                 let t = obj.eval(&xt, None);
                 // With a certified start the iterates also stay above the barrier's floor
                 // (its finite continuation below is for uncertified starts only).
-                let inside = !require || obj.barrier.is_none_or(|b| t.min_det > b.floor);
+                let inside = !self.require || obj.barrier.is_none_or(|b| t.min_det > b.floor);
                 let ft = t.total;
                 if inside && ft.is_finite() && ft <= f + 1e-4 * alpha * slope {
-                    accepted = true;
-                    break;
+                    let gt = problem.gradient(&xt)?;
+                    return Ok((state.param(xt).cost(ft).gradient(gt), None));
                 }
             }
             alpha *= 0.5;
         }
-        if !accepted {
-            termination = "no descent".into();
-            break;
-        }
-        x = xt;
-        f = obj.eval(&x, Some(&mut g)).total;
+        let state = state.param(x).cost(f).gradient(g);
+        Ok((state.terminate_with(TerminationReason::SolverExit(NO_DESCENT.into())), None))
     }
-    Ok(Outcome { x, iterations, termination })
+}
+
+/// The termination of a Newton run that found no step length decreasing the cost.
+const NO_DESCENT: &str = "no descent";
+
+/// Runs Newton's method from `start` (see the module docs) as [`CertifiedNewton`] under
+/// argmin's `Executor`. `certify` receives the control points of a trial iterate and
+/// answers whether `det J > 0` is proven on every triangle; with `require`, trial points it
+/// refuses, or whose sampled `det J` is not above the barrier's floor, are never accepted
+/// (the start must satisfy both).
+pub fn newton(
+    obj: &Objective,
+    start: &[f64],
+    max_iters: u64,
+    require: bool,
+    certify: &dyn Fn(&[[f64; 2]]) -> bool,
+) -> Result<Outcome, FitError> {
+    if max_iters == 0 {
+        return Ok(Outcome {
+            x: start.to_vec(),
+            iterations: 0,
+            termination: "iteration cap".into(),
+        });
+    }
+    let solver = CertifiedNewton::new(obj, require, certify)?;
+    let res = Executor::new(FitProblem(obj), solver)
+        .configure(|state| state.param(start.to_vec()).max_iters(max_iters))
+        .timer(false)
+        .run()
+        .map_err(|e| match e.downcast::<FitError>() {
+            Ok(fe) => fe,
+            Err(other) => FitError::Solver(other.to_string()),
+        })?;
+    let state = res.state();
+    let termination = match state.get_termination_reason() {
+        Some(TerminationReason::SolverConverged) => "converged".to_string(),
+        Some(TerminationReason::SolverExit(why)) => why.clone(),
+        _ => "iteration cap".to_string(),
+    };
+    let x = state.get_param().cloned().unwrap_or_else(|| start.to_vec());
+    Ok(Outcome { x, iterations: state.get_iter(), termination })
 }
 
 fn pattern_pairs(st: &Structure) -> Vec<(usize, usize)> {
