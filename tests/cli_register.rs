@@ -159,3 +159,24 @@ fn bad_inputs_exit_1_and_write_nothing() {
     assert_ne!(o.status.code(), Some(0));
     assert!(!def.exists(), "nothing is written on bad input");
 }
+
+/// Bug found in session 35: `trimorph register ... | head -1` panicked on the closed pipe
+/// (`println!`); a closed stdout is not an error of ours (exit 0, no panic).
+#[test]
+fn a_closed_stdout_is_not_a_panic() {
+    use std::process::{Command, Stdio};
+    let dir = tempfile::tempdir().unwrap();
+    let (fp, mp) = pair(dir.path());
+    let def = dir.path().join("def.json");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_trimorph"))
+        .args(["register", s(&fp), s(&mp), "-o", s(&def), "--levels", "1", "--iterations", "2"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(out.status.code(), Some(0), "{err}");
+}

@@ -1,7 +1,7 @@
 //! `trimorph register FIXED MOVING -o DEF.json`: registration from the images themselves
 //! (a thin layer over [`crate::jobs::register`]).
 
-use super::common::choice;
+use super::common::{choice, say};
 use crate::jobs::register::{run as run_job, RegisterFiles};
 use crate::register::{Metric, Prealign, RegisterOptions};
 use anyhow::Result;
@@ -115,7 +115,7 @@ pub(super) fn run(args: RegisterCli) -> Result<()> {
     let out = run_job(&files, opts)?;
     let r = &out.report;
     let iters: u64 = r.levels.iter().map(|l| l.iterations).sum();
-    println!(
+    say(format!(
         "{} {:.4} -> {:.4} (pre-aligned {:.4}), {} levels, {} iterations, {:.0} ms",
         r.metric.name(),
         r.metric_before,
@@ -124,23 +124,23 @@ pub(super) fn run(args: RegisterCli) -> Result<()> {
         r.pyramid_levels,
         iters,
         r.time_ms
-    );
-    println!(
+    ))?;
+    say(format!(
         "{}: det J >= {:.4} ({}), exactly C1, {} triangles, {} variables",
         args.output.display(),
         r.det_j_lower_bound,
         if r.fold_free { "certified fold-free" } else { "NOT certified fold-free" },
         r.triangles,
         r.variables
-    );
+    ))?;
     if let Some(l) = &r.landmarks {
-        println!(
+        say(format!(
             "landmarks: {} ({}), residual rms {:.4} px, max {:.4} px",
             l.count,
             if l.hard { "exact" } else { "soft" },
             l.fit.rms,
             l.fit.max
-        );
+        ))?;
     }
     Ok(())
 }
