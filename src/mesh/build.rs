@@ -120,6 +120,19 @@ impl Mesh {
         height: f64,
         opts: MeshOptions,
     ) -> Result<Mesh, MeshError> {
+        Mesh::grid_from([0.0, 0.0], cols, rows, width, height, opts)
+    }
+
+    /// [`Mesh::grid`] with its lower-left corner at `origin` instead of `(0, 0)` (e.g. an
+    /// image frame `[-1/2, w - 1/2] x [-1/2, h - 1/2]`).
+    pub fn grid_from(
+        origin: [f64; 2],
+        cols: usize,
+        rows: usize,
+        width: f64,
+        height: f64,
+        opts: MeshOptions,
+    ) -> Result<Mesh, MeshError> {
         let grid = check_grid(opts)?;
         if cols == 0 || rows == 0 {
             return Err(MeshError::Empty);
@@ -130,7 +143,10 @@ impl Mesh {
         let mut verts = Vec::with_capacity((cols + 1) * (rows + 1));
         for r in 0..=rows {
             for c in 0..=cols {
-                verts.push([c as f64 * width / cols as f64, r as f64 * height / rows as f64]);
+                verts.push([
+                    origin[0] + c as f64 * width / cols as f64,
+                    origin[1] + r as f64 * height / rows as f64,
+                ]);
             }
         }
         let mut tris = Vec::with_capacity(2 * cols * rows);

@@ -287,25 +287,8 @@ pub fn frame_mesh(w: usize, h: usize, spacing: f64) -> Result<Mesh, RegisterErro
     }
     let cols = ((w as f64 / spacing).round() as usize).max(1);
     let rows = ((h as f64 / spacing).round() as usize).max(1);
-    let mut verts = Vec::with_capacity((cols + 1) * (rows + 1));
-    for r in 0..=rows {
-        for c in 0..=cols {
-            verts.push([
-                -0.5 + c as f64 * w as f64 / cols as f64,
-                -0.5 + r as f64 * h as f64 / rows as f64,
-            ]);
-        }
-    }
-    let mut tris = Vec::with_capacity(2 * cols * rows);
-    for r in 0..rows {
-        for c in 0..cols {
-            let v00 = r * (cols + 1) + c;
-            let (v10, v01, v11) = (v00 + 1, v00 + cols + 1, v00 + cols + 2);
-            tris.push([v00, v10, v11]);
-            tris.push([v00, v11, v01]);
-        }
-    }
-    Ok(Mesh::from_triangles(&verts, &tris, MeshOptions { grid: 16 })?)
+    let (w, h) = (w as f64, h as f64);
+    Ok(Mesh::grid_from([-0.5, -0.5], cols, rows, w, h, MeshOptions { grid: 16 })?)
 }
 
 /// The metric of the whole images at full resolution for control points `pts` of `s`.
@@ -398,7 +381,8 @@ pub fn register(
     let p0 = points_f64(&s0);
     let check = deform::LevelTerm::new(&s0, &fp[0], &mp[0], opts.metric, opts.samples);
     let (metric_prealigned, _, valid) = check.eval(&p0, false);
-    let share = valid as f64 / check.set.len().max(1) as f64;
+    let n0 = check.set.len().max(1) as f64;
+    let share = valid as f64 / n0;
     if share < MIN_OVERLAP {
         return Err(RegisterError::NoOverlap {
             percent: 100.0 * share,
@@ -430,9 +414,8 @@ pub fn register(
     // `lambda = bend N / (A LW)`, and the fit's scale-free weight is `lambda / (sum w_i A)`.
     let s_start = if opts.landmarks.len() >= 3 && opts.landmark_weight > 0.0 {
         let area = (moving.image.w * moving.image.h) as f64;
-        let n = samples::SampleSet::new(&mp[0], &fp[0], opts.samples).len().max(1) as f64;
         let sum_w: f64 = opts.landmarks.iter().map(|l| l.weight).sum::<f64>().max(1e-300);
-        let lambda = opts.bend * n / (area * opts.landmark_weight);
+        let lambda = opts.bend * n0 / (area * opts.landmark_weight);
         let fo = FitOptions {
             pinned: opts.pinned.clone(),
             bend: crate::fit::solve::Bend::Weight(lambda / (sum_w * area)),
