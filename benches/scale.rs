@@ -10,8 +10,14 @@
 //!   is the frame and its margin only: the "grid speed" the default fit must match;
 //! * `fit_then_warp_4096_default`: the whole pipeline, fit then warp.
 //!
-//! Target (issue 51): the warp through the default fit costs what a warp through a mesh of
-//! the frame costs. Run with `cargo bench --bench scale`.
+//! Many landmarks (issue 51, point 2): `fit_10000_landmarks_4096` fits 10,000 pairs of a
+//! smooth field (12 px at most) over a 4096^2 frame with all defaults: a mesh over 1,000
+//! thinned sources, the variable-space squares fit and its GCV weight search
+//! ([`trimorph::fit::smooth_sparse`]), the exact rounding and the certificate.
+//!
+//! Targets (issue 51): the warp through the default fit costs what a warp through a mesh of
+//! the frame costs; 10,000 landmarks fit in at most 10 s (goal 1 s). Run with
+//! `cargo bench --bench scale`.
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use image::{DynamicImage, GrayImage, Luma};
@@ -62,6 +68,35 @@ fn bench(c: &mut Criterion) {
         })
     });
     g.finish();
+    let many = field_landmarks(10_000);
+    let mut g = c.benchmark_group("scale");
+    g.sample_size(10);
+    g.bench_function("fit_10000_landmarks_4096", |b| {
+        b.iter(|| black_box(fit_frame(&many, size, &fo).unwrap().fit.report.fit.rms))
+    });
+    g.finish();
+}
+
+/// `n` pairs of a smooth field over the 4096^2 frame (sources from a fixed LCG).
+fn field_landmarks(n: usize) -> Vec<Landmark> {
+    let mut state = 0x2545_F491_4F6C_DD1Du64;
+    let mut next = move || {
+        state =
+            state.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+        (state >> 11) as f64 / (1u64 << 53) as f64 * (N as f64 - 1.0)
+    };
+    let tau = std::f64::consts::TAU;
+    (0..n)
+        .map(|i| {
+            let p = [next(), next()];
+            let (x, y) = (p[0] / N as f64, p[1] / N as f64);
+            let dst = [
+                p[0] + 12.0 * (tau * x).sin() * (0.5 * tau * y).cos() + 5.0 * y,
+                p[1] - 9.0 * (0.75 * tau * x + 0.3).cos() * (0.5 * tau * y).sin() + 3.0 * x,
+            ];
+            Landmark { name: Some(format!("p{i}")), src: p, dst, weight: 1.0 }
+        })
+        .collect()
 }
 
 criterion_group!(benches, bench);

@@ -170,6 +170,12 @@ impl Pattern {
         self.pos.len()
     }
 
+    /// Number of values of the Cholesky factor [`factor`](Self::factor) will store (from the
+    /// symbolic analysis, before any numeric work): a bound on its memory.
+    pub fn factor_len(&self) -> usize {
+        self.llt.len_val()
+    }
+
     /// Whether the pattern has no entries.
     pub fn is_empty(&self) -> bool {
         self.pos.is_empty()

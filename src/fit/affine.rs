@@ -96,26 +96,10 @@ pub fn crossing_pairs(lms: &[Landmark]) -> Vec<(usize, usize)> {
     if a[0][0] * a[1][1] - a[0][1] * a[1][0] <= 0.0 {
         a = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
     }
+    let src: Vec<[f64; 2]> = lms.iter().map(|l| l.src).collect();
     let mut out = Vec::new();
-    for (i, li) in lms.iter().enumerate() {
-        let mut near: Vec<(f64, usize)> = lms
-            .iter()
-            .enumerate()
-            .filter(|&(j, _)| j != i)
-            .map(|(j, lj)| {
-                // Squared distance: the same order as the distance, without a square root.
-                let d = [lj.src[0] - li.src[0], lj.src[1] - li.src[1]];
-                (d[0] * d[0] + d[1] * d[1], j)
-            })
-            .collect();
-        // The nearest few only: a partial selection, then those few sorted (O(n) per
-        // landmark rather than a full sort; ties broken by index, as a stable sort would).
-        let by_dist = |x: &(f64, usize), y: &(f64, usize)| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1));
-        if near.len() > CROSSING_NEIGHBOURS {
-            near.select_nth_unstable_by(CROSSING_NEIGHBOURS, by_dist);
-            near.truncate(CROSSING_NEIGHBOURS);
-        }
-        near.sort_by(by_dist);
+    for (i, near) in nearest_neighbours(&src, CROSSING_NEIGHBOURS).into_iter().enumerate() {
+        let li = &lms[i];
         for &(dist, j) in &near {
             if dist == 0.0 {
                 continue;
@@ -131,6 +115,101 @@ pub fn crossing_pairs(lms: &[Landmark]) -> Vec<(usize, usize)> {
     }
     out.sort_unstable();
     out.dedup();
+    out
+}
+
+/// For each point, its `k` nearest other points as `(squared distance, index)`, nearest
+/// first, ties broken by index: the same lists as sorting all the others by
+/// `(distance, index)` and keeping `k`, found through a uniform grid of about four points
+/// per cell (or per cell along a line of points). Around each point the search grows ring by ring of cells; once the `k`-th
+/// squared distance is below `(r s)^2` (`s` the cell size, `r` the rings searched), no point
+/// outside them can come nearer, since each lies at least `r s` away. Linear in the number
+/// of points for spread points (a full sort per point was quadratic: 100,000 landmarks took
+/// minutes).
+fn nearest_neighbours(p: &[[f64; 2]], k: usize) -> Vec<Vec<(f64, usize)>> {
+    let n = p.len();
+    if n == 0 || k == 0 {
+        return vec![Vec::new(); n];
+    }
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for q in p {
+        for c in 0..2 {
+            lo[c] = lo[c].min(q[c]);
+            hi[c] = hi[c].max(q[c]);
+        }
+    }
+    let (w, h) = ((hi[0] - lo[0]).max(1e-9), (hi[1] - lo[1]).max(1e-9));
+    // About four points per cell, spread over an area or along a line.
+    let s = (4.0 * w * h / n as f64).sqrt().max(4.0 * w.max(h) / n as f64);
+    let (nx, ny) = ((w / s).floor() as usize + 1, (h / s).floor() as usize + 1);
+    let cell = |q: &[f64; 2]| {
+        (((q[0] - lo[0]) / s).floor() as usize).min(nx - 1)
+            + nx * (((q[1] - lo[1]) / s).floor() as usize).min(ny - 1)
+    };
+    // Points bucketed by cell (counting sort).
+    let mut start = vec![0usize; nx * ny + 1];
+    for q in p {
+        start[cell(q) + 1] += 1;
+    }
+    for c in 0..nx * ny {
+        start[c + 1] += start[c];
+    }
+    let mut fill = start.clone();
+    let mut order = vec![0usize; n];
+    for (i, q) in p.iter().enumerate() {
+        let c = cell(q);
+        order[fill[c]] = i;
+        fill[c] += 1;
+    }
+    let by = |x: &(f64, usize), y: &(f64, usize)| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1));
+    let mut out = Vec::with_capacity(n);
+    let mut near: Vec<(f64, usize)> = Vec::new();
+    for (i, q) in p.iter().enumerate() {
+        let c = cell(q);
+        let (cx, cy) = ((c % nx) as i64, (c / nx) as i64);
+        near.clear();
+        let mut r = 0i64;
+        loop {
+            // The cells of ring r around (cx, cy), inside the grid: its top and bottom rows,
+            // then its left and right columns between them.
+            let mut visit = |gx: i64, gy: i64| {
+                if gx < 0 || gy < 0 || gx >= nx as i64 || gy >= ny as i64 {
+                    return;
+                }
+                let g = gx as usize + nx * gy as usize;
+                for &j in &order[start[g]..start[g + 1]] {
+                    if j != i {
+                        let d = [p[j][0] - q[0], p[j][1] - q[1]];
+                        near.push((d[0] * d[0] + d[1] * d[1], j));
+                    }
+                }
+            };
+            let (x0, x1) = ((cx - r).max(0), (cx + r).min(nx as i64 - 1));
+            for gy in [cy - r, cy + r].into_iter().take(if r == 0 { 1 } else { 2 }) {
+                for gx in x0..=x1 {
+                    visit(gx, gy);
+                }
+            }
+            for gy in (cy - r + 1).max(0)..=(cy + r - 1).min(ny as i64 - 1) {
+                visit(cx - r, gy);
+                visit(cx + r, gy);
+            }
+            let everything = r >= nx.max(ny) as i64;
+            if near.len() >= k {
+                near.select_nth_unstable_by(k - 1, by);
+                near.truncate(k);
+                let reach = r as f64 * s;
+                if everything || near[k - 1].0 < reach * reach {
+                    break;
+                }
+            } else if everything {
+                break;
+            }
+            r += 1;
+        }
+        near.sort_by(by);
+        out.push(near.clone());
+    }
     out
 }
 
@@ -212,6 +291,53 @@ mod tests {
                 lms[j].dst = t;
             }
             assert_eq!(crossing_pairs(&lms), reference(&lms), "trial {trial}");
+        }
+    }
+
+    /// The grid search finds exactly the lists a full sort finds: spread points, clusters,
+    /// duplicates, a line, and fewer points than neighbours asked for.
+    #[test]
+    fn grid_nearest_neighbours_equal_a_full_sort() {
+        use rand::{rngs::SmallRng, Rng, SeedableRng};
+        let brute = |p: &[[f64; 2]], k: usize| -> Vec<Vec<(f64, usize)>> {
+            (0..p.len())
+                .map(|i| {
+                    let mut v: Vec<(f64, usize)> = (0..p.len())
+                        .filter(|&j| j != i)
+                        .map(|j| ((p[j][0] - p[i][0]).powi(2) + (p[j][1] - p[i][1]).powi(2), j))
+                        .collect();
+                    v.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+                    v.truncate(k);
+                    v
+                })
+                .collect()
+        };
+        let mut rng = SmallRng::seed_from_u64(5);
+        let mut sets: Vec<Vec<[f64; 2]>> = vec![
+            vec![],
+            vec![[1.0, 1.0]],
+            vec![[1.0, 1.0], [1.0, 1.0], [2.0, 3.0]],
+            (0..50).map(|i| [i as f64 * 3.0, 7.0]).collect(),
+        ];
+        for _ in 0..6 {
+            let n = rng.gen_range(10..400);
+            sets.push(
+                (0..n)
+                    .map(|i| {
+                        if i % 3 == 0 {
+                            // A tight cluster, with exact duplicates.
+                            [500.0 + (i % 7) as f64 * 0.25, 40.0 + (i % 5) as f64 * 0.25]
+                        } else {
+                            [rng.gen_range(0.0..4096.0), rng.gen_range(0.0..300.0)]
+                        }
+                    })
+                    .collect(),
+            );
+        }
+        for (t, p) in sets.iter().enumerate() {
+            for k in [1, 6, 20] {
+                assert_eq!(nearest_neighbours(p, k), brute(p, k), "set {t}, k {k}");
+            }
         }
     }
 

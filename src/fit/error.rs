@@ -127,6 +127,10 @@ pub enum FitError {
         /// `(d + 1)(d + 2) / 2`.
         per_triangle: usize,
     },
+    /// The fit's large buffers (the sparse factor of many landmarks' system) would exceed
+    /// the memory budget ([`crate::memory`]).
+    #[error(transparent)]
+    Memory(#[from] crate::memory::OverBudget),
     /// An internal invariant failed (a bug, never the input's fault): reported as such,
     /// not as unsolvable constraints.
     #[error("internal error (please report it): {0}")]

@@ -8,7 +8,10 @@
 //!    line, and `det A > 0`: a mirror image is refused).
 //! 2. The mesh is [`Mesh::landmark_adapted`] with a margin large enough that `A` maps the
 //!    domain over the whole frame: every frame corner `c` has `A^-1 c` inside the domain
-//!    (the default margin grows when it does not).
+//!    (the default margin grows when it does not). Its vertices are the landmarks' sources,
+//!    or, above [`MAX_VERTEX_SOURCES`] landmarks in a soft fit, a spread subset of them
+//!    ([`thin_sources`]): the other landmarks lie inside triangles, and the number of
+//!    variables stays that of 1,000 landmarks however many are given.
 //! 3. Around the domain the mesh has [`FAR_RINGS`] far-field rings, rectangles 4 and 16
 //!    times its size ([`crate::mesh::AdaptOptions::far_rings`]), so the bending energy is
 //!    taken over nearly the whole plane, as a thin-plate spline's is: without them the
@@ -105,6 +108,68 @@ pub struct FrameFit {
     pub fit: Fit,
     /// Mesh, border and coverage.
     pub frame: FrameReport,
+}
+
+/// The most landmark sources that become mesh vertices in a soft fit. Above it, the mesh's
+/// vertices are a subset of the sources spread like them ([`thin_sources`]), and the fit
+/// solves in variable space ([`super::smooth_sparse`]): the spline's variables then grow
+/// with this cap, not with the number of landmarks. Equal to
+/// [`super::smooth_sparse::LANDMARK_SPACE_MAX`], so that the mesh of 1,001 landmarks is about
+/// that of 1,000.
+pub const MAX_VERTEX_SOURCES: usize = super::smooth_sparse::LANDMARK_SPACE_MAX;
+
+/// At most `cap` of `sources`, spread as they are: the largest radius `r` (to a relative
+/// 1/64, by bisection) for which keeping each source (in the given order) that has no kept
+/// source within `r` keeps at most `cap` of them. Where the sources are sparser than `r`,
+/// every one is kept; where they crowd, they are kept about `r` apart (a Poisson-disc
+/// subset). Deterministic for a given order.
+pub fn thin_sources(sources: &[[f64; 2]], cap: usize) -> Vec<[f64; 2]> {
+    if sources.len() <= cap {
+        return sources.to_vec();
+    }
+    let keep = |r: f64| -> Vec<[f64; 2]> {
+        let mut cells: std::collections::HashMap<(i64, i64), Vec<[f64; 2]>> =
+            std::collections::HashMap::new();
+        let mut kept = Vec::new();
+        let r2 = r * r;
+        for &p in sources {
+            let c = ((p[0] / r).floor() as i64, (p[1] / r).floor() as i64);
+            let near = (-1..=1).any(|dx| {
+                (-1..=1).any(|dy| {
+                    cells.get(&(c.0 + dx, c.1 + dy)).is_some_and(|v| {
+                        v.iter().any(|q| (q[0] - p[0]).powi(2) + (q[1] - p[1]).powi(2) < r2)
+                    })
+                })
+            });
+            if !near {
+                cells.entry(c).or_default().push(p);
+                kept.push(p);
+            }
+        }
+        kept
+    };
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for p in sources {
+        for c in 0..2 {
+            lo[c] = lo[c].min(p[c]);
+            hi[c] = hi[c].max(p[c]);
+        }
+    }
+    // `r_hi` keeps one point; `r_lo = 0` keeps all (more than `cap`).
+    let mut r_hi = ((hi[0] - lo[0]).hypot(hi[1] - lo[1])).max(1.0) * 2.0;
+    let mut r_lo = 0.0;
+    let mut best = keep(r_hi);
+    while r_hi - r_lo > r_hi / 64.0 {
+        let r = 0.5 * (r_lo + r_hi);
+        let k = keep(r);
+        if k.len() <= cap {
+            r_hi = r;
+            best = k;
+        } else {
+            r_lo = r;
+        }
+    }
+    best
 }
 
 /// The margin that makes `A` map the domain over the whole frame (at least `base`).
@@ -217,6 +282,8 @@ fn fit_on_mesh(
     opts: &FrameFitOptions,
 ) -> Result<(crate::mesh::AdaptedMesh, Fit), FitError> {
     let sources: Vec<[f64; 2]> = lms.iter().map(|l| l.src).collect();
+    // Many landmarks: a subset of them make the mesh (a hard fit needs every one).
+    let sources = if opts.fit.hard { sources } else { thin_sources(&sources, MAX_VERTEX_SOURCES) };
     let mut mesh_opts = AdaptOptions { margin: Some(margin), grid, ..opts.mesh.clone() };
     // The default longest edge is a quarter of the frame's larger side *in the frame*: a
     // map that shrinks (`det A < 1`, a large image's landmarks onto a small one) shows the
@@ -352,4 +419,46 @@ fn split_half(q: &[[f64; 2]]) -> (Vec<[f64; 2]>, Vec<[f64; 2]>) {
     }
     right.reverse();
     (left, right)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::rngs::SmallRng;
+    use rand::{Rng, SeedableRng};
+
+    /// Thinning keeps at most the cap, keeps everything under it, and spreads like a
+    /// Poisson-disc subset: every dropped source lies nearer to a kept one than any two kept
+    /// sources lie to each other, so crowds are thinned and isolated sources kept.
+    #[test]
+    fn thinned_sources_are_a_spread_subset_within_the_cap() {
+        let mut rng = SmallRng::seed_from_u64(51);
+        let mut pts: Vec<[f64; 2]> =
+            (0..3000).map(|_| [rng.gen_range(0.0..4096.0), rng.gen_range(0.0..4096.0)]).collect();
+        // A crowd of 2,000 in a 100 px square, and its exact duplicates.
+        pts.extend((0..2000).map(|_| [rng.gen_range(500.0..600.0), rng.gen_range(500.0..600.0)]));
+        pts.extend_from_within(3000..3100);
+        assert_eq!(thin_sources(&pts[..800], 1000), pts[..800].to_vec());
+        let kept = thin_sources(&pts, 1000);
+        assert!(kept.len() <= 1000 && kept.len() > 900, "{} kept", kept.len());
+        assert_eq!(kept, thin_sources(&pts, 1000), "deterministic");
+        let d = |a: &[f64; 2], b: &[f64; 2]| (a[0] - b[0]).hypot(a[1] - b[1]);
+        let mut closest_kept = f64::INFINITY;
+        for (i, a) in kept.iter().enumerate() {
+            assert!(pts.contains(a), "a kept point is a source");
+            for b in &kept[i + 1..] {
+                closest_kept = closest_kept.min(d(a, b));
+            }
+        }
+        let farthest_dropped = pts
+            .iter()
+            .map(|p| kept.iter().map(|k| d(p, k)).fold(f64::INFINITY, f64::min))
+            .fold(0.0, f64::max);
+        assert!(farthest_dropped < closest_kept, "{farthest_dropped} vs {closest_kept}");
+        let in_crowd = kept
+            .iter()
+            .filter(|p| (500.0..600.0).contains(&p[0]) && (500.0..600.0).contains(&p[1]))
+            .count();
+        assert!(in_crowd < 20, "the crowd is thinned to a few: {in_crowd}");
+    }
 }

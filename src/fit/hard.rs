@@ -273,6 +273,7 @@ pub(super) fn fit_hard(
     rep.bend_auto = soft.report.bend_auto;
     rep.gcv_rms = soft.report.gcv_rms;
     rep.loo_rms = soft.report.loo_rms;
+    rep.bend_criterion = soft.report.bend_criterion;
     rep.termination = soft.report.termination.clone();
     rep.conflicts = soft.report.conflicts.clone();
     rep.time_ms = start.elapsed().as_secs_f64() * 1e3;

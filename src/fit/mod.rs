@@ -8,7 +8,8 @@
 //!   anchoring, held-out landmarks, warm starts, resume keys, shards);
 //! * [`solve`]: the fit itself (objective in [`objective`], bending energy and basis rows in
 //!   [`basis`], the MDS parameterization in [`param`], the squares fit in landmark space and
-//!   the automatic smoothing weight in [`smooth`], Newton's method with the fold barrier in
+//!   the automatic smoothing weight in [`smooth`] (in variable space for many landmarks,
+//!   [`smooth_sparse`]), Newton's method with the fold barrier in
 //!   [`newton`] on the sparse Cholesky of [`sparse`], exact interpolation in
 //!   MDS coordinates in [`hard`] and [`hard_solve`]);
 //! * [`frame`]: a fit from landmarks alone, over a landmark-adapted mesh that covers the
@@ -34,6 +35,7 @@ pub mod param;
 mod report;
 pub mod sequence;
 pub mod smooth;
+pub mod smooth_sparse;
 pub mod solve;
 pub use crate::sparse;
 #[cfg(test)]

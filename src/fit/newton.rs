@@ -60,7 +60,12 @@ pub struct Outcome {
 struct Structure {
     nv: usize,
     tris: Vec<TriInfo>,
+    /// Each data row over its triangle's variables: `(position in `local`, coefficient)`.
     rows: Vec<Vec<(usize, f64)>>,
+    /// The data rows of each triangle (a landmark's row lies within its triangle's block,
+    /// so the data add values to the triangles' blocks and no entry: the pattern does not
+    /// grow with the number of landmarks).
+    rows_of: Vec<Vec<usize>>,
     pattern: Pattern,
 }
 
@@ -68,24 +73,37 @@ impl Structure {
     fn new(obj: &Objective) -> Result<Structure, FitError> {
         let nv = obj.param.nv();
         let tris = obj.triangle_blocks();
-        let rows: Vec<Vec<(usize, f64)>> =
-            obj.variable_rows().into_iter().map(|(row, _, _)| row).collect();
+        let mut rows_of = vec![Vec::new(); tris.len()];
+        let rows = obj
+            .variable_rows()
+            .into_iter()
+            .zip(obj.rows())
+            .enumerate()
+            .map(|(i, ((row, _, _), dr))| {
+                let local = &tris[dr.triangle].local;
+                rows_of[dr.triangle].push(i);
+                row.iter()
+                    .map(|&(v, a)| {
+                        let z = local.iter().position(|&l| l == v).ok_or_else(|| {
+                            FitError::Internal(format!(
+                                "a landmark's variable {v} is not one of its triangle's"
+                            ))
+                        })?;
+                        Ok((z, a))
+                    })
+                    .collect::<Result<Vec<_>, FitError>>()
+            })
+            .collect::<Result<Vec<_>, FitError>>()?;
         let mut entries = Vec::new();
-        Self::visit(nv, &tris, &rows, |r, c| entries.push((r, c)));
+        Self::visit(nv, &tris, |r, c| entries.push((r, c)));
         let pattern =
             Pattern::new(2 * nv, &entries).map_err(|e| FitError::Solver(e.to_string()))?;
-        Ok(Structure { nv, tris, rows, pattern })
+        Ok(Structure { nv, tris, rows, rows_of, pattern })
     }
 
     /// Visits the pattern's entries in their fixed order: per triangle the xx block's lower
-    /// triangle, the yy block's, the yx block; per data row its xx and yy lower triangles;
-    /// the diagonal.
-    fn visit(
-        nv: usize,
-        tris: &[TriInfo],
-        rows: &[Vec<(usize, f64)>],
-        mut f: impl FnMut(usize, usize),
-    ) {
+    /// triangle, the yy block's, the yx block; the diagonal.
+    fn visit(nv: usize, tris: &[TriInfo], mut f: impl FnMut(usize, usize)) {
         for t in tris {
             let l = &t.local;
             for off in [0, nv] {
@@ -100,17 +118,6 @@ impl Structure {
             for &a in l {
                 for &b in l {
                     f(a + nv, b);
-                }
-            }
-        }
-        for row in rows {
-            for off in [0, nv] {
-                for &(a, _) in row {
-                    for &(b, _) in row {
-                        if a >= b {
-                            f(a + off, b + off);
-                        }
-                    }
                 }
             }
         }
@@ -136,7 +143,11 @@ impl Structure {
         let mut bx: Vec<f64> = Vec::new();
         let mut by: Vec<f64> = Vec::new();
         let mut bxy: Vec<f64> = Vec::new();
-        for (tri, info) in obj.tris().iter().zip(&self.tris) {
+        // The data rows' Gauss-Newton weights w_i psi(r_i).
+        let res = obj.residual_lengths(x);
+        let data: Vec<f64> =
+            obj.rows().iter().zip(&res).map(|(dr, r)| dr.weight * obj.loss.eval(*r).1).collect();
+        for ((tri, info), mine) in obj.tris().iter().zip(&self.tris).zip(&self.rows_of) {
             let (m, u) = (tri.patch.len(), info.local.len());
             for (a, &j) in tri.patch.iter().enumerate() {
                 q[a] = p[j];
@@ -178,6 +189,16 @@ impl Structure {
                     }
                 }
             }
+            for &i in mine {
+                let row = &self.rows[i];
+                for &(z1, va) in row {
+                    for &(z2, vb) in row {
+                        let v = data[i] * va * vb;
+                        bx[z1 * u + z2] += v;
+                        by[z1 * u + z2] += v;
+                    }
+                }
+            }
             let l = &info.local;
             for blk in [&bx, &by] {
                 for (z1, &a) in l.iter().enumerate() {
@@ -189,19 +210,6 @@ impl Structure {
                 }
             }
             out.extend_from_slice(&bxy);
-        }
-        let res = obj.residual_lengths(x);
-        for ((row, r), dr) in self.rows.iter().zip(&res).zip(obj.rows()) {
-            let f = dr.weight * obj.loss.eval(*r).1;
-            for _ in 0..2 {
-                for &(a, va) in row {
-                    for &(b, vb) in row {
-                        if a >= b {
-                            out.push(f * va * vb);
-                        }
-                    }
-                }
-            }
         }
         out.extend(std::iter::repeat_n(ridge, 2 * nv));
         debug_assert_eq!(out.len(), self.pattern.len());
@@ -388,6 +396,6 @@ pub fn newton(
 
 fn pattern_pairs(st: &Structure) -> Vec<(usize, usize)> {
     let mut v = Vec::with_capacity(st.pattern.len());
-    Structure::visit(st.nv, &st.tris, &st.rows, |r, c| v.push((r, c)));
+    Structure::visit(st.nv, &st.tris, |r, c| v.push((r, c)));
     v
 }

@@ -242,6 +242,8 @@ pub struct DataRow {
     pub target: [f64; 2],
     /// Weight.
     pub weight: f64,
+    /// The triangle whose patch gives the row (the one the source was located in).
+    pub triangle: usize,
 }
 
 /// One triangle's share of the objective.
@@ -594,5 +596,5 @@ pub(super) fn det_gradient(dx: f64, dy: f64, j: &[[f64; 2]; 2]) -> [f64; 2] {
 /// The data row of a source point: `Err(())` when it lies outside the mesh.
 pub fn data_row(s: &Spline, src: [f64; 2], target: [f64; 2], weight: f64) -> Option<DataRow> {
     let (t, b) = s.mesh().locate(src, None)?;
-    Some(DataRow { row: value_row(s, t, b), target, weight })
+    Some(DataRow { row: value_row(s, t, b), target, weight, triangle: t })
 }

@@ -21,6 +21,8 @@ impl FitReport {
             s += &format!("; bend {:.2e} (auto", r.bend);
             if let Some(l) = r.loo_rms {
                 s += &format!(", leave-one-out {l:.3} px");
+            } else if let (Some(g), Some(c)) = (r.gcv_rms, r.bend_criterion) {
+                s += &format!(", {} {g:.3} px", c.name());
             }
             s += ")";
         }

@@ -113,10 +113,36 @@ pub struct Choice {
     pub bend: f64,
     /// `sqrt(GCV)` at it (pixels): the GCV estimate of the prediction error.
     pub gcv_rms: f64,
-    /// Leave-one-out RMS error of the landmarks at it (pixels), exact for the squares fit.
-    pub loo_rms: f64,
-    /// Effective degrees of freedom `tr H` (per coordinate).
+    /// Leave-one-out RMS error of the landmarks at it (pixels), exact for the squares fit
+    /// (landmark space only).
+    pub loo_rms: Option<f64>,
+    /// Effective degrees of freedom `tr H` (per coordinate; estimated by the variable-space
+    /// smoother).
     pub dof: f64,
+    /// The score the weight minimizes.
+    pub criterion: BendCriterion,
+}
+
+/// How an automatic bending weight was chosen (reported as `bend_criterion`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum BendCriterion {
+    /// Exact leave-one-out cross-validation in landmark space (up to
+    /// [`super::smooth_sparse::LANDMARK_SPACE_MAX`] landmarks).
+    LeaveOneOut,
+    /// Generalized cross-validation with a randomized trace in variable space (more
+    /// landmarks; [`super::smooth_sparse`]).
+    RandomizedGcv,
+}
+
+impl BendCriterion {
+    /// The name used in reports and summaries.
+    pub fn name(self) -> &'static str {
+        match self {
+            BendCriterion::LeaveOneOut => "leave-one-out",
+            BendCriterion::RandomizedGcv => "GCV, randomized trace",
+        }
+    }
 }
 
 impl Smoother {
@@ -296,7 +322,13 @@ impl Smoother {
         }
         let den = (1.0 - tr / k as f64).max(1e-12);
         let gcv = rss / sum_w / (den * den);
-        Ok(Some(Choice { bend, gcv_rms: gcv.sqrt(), loo_rms: score.sqrt(), dof: tr }))
+        Ok(Some(Choice {
+            bend,
+            gcv_rms: gcv.sqrt(),
+            loo_rms: Some(score.sqrt()),
+            dof: tr,
+            criterion: BendCriterion::LeaveOneOut,
+        }))
     }
 }
 

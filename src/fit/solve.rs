@@ -6,9 +6,11 @@
 //!    triangles ([`super::param`]), less the pinned ones (and, with
 //!    [`FitOptions::pin_border`], every free point the border depends on).
 //! 2. *Squares*: the exact minimizer of data plus bending, computed in landmark space
-//!    ([`super::smooth`]), with the scale-free bending weight chosen by generalized
-//!    cross-validation ([`Bend::Auto`]) or given. *Huber, Cauchy*: iteratively reweighted
-//!    squares on the same factorization.
+//!    ([`super::smooth`]) with the scale-free bending weight chosen by exact leave-one-out
+//!    cross-validation ([`Bend::Auto`]) or given; above [`LANDMARK_SPACE_MAX`] landmarks, in
+//!    variable space with one sparse factorization per weight and the weight chosen by GCV
+//!    with a randomized trace ([`super::smooth_sparse`]; the report's `bend_criterion` says
+//!    which). *Huber, Cauchy*: iteratively reweighted squares on the same smoother.
 //! 3. *Barrier*: if some `det J` sample of that minimizer is below the barrier's threshold,
 //!    Newton's method with the barrier's Hessian ([`super::newton`]) runs from the best
 //!    start whose `det J > 0` is certified (the minimizer itself, or the warm start); every
@@ -23,6 +25,7 @@ use super::newton::newton;
 use super::objective::{data_row, Barrier, Loss, Objective, TriangleTerms};
 use super::param::Param;
 use super::smooth::{Smoother, DEFAULT_BEND};
+use super::smooth_sparse::{SparseSmoother, LANDMARK_SPACE_MAX};
 use crate::edit::select::{neighborhood, Neighborhood, SelectIndex};
 use crate::spline::jacobian::CertifyOptions;
 use crate::spline::mds::Mds;
@@ -175,6 +178,10 @@ pub struct FitReport {
     /// Leave-one-out error of the landmarks' squares fit at that weight, the score the
     /// weight minimizes (pixels; auto only).
     pub loo_rms: Option<f64>,
+    /// The score the automatic weight minimized: `leave_one_out` (exact, in landmark space,
+    /// up to [`LANDMARK_SPACE_MAX`] landmarks) or `randomized_gcv` (more landmarks,
+    /// [`super::smooth_sparse`]); auto only.
+    pub bend_criterion: Option<super::smooth::BendCriterion>,
     /// Why the solver stopped: `exact` (the squares minimizer, no barrier needed),
     /// `converged`, `no descent` or `iteration cap` (Newton with the barrier).
     pub termination: String,
@@ -521,7 +528,8 @@ fn fit_soft_terms(
     rep.bend = out.bend;
     rep.bend_auto = matches!(opts.bend, Bend::Auto);
     rep.gcv_rms = out.choice.map(|c| c.gcv_rms);
-    rep.loo_rms = out.choice.map(|c| c.loo_rms);
+    rep.loo_rms = out.choice.and_then(|c| c.loo_rms);
+    rep.bend_criterion = out.choice.map(|c| c.criterion);
     rep.termination = out.termination;
     trace.mark("report (residuals, certificate)");
     rep.conflicts = super::affine::crossing_pairs(lms)
@@ -540,6 +548,36 @@ fn bend_weight(b: Bend) -> f64 {
     match b {
         Bend::Weight(w) => w,
         Bend::Auto => DEFAULT_BEND,
+    }
+}
+
+/// The squares fit of [`solve`]: in landmark space (few landmarks, exact leave-one-out) or
+/// in variable space (many, [`super::smooth_sparse`]).
+enum Smoothers {
+    Landmarks(Smoother),
+    Variables(SparseSmoother),
+}
+
+impl Smoothers {
+    fn lambda(&self, bend: f64) -> f64 {
+        match self {
+            Smoothers::Landmarks(s) => s.lambda(bend),
+            Smoothers::Variables(s) => s.lambda(bend),
+        }
+    }
+
+    fn choose(&self) -> Result<Option<super::smooth::Choice>, FitError> {
+        match self {
+            Smoothers::Landmarks(s) => s.choose(),
+            Smoothers::Variables(s) => s.choose(),
+        }
+    }
+
+    fn solve(&self, bend: f64, scale: Option<&[f64]>) -> Result<Vec<f64>, FitError> {
+        match self {
+            Smoothers::Landmarks(s) => s.solve(bend, scale),
+            Smoothers::Variables(s) => s.solve(bend, scale),
+        }
     }
 }
 
@@ -570,8 +608,12 @@ fn solve(
         return Err(FitError::TooLarge { variables: nv });
     }
     let mut trace = crate::timing::Trace::new("fit solve");
-    let sm = Smoother::new(obj)?;
-    trace.mark("landmark-space smoother");
+    let sm = if obj.rows().len() > LANDMARK_SPACE_MAX {
+        Smoothers::Variables(SparseSmoother::new(obj)?)
+    } else {
+        Smoothers::Landmarks(Smoother::new(obj)?)
+    };
+    trace.mark("smoother");
     let choice = match opts.bend {
         Bend::Auto => sm.choose()?,
         Bend::Weight(_) => None,
@@ -669,6 +711,7 @@ pub(super) fn report(
         bend_auto: false,
         gcv_rms: None,
         loo_rms: None,
+        bend_criterion: None,
         termination: "exact".into(),
         variables: 2 * nv,
         iterations,
