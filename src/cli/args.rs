@@ -206,7 +206,7 @@ pub struct MorphCli {
     /// alpha is 0 there when the images have alpha).
     #[arg(long, default_value_t = 0.0)]
     pub background: f64,
-    /// Number of frames (t = k / (frames - 1)), 2 to 1000.
+    /// Number of frames (t = k / (frames - 1)), 2 to 10,000.
     #[arg(long, default_value_t = 30)]
     pub frames: usize,
     /// Times T0,T1 of the first and last frame; outside 0,1 is a caricature

@@ -132,3 +132,15 @@ pub(super) fn run(args: MatchCli) -> Result<()> {
     );
     Ok(())
 }
+
+impl MatchCli {
+    /// The command's files ([`crate::io::clash`]).
+    pub(super) fn files(
+        &self,
+        f: crate::io::clash::CommandFiles,
+    ) -> crate::io::clash::CommandFiles {
+        f.input("image A", Some(&self.a))
+            .input("image B", Some(&self.b))
+            .output("--output", Some(&self.output))
+    }
+}

@@ -8,6 +8,7 @@ mod bench;
 mod common;
 mod demo;
 mod editor_cmd;
+mod files;
 mod fit_args;
 mod fit_batch;
 mod fit_cmd;
@@ -164,6 +165,9 @@ pub fn run() -> i32 {
         Err(e) => return usage_exit(&e),
     };
     crate::memory::set_limit(cli.max_memory);
+    if let Err(e) = files::files(&cli.command).check() {
+        return exit_code(Err(e.into()));
+    }
     let result = match cli.command {
         Command::Solve { system, output } => solve::run(&system, output.as_deref()),
         Command::Demo { output } => demo::run(&output),

@@ -144,3 +144,22 @@ pub(super) fn run(args: RegisterCli) -> Result<()> {
     }
     Ok(())
 }
+
+impl RegisterCli {
+    /// The command's files ([`crate::io::clash`]).
+    pub(super) fn files(
+        &self,
+        f: crate::io::clash::CommandFiles,
+    ) -> crate::io::clash::CommandFiles {
+        f.input("FIXED", Some(&self.fixed))
+            .input("MOVING", Some(&self.moving))
+            .input("--mask-fixed", self.mask_fixed.as_deref())
+            .input("--mask-moving", self.mask_moving.as_deref())
+            .input("--landmarks", self.landmarks.as_deref())
+            .input("--init", self.init.as_deref())
+            .output("--output", Some(&self.output))
+            .output("--warped", self.warped.as_deref())
+            .output("--report", self.report.as_deref())
+            .output("--overlay", self.overlay.as_deref())
+    }
+}

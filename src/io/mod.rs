@@ -4,6 +4,7 @@
 //! over the destination, so a reader never sees a half-written file and a failed command
 //! never destroys an earlier output.
 
+pub mod clash;
 pub mod colormesh;
 pub mod deformation;
 pub mod folder;
