@@ -217,7 +217,12 @@ pub fn image_decode_warp(data: &[u8]) {
     let (w, h) = (page.width().min(WARP_SIZE), page.height().min(WARP_SIZE));
     let page = page.crop_imm(0, 0, w, h);
     let interp = [Interp::Nearest, Interp::Bilinear, Interp::Bicubic][data.len() % 3];
-    let opts = WarpOptions { interp, background: 0.5, ..Default::default() };
+    // A background the page's samples hold (`warp::check_background`).
+    let background = match page.color() {
+        image::ColorType::Rgb32F | image::ColorType::Rgba32F => 0.5,
+        _ => 128.0,
+    };
+    let opts = WarpOptions { interp, background, ..Default::default() };
     let (out, _) = warp_pages(mild_deformation(), std::slice::from_ref(&page), &opts, &|_| {})
         .expect("a decoded page warps");
     assert_eq!(out.len(), 1, "one page in, one page out");

@@ -212,6 +212,20 @@ fn bitgrowth_writes_csv_and_png() {
     assert_eq!(bad.status.code(), Some(1));
 }
 
+/// Bug (issue 54): `--trials 4294967295` tried to allocate 103 GB and aborted. It is refused
+/// before any work, naming the limit.
+#[test]
+fn bitgrowth_refuses_more_trials_than_it_can_hold() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("b");
+    let o =
+        trimorph(&["bench", "bitgrowth", "--trials", "4294967295", "-o", out.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("--trials must be at most 10000"), "{err}");
+    assert!(!out.join("bitgrowth.csv").exists());
+}
+
 /// Bug: `trimorph demo | head -3` panicked with "failed printing to stdout: Broken pipe".
 #[test]
 fn closed_stdout_is_not_a_crash() {

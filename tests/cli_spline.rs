@@ -115,6 +115,9 @@ fn bad_z_ranges_are_refused_by_the_option_parser() {
         ("1,0", "error: --z-range: need A < B"),
         ("-1,-1", "error: --z-range: need A < B"),
         ("a,1", "error: --z-range: `a` is not an exact number"),
+        // Bug (issue 54): accepted, then `warp --model` wrote NaN coordinates.
+        ("-1e400,1e400", "error: --z-range: a negative number of about 401 digits is too large"),
+        ("0,2e12", "error: --z-range: 2e12 is too large: z values must be below 2^40"),
     ] {
         let args = ["mesh", "--grid", "2x2", "--size", "10,10", "--z-range", value, "-o", o];
         let r = trimorph(&args);

@@ -437,3 +437,119 @@ fn inverse_points_of_a_real_fit_reach_machine_precision() {
     assert!(n > 300, "only {n} of 400 points have a preimage");
     assert!(worst <= 1e-9, "max |phi(phi^-1(q)) - q| = {worst:e} px");
 }
+
+/// Bug (issue 54): `--background 300`, `-5` or `1e300` on an 8-bit image were clamped
+/// silently. A background the image's samples cannot hold is refused, naming the range;
+/// nothing is written. The same for the morph's frames.
+#[test]
+fn a_background_the_samples_cannot_hold_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let id = d.join("id.json");
+    ok(&trimorph(&["mesh", "--grid", "3x3", "--size", "40,30", "-o", s(&id)]));
+    let (g8, g16, gf) = (d.join("g8.png"), d.join("g16.png"), d.join("gf.tif"));
+    image::GrayImage::from_fn(40, 30, |x, y| image::Luma([(x + y) as u8])).save(&g8).unwrap();
+    image::ImageBuffer::<image::Luma<u16>, _>::from_fn(40, 30, |x, _| {
+        image::Luma([x as u16 * 999])
+    })
+    .save(&g16)
+    .unwrap();
+    image::DynamicImage::ImageRgb32F(image::Rgb32FImage::from_fn(40, 30, |x, _| {
+        image::Rgb([x as f32 / 40.0, 0.5, -1.0])
+    }))
+    .save(&gf)
+    .unwrap();
+    let out = d.join("out.png");
+    for (img, bg, range) in [
+        (&g8, "300", "0 to 255"),
+        (&g8, "-5", "0 to 255"),
+        (&g8, "12.5", "0 to 255"),
+        (&g8, "1e300", "0 to 255"),
+        (&g16, "70000", "0 to 65535"),
+    ] {
+        let o = trimorph(&[
+            "warp",
+            s(&id),
+            "--image",
+            s(img),
+            "-o",
+            s(&out),
+            &format!("--background={bg}"),
+        ]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{bg}: {err}");
+        assert!(err.contains(&format!("--background {bg}:")) && err.contains(range), "{err}");
+        assert!(!out.exists());
+    }
+    ok(&trimorph(&["warp", s(&id), "--image", s(&g8), "-o", s(&out), "--background", "255"]));
+    let fo = d.join("out.tif");
+    ok(&trimorph(&["warp", s(&id), "--image", s(&gf), "-o", s(&fo), "--background=-3.5"]));
+}
+
+/// Bug (issue 54): `-o x.jpg` of a 16-bit, gray+alpha or float image was written as 8-bit
+/// without alpha (the summary still said `La16`), and a float image to `.pgm` suggested
+/// `.ppm`, `.pam` and `.png`, which all refuse it. Formats that cannot hold the samples are
+/// refused, suggesting only formats that can; nothing is written.
+#[test]
+fn outputs_that_cannot_hold_the_samples_are_refused_with_formats_that_can() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let id = d.join("id.json");
+    ok(&trimorph(&["mesh", "--grid", "3x3", "--size", "40,30", "-o", s(&id)]));
+    let (g16, la8, gf, rgb) =
+        (d.join("g16.png"), d.join("la8.png"), d.join("gf.tif"), d.join("rgb.png"));
+    image::ImageBuffer::<image::Luma<u16>, _>::from_fn(40, 30, |x, _| {
+        image::Luma([x as u16 * 999])
+    })
+    .save(&g16)
+    .unwrap();
+    image::GrayAlphaImage::from_fn(40, 30, |x, y| image::LumaA([x as u8, y as u8]))
+        .save(&la8)
+        .unwrap();
+    image::DynamicImage::ImageRgb32F(image::Rgb32FImage::from_fn(40, 30, |x, _| {
+        image::Rgb([x as f32 / 40.0, 0.5, -1.0])
+    }))
+    .save(&gf)
+    .unwrap();
+    image::RgbImage::from_fn(40, 30, |x, y| image::Rgb([x as u8, y as u8, 7])).save(&rgb).unwrap();
+    for (input, out, want) in [
+        (
+            &g16,
+            "o.jpg",
+            "a JPEG holds 8-bit gray or RGB only, not L16 (use .png or .tif, which keeps it)",
+        ),
+        (&la8, "o.jpeg", "a JPEG holds 8-bit gray or RGB only, not La8 (use .png or .tif"),
+        (&gf, "o.jpg", "not Rgb32F (use .tif, which keeps it)"),
+        (&gf, "o.png", "a PNG holds 8- or 16-bit samples, not Rgb32F (use .tif)"),
+        (&gf, "o.pgm", "a PGM holds 8- or 16-bit gray, not Rgb32F (use .tif)"),
+        (&rgb, "o.pgm", "not Rgb8 (use .ppm, .pam, .png or .tif)"),
+    ] {
+        let o_path = d.join(out);
+        let o = trimorph(&["warp", s(&id), "--image", s(input), "-o", s(&o_path)]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{out}: {err}");
+        assert!(err.contains(want) && err.contains(out), "{out}: {err}");
+        assert!(!o_path.exists());
+    }
+    ok(&trimorph(&["warp", s(&id), "--image", s(&rgb), "-o", s(&d.join("fine.jpg"))]));
+}
+
+/// Bug (issue 54): a 16-bit TIFF with 5 samples per pixel (RGB and two extra samples,
+/// `tests/data/rgb16_5samples.tif`, written by tifffile) was read as RGB and written back
+/// with two channels dropped. It is refused before decoding, naming the sample count.
+#[test]
+fn a_tiff_with_more_samples_than_its_colour_type_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let id = dir.path().join("id.json");
+    ok(&trimorph(&["mesh", "--grid", "2x2", "--size", "8,6", "-o", s(&id)]));
+    let out = dir.path().join("o.tif");
+    let o = trimorph(&["warp", s(&id), "--image", "tests/data/rgb16_5samples.tif", "-o", s(&out)]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("rgb16_5samples.tif, page 0")
+            && err.contains("with 5 samples per pixel (2 beyond"),
+        "{err}"
+    );
+    assert!(!out.exists());
+}

@@ -352,6 +352,34 @@ fn bad_ome_zarr_inputs_exit_1_naming_store_and_element() {
         &["warp", s(&def), "--image", s(&z), "-o", s(&out)],
         &["zyx.zarr", "t, z, y, x", "3 spatial axes"],
     );
+    // Bug (issue 54): shapes that wrapped `w * h` to 0, held no plane, or declared 5,000
+    // planes of 1000 x 1000 in a few bytes of JSON (decoded, then refused, or aborted).
+    for (name, shape, needles) in [
+        (
+            "wrap.zarr",
+            "[1, 1, 8589934592, 2147483648]",
+            &["planes of 2147483648 x 8589934592 pixels", "crop or split"][..],
+        ),
+        ("none.zarr", "[0, 2, 48, 64]", &["holds no planes"][..]),
+        (
+            "many.zarr",
+            "[5000, 1, 1000, 1000]",
+            &["decoding 5000 planes of 1000 x 1000 pixels", "over the budget"][..],
+        ),
+    ] {
+        let z = copy(name);
+        let za = z.join("0/.zarray");
+        let mut meta: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(&za).unwrap()).unwrap();
+        meta["shape"] = serde_json::from_str(shape).unwrap();
+        std::fs::write(&za, meta.to_string()).unwrap();
+        let mut want = vec![name, "array `0`"];
+        want.extend_from_slice(needles);
+        fails_with(
+            &["--max-memory", "1G", "warp", s(&def), "--image", s(&z), "-o", s(&out)],
+            &want,
+        );
+    }
     // No group metadata at all.
     let e = dir.path().join("empty.zarr");
     std::fs::create_dir(&e).unwrap();

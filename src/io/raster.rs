@@ -250,6 +250,23 @@ fn read_tiff<R: std::io::Read + std::io::Seek>(
         })?;
         let unsupported =
             |kind: String| RasterError::Unsupported { path: path.to_path_buf(), page, kind };
+        // Extra samples beyond the colour type's (a 5-sample RGB page decodes as RGB, the
+        // other two dropped): refused, never lost silently.
+        let channels: u32 = match ct {
+            C::Gray(_) => 1,
+            C::GrayA(_) => 2,
+            C::RGB(_) => 3,
+            C::RGBA(_) => 4,
+            _ => 0,
+        };
+        let spp = dec.get_tag_u32(tiff::tags::Tag::SamplesPerPixel).unwrap_or(channels.max(1));
+        if channels > 0 && spp != channels {
+            return Err(unsupported(format!(
+                "{ct:?} with {spp} samples per pixel ({} beyond the colour type's; trimorph \
+                 reads 1 to 4 samples: split the channels into separate pages or files first)",
+                spp.saturating_sub(channels)
+            )));
+        }
         dec = dec.with_limits(page_limits.clone());
         let data = dec.read_image().map_err(derr)?;
         dec = dec.with_limits(tag_limits.clone());
@@ -377,6 +394,24 @@ pub fn write_stack(path: &Path, stack: &Stack) -> Result<(), RasterError> {
         eerr("unknown image extension (use .png, .tif, .jpg, .pgm, .ppm or .pam)".into())
     })?;
     let page = &stack.pages[0];
+    // Formats that cannot hold the page's samples are refused, never converted silently.
+    let float = matches!(page, DynamicImage::ImageRgb32F(_) | DynamicImage::ImageRgba32F(_));
+    let kind =
+        if stack.gray_float { "float gray".to_string() } else { format!("{:?}", page.color()) };
+    match fmt {
+        ImageFormat::Jpeg
+            if !matches!(page, DynamicImage::ImageLuma8(_) | DynamicImage::ImageRgb8(_)) =>
+        {
+            return Err(eerr(format!(
+                "a JPEG holds 8-bit gray or RGB only, not {kind} (use {}, which keeps it)",
+                if float { ".tif" } else { ".png or .tif" }
+            )));
+        }
+        ImageFormat::Png if float => {
+            return Err(eerr(format!("a PNG holds 8- or 16-bit samples, not {kind} (use .tif)")));
+        }
+        _ => {}
+    }
     let bytes = if fmt == ImageFormat::Pnm {
         encode_pnm(path, page, stack.gray_float).map_err(eerr)?
     } else {
@@ -437,15 +472,20 @@ fn encode_pnm(path: &Path, page: &DynamicImage, gray_float: bool) -> Result<Vec<
         }
         ("pgm", _) => {
             return Err(format!(
-                "a PGM holds 8- or 16-bit gray, not {kind} (use .ppm, .pam, .png or .tif)"
+                "a PGM holds 8- or 16-bit gray, not {kind} (use {})",
+                holders(page, gray_float, "pgm")
             ))
         }
         ("ppm", _) => {
-            return Err(format!("a PPM holds 8-bit RGB, not {kind} (use .pam, .png or .tif)"))
+            return Err(format!(
+                "a PPM holds 8-bit RGB, not {kind} (use {})",
+                holders(page, gray_float, "ppm")
+            ))
         }
         ("pnm", _) => {
             return Err(format!(
-                "a PNM holds 8- or 16-bit gray or 8-bit RGB, not {kind} (use .pam, .png or .tif)"
+                "a PNM holds 8- or 16-bit gray or 8-bit RGB, not {kind} (use {})",
+                holders(page, gray_float, "pnm")
             ))
         }
         ("pam", _) => return Err(format!("a PAM holds integer samples, not {kind} (use .tif)")),
@@ -459,6 +499,26 @@ fn encode_pnm(path: &Path, page: &DynamicImage, gray_float: bool) -> Result<Vec<
     };
     enc.write_image(page.as_bytes(), w, h, page.color().into()).map_err(|e| e.to_string())?;
     Ok(out)
+}
+
+/// The extensions whose formats hold `page`'s samples, other than `except`: `.ppm` for
+/// 8-bit RGB, `.pam` and `.png` for integer samples, `.tif` for all (`.a, .b or .c`).
+fn holders(page: &DynamicImage, gray_float: bool, except: &str) -> String {
+    let float =
+        gray_float || matches!(page, DynamicImage::ImageRgb32F(_) | DynamicImage::ImageRgba32F(_));
+    let mut v: Vec<&str> = Vec::new();
+    if matches!(page, DynamicImage::ImageRgb8(_)) {
+        v.push("ppm");
+    }
+    if !float {
+        v.extend(["pam", "png"]);
+    }
+    v.push("tif");
+    let v: Vec<String> = v.into_iter().filter(|e| *e != except).map(|e| format!(".{e}")).collect();
+    match v.split_last() {
+        Some((last, rest)) if !rest.is_empty() => format!("{} or {last}", rest.join(", ")),
+        _ => v.concat(),
+    }
 }
 
 fn encode_tiff(stack: &Stack) -> Result<Vec<u8>, tiff::TiffError> {

@@ -27,6 +27,9 @@ fn color(m: Simplification) -> [u8; 3] {
     }
 }
 
+/// The most random matrices per point `--trials` takes.
+pub const MAX_TRIALS: usize = 10_000;
+
 /// Runs the experiments whose id contains `only` (all without it; fewer x values with
 /// `quick`), `trials` random matrices per point from `seed`, and writes `bitgrowth.csv` and
 /// one `<id>.png` per experiment into `dir`. `log` hears the timings and result lines; its
@@ -41,6 +44,15 @@ pub fn write_bitgrowth(
 ) -> JobResult<()> {
     if trials == 0 {
         return Err(OptionError::OutOfRange { flag: "--trials", rule: "must be at least 1" }.into());
+    }
+    // Each trial's factors are kept per point (4,294,967,295 trials asked for 103 GB).
+    if trials > MAX_TRIALS {
+        return Err(OptionError::OutOfRange {
+            flag: "--trials",
+            rule:
+                "must be at most 10000 (the thesis's figures use 20; the mean settles long before)",
+        }
+        .into());
     }
     std::fs::create_dir_all(dir)
         .map_err(|e| JobError::context(format!("cannot create {}", dir.display()), e))?;

@@ -24,6 +24,19 @@ impl Morph {
 
     /// [`Morph::frame_exact`] with its [`FrameStats`].
     pub fn frame_with_stats(&self, t: &Rat) -> Result<(DynamicImage, FrameStats), MorphError> {
+        // The background must be a sample of the working type (nothing clamped silently).
+        let like = match &self.a {
+            DynamicImage::ImageLuma8(_)
+            | DynamicImage::ImageLumaA8(_)
+            | DynamicImage::ImageRgb8(_)
+            | DynamicImage::ImageRgba8(_) => crate::warp::Samples::U8(&[]),
+            DynamicImage::ImageLuma16(_)
+            | DynamicImage::ImageLumaA16(_)
+            | DynamicImage::ImageRgb16(_)
+            | DynamicImage::ImageRgba16(_) => crate::warp::Samples::U16(&[]),
+            _ => crate::warp::Samples::F32(&[]),
+        };
+        crate::warp::check_background(self.opts.background, &like)?;
         let (_, c) = self.weights(rat_to_f64(t))?;
         let s = self.opts.shape.at_exact(t);
         let (w, h) = (self.a.width(), self.a.height());

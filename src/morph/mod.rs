@@ -116,6 +116,9 @@ pub enum MorphError {
     /// Fewer than 2 frames.
     #[error("a morph needs at least 2 frames, got {0}")]
     Frames(usize),
+    /// The background is not a sample of the frames' type.
+    #[error(transparent)]
+    Background(#[from] crate::warp::WarpError),
     /// A schedule value that is not finite.
     #[error("the schedule is not finite at t = {0}")]
     Schedule(f64),

@@ -169,6 +169,24 @@ pub struct ZRange {
 impl ZRange {
     /// The range `[lo, hi]`, refused unless `lo < hi`.
     pub fn new(lo: Rat, hi: Rat) -> Result<ZRange, ZRangeError> {
+        // Beyond the mesh's coordinate range the prisms' z values would overflow `f64`
+        // downstream (a model warped to NaN coordinates).
+        let limit = crate::exact::rat_int(1i64 << 40);
+        for v in [&lo, &hi] {
+            if *v >= limit || -v.clone() >= limit {
+                let f = crate::exact::rat_to_f64(v);
+                let shown = if f.is_finite() {
+                    format!("{f:e}")
+                } else {
+                    let digits = v.numer().to_string().trim_start_matches('-').len();
+                    format!(
+                        "{}number of about {digits} digits",
+                        if f < 0.0 { "a negative " } else { "a " }
+                    )
+                };
+                return Err(ZRangeError::TooLarge(shown));
+            }
+        }
         if lo >= hi {
             return Err(ZRangeError::Empty { lo: Box::new(lo), hi: Box::new(hi) });
         }
@@ -215,6 +233,9 @@ pub enum ZRangeError {
     /// A value that is not an exact number.
     #[error(transparent)]
     Value(#[from] ParseRatError),
+    /// A value beyond the coordinates a mesh holds (`|v| < 2^40`).
+    #[error("{0} is too large: z values must be below 2^40 in magnitude")]
+    TooLarge(String),
     /// `lo >= hi`.
     #[error("need A < B")]
     Empty {

@@ -108,6 +108,52 @@ pub enum WarpError {
     /// The output pages would exceed the process's memory budget ([`crate::memory`]).
     #[error(transparent)]
     Memory(#[from] crate::memory::OverBudget),
+    /// The background value is not a sample of the image's type ([`check_background`]).
+    #[error("--background {}: {why}; give a value in that range", short_number(*.value))]
+    Background {
+        /// The value given.
+        value: f64,
+        /// What the type holds.
+        why: &'static str,
+    },
+}
+
+/// A number as written by a person: `300`, `12.5`, `1e300` (not 300 digits).
+fn short_number(v: f64) -> String {
+    if v != 0.0 && v.is_finite() && !(1e-4..1e9).contains(&v.abs()) {
+        format!("{v:e}")
+    } else {
+        v.to_string()
+    }
+}
+
+/// Checks that `value` is a sample the pages' type holds, so that nothing is clamped or
+/// rounded silently: 8-bit samples are whole numbers 0 to 255, 16-bit 0 to 65535, float
+/// samples any finite number.
+///
+/// ```
+/// use trimorph::warp::{check_background, Samples};
+/// assert!(check_background(255.0, &Samples::U8(&[])).is_ok());
+/// assert!(check_background(300.0, &Samples::U8(&[])).is_err());
+/// assert!(check_background(12.5, &Samples::U16(&[])).is_err());
+/// assert!(check_background(-3.5, &Samples::F32(&[])).is_ok());
+/// ```
+pub fn check_background(value: f64, like: &Samples<'_>) -> Result<(), WarpError> {
+    let (max, why) = match like {
+        Samples::U8(_) => (255.0, "8-bit samples are whole numbers from 0 to 255"),
+        Samples::U16(_) => (65535.0, "16-bit samples are whole numbers from 0 to 65535"),
+        Samples::F32(_) => {
+            return if value.is_finite() && value.abs() <= f32::MAX as f64 {
+                Ok(())
+            } else {
+                Err(WarpError::Background { value, why: "float samples are finite numbers" })
+            };
+        }
+    };
+    if !(0.0..=max).contains(&value) || value.fract() != 0.0 {
+        return Err(WarpError::Background { value, why });
+    }
+    Ok(())
 }
 
 /// What happened while warping an image: the statistics of its preimages
@@ -375,6 +421,9 @@ pub fn warp_samples_sized_into(
     });
     if pages.len() != outs.len() || !same_types {
         return Err(LayoutError::Mismatch { inputs: pages.len(), outputs: outs.len() }.into());
+    }
+    if let Some(first) = pages.first() {
+        check_background(opts.background, first)?;
     }
     let expected_in = iw as usize * ih as usize * nc;
     let expected_out = w as usize * h as usize * nc;

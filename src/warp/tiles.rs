@@ -430,6 +430,9 @@ pub fn warp_tile_into(
     if !same_types {
         return Err(LayoutError::Mismatch { inputs: pages.len(), outputs: outs.len() }.into());
     }
+    if let Some(first) = pages.first() {
+        super::check_background(opts.background, first)?;
+    }
     let lens = pages.iter().map(|p| (p.len(), window)).chain(outs.iter().map(|o| (o.len(), tile)));
     for (index, (found, r)) in lens.enumerate() {
         let expected = r.len() * nc;

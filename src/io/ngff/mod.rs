@@ -339,12 +339,33 @@ pub fn read_image(path: &Path) -> Result<NgffImage, NgffError> {
         });
     };
     let (h, w) = (shape[shape.len() - 2], shape[shape.len() - 1]);
-    if w == 0 || h == 0 || w * h > super::raster::MAX_PIXELS || w > u32::MAX as u64 {
+    // Checked products: a shape like [2^33, 2^31] wrapped `w * h` to 0 and passed.
+    let pixels = w.checked_mul(h).filter(|&p| p <= super::raster::MAX_PIXELS);
+    if w == 0 || h == 0 || pixels.is_none() || w > u32::MAX as u64 {
         return Err(arr_err(format!(
             "planes of {w} x {h} pixels, outside 1 .. 2^30 pixels; crop or split the image"
         )));
     }
-    let planes: u64 = shape[..shape.len() - 2].iter().product();
+    let lead = &shape[..shape.len() - 2];
+    let planes = lead.iter().try_fold(1u64, |a, &b| a.checked_mul(b));
+    let Some(planes) = planes.filter(|&p| p > 0) else {
+        return Err(arr_err(format!(
+            "shape {shape:?} holds {} planes; an image needs at least one, and at most 2^64 samples",
+            if lead.contains(&0) { "no".to_string() } else { "more than 2^64".to_string() }
+        )));
+    };
+    // The decoded samples and the pages built from them (float planes become RGB), checked
+    // against the memory budget before anything is read.
+    let per_sample: u64 = match dtype {
+        SampleType::U8 => 2,
+        SampleType::U16 => 4,
+        SampleType::F32 => 16,
+    };
+    let samples = planes.saturating_mul(pixels.unwrap_or(u64::MAX));
+    crate::memory::check(samples.saturating_mul(per_sample), || {
+        format!("{}: decoding {planes} planes of {w} x {h} pixels", path.display())
+    })
+    .map_err(|e| arr_err(e.to_string()))?;
     let chunks = array
         .chunk_shape(&vec![0; shape.len()])
         .map_err(|e| arr_err(e.to_string()))?
