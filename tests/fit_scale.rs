@@ -21,6 +21,16 @@ fn field(p: [f64; 2]) -> [f64; 2] {
     ]
 }
 
+/// `n` pairs `(p, field(p))`, `p` uniform over the 4096^2 frame.
+fn field_pairs(rng: &mut SmallRng, n: usize) -> Vec<([f64; 2], [f64; 2])> {
+    (0..n)
+        .map(|_| {
+            let p = [rng.gen_range(0.0..4095.0), rng.gen_range(0.0..4095.0)];
+            (p, field(p))
+        })
+        .collect()
+}
+
 fn write_csv(path: &Path, pairs: &[([f64; 2], [f64; 2])]) {
     let mut text = String::from("name,src_x,src_y,dst_x,dst_y\n");
     for (i, (a, b)) in pairs.iter().enumerate() {
@@ -78,12 +88,7 @@ fn ten_thousand_landmarks_fit_a_4096_frame_certified() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let mut rng = SmallRng::seed_from_u64(10_000);
-    let pairs: Vec<([f64; 2], [f64; 2])> = (0..10_000)
-        .map(|_| {
-            let p = [rng.gen_range(0.0..4095.0), rng.gen_range(0.0..4095.0)];
-            (p, field(p))
-        })
-        .collect();
+    let pairs = field_pairs(&mut rng, 10_000);
     let (lm, def, rep) = (d.join("l.csv"), d.join("f.json"), d.join("r.json"));
     write_csv(&lm, &pairs);
     ok(&trimorph(&[
@@ -191,12 +196,7 @@ fn twenty_thousand_landmarks_over_a_small_budget_are_refused_cleanly() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let mut rng = SmallRng::seed_from_u64(20_000);
-    let pairs: Vec<([f64; 2], [f64; 2])> = (0..20_000)
-        .map(|_| {
-            let p = [rng.gen_range(0.0..4095.0), rng.gen_range(0.0..4095.0)];
-            (p, field(p))
-        })
-        .collect();
+    let pairs = field_pairs(&mut rng, 20_000);
     let (lm, def) = (d.join("l.csv"), d.join("f.json"));
     write_csv(&lm, &pairs);
     let o = trimorph(&[

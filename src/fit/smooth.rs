@@ -145,6 +145,29 @@ impl BendCriterion {
     }
 }
 
+/// Each triangle's variables, `K`'s pattern, its values, and the ridge `r_0`.
+pub(super) type BendingStructure = (Vec<Vec<usize>>, Pattern, BendingValues, f64);
+
+/// `K`'s structure and values, shared by both smoothers: each triangle's variables
+/// (ascending: dense blocks), the pattern with its symbolic analysis (one thread) built
+/// beside the numeric assembly (the others), and the ridge `r_0 = RIDGE` times `K`'s mean
+/// diagonal. The pattern's diagonal entries come last, for the ridge.
+pub(super) fn bending_structure(
+    obj: &Objective,
+    trace: &mut crate::timing::Trace,
+) -> Result<BendingStructure, FitError> {
+    let nv = obj.param.nv();
+    let locals = obj.bending_locals();
+    trace.mark("bending locals");
+    let (pattern, bv) =
+        rayon::join(|| Pattern::from_cliques(nv, &locals, true), || obj.bending_values(&locals));
+    trace.mark("symbolic analysis | bending values");
+    let pattern = pattern.map_err(|e| FitError::Solver(e.to_string()))?;
+    let diag = bv.diag;
+    let mean_diag = if diag.1 == 0 { 1.0 } else { (diag.0 / nv as f64).max(f64::MIN_POSITIVE) };
+    Ok((locals, pattern, bv, RIDGE * mean_diag))
+}
+
 impl Smoother {
     /// Builds the landmark-space problem of an objective (its loss and barrier are ignored).
     pub fn new(obj: &Objective) -> Result<Smoother, FitError> {
@@ -154,29 +177,17 @@ impl Smoother {
         if nv.saturating_mul(k.max(1)) > MAX_SMOOTHER_ENTRIES {
             return Err(FitError::TooLarge { variables: nv });
         }
-        // The structure of K first (each triangle's variables, ascending: dense blocks); then
-        // its symbolic analysis (one thread) beside the numeric assembly (the others). The
-        // ridge's diagonal entries come last.
         let mut trace = crate::timing::Trace::new("smoother");
-        let locals = obj.bending_locals();
-        trace.mark("bending locals");
-        let (pattern, bv) = rayon::join(
-            || Pattern::from_cliques(nv, &locals, true),
-            || obj.bending_values(&locals),
-        );
-        trace.mark("symbolic analysis | bending values");
-        let pattern = pattern.map_err(|e| FitError::Solver(e.to_string()))?;
-        let BendingValues { mut values, b, diag } = bv;
-        let mean_diag = if diag.1 == 0 { 1.0 } else { (diag.0 / nv as f64).max(f64::MIN_POSITIVE) };
+        let (_, pattern, BendingValues { mut values, b, .. }, r) =
+            bending_structure(obj, &mut trace)?;
         // The ridge on the diagonal (the last nv entries of the pattern).
-        values.extend(std::iter::repeat_n(RIDGE * mean_diag, nv));
+        values.extend(std::iter::repeat_n(r, nv));
         let factor: Factor = pattern.factor(&values).map_err(|_| FitError::Singular(0))?;
         trace.mark("numeric Cholesky");
         // The ridge penalizes the distance to the warm start (not to the origin), so the
         // warm start's cost bounds the result's: x0 = -(K + r I)^-1 (b - r x_warm), the two
         // coordinates on two threads (each solve is sequential).
         let warm = obj.param.x0();
-        let r = RIDGE * mean_diag;
         let x0_of = |c: usize| {
             let mut v: Vec<f64> =
                 b[c].iter().zip(&warm[c * nv..(c + 1) * nv]).map(|(x, w)| r * w - x).collect();

@@ -44,7 +44,7 @@
 //! best grid point, to a width of [`FINE_WIDTH`].
 
 use super::objective::Objective;
-use super::smooth::{Choice, RIDGE};
+use super::smooth::{bending_structure, Choice};
 use super::solve::FitError;
 use super::sparse::{Factor, Pattern};
 use crate::memory;
@@ -116,14 +116,7 @@ impl SparseSmoother {
     pub fn new(obj: &Objective) -> Result<SparseSmoother, FitError> {
         let nv = obj.param.nv();
         let mut trace = crate::timing::Trace::new("sparse smoother");
-        let locals = obj.bending_locals();
-        trace.mark("bending locals");
-        let (pattern, bv) = rayon::join(
-            || Pattern::from_cliques(nv, &locals, true),
-            || obj.bending_values(&locals),
-        );
-        trace.mark("symbolic analysis | bending values");
-        let pattern = pattern.map_err(|e| FitError::Solver(e.to_string()))?;
+        let (locals, pattern, bv, ridge) = bending_structure(obj, &mut trace)?;
         // The factor's values, the assembled matrix and the pattern's values, held at once
         // by each of rayon's workers (the weight search factors in parallel).
         let per_worker = (pattern.factor_len() as u64).saturating_add(2 * pattern.len() as u64);
@@ -141,10 +134,8 @@ impl SparseSmoother {
             offset.push(total);
             total += l.len() * (l.len() + 1) / 2;
         }
-        let super::objective::BendingValues { values: bend, b, diag } = bv;
+        let super::objective::BendingValues { values: bend, b, .. } = bv;
         debug_assert_eq!(bend.len(), total);
-        let mean_diag = if diag.1 == 0 { 1.0 } else { (diag.0 / nv as f64).max(f64::MIN_POSITIVE) };
-        let ridge = RIDGE * mean_diag;
         let warm = obj.param.x0();
         let rhs_bend = [0, 1].map(|c| {
             b[c].iter().zip(&warm[c * nv..(c + 1) * nv]).map(|(bv, w)| ridge * w - bv).collect()
