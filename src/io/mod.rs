@@ -14,6 +14,7 @@ pub mod landmarks;
 pub mod model;
 pub mod ngff;
 pub mod obj;
+mod pnm;
 pub mod points;
 pub mod raster;
 
