@@ -464,3 +464,45 @@ fn a_point_file_pair_morphs_as_the_equivalent_landmark_csv() {
         assert!(!Path::new(&out).exists(), "{extra:?}");
     }
 }
+
+fn face(name: &str) -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("data/faces").join(name).display().to_string()
+}
+
+/// The portraits of `data/faces` with their iBUG `.pts` files: by default both fits meet
+/// every landmark (printed residuals 0.0xx px, no warning); `--bend` smooths and then the
+/// missed landmarks are named in a warning; `--hard --pin-frame` meets them exactly with the
+/// border pinned.
+#[test]
+fn faces_morph_meets_its_landmarks_and_names_the_ones_it_misses() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |extra: &[&str]| {
+        let out = dir.path().join(format!("out{}", extra.len()));
+        let (a, b, la, lb) =
+            (face("takeo.png"), face("einstein.jpg"), face("takeo.pts"), face("einstein.pts"));
+        let mut args = vec!["morph", &a, &b, "--landmarks-src", &la, "--landmarks-dst", &lb];
+        args.extend(["--frames", "2", "-o", out.to_str().unwrap()]);
+        args.extend(extra);
+        let o = trimorph(&args);
+        assert!(o.status.success(), "{args:?}: {}", String::from_utf8_lossy(&o.stderr));
+        String::from_utf8_lossy(&o.stderr).into_owned()
+    };
+    let residuals = |err: &str| -> Vec<f64> {
+        err.lines()
+            .filter(|l| l.starts_with("fit "))
+            .map(|l| {
+                let t = l.split("largest residual ").nth(1).unwrap();
+                t.split(' ').next().unwrap().parse().unwrap()
+            })
+            .collect()
+    };
+    let plain = run(&[]);
+    assert!(residuals(&plain).iter().all(|&r| r <= 0.1), "{plain}");
+    assert!(!plain.contains("warning"), "{plain}");
+    let smooth = run(&["--bend", "1e-6"]);
+    assert!(smooth.contains("landmark(s) missed by more than 0.1 px: #"), "{smooth}");
+    assert!(residuals(&smooth).iter().any(|&r| r > 1.0), "{smooth}");
+    let hard = run(&["--hard", "--pin-frame", "--bend", "1e-11"]);
+    assert_eq!(residuals(&hard), [0.0, 0.0], "{hard}");
+    assert!(!hard.contains("warning"), "{hard}");
+}

@@ -207,10 +207,15 @@ fn morph_exc(py: Python<'_>, e: MorphError) -> PyErr {
 /// landmarks `src` (in `a`'s pixels) -> `dst` (in `b`'s pixels), like `trimorph morph`:
 /// `b` is first brought into `a`'s frame by the landmarks' similarity (`align=True`), the
 /// two maps are fitted fold-free, and `frames` images at `t = 0 .. 1` are returned as a list
-/// of arrays of `a`'s frame and the morph's working type. Releases the GIL.
+/// of arrays of `a`'s frame and the morph's working type. Both maps interpolate the
+/// landmarks unless `bend` ("auto" or a weight, as in `fit`) smooths them; `hard` meets them
+/// exactly; `pin_frame` keeps `a`'s frame border still (`--bend --hard --pin-frame`).
+/// Releases the GIL.
 #[pyfunction]
 #[pyo3(signature = (a, b, src, dst, frames = 11, shape = "linear", color = "linear",
-    interp = "bilinear", align = true, background = 0.0, t0 = 0.0, t1 = 1.0))]
+    interp = "bilinear", align = true, background = 0.0, t0 = 0.0, t1 = 1.0, bend = None,
+    hard = false, pin_frame = false))]
+#[allow(clippy::too_many_arguments)]
 pub fn morph<'py>(
     py: Python<'py>,
     a: &Bound<'py, PyAny>,
@@ -225,6 +230,9 @@ pub fn morph<'py>(
     background: f64,
     t0: f64,
     t1: f64,
+    bend: Option<&Bound<'py, PyAny>>,
+    hard: bool,
+    pin_frame: bool,
 ) -> PyResult<Bound<'py, PyList>> {
     let (img_a, gray_a) = numpy_to_image(py, a, "a")?;
     let (img_b, gray_b) = numpy_to_image(py, b, "b")?;
@@ -241,7 +249,18 @@ pub fn morph<'py>(
         interp: interp.parse::<Interp>().map_err(value_error)?,
         align,
         background,
+        pin_frame,
         ..MorphOptions::default()
+    };
+    // The morph's own default weight (interpolation) unless `bend` is given.
+    let fit = fit_options("squares", 2.0, bend, hard, true, 0.1, 200, None)?;
+    let opts = MorphOptions {
+        fit: FitOptions {
+            bend: if bend.is_some() { fit.bend } else { opts.fit.bend },
+            hard,
+            ..opts.fit.clone()
+        },
+        ..opts
     };
     let times = times_between(frames, t0, t1).map_err(value_error)?;
     let out = py

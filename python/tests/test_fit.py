@@ -88,6 +88,28 @@ def test_morph_frames_equal_the_cli_frames(nuclei, cli, tmp_path):
         np.testing.assert_array_equal(ours, ref)
 
 
+def test_morph_bend_hard_and_pin_frame_equal_the_cli(nuclei, cli, tmp_path):
+    """Issue 52: `morph(..., bend=, hard=, pin_frame=)` are the CLI's --bend --hard --pin-frame."""
+    a = trimorph.read_image(nuclei["a"])
+    b = trimorph.read_image(nuclei["b"])
+    for kw, flags in [
+        (dict(bend=1e-3), ["--bend", "1e-3"]),
+        (dict(hard=True, pin_frame=True), ["--hard", "--pin-frame"]),
+    ]:
+        frames = trimorph.morph(a, b, nuclei["src"], nuclei["dst"], frames=3, **kw)
+        out = tmp_path / ("m" + "".join(flags))
+        cli("morph", nuclei["a"], nuclei["b"], "--landmarks", nuclei["landmarks"],
+            "--frames", "3", "-o", out, "--quiet", *flags)
+        files = sorted(out.glob("frame_*"))
+        for ours, f in zip(frames, files):
+            np.testing.assert_array_equal(ours, trimorph.read_image(f))
+    plain = trimorph.morph(a, b, nuclei["src"], nuclei["dst"], frames=3)
+    smooth = trimorph.morph(a, b, nuclei["src"], nuclei["dst"], frames=3, bend=1e-3)
+    assert not np.array_equal(plain[1], smooth[1])
+    with pytest.raises(ValueError, match="bend"):
+        trimorph.morph(a, b, nuclei["src"], nuclei["dst"], frames=3, bend="stiff")
+
+
 def test_far_rings_extend_the_fitted_mesh(nuclei):
     src, dst = nuclei["src"], nuclei["dst"]
     ringed = trimorph.fit(src, dst, size=(184, 184))

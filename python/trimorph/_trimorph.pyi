@@ -232,6 +232,9 @@ def morph(
     background: float = 0.0,
     t0: float = 0.0,
     t1: float = 1.0,
+    bend: Union[float, str, None] = None,
+    hard: bool = False,
+    pin_frame: bool = False,
 ) -> List[_Image]:
     """Frames of the morph from a to b (like `trimorph morph`), in a's frame."""
 

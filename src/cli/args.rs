@@ -3,6 +3,7 @@
 
 use super::common::text;
 use super::{editor_cmd, model_cmd, morph_cmd, spline_cmds, warp_cmd};
+use crate::fit::solve::Bend;
 use crate::jobs::model::AutoGrid;
 use crate::jobs::values::{
     parse_canvas_size, parse_extent, parse_grid, parse_raster_size, parse_time_range,
@@ -198,6 +199,19 @@ pub struct MorphCli {
     /// Keep B's raw pixel coordinates (no similarity alignment of B to A).
     #[arg(long)]
     pub no_align: bool,
+    /// Weight of the fits' bending energy, as in `fit --bend`: `auto` (leave-one-out) or a
+    /// scale-free number. Default 1e-11: both maps interpolate their landmarks (within 0.1
+    /// px, unless that would fold the map; the fold barrier acts as in `fit`).
+    #[arg(long, value_parser = text(str::parse::<Bend>))]
+    pub bend: Option<Bend>,
+    /// The landmarks become hard constraints of both fits (met exactly, through ECLES); a
+    /// map that would fold is refused, naming the landmarks.
+    #[arg(long, conflicts_with = "phi_ab")]
+    pub hard: bool,
+    /// Keep A's frame border still in every frame (after B's alignment): points along the
+    /// border become landmarks of both fits, so only what the landmarks move moves.
+    #[arg(long, conflicts_with = "phi_ab")]
+    pub pin_frame: bool,
     /// Print the time of each phase (read, fits, frames, encodings, writes) to stderr.
     #[arg(long)]
     pub timings: bool,

@@ -46,8 +46,9 @@ pub struct FitCli {
     pub loss_scale: f64,
     /// Weight of the bending (thin-plate) energy: `auto` (chosen by leave-one-out
     /// cross-validation on the landmarks) or a scale-free number (lambda = bend * sum of
-    /// landmark weights * area, the frame and margin with --size, else the mesh's; 1e-4 is
-    /// close to interpolation, 1 is very stiff).
+    /// landmark weights * area, the frame and margin with --size, else the mesh's; 1e-11
+    /// interpolates, 1e-7 already smooths strongly bent landmarks by pixels, 1 is very
+    /// stiff).
     #[arg(long, default_value = "auto", value_parser = text(str::parse::<Bend>))]
     pub bend: Bend,
     /// Landmarks become hard constraints phi(s) = t (exact, through ECLES).

@@ -4,10 +4,12 @@
 
 use super::args::MorphCli;
 use super::common::progress_bar;
+use crate::fit::solve::FitOptions;
 use crate::io::landmarks::LandmarkSource;
 use crate::io::raster::read_stack;
 use crate::io::{deformation, read_text};
 use crate::morph::align::{Similarity, SIMILARITY_KEY};
+use crate::morph::fits::{MISS_TOLERANCE, PIN_PREFIX};
 use crate::morph::{Morph, MorphOptions};
 use crate::render::morph_files::{check_frames, write_morph, MorphFileOptions};
 use crate::spline::Spline;
@@ -48,7 +50,12 @@ pub fn run(a: &MorphCli) -> Result<()> {
         cells: a.cells,
         align,
         background: a.background,
+        pin_frame: a.pin_frame,
         ..MorphOptions::default()
+    };
+    let opts = MorphOptions {
+        fit: FitOptions { bend: a.bend.unwrap_or(opts.fit.bend), hard: a.hard, ..opts.fit.clone() },
+        ..opts
     };
     let load = |p: &Path| -> Result<Spline> {
         let (s, _) = deformation::from_str(&read_text(p)?)
@@ -71,13 +78,32 @@ pub fn run(a: &MorphCli) -> Result<()> {
                 for (dir, f) in [("A->B", ab), ("B->A", ba)] {
                     eprintln!(
                         "fit {dir}: {} triangles, margin {} px, largest residual {:.3} px, \
-                         certified fold-free (det J >= {:.3}){}",
+                         certified fold-free (det J >= {}){}",
                         f.triangles,
                         f.margin,
                         f.max_residual,
-                        f.det_j_lower_bound,
+                        crate::fit::report::det_text(f.det_j_lower_bound),
                         if f.covers_frame { ", covers A's frame" } else { "" }
                     );
+                    let real: Vec<&(String, f64)> =
+                        f.misses.iter().filter(|(n, _)| !n.starts_with(PIN_PREFIX)).collect();
+                    if !real.is_empty() && f.conflicts.is_empty() {
+                        let shown: Vec<String> = real
+                            .iter()
+                            .take(5)
+                            .map(|(n, r)| format!("{n} ({r:.2} px)"))
+                            .collect();
+                        eprintln!(
+                            "warning: fit {dir}: {} landmark(s) missed by more than \
+                             {MISS_TOLERANCE} px: {}{}; the fits interpolate unless --bend \
+                             smooths them or meeting them exactly would fold the map (the fold \
+                             barrier keeps it fold-free); check them, or use --hard to force \
+                             them (refused if the map then folds)",
+                            real.len(),
+                            shown.join(", "),
+                            if real.len() > 5 { ", ..." } else { "" }
+                        );
+                    }
                     if !f.conflicts.is_empty() {
                         let pairs: Vec<String> =
                             f.conflicts.iter().map(|[x, y]| format!("{x} and {y}")).collect();

@@ -54,6 +54,28 @@ const GRIDS: [i64; 6] = [16, 80, 400, 2000, 10_000, 50_000];
 /// Attempts at breaking up a vertex that has no local determining set.
 const MAX_MDS_RETRIES: usize = 8;
 
+/// The largest [`Mds::amplification`] the adapted fit accepts before it breaks up the vertex
+/// where the blow-up starts (well-shaped meshes stay below a few thousand; the faces pair of
+/// `tests/morph_faces.rs` had one vertex at 3e6, and at 1.3e9 with one more decimal).
+pub const MAX_AMPLIFICATION: f64 = 1e5;
+
+/// Control point `p`'s nominal position (its domain point), in `f64`.
+fn nominal_f64(s: &Spline, p: usize) -> [f64; 2] {
+    let q = &s.nominal()[p];
+    [crate::exact::rat_to_f64(&q[0]), crate::exact::rat_to_f64(&q[1])]
+}
+
+/// The mesh vertex nearest `p`.
+fn nearest_vertex(m: &Mesh, p: [f64; 2]) -> usize {
+    (0..m.num_vertices())
+        .min_by(|&a, &b| {
+            let (u, v) = (m.vertex(a), m.vertex(b));
+            let d = |q: [f64; 2]| (q[0] - p[0]).powi(2) + (q[1] - p[1]).powi(2);
+            d(u).total_cmp(&d(v))
+        })
+        .unwrap_or(0)
+}
+
 /// Far-field rings of the frame fit's mesh (see the module docs and
 /// [`crate::mesh::AdaptOptions::far_rings`]): the outermost is 16 times the domain's size.
 pub const FAR_RINGS: usize = 2;
@@ -312,9 +334,23 @@ fn fit_on_mesh(
             || (level > 0).then(|| TriangleTerms::new(&spline, level)),
         );
         trace.mark("determining set | triangle terms");
-        match mm {
-            Ok(mds) => break (adapted, spline, mds, terms),
-            Err(MdsError::Singular(v)) if tries < MAX_MDS_RETRIES => {
+        // A vertex that is singular, or nearly so (its determining set amplifies a change
+        // of the free points more than MAX_AMPLIFICATION), is broken up by a point inside
+        // one of its triangles: near it the spline space is nearly degenerate, fits miss
+        // their landmarks by pixels, and the result flips with the fourth decimal of a
+        // coordinate (which moves the vertices a little closer to or away from the
+        // singular configuration).
+        let bad = match &mm {
+            Ok(mds) if tries < MAX_MDS_RETRIES => mds
+                .first_amplified(MAX_AMPLIFICATION)
+                .map(|p| nearest_vertex(&adapted.mesh, nominal_f64(&spline, p))),
+            Ok(_) => None,
+            Err(MdsError::Singular(v)) if tries < MAX_MDS_RETRIES => Some(*v),
+            Err(_) => None,
+        };
+        match (mm, bad) {
+            (Ok(mds), None) => break (adapted, spline, mds, terms),
+            (_, Some(v)) => {
                 // Break the vertex's symmetric star with a point inside one of its triangles.
                 let m = &adapted.mesh;
                 let t = m.vertex_triangles(v)[0];
@@ -325,7 +361,7 @@ fn fit_on_mesh(
                 ]);
                 tries += 1;
             }
-            Err(e) => return Err(e.into()),
+            (Err(e), None) => return Err(e.into()),
         }
     };
     // Scale-free weights refer to the domain (frame and margin), not to the far rings.

@@ -32,7 +32,7 @@ pub mod newton;
 pub mod objective;
 pub mod optim;
 pub mod param;
-mod report;
+pub mod report;
 pub mod sequence;
 pub mod smooth;
 pub mod smooth_sparse;

@@ -3,6 +3,23 @@
 
 use super::solve::FitReport;
 
+/// A `det J` bound as text: three decimals, or two significant digits for a positive bound
+/// below 0.001 (which three decimals would print as `0.000`, as if it were not positive).
+///
+/// ```
+/// use trimorph::fit::report::det_text;
+/// assert_eq!(det_text(0.5), "0.500");
+/// assert_eq!(det_text(0.00042), "4.2e-4");
+/// assert_eq!(det_text(-2.125), "-2.125");
+/// ```
+pub fn det_text(v: f64) -> String {
+    if v > 0.0 && v < 1e-3 {
+        format!("{v:.1e}")
+    } else {
+        format!("{v:.3}")
+    }
+}
+
 impl FitReport {
     /// One line per fit: landmark residuals, held-out TRE, the bending weight (when chosen
     /// by cross-validation), `det J` (sampled and certified), the solver and its termination, and
@@ -27,11 +44,11 @@ impl FitReport {
             s += ")";
         }
         s += &format!(
-            "; min det J {:.3}{}, certified >= {:.3}{}; {} ({} iterations, {}, {} variables) in \
+            "; min det J {:.3}{}, certified >= {}{}; {} ({} iterations, {}, {} variables) in \
              {:.1} ms; C1 exact: {}",
             r.min_det_j,
             if r.folds { " (FOLDS)" } else { "" },
-            r.det_j_lower_bound,
+            det_text(r.det_j_lower_bound),
             if r.fold_free { " (fold-free)" } else { "" },
             r.method,
             r.iterations,

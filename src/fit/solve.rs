@@ -51,7 +51,10 @@ pub struct FitOptions {
     pub max_iters: u64,
     /// Landmarks become hard constraints `phi(s_i) = t_i` ([`super::hard`]).
     pub hard: bool,
-    /// Free points are rounded to multiples of `2^-grid_bits` (default 20).
+    /// Rounding to exact values moves no control point by more than `2^-grid_bits` px
+    /// (default 20): the free points are rounded to multiples of `2^-grid_bits`, or of a
+    /// finer power of two where the mesh amplifies a rounding
+    /// ([`crate::spline::mds::rounding_bits`]; the report's `rounding_bits`).
     pub grid_bits: u32,
     /// Barycentric sample level of `det J` in the barrier (default
     /// [`crate::spline::jacobian::SAMPLE_LEVEL`], 8: 45 samples per triangle, the sample set
@@ -215,6 +218,10 @@ pub struct FitReport {
     pub conflicts: Vec<[String; 2]>,
     /// The result satisfies every C1 condition exactly (checked in rational arithmetic).
     pub exact_c1: bool,
+    /// The free points were rounded to multiples of `2^-rounding_bits`: at least
+    /// [`FitOptions::grid_bits`], finer where the mesh's determining set amplifies a
+    /// rounding ([`crate::spline::mds::rounding_bits`]).
+    pub rounding_bits: u32,
     /// Wall time of the fit (milliseconds).
     pub time_ms: f64,
 }
@@ -460,6 +467,13 @@ pub(super) fn fit_with_terms(
     start: Instant,
     terms: Option<TriangleTerms>,
 ) -> Result<Fit, FitError> {
+    // Round the free points finely enough that no control point moves more than
+    // 2^-grid_bits px (a near-singular vertex of the mesh amplifies a rounding by up to
+    // 10^8: rounded at 2^-20 such a fit folded while its floating-point solution did not).
+    let opts = &FitOptions {
+        grid_bits: crate::spline::mds::rounding_bits(mds.amplification(), opts.grid_bits),
+        ..opts.clone()
+    };
     if opts.hard || !opts.pinned.is_empty() {
         return super::hard::fit_hard(s, mds, lms, opts, start);
     }
@@ -729,6 +743,7 @@ pub(super) fn report(
         // `from_points`, which check each C1 condition exactly and fail otherwise (a second
         // check would only repeat it).
         exact_c1: true,
+        rounding_bits: opts.grid_bits,
         time_ms: start.elapsed().as_secs_f64() * 1e3,
     })
 }

@@ -18,6 +18,17 @@
 //! it is doubled (up to [`MAX_DOUBLINGS`] times) while [`covers_frame`] cannot prove that
 //! the fitted map covers `A`'s frame `[-0.5, w_A - 0.5] x [-0.5, h_A - 0.5]`.
 //!
+//! **Fidelity.** By default both fits interpolate (the bending weight
+//! [`crate::fit::smooth::INTERPOLATING_BEND`], with the fold barrier): `phi_ab(L_A) = S(L_B)`
+//! and `phi_ba(L_B) = L_A` within [`MISS_TOLERANCE`]. A landmark missed by more is listed in
+//! [`MapSummary::misses`] (the CLI warns with its name), which happens only where the barrier
+//! had to act, i.e. where following the landmarks exactly would fold the map.
+//!
+//! **Pinned frame** ([`frame_pins`]). With `--pin-frame`, points along `A`'s frame border
+//! `p` become landmarks of both fits, `p -> p` for `phi_ab` and `S^-1(p) -> p` for
+//! `phi_ba`: the border of every frame stays where it is in `A` (and in `B` after the
+//! alignment), and only what the landmarks move moves.
+//!
 //! **Folds.** Both fits run with the fold barrier ([`crate::fit::solve::FitOptions`]),
 //! whose every accepted step is certified `det J > 0`. Landmarks that force a fold (pairs
 //! that cross, [`crate::fit::affine::crossing_pairs`]) are then not followed exactly: the
@@ -27,6 +38,7 @@
 //! ([`super::MorphError::Folds`]), naming the crossing pairs, because a folded map shows
 //! creases and torn strips in the middle frames.
 
+use super::align::Similarity;
 use super::MorphError;
 use crate::fit::affine::{affine_fit, crossing_pairs};
 use crate::fit::frame::{covers_frame, fit_frame, FrameFitOptions, FrameReport};
@@ -68,9 +80,73 @@ pub struct MapSummary {
     /// Landmark pairs that cross (names or indices), when the barrier had to act: the fit
     /// stays fold-free and does not follow them exactly (see the module docs).
     pub conflicts: Vec<[String; 2]>,
+    /// Landmarks missed by more than [`MISS_TOLERANCE`] (name or `#index`, residual in
+    /// pixels of `A`), largest first.
+    pub misses: Vec<(String, f64)>,
     /// Fit time (ms).
     pub time_ms: f64,
 }
+
+/// Largest landmark residual (pixels) of an interpolating morph fit; larger ones are
+/// reported ([`MapSummary::misses`]).
+pub const MISS_TOLERANCE: f64 = 0.1;
+
+/// Name prefix of the border landmarks that `--pin-frame` adds ([`frame_pins`]).
+pub const PIN_PREFIX: &str = "frame-pin-";
+
+/// The border landmarks of `--pin-frame` (module docs): pixel centres of `A`'s outer rows
+/// and columns (`size_a` in pixels), at most [`PIN_SPACING`] apart (and at most
+/// [`MAX_PINS_PER_SIDE`] per side), as `(for phi_ab, for phi_ba)`.
+///
+/// For `phi_ba` the source is `S^-1(p)` rounded to multiples of `1/16` px and the target is
+/// `S` of that source (within 0.05 px of `p`): sources on the meshes' snapping grid are mesh
+/// vertices exactly, which keeps each pin's row to one control point (a hard fit's rows of
+/// off-vertex points along a line couple into groups it cannot solve). A point within 1 px
+/// of a landmark's source in `A` is left out (the landmark holds it), and so is, for
+/// `phi_ba`, a point whose preimage lies outside `B`'s landmark frame (`B` has no pixels
+/// there).
+pub fn frame_pins(
+    lms: &[Landmark],
+    size_a: [f64; 2],
+    size_b: [f64; 2],
+    sim: &Similarity,
+) -> (Vec<Landmark>, Vec<Landmark>) {
+    let [w, h] = [size_a[0] - 1.0, size_a[1] - 1.0];
+    let steps = |len: f64| ((len / PIN_SPACING).ceil() as usize).clamp(1, MAX_PINS_PER_SIDE);
+    let (nx, ny) = (steps(w), steps(h));
+    let at = |len: f64, i: usize, n: usize| (len * i as f64 / n as f64).round();
+    let mut border: Vec<[f64; 2]> = Vec::with_capacity(2 * (nx + ny));
+    for i in 0..nx {
+        let x = at(w, i, nx);
+        border.push([x, 0.0]);
+        border.push([w - x, h]);
+    }
+    for j in 0..ny {
+        let y = at(h, j, ny);
+        border.push([w, y]);
+        border.push([0.0, h - y]);
+    }
+    border.sort_by(|a, b| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])));
+    border.dedup();
+    let near = |p: [f64; 2]| lms.iter().any(|l| (l.src[0] - p[0]).hypot(l.src[1] - p[1]) < 1.0);
+    let sixteenth = |v: f64| (v * 16.0).round() / 16.0;
+    let (mut ab, mut ba) = (Vec::new(), Vec::new());
+    for (k, p) in border.into_iter().filter(|&p| !near(p)).enumerate() {
+        let name = Some(format!("{PIN_PREFIX}{k}"));
+        ab.push(Landmark { name: name.clone(), src: p, dst: p, weight: 1.0 });
+        let q = sim.inverse(p).map(sixteenth);
+        if crate::mesh::in_landmark_frame(q, size_b) {
+            ba.push(Landmark { name, src: q, dst: sim.apply(q), weight: 1.0 });
+        }
+    }
+    (ab, ba)
+}
+
+/// Largest spacing (pixels of `A`) of the `--pin-frame` border points.
+pub const PIN_SPACING: f64 = 16.0;
+
+/// Most `--pin-frame` border points per side.
+pub const MAX_PINS_PER_SIDE: usize = 64;
 
 impl MapFit {
     /// The summary.
@@ -83,9 +159,22 @@ impl MapFit {
             covers_frame: self.frame.covers_frame,
             max_residual: self.report.fit.max,
             conflicts: self.report.conflicts.clone(),
+            misses: misses(&self.report.residuals),
             time_ms: self.report.time_ms,
         }
     }
+}
+
+/// The landmarks missed by more than [`MISS_TOLERANCE`], largest first.
+fn misses(res: &[crate::fit::solve::Residual]) -> Vec<(String, f64)> {
+    let mut v: Vec<(String, f64)> = res
+        .iter()
+        .enumerate()
+        .filter(|(_, r)| r.residual > MISS_TOLERANCE || r.residual.is_nan())
+        .map(|(i, r)| (r.name.clone().unwrap_or_else(|| format!("#{i}")), r.residual))
+        .collect();
+    v.sort_by(|a, b| b.1.total_cmp(&a.1));
+    v
 }
 
 /// The margin that makes the affine map `m` (source -> `A`) cover `A`'s frame `dst` from

@@ -223,7 +223,8 @@ pub struct MorphOptions {
     /// Spline degree (default 5).
     pub degree: usize,
     /// Fit options of both fits (default: the fold barrier on, a fixed bending weight
-    /// [`crate::fit::smooth::DEFAULT_BEND`]; see the module docs).
+    /// [`crate::fit::smooth::INTERPOLATING_BEND`], so both maps meet their landmarks; see
+    /// the module docs and [`fits`]).
     pub fit: FitOptions,
     /// Resampling.
     pub interp: Interp,
@@ -235,6 +236,9 @@ pub struct MorphOptions {
     pub background: f64,
     /// Preimage computation.
     pub remap: RemapOptions,
+    /// Keep `A`'s frame border still in every frame (border landmarks, [`fits::frame_pins`];
+    /// default false).
+    pub pin_frame: bool,
 }
 
 impl Default for MorphOptions {
@@ -245,9 +249,9 @@ impl Default for MorphOptions {
             cells: 8,
             degree: 5,
             // A fixed weight (not GCV): where the barrier does not act the fits are linear
-            // in the targets (module docs).
+            // in the targets (module docs). Interpolation: both maps meet their landmarks.
             fit: FitOptions {
-                bend: crate::fit::solve::Bend::Weight(crate::fit::smooth::DEFAULT_BEND),
+                bend: crate::fit::solve::Bend::Weight(crate::fit::smooth::INTERPOLATING_BEND),
                 ..FitOptions::default()
             },
             interp: Interp::Bilinear,
@@ -255,6 +259,7 @@ impl Default for MorphOptions {
             color: Schedule::Linear,
             background: 0.0,
             remap: RemapOptions::default(),
+            pin_frame: false,
         }
     }
 }
@@ -418,10 +423,15 @@ impl Morph {
         let (a, b) = common(a, b);
         let size = |i: &DynamicImage| [f64::from(i.width()), f64::from(i.height())];
         let (sa, sb) = (size(&a), size(&b));
-        let to_a: Vec<Landmark> =
+        let mut to_a: Vec<Landmark> =
             landmarks.iter().map(|l| Landmark { dst: sim.apply(l.dst), ..l.clone() }).collect();
-        let reversed: Vec<Landmark> =
+        let mut reversed: Vec<Landmark> =
             landmarks.iter().map(|l| Landmark { src: l.dst, dst: l.src, ..l.clone() }).collect();
+        if opts.pin_frame {
+            let (ab, ba) = fits::frame_pins(landmarks, sa, sb, &sim);
+            to_a.extend(ab);
+            reversed.extend(ba);
+        }
         let fo =
             FrameFitOptions { mesh: opts.mesh.clone(), degree: opts.degree, fit: opts.fit.clone() };
         let (fab, fba) = rayon::join(

@@ -21,7 +21,8 @@
 //!    ([`Spline::affine`], coefficients rounded to `2^-24`), or the `--init` deformation.
 //! 4. The spline stage ([`deform`]) coarse to fine: image term + bending + soft landmarks +
 //!    fold barrier, by L-BFGS under argmin's `Executor` ([`crate::fit::optim`]).
-//! 5. Exact output: the free points rounded to `2^-grid_bits`, the dependents computed
+//! 5. Exact output: the free points rounded to `2^-grid_bits` (finer where the mesh amplifies
+//!    a rounding, [`crate::spline::mds::rounding_bits`]), the dependents computed
 //!    exactly (so the spline is exactly C1), then with `hard` every landmark met exactly
 //!    and every pinned point restored ([`crate::fit::hard::exact_constraints`]), and the
 //!    Bernstein certificate of `det J > 0` ([`crate::spline::jacobian::certify`]).
@@ -136,7 +137,9 @@ pub struct RegisterOptions {
     pub init: Option<Spline>,
     /// Control points of `init` held at their values (pinned in the editor).
     pub pinned: Vec<ControlPoint>,
-    /// Free points are rounded to multiples of `2^-grid_bits` (default 20).
+    /// Rounding to exact values moves no control point by more than `2^-grid_bits` px
+    /// (default 20; the free points' grid is finer where the mesh amplifies a rounding,
+    /// [`crate::spline::mds::rounding_bits`]).
     pub grid_bits: u32,
     /// Observes every solver iteration.
     pub progress: Option<Progress>,
@@ -469,14 +472,15 @@ pub fn register(
         levels.push(rep);
     }
 
-    // Exact output.
-    let rounded = obj.param.rounded_points(&s0, &x, opts.grid_bits);
+    // Exact output, rounded so that no control point moves more than 2^-grid_bits px.
+    let bits = crate::spline::mds::rounding_bits(mds.amplification(), opts.grid_bits);
+    let rounded = obj.param.rounded_points(&s0, &x, bits);
     let soft = s0.with_determined_points(&mds, rounded)?;
     let spline = if opts.hard || !opts.pinned.is_empty() {
         let fo = FitOptions {
             hard: opts.hard,
             pinned: opts.pinned.clone(),
-            grid_bits: opts.grid_bits,
+            grid_bits: bits,
             ..FitOptions::default()
         };
         crate::fit::hard::exact_constraints(&s0, &mds, &soft, &opts.landmarks, &fo)?

@@ -54,6 +54,8 @@ pub struct Mds {
     used_by: Vec<Vec<usize>>,
     /// The formulas on common denominators ([`IntPlan`]), built on first use.
     plan: std::sync::OnceLock<IntPlan>,
+    /// [`Mds::amplification`], computed on first use.
+    amplification: std::sync::OnceLock<f64>,
     /// The spline's C1 conditions (its quads, in order), checked by
     /// [`recompute_verified`](Self::recompute_verified). Shared with the spline (no copy).
     quads: std::sync::Arc<Vec<Quad>>,
@@ -255,7 +257,14 @@ impl Mds {
                 }
             }
         }
-        Ok(Mds { roles, order, used_by, plan: std::sync::OnceLock::new(), quads: s.shared_quads() })
+        Ok(Mds {
+            roles,
+            order,
+            used_by,
+            plan: std::sync::OnceLock::new(),
+            amplification: std::sync::OnceLock::new(),
+            quads: s.shared_quads(),
+        })
     }
 
     /// Builds the integer form of the formulas ([`IntPlan`], used by
@@ -309,6 +318,39 @@ impl Mds {
             })
             .max()
             .unwrap_or(0)
+    }
+
+    /// How much a change of the free points can grow in each control point: a free point
+    /// has `a_p = 1`, a dependent `p = sum c_j x_j` has `a_p = sum |c_j| a_j` (in
+    /// evaluation order). Moving every free point by at most `e` moves point `p` by at most
+    /// `e * a_p`.
+    pub fn amplifications(&self) -> Vec<f64> {
+        let mut a = vec![1.0f64; self.roles.len()];
+        for &p in &self.order {
+            if let Role::Dependent(f) = &self.roles[p] {
+                a[p] = f.iter().map(|(j, c)| crate::exact::rat_to_f64(c).abs() * a[*j]).sum();
+            }
+        }
+        a
+    }
+
+    /// The largest of [`Mds::amplifications`] (computed once).
+    ///
+    /// It is small (at most a few thousand) on well-shaped meshes and grows without bound
+    /// near the singular vertices of the module docs (edges at a vertex close to lying on
+    /// two lines): there a rounding of the free points that is harmless elsewhere moves the
+    /// dependents by pixels. Exact fits therefore round on a finer grid
+    /// ([`rounding_bits`]), and the landmark-adapted fit breaks up such a vertex
+    /// ([`Mds::first_amplified`], [`crate::fit::frame`]).
+    pub fn amplification(&self) -> f64 {
+        *self.amplification.get_or_init(|| self.amplifications().into_iter().fold(1.0, f64::max))
+    }
+
+    /// The first dependent in evaluation order whose amplification exceeds `limit`: where
+    /// a blow-up starts (its own formula has the large coefficients).
+    pub fn first_amplified(&self, limit: f64) -> Option<usize> {
+        let a = self.amplifications();
+        self.order.iter().copied().find(|&p| a[p] > limit)
     }
 
     /// Adds to `set` every dependent whose formula uses a point of `set`, transitively.
@@ -371,6 +413,32 @@ impl Mds {
             values[p] = acc;
         }
     }
+}
+
+/// The finest grid exponent that exact fits round their free points to.
+pub const MAX_ROUNDING_BITS: u32 = 60;
+
+/// The grid `2^-bits` on which free points are rounded so that no control point moves by
+/// more than `2^-tol_bits` from its floating-point value: rounding moves a free point by at
+/// most `2^-(bits + 1)`, a dependent by at most `amplification` times that
+/// ([`Mds::amplification`]), so `bits = tol_bits - 1 + ceil(log2 amplification)`, at least
+/// `tol_bits` and at most [`MAX_ROUNDING_BITS`].
+///
+/// ```
+/// use trimorph::spline::mds::rounding_bits;
+/// assert_eq!(rounding_bits(1.0, 20), 20);
+/// assert_eq!(rounding_bits(2.0e5, 20), 37); // 2e5 < 2^18
+/// assert_eq!(rounding_bits(1.0e30, 20), 60);
+/// ```
+pub fn rounding_bits(amplification: f64, tol_bits: u32) -> u32 {
+    let grow = if amplification.is_finite() && amplification > 1.0 {
+        amplification.log2().ceil() as u32
+    } else if amplification.is_finite() {
+        0
+    } else {
+        MAX_ROUNDING_BITS
+    };
+    (tol_bits + grow).saturating_sub(1).max(tol_bits).min(MAX_ROUNDING_BITS.max(tol_bits))
 }
 
 /// Rounds `x` to the nearest multiple of `2^-bits` (ties away from zero).
