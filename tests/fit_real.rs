@@ -379,11 +379,16 @@ fn hard_fit_of_close_noisy_landmarks_is_fold_free() {
 /// (2.5 rad about (70, 60), `tests/data/crowded_swirl_80.csv`) ran the barrier's Newton
 /// method to its cap of 200 iterations (10 s), the fit long settled: its decrement stopped
 /// only at `1e-10` of the objective. The run now also stops once the decrement is below what
-/// moving every landmark by 0.001 px would change ([`trimorph::fit::newton::NEWTON_TOL_PX`]),
-/// and says "converged". The interpolating squares fit folds here (min det J -7.7), so the
-/// barrier must act.
+/// moving every landmark by 0.001 px would change ([`trimorph::fit::newton::NEWTON_TOL_PX`]).
+///
+/// Second bug, found later: the interpolating squares fit "folded" here (min det J -7.7)
+/// only because one vertex of the adapted mesh was nearly singular (its determining set
+/// amplified the 2^-20 rounding of the exact result by orders of magnitude). With that
+/// vertex broken up ([`trimorph::fit::frame::MAX_AMPLIFICATION`]) the squares fit itself is
+/// fold-free and the barrier has nothing to do; `tests/morph_faces.rs` keeps a real case
+/// where it must act (and converge before the cap).
 #[test]
-fn a_strong_swirl_of_crowded_landmarks_converges_before_the_newton_cap() {
+fn a_strong_swirl_of_crowded_landmarks_fits_fold_free_without_the_newton_cap() {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/crowded_swirl_80.csv");
     let lms = trimorph::io::landmarks::read_landmarks(std::path::Path::new(path)).unwrap();
     let f = fit_frame(&lms, [300.0, 220.0], &FrameFitOptions::default()).unwrap();
@@ -398,9 +403,8 @@ fn a_strong_swirl_of_crowded_landmarks_converges_before_the_newton_cap() {
         r.det_j_lower_bound,
         r.time_ms
     );
-    assert!(r.method.contains("+newton"), "the barrier acts: {}", r.method);
-    assert_eq!(r.termination, "converged", "after {} iterations", r.iterations);
     assert!(r.iterations < 150, "{} iterations", r.iterations);
+    assert!(r.termination == "converged" || r.termination == "exact", "{}", r.termination);
     assert!(r.fold_free && r.fit.rms < 0.01, "{r:?}");
     assert!(f.frame.covers_frame);
 }

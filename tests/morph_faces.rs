@@ -169,3 +169,21 @@ fn pin_frame_keeps_the_border_still() {
         assert!(f.fold_free && f.max_residual <= MISS_TOLERANCE, "{f:?}");
     }
 }
+
+/// The fold barrier acting on real data, and converging: Einstein's 68 landmarks onto
+/// Takeo's, interpolated (the squares fit alone folds, min det J -0.27), run Newton's
+/// method with the barrier, every step certified, and stop on the decrement criterion
+/// (`fit::newton`) well before the 200-iteration cap.
+#[test]
+fn the_barrier_acts_and_converges_before_the_newton_cap() {
+    let reversed: Vec<Landmark> =
+        rounded(3).into_iter().map(|l| Landmark { src: l.dst, dst: l.src, ..l }).collect();
+    let mut o = FrameFitOptions::default();
+    o.fit.bend = Bend::Weight(trimorph::fit::smooth::INTERPOLATING_BEND);
+    let f = fit_frame(&reversed, [817.0, 1024.0], &o).unwrap();
+    let r = &f.fit.report;
+    assert!(r.method.contains("+newton"), "the barrier acts: {}", r.method);
+    assert_eq!(r.termination, "converged", "after {} iterations", r.iterations);
+    assert!(r.iterations < 150, "{} iterations", r.iterations);
+    assert!(r.fold_free && r.fit.max <= MISS_TOLERANCE, "{r:?}");
+}
