@@ -65,6 +65,11 @@ fn morph_writes_frames_animations_and_sheet_and_matches_golden_frames() {
         gif.to_str().unwrap(),
         // Raw coordinates: the last frame is B itself (alignment: `real_pair_*` below).
         "--no-align",
+        // The golden frames predate the edge modes: the dissolve of edge-clamped samples
+        // where neither image has a pixel (the default shows the background there:
+        // `tests/morph_real.rs`).
+        "--mode",
+        "edge",
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let mut names: Vec<String> = std::fs::read_dir(&out)

@@ -553,3 +553,67 @@ fn a_tiff_with_more_samples_than_its_colour_type_is_refused() {
     );
     assert!(!out.exists());
 }
+
+/// Issue 52: `--mode constant|edge|reflect` (scikit-image's names) decide what samples read
+/// outside the input image, inside the mesh. A translation by (-5, -5) over a mesh twice the
+/// image's size: output columns 35..39 of a 40 x 30 image have preimages 40..44, past the
+/// last column (39). Constant (the default) gives the background there, edge repeats column
+/// 39, reflect mirrors about it (40 -> 38, 41 -> 37, ...).
+#[test]
+fn edge_modes_decide_what_lies_beyond_the_image() {
+    let dir = tempfile::tempdir().unwrap();
+    let (w, h) = (40u32, 30u32);
+    let def = affine_file(
+        dir.path(),
+        "shift.json",
+        2.0 * w as f64,
+        2.0 * h as f64,
+        [[1, 0], [0, 1]],
+        [-5, -5],
+    );
+    let img = image::GrayImage::from_fn(w, h, |x, y| image::Luma([(3 * x + 2 * y + 1) as u8]));
+    let input = dir.path().join("in.png");
+    img.save(&input).unwrap();
+    let run = |mode: Option<&str>| {
+        let out = dir.path().join(format!("out_{}.png", mode.unwrap_or("default")));
+        let mut args = vec!["warp", def.to_str().unwrap(), "--image", input.to_str().unwrap()];
+        args.extend(["--background", "9", "-o", out.to_str().unwrap()]);
+        if let Some(m) = mode {
+            args.extend(["--mode", m]);
+        }
+        let o = trimorph(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        image::open(&out).unwrap().to_luma8()
+    };
+    let v = |x: u32, y: u32| img.get_pixel(x, y).0[0];
+    let (default, constant, edge, reflect) =
+        (run(None), run(Some("constant")), run(Some("edge")), run(Some("reflect")));
+    assert_eq!(default, constant);
+    for y in 0..h - 5 {
+        for x in 0..w - 5 {
+            // Inside: every mode is the shifted image.
+            for o in [&constant, &edge, &reflect] {
+                assert_eq!(o.get_pixel(x, y).0[0], v(x + 5, y + 5));
+            }
+        }
+        for x in w - 5..w {
+            let p = x + 5; // 40..44
+            assert_eq!(constant.get_pixel(x, y).0[0], 9, "({x}, {y})");
+            assert_eq!(edge.get_pixel(x, y).0[0], v(w - 1, y + 5), "({x}, {y})");
+            assert_eq!(reflect.get_pixel(x, y).0[0], v(2 * (w - 1) - p, y + 5), "({x}, {y})");
+        }
+    }
+    let o = trimorph(&[
+        "warp",
+        def.to_str().unwrap(),
+        "--image",
+        input.to_str().unwrap(),
+        "--mode",
+        "wrap",
+        "-o",
+        "x.png",
+    ]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("constant, edge or reflect"), "{err}");
+}

@@ -270,8 +270,7 @@ fn far_field_rings_bring_the_fit_to_the_thin_plate_level() {
 /// landmarks closely, and warping the frame through it leaves no background pixel.
 #[test]
 fn crowded_landmarks_fit_fold_free_and_the_warp_covers_the_frame() {
-    use trimorph::warp::inverse::InverseOptions;
-    use trimorph::warp::{warp_image, Interp};
+    use trimorph::warp::Interp;
     let (w, h) = (200.0, 150.0);
     let swirl = |p: [f64; 2]| {
         let (cx, cy) = (45.0, 40.0);
@@ -309,9 +308,14 @@ fn crowded_landmarks_fit_fold_free_and_the_warp_covers_the_frame() {
     let img = image::DynamicImage::ImageLuma8(image::GrayImage::from_fn(200, 150, |x, y| {
         image::Luma([10 + ((x * 7 + y * 3) % 200) as u8])
     }));
-    let (out, _) =
-        warp_image(&f.fit.spline, &img, Interp::Bilinear, 0.0, InverseOptions::default()).unwrap();
-    let zeros = out.to_luma8().pixels().filter(|p| p[0] == 0).count();
+    // Edge mode: the background then marks exactly the pixels outside the mesh.
+    let wo = trimorph::warp::WarpOptions {
+        interp: Interp::Bilinear,
+        mode: trimorph::warp::EdgeMode::Edge,
+        ..Default::default()
+    };
+    let (out, _) = trimorph::warp::warp_pages(&f.fit.spline, &[img], &wo, &|_| {}).unwrap();
+    let zeros = out[0].to_luma8().pixels().filter(|p| p[0] == 0).count();
     assert_eq!(zeros, 0, "background pixels inside the frame");
 }
 

@@ -40,10 +40,16 @@ fn the_real_pair_is_aligned_by_a_similarity_near_the_one_b_was_made_with() {
     assert!(raw.similarity().is_identity());
 }
 
+/// Every frame is covered (with `--mode edge`, where the dissolve of edge-clamped samples
+/// fills the pixels neither image has on its pixels), certified fold-free and exactly C1. In
+/// the default constant mode those pixels show the background instead, and every other
+/// pixel is the same.
 #[test]
 fn every_frame_of_the_real_pair_is_covered_fold_free_and_exactly_c1() {
     let (a, b, lms) = pair();
-    let m = Morph::new(&a, &b, &lms, &MorphOptions::default()).unwrap();
+    let edge = MorphOptions { mode: trimorph::warp::EdgeMode::Edge, ..MorphOptions::default() };
+    let m = Morph::new(&a, &b, &lms, &edge).unwrap();
+    let constant = Morph::new(&a, &b, &lms, &MorphOptions::default()).unwrap();
     let [ab, ba] = m.fit_summaries().unwrap().clone();
     assert!(ab.fold_free && ba.fold_free && ab.covers_frame && ba.covers_frame, "{ab:?} {ba:?}");
     // One certificate covers every frame with s in [0, 1] (the CLI then skips the per-frame
@@ -53,6 +59,12 @@ fn every_frame_of_the_real_pair_is_covered_fold_free_and_exactly_c1() {
         let (f, st) = m.frame_with_stats(&t).unwrap();
         assert_eq!((f.width(), f.height()), (184, 184));
         assert_eq!(st.uncovered, 0, "t = {t}: {st:?}");
+        let (g, sc) = constant.frame_with_stats(&t).unwrap();
+        let (f16, g16) = (f.to_rgb16(), g.to_rgb16());
+        let differ = f16.pixels().zip(g16.pixels()).filter(|(x, y)| x != y).count();
+        let background = g16.pixels().zip(f16.pixels()).filter(|(y, x)| x != y && y.0 == [0; 3]);
+        assert_eq!(differ, background.count(), "t = {t}: only uncovered pixels change");
+        assert!(differ <= sc.uncovered, "t = {t}: {differ} > {sc:?}");
         let c = m.check_frame(&t).unwrap();
         assert!(c.fold_free[0] && c.fold_free[1], "t = {t}: {c:?}");
         assert!(c.covers_frame[0], "t = {t}: {c:?}");
@@ -215,7 +227,8 @@ fn write_morph_writes_the_folder_all_or_nothing_and_the_deformations_read_back()
     use trimorph::morph::align::{Similarity, SIMILARITY_KEY};
     use trimorph::render::morph_files::{write_morph, MorphFileOptions, MorphFilesError};
     let (a, b, lms) = pair();
-    let m = Morph::new(&a, &b, &lms, &MorphOptions::default()).unwrap();
+    let edge = MorphOptions { mode: trimorph::warp::EdgeMode::Edge, ..MorphOptions::default() };
+    let m = Morph::new(&a, &b, &lms, &edge).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("m");
     let calls = AtomicUsize::new(0);
@@ -253,9 +266,7 @@ fn write_morph_writes_the_folder_all_or_nothing_and_the_deformations_read_back()
     let sim = Similarity::from_json(&doc[SIMILARITY_KEY]).unwrap();
     let (ba, _) =
         deformation::from_str(&std::fs::read_to_string(out.join("phi_ba.json")).unwrap()).unwrap();
-    let again =
-        Morph::from_deformations_with(&a, &b, ab, Some(ba), Some(sim), &MorphOptions::default())
-            .unwrap();
+    let again = Morph::from_deformations_with(&a, &b, ab, Some(ba), Some(sim), &edge).unwrap();
     let half = frame_times_exact(3)[1].clone();
     assert_eq!(again.frame_with_stats(&half).unwrap().0, m.frame_with_stats(&half).unwrap().0);
     // Fewer frames: no stale frame_003/004.

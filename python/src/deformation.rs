@@ -20,7 +20,7 @@ use trimorph::mesh::{AdaptOptions, Mesh, MeshOptions};
 use trimorph::spline::Spline;
 use trimorph::warp::inverse::InverseOptions;
 use trimorph::warp::remap::RemapOptions;
-use trimorph::warp::{field, Interp, WarpOptions};
+use trimorph::warp::{field, EdgeMode, Interp, WarpOptions};
 
 /// The largest field `field()` computes (pixels), as `trimorph field` allows.
 const MAX_FIELD_PIXELS: u64 = 100_000_000;
@@ -82,7 +82,12 @@ pub(crate) fn inverse_options(tolerance: f64) -> PyResult<InverseOptions> {
     Ok(InverseOptions { tolerance, ..Default::default() })
 }
 
-pub(crate) fn warp_options(interp: &str, background: f64, tolerance: f64) -> PyResult<WarpOptions> {
+pub(crate) fn warp_options(
+    interp: &str,
+    background: f64,
+    tolerance: f64,
+    mode: &str,
+) -> PyResult<WarpOptions> {
     let interp: Interp = interp.parse().map_err(value_error)?;
     if !background.is_finite() {
         return Err(value_error("background must be a finite number"));
@@ -91,6 +96,7 @@ pub(crate) fn warp_options(interp: &str, background: f64, tolerance: f64) -> PyR
         interp,
         background,
         remap: RemapOptions { inverse: inverse_options(tolerance)?, ..Default::default() },
+        mode: mode.parse::<EdgeMode>().map_err(|e| value_error(format!("mode: {e}")))?,
     })
 }
 
@@ -294,9 +300,10 @@ impl Deformation {
 
     /// Warps an image array: `O(q) = I(phi^-1(q))`, same shape and dtype (uint8, uint16 or
     /// float32; 2-D or H x W x C). `interp` is "nearest", "bilinear" or "bicubic";
-    /// `background` fills pixels whose preimage is outside the mesh. Bit-identical to
-    /// `trimorph warp --image`. Releases the GIL while it works.
-    #[pyo3(signature = (array, interp = "bilinear", background = 0.0, tolerance = 0.01))]
+    /// `background` fills pixels whose preimage is outside the mesh, and (`mode="constant"`,
+    /// the default) outside the image; `mode` is scikit-image's: "constant", "edge" or
+    /// "reflect". Bit-identical to `trimorph warp --image --mode`. Releases the GIL.
+    #[pyo3(signature = (array, interp = "bilinear", background = 0.0, tolerance = 0.01, mode = "constant"))]
     fn warp<'py>(
         &self,
         py: Python<'py>,
@@ -304,8 +311,9 @@ impl Deformation {
         interp: &str,
         background: f64,
         tolerance: f64,
+        mode: &str,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let opts = warp_options(interp, background, tolerance)?;
+        let opts = warp_options(interp, background, tolerance, mode)?;
         Ok(warp_any(py, &self.spline, array, &opts)?.0)
     }
 
@@ -314,7 +322,7 @@ impl Deformation {
     /// what the Rust API `warp_pages` also does (allocating the output and the library
     /// call), so that `total - seconds` is what numpy in and out costs
     /// (`python/benches/numpy_overhead.py`).
-    #[pyo3(signature = (array, interp = "bilinear", background = 0.0, tolerance = 0.01))]
+    #[pyo3(signature = (array, interp = "bilinear", background = 0.0, tolerance = 0.01, mode = "constant"))]
     fn warp_profiled<'py>(
         &self,
         py: Python<'py>,
@@ -322,8 +330,9 @@ impl Deformation {
         interp: &str,
         background: f64,
         tolerance: f64,
+        mode: &str,
     ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyDict>, f64)> {
-        let opts = warp_options(interp, background, tolerance)?;
+        let opts = warp_options(interp, background, tolerance, mode)?;
         let (img, r, secs) = warp_any(py, &self.spline, array, &opts)?;
         let d = PyDict::new(py);
         d.set_item("pixels", r.pixels)?;

@@ -209,12 +209,14 @@ fn morph_exc(py: Python<'_>, e: MorphError) -> PyErr {
 /// two maps are fitted fold-free, and `frames` images at `t = 0 .. 1` are returned as a list
 /// of arrays of `a`'s frame and the morph's working type. Both maps interpolate the
 /// landmarks unless `bend` ("auto" or a weight, as in `fit`) smooths them; `hard` meets them
-/// exactly; `pin_frame` keeps `a`'s frame border still (`--bend --hard --pin-frame`).
+/// exactly; `pin_frame` keeps `a`'s frame border still; `mode` ("constant", "edge",
+/// "reflect") says what shows where neither image has a preimage on its pixels
+/// (`--bend --hard --pin-frame --mode`).
 /// Releases the GIL.
 #[pyfunction]
 #[pyo3(signature = (a, b, src, dst, frames = 11, shape = "linear", color = "linear",
     interp = "bilinear", align = true, background = 0.0, t0 = 0.0, t1 = 1.0, bend = None,
-    hard = false, pin_frame = false))]
+    hard = false, pin_frame = false, mode = "constant"))]
 #[allow(clippy::too_many_arguments)]
 pub fn morph<'py>(
     py: Python<'py>,
@@ -233,6 +235,7 @@ pub fn morph<'py>(
     bend: Option<&Bound<'py, PyAny>>,
     hard: bool,
     pin_frame: bool,
+    mode: &str,
 ) -> PyResult<Bound<'py, PyList>> {
     let (img_a, gray_a) = numpy_to_image(py, a, "a")?;
     let (img_b, gray_b) = numpy_to_image(py, b, "b")?;
@@ -250,6 +253,7 @@ pub fn morph<'py>(
         align,
         background,
         pin_frame,
+        mode: mode.parse().map_err(|e| value_error(format!("mode: {e}")))?,
         ..MorphOptions::default()
     };
     // The morph's own default weight (interpolation) unless `bend` is given.

@@ -25,7 +25,7 @@ fn rect((y0, x0, h, w): PyRect) -> Rect {
 
 /// The remap options `Deformation.warp` uses for `tolerance`.
 fn remap_options(tolerance: f64) -> PyResult<RemapOptions> {
-    Ok(warp_options("bilinear", 0.0, tolerance)?.remap)
+    Ok(warp_options("bilinear", 0.0, tolerance, "constant")?.remap)
 }
 
 /// For each output tile `(y0, x0, h, w)` of an image of `shape = (H, W)`, the input
@@ -34,7 +34,7 @@ fn remap_options(tolerance: f64) -> PyResult<RemapOptions> {
 /// solving the inverse, so they cost little; `resolution` (reference pixels, default a tenth
 /// of the smallest tile side, at least 32) trades planning time for tighter rectangles.
 #[pyfunction]
-#[pyo3(signature = (deformation, shape, tiles, tolerance = 0.01, resolution = None))]
+#[pyo3(signature = (deformation, shape, tiles, tolerance = 0.01, resolution = None, mode = "constant"))]
 pub fn tile_inputs(
     py: Python<'_>,
     deformation: &Deformation,
@@ -42,15 +42,20 @@ pub fn tile_inputs(
     tiles: Vec<PyRect>,
     tolerance: f64,
     resolution: Option<f64>,
+    mode: &str,
 ) -> PyResult<Vec<Option<PyRect>>> {
     let ro = remap_options(tolerance)?;
+    let mode = warp_options("bilinear", 0.0, tolerance, mode)?.mode;
     let (h, w) = shape;
     let smallest = tiles.iter().map(|t| t.2.min(t.3)).min().unwrap_or(0) as f64;
     let res = resolution.unwrap_or((smallest / 10.0).max(32.0));
     let s = &deformation.spline;
     Ok(py.detach(|| {
         let planner = TilePlanner::with_resolution(s, (w, h), &ro, res);
-        tiles.iter().map(|&t| planner.input_rect(rect(t)).map(|r| (r.y0, r.x0, r.h, r.w))).collect()
+        tiles
+            .iter()
+            .map(|&t| planner.input_rect_for(rect(t), mode).map(|r| (r.y0, r.x0, r.h, r.w)))
+            .collect()
     }))
 }
 
@@ -106,7 +111,8 @@ fn warp_tile_typed<'py, T: Sample>(
 /// (2-D, or `(planes, h, w)`), bit-identical to the same pixels of `Deformation.warp` on the
 /// whole image with the same `interp`, `background` and `tolerance`. Releases the GIL.
 #[pyfunction]
-#[pyo3(signature = (deformation, window, origin, shape, tile, interp = "bilinear", background = 0.0, tolerance = 0.01))]
+#[pyo3(signature = (deformation, window, origin, shape, tile, interp = "bilinear", background = 0.0, tolerance = 0.01, mode = "constant"))]
+#[allow(clippy::too_many_arguments)]
 pub fn warp_tile<'py>(
     py: Python<'py>,
     deformation: &Deformation,
@@ -117,8 +123,9 @@ pub fn warp_tile<'py>(
     interp: &str,
     background: f64,
     tolerance: f64,
+    mode: &str,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let opts = warp_options(interp, background, tolerance)?;
+    let opts = warp_options(interp, background, tolerance, mode)?;
     let tile = rect(tile);
     let a = window
         .cast::<PyUntypedArray>()

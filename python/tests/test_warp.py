@@ -108,3 +108,62 @@ def test_identity_warp_returns_the_input(tmp_path):
     ident = trimorph.Deformation.mesh_grid(3, 3, (63, 47))
     a = (np.random.default_rng(0).random((48, 64, 3)) * 255).astype(np.uint8)
     np.testing.assert_array_equal(ident.warp(a), a)
+
+
+def _zoom_out(size):
+    """A fitted similarity that shrinks the content by 0.75 about the centre and turns it by
+    10 degrees: the output's border pixels have preimages outside the image, inside the mesh."""
+    w, h = size
+    c = np.array([(w - 1) / 2, (h - 1) / 2])
+    t = np.deg2rad(10.0)
+    r = 0.75 * np.array([[np.cos(t), -np.sin(t)], [np.sin(t), np.cos(t)]])
+    src = np.array([[0.2 * w, 0.2 * h], [0.8 * w, 0.25 * h], [0.5 * w, 0.8 * h], [0.3 * w, 0.6 * h]])
+    dst = (src - c) @ r.T + c
+    return trimorph.fit(src, dst, size=size, bend=1e-3)
+
+
+@pytest.mark.parametrize("mode", ["constant", "edge", "reflect"])
+def test_edge_modes_match_scikit_image(mode):
+    """Issue 52: `mode=` is scikit-image's. Our warp against `skimage.transform.warp` given
+    our certified preimages (0.01 px) as coordinates, bilinear, on the real cell image."""
+    skimage_transform = pytest.importorskip("skimage.transform")
+    img = trimorph.read_image(DATA / "microscopy" / "cell.png")
+    h, w = img.shape
+    d = _zoom_out((w, h))
+    ours = d.warp(img, interp="bilinear", background=40, mode=mode)
+    ys, xs = np.mgrid[0:h, 0:w]
+    q = np.stack([xs.ravel(), ys.ravel()], axis=1).astype(np.float64)
+    p = d.inverse_points(q)
+    assert not np.isnan(p).any(), "the mesh covers the frame"
+    coords = np.stack([p[:, 1].reshape(h, w), p[:, 0].reshape(h, w)])
+    ref = skimage_transform.warp(
+        img.astype(np.float64), coords, order=1, mode=mode, cval=40, preserve_range=True
+    )
+    diff = np.abs(ours.astype(np.float64) - ref)
+    # Rounding to uint8 (0.5) plus the preimages' 0.01 px times the image's gradient.
+    assert np.percentile(diff, 99.9) <= 1.0, np.percentile(diff, [50, 99, 99.9, 100])
+    assert diff.max() <= 4.0, diff.max()
+    # The modes differ where they should: outside the image the corner shows the background,
+    # the edge pixel or the mirrored content.
+    outside = (p[:, 0] < -1) | (p[:, 0] > w) | (p[:, 1] < -1) | (p[:, 1] > h)
+    assert outside.sum() > 1000
+    if mode == "constant":
+        assert (ours.ravel()[outside] == 40).all()
+
+
+def test_modes_are_checked_and_dask_refuses_reflect():
+    img = trimorph.read_image(DATA / "microscopy" / "cell.png")
+    d = _zoom_out((img.shape[1], img.shape[0]))
+    with pytest.raises(ValueError, match="mode"):
+        d.warp(img, mode="wrap")
+    edge = d.warp(img, mode="edge")
+    const = d.warp(img)
+    assert (edge != const).sum() > 1000
+    dask_mod = pytest.importorskip("trimorph.dask")
+    with pytest.raises(ValueError, match="reflect"):
+        dask_mod.warp(img, d, mode="reflect")
+    import dask.array as da
+
+    arr = da.from_array(img, chunks=(200, 200))
+    for mode in ["constant", "edge"]:
+        np.testing.assert_array_equal(dask_mod.warp(arr, d, mode=mode).compute(), d.warp(img, mode=mode))

@@ -57,6 +57,7 @@ class Deformation:
         interp: str = "bilinear",
         background: float = 0.0,
         tolerance: float = 0.01,
+        mode: str = "constant",
     ) -> _Image:
         """O(q) = I(phi^-1(q)), same shape and dtype; bit-identical to `trimorph warp`."""
     def warp_profiled(
@@ -65,6 +66,7 @@ class Deformation:
         interp: str = "bilinear",
         background: float = 0.0,
         tolerance: float = 0.01,
+        mode: str = "constant",
     ) -> Tuple[_Image, Dict[str, Any], float]:
         """warp, plus the library's report and the seconds spent in the library alone."""
     def map_points(self, xy: _Points) -> npt.NDArray[np.float64]:
@@ -235,6 +237,7 @@ def morph(
     bend: Union[float, str, None] = None,
     hard: bool = False,
     pin_frame: bool = False,
+    mode: str = "constant",
 ) -> List[_Image]:
     """Frames of the morph from a to b (like `trimorph morph`), in a's frame."""
 
@@ -258,6 +261,7 @@ def tile_inputs(
     tiles: Sequence[_Rect],
     tolerance: float = 0.01,
     resolution: Optional[float] = None,
+    mode: str = "constant",
 ) -> List[Optional[_Rect]]:
     """For each output tile (y0, x0, h, w) of an (H, W) image, the input rectangle its warp
     reads (certified from bounds on the spline), or None when the tile is all background."""
@@ -271,6 +275,7 @@ def warp_tile(
     interp: str = "bilinear",
     background: float = 0.0,
     tolerance: float = 0.01,
+    mode: str = "constant",
 ) -> _Image:
     """The output tile (y0, x0, h, w) warped from the input window at origin (y, x), 2-D or
     (planes, h, w); bit-identical to Deformation.warp on the whole image."""

@@ -44,7 +44,7 @@ def _overlap(starts, lo, hi):
     return range(max(first, 0), min(last, len(starts) - 2) + 1)
 
 
-def _warp_block(deformation, blocks, origins, rect, tile, shape, interp, background, tolerance):
+def _warp_block(deformation, blocks, origins, rect, tile, shape, interp, background, tolerance, mode):
     """One output chunk: assemble the input window from the chunks it meets, warp it."""
     y0, x0, h, w = rect
     first = blocks[0][0]
@@ -58,20 +58,22 @@ def _warp_block(deformation, blocks, origins, rect, tile, shape, interp, backgro
             window[..., ya - y0 : yb - y0, xa - x0 : xb - x0] = b[..., ya - by : yb - by, xa - bx : xb - bx]
     planes = window.reshape((-1, h, w))
     out = _trimorph.warp_tile(
-        deformation, planes, (y0, x0), shape, tile, interp, background, tolerance
+        deformation, planes, (y0, x0), shape, tile, interp, background, tolerance, mode
     )
     return out.reshape(lead + (tile[2], tile[3]))
 
 
-def _background_block(deformation, lead, dtype, shape, tile, interp, background, tolerance):
+def _background_block(deformation, lead, dtype, shape, tile, interp, background, tolerance, mode):
     """An output chunk no preimage reaches: the background, as the library converts it."""
     planes = int(np.prod(lead, dtype=np.int64)) if lead else 1
     dummy = np.zeros((planes, 1, 1), dtype=dtype)
-    out = _trimorph.warp_tile(deformation, dummy, (0, 0), shape, tile, interp, background, tolerance)
+    out = _trimorph.warp_tile(
+        deformation, dummy, (0, 0), shape, tile, interp, background, tolerance, mode
+    )
     return out.reshape(tuple(lead) + (tile[2], tile[3]))
 
 
-def warp_graph_inputs(shape, chunks, deformation, tolerance=0.01, resolution=None):
+def warp_graph_inputs(shape, chunks, deformation, tolerance=0.01, resolution=None, mode="constant"):
     """For each output tile (chunk indices ``(i, j)`` of the last two axes), the input
     rectangle ``(y0, x0, h, w)`` its warp reads, or ``None``: what ``warp`` builds its task
     graph from. ``shape`` is ``(H, W)``, ``chunks`` the output's ``(y chunks, x chunks)``."""
@@ -81,7 +83,7 @@ def warp_graph_inputs(shape, chunks, deformation, tolerance=0.01, resolution=Non
         for i in range(len(chunks[0]))
         for j in range(len(chunks[1]))
     ]
-    rects = _trimorph.tile_inputs(deformation, tuple(shape), tiles, tolerance, resolution)
+    rects = _trimorph.tile_inputs(deformation, tuple(shape), tiles, tolerance, resolution, mode)
     nx = len(chunks[1])
     return {(k // nx, k % nx): (tiles[k], rects[k]) for k in range(len(tiles))}
 
@@ -94,6 +96,7 @@ def warp(
     tolerance=0.01,
     chunks=None,
     resolution=None,
+    mode="constant",
 ):
     """Warps a dask array lazily: ``O(q) = I(phi^-1(q))`` on the last two axes (y, x) of
     every plane, same shape and dtype (uint8, uint16 or float32).
@@ -103,7 +106,9 @@ def warp(
     the input's chunks. Each output chunk reads only the input chunks that meet its
     certified input rectangle (``warp_graph_inputs``), so memory per task is about one
     output chunk and its preimage, whatever the image size. The result is bit-identical to
-    ``deformation.warp`` on each plane in memory.
+    ``deformation.warp`` on each plane in memory. ``mode`` is ``"constant"`` (the
+    background outside the image, the default) or ``"edge"``; ``"reflect"`` needs pixels
+    outside a tile's window and is refused.
     """
     import dask.array as da
     from dask.base import tokenize
@@ -118,6 +123,11 @@ def warp(
         raise ValueError(f"the image is empty (shape {arr.shape})")
     if not np.isfinite(background):
         raise ValueError("background must be a finite number")
+    if mode not in ("constant", "edge"):
+        raise ValueError(
+            f"mode {mode!r}: dask warps take 'constant' or 'edge' ('reflect' reads pixels "
+            "outside a tile's input window)"
+        )
     H, W = arr.shape[-2:]
     if chunks is None:
         yx = arr.chunks[-2:]
@@ -125,9 +135,9 @@ def warp(
         yx = da.core.normalize_chunks(chunks, (H, W), dtype=arr.dtype)
     lead_chunks = arr.chunks[:-2]
     out_chunks = tuple(lead_chunks) + tuple(yx)
-    plan = warp_graph_inputs((H, W), yx, deformation, tolerance, resolution)
+    plan = warp_graph_inputs((H, W), yx, deformation, tolerance, resolution, mode)
     ys, xs = _bounds(arr.chunks[-2]), _bounds(arr.chunks[-1])
-    token = tokenize(arr.name, deformation.to_json(), interp, background, tolerance, out_chunks)
+    token = tokenize(arr.name, deformation.to_json(), interp, background, tolerance, out_chunks, mode)
     name = f"trimorph-warp-{token}"
     dname = f"trimorph-deformation-{token}"
     dsk = {dname: deformation}
@@ -138,7 +148,7 @@ def warp(
             if rect is None:
                 dsk[key] = (
                     _background_block, dname, lead_shape, arr.dtype.str, (H, W), tile,
-                    interp, float(background), float(tolerance),
+                    interp, float(background), float(tolerance), mode,
                 )
                 continue
             y0, x0, h, w = rect
@@ -147,7 +157,7 @@ def warp(
             origins = [[(ys[a], xs[b]) for b in ix] for a in iy]
             dsk[key] = (
                 _warp_block, dname, blocks, origins, rect, tile, (H, W),
-                interp, float(background), float(tolerance),
+                interp, float(background), float(tolerance), mode,
             )
     graph = HighLevelGraph.from_collections(name, dsk, dependencies=[arr])
     meta = np.empty((0,) * arr.ndim, dtype=arr.dtype)

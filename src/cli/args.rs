@@ -10,6 +10,7 @@ use crate::jobs::values::{
 };
 use crate::prism::ZRange;
 use crate::render::deformation::Layers;
+use crate::warp::EdgeMode;
 use std::path::PathBuf;
 
 /// The command line of `trimorph mesh`.
@@ -149,10 +150,17 @@ pub struct WarpCli {
     /// Image resampling.
     #[arg(long, value_enum, default_value = "bilinear")]
     pub interp: super::common::InterpArg,
-    /// Value of pixels whose preimage is outside the mesh (images: default 0; meshes:
-    /// a gray level 0..255, default transparent).
+    /// Value of pixels whose preimage is outside the mesh, or (with --mode constant)
+    /// outside the input image (images: default 0, alpha 0; meshes: a gray level 0..255,
+    /// default transparent).
     #[arg(long)]
     pub background: Option<f64>,
+    /// Images: what samples read outside the input image, scikit-image's `mode`: constant
+    /// (the --background value, as in ITK, elastix and scikit-image), edge (the edge pixels
+    /// repeat, OpenCV's BORDER_REPLICATE) or reflect (mirrored about the edge pixels'
+    /// centres, OpenCV's BORDER_REFLECT_101).
+    #[arg(long, default_value = "constant", value_parser = text(str::parse::<EdgeMode>))]
+    pub mode: EdgeMode,
     /// Largest accepted error of an inverse point (pixels).
     #[arg(long, default_value_t = 0.01)]
     pub tolerance: f64,
@@ -212,6 +220,11 @@ pub struct MorphCli {
     /// border become landmarks of both fits, so only what the landmarks move moves.
     #[arg(long, conflicts_with = "phi_ab")]
     pub pin_frame: bool,
+    /// What a frame shows where neither image has a preimage on its pixels (as `warp
+    /// --mode`): constant (the --background, alpha 0), edge (the dissolve of the edge
+    /// pixels) or reflect (of the mirrored pixels).
+    #[arg(long, default_value = "constant", value_parser = text(str::parse::<EdgeMode>))]
+    pub mode: EdgeMode,
     /// Print the time of each phase (read, fits, frames, encodings, writes) to stderr.
     #[arg(long)]
     pub timings: bool,

@@ -51,6 +51,7 @@ pub fn run(a: &MorphCli) -> Result<()> {
         align,
         background: a.background,
         pin_frame: a.pin_frame,
+        mode: a.mode,
         ..MorphOptions::default()
     };
     let opts = MorphOptions {

@@ -64,6 +64,7 @@ pub fn run(a: &WarpCli) -> Result<()> {
                 interp: a.interp.into(),
                 background,
                 remap: RemapOptions { inverse: opts, ..Default::default() },
+                mode: a.mode,
             };
             let bar = progress_bar(input.rows(), input.is_large(), "warping");
             let rep = input.warp_to(&s, def, output, &wo, &|n| bar.inc(n));

@@ -156,8 +156,12 @@ fn spline_part(dir: &Path, log: &mut Log) -> JobResult<()> {
     log.render(&id, Some(&img), &before)?;
     log.render(&edited, Some(&img), &after)?;
     let warped = dir.join("warped.png");
-    let wo =
-        WarpOptions { interp: Interp::Bicubic, background: 0.0, remap: RemapOptions::default() };
+    let wo = WarpOptions {
+        interp: Interp::Bicubic,
+        background: 0.0,
+        remap: RemapOptions::default(),
+        mode: Default::default(),
+    };
     let w = ImageInput::read(&img)?.warp_to(&s, &edited, &warped, &wo, &|_| {})?;
     log.out(w.summary_line())?;
     match w.folds() {

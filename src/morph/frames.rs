@@ -61,6 +61,7 @@ impl Morph {
             c: c as f32,
             interp: self.opts.interp,
             bg: self.opts.background,
+            mode: self.opts.mode,
             w: w as usize,
             h: h as usize,
             band_rows: ro.band_rows.max(1) as usize,

@@ -3,10 +3,13 @@
 //!
 //! Where both preimages exist the frame is `(1 - c) A(phi_{A->t}^-1 q) + c B(phi_{B->t}^-1 q)`.
 //! A preimage may lie in the fit's margin, outside its image's pixels
-//! `[-0.5, w - 0.5] x [-0.5, h - 0.5]` (sampling clamps to the edge there). Such a pixel
-//! shows the other image alone when that one's preimage is on real pixels, and the dissolve
-//! of the edge-clamped samples only when neither is: a smaller `B` then shows `A` around it
-//! instead of smeared edge pixels, and no pixel shows the background.
+//! `[-0.5, w - 0.5] x [-0.5, h - 0.5]`. Such a pixel shows the other image alone when that
+//! one's preimage is on real pixels: a smaller `B` then shows `A` around it instead of
+//! smeared edge pixels. Where neither preimage is on its image's pixels, the frame shows
+//! what the edge mode says ([`crate::warp::edge`]): the background with alpha 0
+//! ([`EdgeMode::Constant`], the default, as a warp does), the dissolve of the edge-clamped
+//! samples ([`EdgeMode::Edge`]) or of the mirrored ones ([`EdgeMode::Reflect`]). A frame
+//! made from one image only (`t = 0` or `1`) samples it in that mode.
 //!
 //! **Feathering.** Switching from the dissolve to one image where the other's preimage leaves
 //! its pixels would leave a seam: the two images' values differ there (the two halfway maps
@@ -32,9 +35,10 @@
 //! numbers near 0, so those frames keep the hard switch.
 
 use super::FrameStats;
+use crate::warp::edge::{fill_pixels_mode, sample_mode};
 use crate::warp::remap::RemapPlan;
-use crate::warp::sample::{self, Source, Texel};
-use crate::warp::Interp;
+use crate::warp::sample::{Source, Texel};
+use crate::warp::{EdgeMode, Interp};
 use rayon::prelude::*;
 
 /// One frame's resampling: both plans and the blend.
@@ -44,6 +48,7 @@ pub(super) struct Job<'p, 's> {
     pub(super) c: f32,
     pub(super) interp: Interp,
     pub(super) bg: f64,
+    pub(super) mode: EdgeMode,
     pub(super) w: usize,
     pub(super) h: usize,
     pub(super) band_rows: usize,
@@ -53,12 +58,27 @@ pub(super) fn source<T>(data: &[T], w: u32, h: u32, nc: usize) -> Source<'_, T> 
     Source { data, w: w as usize, h: h as usize, nc }
 }
 
-fn fill<T: Texel>(src: &Source<'_, T>, pos: &[[f64; 2]], out: &mut [T], interp: Interp, bg: f64) {
+fn fill<T: Texel>(
+    src: &Source<'_, T>,
+    pos: &[[f64; 2]],
+    out: &mut [T],
+    interp: Interp,
+    bg: f64,
+    mode: EdgeMode,
+) {
     match src.nc {
-        1 => sample::fill_pixels::<T, 1>(src, pos, out, interp, bg),
-        2 => sample::fill_pixels::<T, 2>(src, pos, out, interp, bg),
-        3 => sample::fill_pixels::<T, 3>(src, pos, out, interp, bg),
-        _ => sample::fill_pixels::<T, 4>(src, pos, out, interp, bg),
+        1 => fill_pixels_mode::<T, 1>(src, pos, out, interp, bg, mode),
+        2 => fill_pixels_mode::<T, 2>(src, pos, out, interp, bg, mode),
+        3 => fill_pixels_mode::<T, 3>(src, pos, out, interp, bg, mode),
+        _ => fill_pixels_mode::<T, 4>(src, pos, out, interp, bg, mode),
+    }
+}
+
+/// The background pixel: `bg` in every colour channel, alpha 0.
+fn background<T: Texel>(px: &mut [T], bg: f64) {
+    let nc = px.len();
+    for (c, o) in px.iter_mut().enumerate() {
+        *o = T::from_f32(if (nc == 2 || nc == 4) && c == nc - 1 { 0.0 } else { bg as f32 });
     }
 }
 
@@ -118,15 +138,20 @@ impl Job<'_, '_> {
                     let n = dst.len() / nc;
                     let (mut has_a, mut has_b) = (false, false);
                     let mut newton = 0;
+                    let mut outside = 0;
+                    let both = self.pa.is_some() && self.pb.is_some();
+                    // With both images, each is sampled edge-clamped and the dissolve below
+                    // decides; one image alone is sampled in the edge mode.
+                    let one = if both { EdgeMode::Edge } else { self.mode };
                     if let Some(p) = self.pa {
                         newton += p.fill_band(band, pos_a).newton_solves;
-                        fill(&a, &pos_a[..n], dst, self.interp, self.bg);
+                        fill(&a, &pos_a[..n], dst, self.interp, self.bg, one);
                         has_a = true;
                     }
                     if let Some(p) = self.pb {
                         newton += p.fill_band(band, pos_b).newton_solves;
                         let tmp = &mut tmp[..n * nc];
-                        fill(&b, &pos_b[..n], tmp, self.interp, self.bg);
+                        fill(&b, &pos_b[..n], tmp, self.interp, self.bg, one);
                         has_b = true;
                         if !has_a {
                             dst.copy_from_slice(tmp);
@@ -162,6 +187,41 @@ impl Job<'_, '_> {
                                 let (va, vb) = (!qa[0].is_nan(), !qb[0].is_nan());
                                 // On the image's pixels (a NaN depth compares false).
                                 let (ina, inb) = (da >= 0.0, db >= 0.0);
+                                // Neither preimage on its image's pixels: the edge mode
+                                // (module docs; `Edge` is the dissolve below).
+                                if !(ina || inb) && (va || vb) {
+                                    match self.mode {
+                                        EdgeMode::Constant => {
+                                            background(px, self.bg);
+                                            outside += 1;
+                                            continue;
+                                        }
+                                        EdgeMode::Reflect => {
+                                            let (i, m, g) = (self.interp, self.mode, self.bg);
+                                            let mut sb = [T::from_f32(0.0); 4];
+                                            let sb = &mut sb[..nc];
+                                            if va {
+                                                sample_mode(&a, qa, i, m, g, px);
+                                            }
+                                            if vb {
+                                                sample_mode(&b, qb, i, m, g, sb);
+                                            }
+                                            match (va, vb) {
+                                                (true, true) => {
+                                                    for (o, v) in px.iter_mut().zip(sb.iter()) {
+                                                        *o = T::from_f32(
+                                                            (1.0 - c) * o.to_f32() + c * v.to_f32(),
+                                                        );
+                                                    }
+                                                }
+                                                (false, true) => px.copy_from_slice(sb),
+                                                _ => {}
+                                            }
+                                            continue;
+                                        }
+                                        EdgeMode::Edge => {}
+                                    }
+                                }
                                 // Prefer real pixels to edge-clamped ones (module docs).
                                 let (ua, ub) = if ina || inb { (ina, inb) } else { (va, vb) };
                                 match (ua, ub) {
@@ -184,7 +244,7 @@ impl Job<'_, '_> {
                             (!has_a || pos_a[i][0].is_nan()) && (!has_b || pos_b[i][0].is_nan())
                         })
                         .count();
-                    (uncovered, newton)
+                    (uncovered + outside, newton)
                 },
             )
             .reduce(|| (0, 0), |x, y| (x.0 + y.0, x.1 + y.1));

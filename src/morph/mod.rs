@@ -239,6 +239,10 @@ pub struct MorphOptions {
     /// Keep `A`'s frame border still in every frame (border landmarks, [`fits::frame_pins`];
     /// default false).
     pub pin_frame: bool,
+    /// What a frame shows where neither image has a preimage on its pixels
+    /// ([`crate::warp::edge`]; [`job`]): the background (default), the dissolve of the
+    /// edge-clamped samples, or of the mirrored ones.
+    pub mode: crate::warp::EdgeMode,
 }
 
 impl Default for MorphOptions {
@@ -260,6 +264,7 @@ impl Default for MorphOptions {
             background: 0.0,
             remap: RemapOptions::default(),
             pin_frame: false,
+            mode: crate::warp::EdgeMode::Constant,
         }
     }
 }

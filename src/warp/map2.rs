@@ -21,7 +21,7 @@
 
 use super::pullback::in_frame;
 use super::sample::Texel;
-use super::{fill, rebuild, source, Buf, Interp, Src, WarpError};
+use super::{fill, rebuild, source, Buf, EdgeMode, Interp, Src, WarpError};
 use crate::geom::{Mat2, Point, Vector};
 use crate::spline::Spline;
 use image::DynamicImage;
@@ -156,7 +156,9 @@ fn resample<T: Texel + Default>(
         |at: &mut Vec<[f64; 2]>, (y, row)| {
             at.clear();
             at.extend((0..w).map(|x| in_frame(pos(x as f64, y as f64), src.w, src.h)));
-            fill(src, at, row, interp, background);
+            // Positions are limited to the frame's pixel squares (`in_frame`): beyond, the
+            // background; within the outer half pixel, the edge pixels.
+            fill(src, at, row, interp, background, EdgeMode::Edge);
         },
     );
     out

@@ -27,6 +27,7 @@
 //! and RGBA; every channel is resampled with the same map (nearest, bilinear or bicubic).
 
 pub mod colormesh;
+pub mod edge;
 pub mod field;
 pub mod inverse;
 pub mod map2;
@@ -46,6 +47,7 @@ mod simd_harness;
 pub mod tiles;
 
 use crate::spline::Spline;
+pub use edge::EdgeMode;
 use image::{DynamicImage, ImageBuffer};
 use inverse::{InverseMap, InverseOptions, Preimage};
 pub use map2::{pull_back_map, warp_map, AffineMap, Map2};
@@ -85,6 +87,12 @@ pub enum WarpError {
     /// The image type is not supported.
     #[error("unsupported image type {0:?} (use 8/16-bit gray, gray+alpha, RGB, RGBA or 32-bit float RGB/RGBA)")]
     Unsupported(image::ColorType),
+    /// An edge mode a tiled warp (OME-Zarr, Dask) cannot apply.
+    #[error(
+        "--mode reflect is not available for tiled warps (OME-Zarr inputs, Dask): a tile reads \
+         only the input window its preimages reach, not the mirrored pixels; use constant or edge"
+    )]
+    ReflectTiled,
     /// The image has no pixels.
     #[error("the image is empty (0 pixels)")]
     Empty,
@@ -208,10 +216,14 @@ pub fn preimages(s: &Spline, w: u32, h: u32, opts: InverseOptions) -> Vec<Option
 pub struct WarpOptions {
     /// Resampling of the input.
     pub interp: Interp,
-    /// Value of every colour channel where the preimage is outside the mesh (alpha is 0 there).
+    /// Value of every colour channel where the preimage is outside the mesh, and in
+    /// [`EdgeMode::Constant`] where it is outside the source image (alpha is 0 there).
     pub background: f64,
     /// Preimage computation: tolerance (0.01 px by default) and coarse cell size.
     pub remap: RemapOptions,
+    /// What samples read outside the source image ([`edge`]; default
+    /// [`EdgeMode::Constant`]: the background).
+    pub mode: EdgeMode,
 }
 
 /// A page's samples, borrowed, by sample type.
@@ -275,18 +287,20 @@ pub(super) fn rebuild(like: &DynamicImage, w: u32, h: u32, buf: Buf) -> DynamicI
     }
 }
 
-pub(super) fn fill<T: Texel>(
+pub(crate) fn fill<T: Texel>(
     src: &Source<'_, T>,
     pos: &[[f64; 2]],
     out: &mut [T],
     interp: Interp,
     background: f64,
+    mode: EdgeMode,
 ) {
+    use edge::fill_pixels_mode as f;
     match src.nc {
-        1 => sample::fill_pixels::<T, 1>(src, pos, out, interp, background),
-        2 => sample::fill_pixels::<T, 2>(src, pos, out, interp, background),
-        3 => sample::fill_pixels::<T, 3>(src, pos, out, interp, background),
-        _ => sample::fill_pixels::<T, 4>(src, pos, out, interp, background),
+        1 => f::<T, 1>(src, pos, out, interp, background, mode),
+        2 => f::<T, 2>(src, pos, out, interp, background, mode),
+        3 => f::<T, 3>(src, pos, out, interp, background, mode),
+        _ => f::<T, 4>(src, pos, out, interp, background, mode),
     }
 }
 
@@ -478,7 +492,7 @@ pub fn warp_samples_sized_into(
             }
         }
     }
-    let (interp, bg) = (opts.interp, opts.background);
+    let (interp, bg, mode) = (opts.interp, opts.background, opts.mode);
     // One worker per thread, each with its own band buffers (allocated once, not per rayon
     // split: a split's buffer would be a fresh 2 MiB to zero or fault in), taking the next
     // band from a shared counter until none is left.
@@ -503,9 +517,9 @@ pub fn warp_samples_sized_into(
                     };
                     let pos = &pos[..n / nc];
                     match (dst, src) {
-                        (Dst::U8(d), Src::U8(s)) => fill(s, pos, d, interp, bg),
-                        (Dst::U16(d), Src::U16(s)) => fill(s, pos, d, interp, bg),
-                        (Dst::F32(d), Src::F32(s)) => fill(s, pos, d, interp, bg),
+                        (Dst::U8(d), Src::U8(s)) => fill(s, pos, d, interp, bg, mode),
+                        (Dst::U16(d), Src::U16(s)) => fill(s, pos, d, interp, bg, mode),
+                        (Dst::F32(d), Src::F32(s)) => fill(s, pos, d, interp, bg, mode),
                         _ => unreachable!("sample types are checked above"),
                     }
                 }
@@ -607,6 +621,7 @@ pub fn warp_image(
         interp,
         background,
         remap: RemapOptions { inverse: opts, ..Default::default() },
+        mode: EdgeMode::default(),
     };
     let (mut out, rep) = warp_pages(s, std::slice::from_ref(img), &wo, &|_| {})?;
     Ok((out.pop().expect("one page in, one page out"), rep))

@@ -17,7 +17,7 @@
 //! gray+alpha, RGB, RGBA and 32-bit float RGB(A), like [`super::warp_pages`].
 
 use super::sample::{fill_pixels, Source, Texel};
-use super::{fill, rebuild, source, Buf, Interp, Src, WarpError};
+use super::{fill, rebuild, source, Buf, EdgeMode, Interp, Src, WarpError};
 use crate::spline::Spline;
 use image::DynamicImage;
 use rayon::prelude::*;
@@ -60,7 +60,9 @@ fn pull<T: Texel + Default>(
     let mut out = vec![T::default(); w * h * nc];
     out.par_chunks_mut((w * nc).max(1)).enumerate().for_each(|(y, row)| {
         let pos = mapped_row(s, y, w, src.w, src.h);
-        fill(src, &pos, row, interp, background);
+        // Positions are limited to the frame's pixel squares (`in_frame`): beyond, the
+        // background; within the outer half pixel, the edge pixels.
+        fill(src, &pos, row, interp, background, EdgeMode::Edge);
     });
     out
 }

@@ -148,7 +148,7 @@ pub fn fast_floor(x: f64) -> f64 {
 }
 
 #[inline]
-fn keys(t: f32) -> f32 {
+pub(crate) fn keys(t: f32) -> f32 {
     let t = t.abs();
     if t < 1.0 {
         (1.5 * t - 2.5) * t * t + 1.0

@@ -48,7 +48,7 @@
 use super::remap::reach::{lattice_reach, triangle_part, Part};
 use super::remap::{mesh_is_convex, BandScratch, RemapOptions, RemapPlan};
 use super::sample::{fast_floor, Source};
-use super::{fill, LayoutError, Samples, SamplesMut, WarpError, WarpOptions, WarpReport};
+use super::{fill, EdgeMode, LayoutError, Samples, SamplesMut, WarpError, WarpOptions, WarpReport};
 use crate::spline::Spline;
 use rayon::prelude::*;
 
@@ -343,12 +343,26 @@ impl TilePlanner {
             .map(|(lo, hi)| ([lo[0] - 1.0, lo[1] - 1.0], [hi[0] + 1.0, hi[1] + 1.0]))
     }
 
-    /// The input pixels the warp of `tile` reads, clipped to the image (`None`: none, the
-    /// tile is all background).
+    /// The input pixels the warp of `tile` reads in [`EdgeMode::Constant`] (the default),
+    /// clipped to the image (`None`: none, the tile is all background).
     pub fn input_rect(&self, tile: Rect) -> Option<Rect> {
+        self.input_rect_for(tile, EdgeMode::Constant)
+    }
+
+    /// The input pixels the warp of `tile` reads in `mode`, clipped to the image (`None`:
+    /// none, the tile is all background). In [`EdgeMode::Edge`] preimages beyond the image
+    /// read its edge pixels, so their box is first projected onto the image: a tile whose
+    /// preimages all lie beyond one side reads the strip along that side. Reflect is not
+    /// planned (see [`warp_tile_into`]); it is treated as constant here.
+    pub fn input_rect_for(&self, tile: Rect, mode: EdgeMode) -> Option<Rect> {
         let sq2 = std::f64::consts::SQRT_2;
         let reach = self.lip * (sq2 + 2.0 * self.tol) + 1.0;
-        let (lo, hi) = self.domain(tile, reach)?;
+        let (mut lo, mut hi) = self.domain(tile, reach)?;
+        if mode == EdgeMode::Edge {
+            let (wm, hm) = (self.size.0 as f64 - 1.0, self.size.1 as f64 - 1.0);
+            lo = [lo[0].clamp(0.0, wm), lo[1].clamp(0.0, hm)];
+            hi = [hi[0].clamp(0.0, wm), hi[1].clamp(0.0, hm)];
+        }
         let pad = sq2 + self.tol + READ_MARGIN;
         let (w, h) = (self.size.0 as f64, self.size.1 as f64);
         let x0 = (lo[0] - pad).floor().clamp(0.0, w);
@@ -408,6 +422,9 @@ pub fn warp_tile_into(
     opts: &WarpOptions,
 ) -> Result<WarpReport, WarpError> {
     let TileLayout { size, tile, window, channels } = layout;
+    if opts.mode == EdgeMode::Reflect {
+        return Err(WarpError::ReflectTiled);
+    }
     let nc = channels;
     if !(1..=4).contains(&nc) {
         return Err(LayoutError::Channels(nc).into());
@@ -471,7 +488,15 @@ pub fn warp_tile_into(
     // Check the margin, then move the preimages into the window's coordinates (exact:
     // subtracting an integer no larger than a non-negative double).
     let origin = [window.x0 as f64, window.y0 as f64];
+    // In the constant mode a preimage all of whose taps lie outside the image (more than
+    // two pixels beyond it, the bicubic reach) reads only the background: it needs no input,
+    // and `NaN` gives the same pixel (background, alpha 0; `edge::sample_mode`).
+    let (fw, fh) = (size.0 as f64, size.1 as f64);
+    let beyond = |p: &[f64; 2]| p[0] < -2.0 || p[1] < -2.0 || p[0] > fw + 1.0 || p[1] > fh + 1.0;
     for (k, p) in pos.iter_mut().enumerate() {
+        if opts.mode == EdgeMode::Constant && !p[0].is_nan() && beyond(p) {
+            *p = [f64::NAN, f64::NAN];
+        }
         if p[0].is_nan() {
             continue;
         }
@@ -482,7 +507,7 @@ pub fn warp_tile_into(
         *p = [p[0] - origin[0], p[1] - origin[1]];
     }
     let (ww, wh) = (window.w as usize, window.h as usize);
-    let (interp, bg) = (opts.interp, opts.background);
+    let (interp, bg, mode) = (opts.interp, opts.background, opts.mode);
     for (page, out) in pages.iter().zip(outs.iter_mut()) {
         let rows = 32usize;
         match (page, out) {
@@ -490,19 +515,19 @@ pub fn warp_tile_into(
                 let src = Source { data: d, w: ww, h: wh, nc };
                 o.par_chunks_mut(rows * tw * nc)
                     .zip(pos.par_chunks(rows * tw))
-                    .for_each(|(o, p)| fill(&src, p, o, interp, bg));
+                    .for_each(|(o, p)| fill(&src, p, o, interp, bg, mode));
             }
             (Samples::U16(d), SamplesMut::U16(o)) => {
                 let src = Source { data: d, w: ww, h: wh, nc };
                 o.par_chunks_mut(rows * tw * nc)
                     .zip(pos.par_chunks(rows * tw))
-                    .for_each(|(o, p)| fill(&src, p, o, interp, bg));
+                    .for_each(|(o, p)| fill(&src, p, o, interp, bg, mode));
             }
             (Samples::F32(d), SamplesMut::F32(o)) => {
                 let src = Source { data: d, w: ww, h: wh, nc };
                 o.par_chunks_mut(rows * tw * nc)
                     .zip(pos.par_chunks(rows * tw))
-                    .for_each(|(o, p)| fill(&src, p, o, interp, bg));
+                    .for_each(|(o, p)| fill(&src, p, o, interp, bg, mode));
             }
             _ => unreachable!("sample types are checked above"),
         }

@@ -71,7 +71,12 @@ fn check_tiling(s: &Spline, w: u32, h: u32, nc: usize, tw: u32, th: u32, opts: &
 }
 
 fn opts(interp: Interp) -> WarpOptions {
-    WarpOptions { interp, background: 17.0, remap: RemapOptions::default() }
+    WarpOptions {
+        interp,
+        background: 17.0,
+        remap: RemapOptions::default(),
+        mode: Default::default(),
+    }
 }
 
 #[test]
