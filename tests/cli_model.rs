@@ -400,3 +400,96 @@ fn a_scene_bound_with_up_y_keeps_the_axis_through_a_sequence_fit() {
         assert!((0..3).all(|k| (a[k] - b[k]).abs() <= 1e-5), "vertex {i}: {a:?} vs {b:?}");
     }
 }
+
+/// Issue 52: `--up auto` takes the model's thinnest axis as up (a specimen lies flat), says
+/// so, and refuses a model with no clearly thinnest axis, asking for `--up`; the default `z`
+/// notes when the model is clearly thinnest along another axis (a y-up model on its side).
+#[test]
+fn up_auto_picks_the_thinnest_axis_and_the_default_notes_a_model_on_its_side() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    ok(&trimorph(&["model", "worm", "-o", s(d)]));
+    // The worm turned y-up: (x, y, z) -> (x, z, y); its thickness (60) is now along y.
+    let side = d.join("side.obj");
+    let text = std::fs::read_to_string(d.join("worm.obj")).unwrap();
+    let turned: String = text
+        .lines()
+        .map(|l| match l.strip_prefix("v ") {
+            Some(v) => {
+                let c: Vec<&str> = v.split_whitespace().collect();
+                format!("v {} {} {}\n", c[0], c[2], c[1])
+            }
+            None => format!("{l}\n"),
+        })
+        .collect();
+    std::fs::write(&side, turned).unwrap();
+    let bind = |up: Option<&str>, model: &Path, out: &str| {
+        let out = d.join(out);
+        let mut args = vec!["model", "bind", "--model", s(model), "--auto", "-o", s(&out)];
+        if let Some(u) = up {
+            args.extend(["--up", u]);
+        }
+        trimorph(&args)
+    };
+    let o = bind(None, &side, "a.json");
+    ok(&o);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("thinnest along y") && err.contains("--up y"), "{err}");
+    let o = bind(Some("auto"), &side, "b.json");
+    ok(&o);
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--up auto: y is up"));
+    let scene: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("b.json")).unwrap()).unwrap();
+    assert_eq!(scene["model_up"], "y");
+    // The worm as written (z-up): no note, and auto agrees.
+    let o = bind(None, &d.join("worm.obj"), "c.json");
+    ok(&o);
+    assert!(!String::from_utf8_lossy(&o.stderr).contains("note"));
+    // A cube has no thinnest axis.
+    let cube = d.join("cube.obj");
+    std::fs::write(&cube, "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nv 1 1 1\nf 1 2 3\nf 1 2 4\n")
+        .unwrap();
+    let o = bind(Some("auto"), &cube, "d.json");
+    assert_eq!(o.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("cube.obj") && err.contains("give --up x, y or z"), "{err}");
+}
+
+/// Issue 52: `warp --model` and `render --model` through a folded map warn (they used to run
+/// silently); through a fold-free one they do not.
+#[test]
+fn model_commands_warn_about_a_folded_map() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    ok(&trimorph(&["model", "worm", "-o", s(d)]));
+    let worm = d.join("worm.obj");
+    let scene = d.join("scene.json");
+    ok(&trimorph(&["model", "bind", "--model", s(&worm), "--auto", "-o", s(&scene)]));
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&scene).unwrap()).unwrap();
+    let p = &v["vertices"][6];
+    let script = d.join("fold.json");
+    std::fs::write(
+        &script,
+        format!(
+            r#"[{{"anchors": {{"near": [[{}, {}]]}}, "neighborhood": 0, "op": "translate", "by": [600, 0]}}]"#,
+            p[0], p[1]
+        ),
+    )
+    .unwrap();
+    let folded = d.join("folded.json");
+    trimorph(&["edit", s(&scene), "--script", s(&script), "-o", s(&folded)]);
+    assert!(folded.exists());
+    for (def, folds) in [(&scene, false), (&folded, true)] {
+        let out = d.join("w.obj");
+        let o = trimorph(&["warp", s(def), "--model", s(&worm), "-o", s(&out)]);
+        ok(&o);
+        let png = d.join("r.png");
+        let r = trimorph(&["render", s(def), "--model", s(&worm), "-o", s(&png)]);
+        ok(&r);
+        for o in [o, r] {
+            let err = String::from_utf8_lossy(&o.stderr);
+            assert_eq!(err.contains("is not certified fold-free"), folds, "{err}");
+        }
+    }
+}

@@ -370,7 +370,8 @@ impl RenderCli {
         let (def, out, size) = (&self.deformation, &self.output, self.size);
         match &self.model {
             Some(m) => self.marks.refuse_with_model().and_then(|()| {
-                model_cmd::render_model(def, m, out, bg, self.view.into(), size, self.up.up)
+                let up = self.up.resolve(m)?;
+                model_cmd::render_model(def, m, out, bg, self.view.into(), size, up)
             }),
             None => spline_cmds::render(def, out, bg, self.show, size, &self.marks),
         }
@@ -380,6 +381,7 @@ impl RenderCli {
 impl BindCli {
     /// Runs `trimorph model bind`.
     pub fn run(self) -> anyhow::Result<()> {
+        let up = self.extra.up.resolve(&self.model)?;
         model_cmd::bind_cmd(&crate::jobs::model::BindOptions {
             model: self.model,
             mesh: self.mesh,
@@ -389,7 +391,7 @@ impl BindCli {
             range: self.range,
             degree: self.degree,
             output: self.output,
-            up: self.extra.up.up,
+            up,
             snap: self.extra.snap,
         })
     }

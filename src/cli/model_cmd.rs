@@ -8,18 +8,92 @@ use crate::jobs::read_deformation;
 use anyhow::Result;
 use std::path::Path;
 
-/// `--up x|y|z` of the model commands.
+/// `--up x|y|z|auto` of the model commands.
 #[derive(clap::Args, Debug, Clone, Copy)]
 pub struct UpArgs {
     /// The model's up axis, the prisms' height: `x` or `y` turn the model (a cyclic
     /// permutation of its axes) so that axis becomes z, and back on output, so written
-    /// models keep the file's axes.
-    #[arg(long, default_value = "z", value_parser = parse_up)]
-    pub up: UpAxis,
+    /// models keep the file's axes. `auto`: the axis along which the model is thinnest (a
+    /// specimen lies flat on the slide), when it is clearly thinnest. Default z; a note
+    /// suggests --up when z is clearly not the thinnest.
+    #[arg(long, value_parser = parse_up)]
+    pub up: Option<UpChoice>,
 }
 
-fn parse_up(s: &str) -> Result<UpAxis, String> {
-    s.parse()
+/// An `--up` value: an axis or `auto`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum UpChoice {
+    /// This axis.
+    Axis(UpAxis),
+    /// [`crate::io::model::auto_up`].
+    Auto,
+}
+
+fn parse_up(s: &str) -> Result<UpChoice, String> {
+    match s {
+        "auto" => Ok(UpChoice::Auto),
+        s => s.parse().map(UpChoice::Axis).map_err(|e| format!("{e} (or auto)")),
+    }
+}
+
+impl UpArgs {
+    /// The up axis for the model at `path`: the one given, the one `auto` picks (printed),
+    /// or z by default (with a note when the model is clearly thinnest along another axis,
+    /// as a y-up model lying on its side is).
+    pub fn resolve(&self, path: &Path) -> Result<UpAxis> {
+        use crate::io::model::auto_up;
+        match self.up {
+            Some(UpChoice::Axis(a)) => Ok(a),
+            Some(UpChoice::Auto) => {
+                let m = job::load_model(path, UpAxis::Z)?;
+                let a = auto_up(&m.vertices)
+                    .map_err(|e| anyhow::anyhow!("model {}: {e}", path.display()))?;
+                eprintln!(
+                    "--up auto: {} is up in {} (its thinnest axis)",
+                    a.name(),
+                    path.display()
+                );
+                Ok(a)
+            }
+            None => {
+                let m = job::load_model(path, UpAxis::Z)?;
+                if let Ok(a) = auto_up(&m.vertices) {
+                    if a != UpAxis::Z {
+                        let e = crate::io::model::extents(&m.vertices);
+                        eprintln!(
+                            "note: {} is thinnest along {} (extents x {:.4}, y {:.4}, z {:.4}), \
+                             not z: if it lies on its side, give --up {} (or --up auto)",
+                            path.display(),
+                            a.name(),
+                            e[0],
+                            e[1],
+                            e[2],
+                            a.name()
+                        );
+                    }
+                }
+                Ok(UpAxis::Z)
+            }
+        }
+    }
+}
+
+/// A warning when `def` is not certified fold-free: a model (or image) carried through a
+/// folded map shows triangles flipped where it folds.
+pub fn warn_folds(def: &Path) -> Result<()> {
+    let (s, _) = read_deformation(def)?;
+    let c = crate::spline::jacobian::certify(&s, &Default::default());
+    if !c.fold_free {
+        eprintln!(
+            "warning: {} is not certified fold-free (sampled min det J {:.3}, certified lower \
+             bound {:.3}): what it carries flips where it folds; see `trimorph check` and \
+             `trimorph field --jacobian`",
+            def.display(),
+            c.sampled_min,
+            c.lower_bound
+        );
+    }
+    Ok(())
 }
 
 /// The options of `trimorph model bind` beside the original ones.
@@ -50,6 +124,7 @@ pub fn bind_cmd(o: &BindOptions) -> Result<()> {
 /// `trimorph warp DEF --model M -o OUT.(obj|ply|xyz)`: the model through psi.
 pub fn warp_model(def: &Path, model_path: &Path, output: &Path, up: UpAxis) -> Result<()> {
     let rep = job::warp_model(def, model_path, output, up)?;
+    warn_folds(def)?;
     say(rep.summary_line())?;
     warn_outside(&rep.outside);
     Ok(())
@@ -75,6 +150,7 @@ pub fn render_model(
     let (s, _) = read_deformation(def)?;
     let model = job::load_model(model_path, up)?;
     let ((w, h), outside) = job::render_model(&s, &model, output, background, view, size)?;
+    warn_folds(def)?;
     say(format_args!("{w}x{h} -> {}", output.display()))?;
     warn_outside(&outside);
     Ok(())

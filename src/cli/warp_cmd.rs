@@ -26,7 +26,8 @@ pub fn run(a: &WarpCli) -> Result<()> {
         if a.image.is_some() || a.points.is_some() || a.mesh.is_some() {
             bail!("give exactly one of --image, --points, --mesh or --model");
         }
-        return super::model_cmd::warp_model(&a.deformation, m, &a.output, a.up.up);
+        let up = a.up.resolve(m)?;
+        return super::model_cmd::warp_model(&a.deformation, m, &a.output, up);
     }
     // An image warp reads its image while the deformation is parsed (two independent
     // files: about 4 ms of a 4096^2 warp off the serial start); the deformation's error,

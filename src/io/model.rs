@@ -239,6 +239,56 @@ impl std::str::FromStr for UpAxis {
     }
 }
 
+/// `--up auto`'s rule: the thinnest extent is the height. A specimen lies flat under the
+/// microscope, so its height (the prisms' axis, `z` after loading) is the axis along which
+/// its bounding box is thinnest. The rule decides only when that extent is at most
+/// [`AUTO_UP_RATIO`] times the next thinnest; otherwise the model has no clear up axis and
+/// `--up` must name it.
+pub const AUTO_UP_RATIO: f64 = 0.8;
+
+/// The extents of `vertices` along x, y and z (file axes).
+pub fn extents(vertices: &[[f64; 3]]) -> [f64; 3] {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for v in vertices {
+        for a in 0..3 {
+            lo[a] = lo[a].min(v[a]);
+            hi[a] = hi[a].max(v[a]);
+        }
+    }
+    [0, 1, 2].map(|a| (hi[a] - lo[a]).max(0.0))
+}
+
+/// The up axis by [`AUTO_UP_RATIO`]'s rule, or why there is none (the extents, and that
+/// `--up` must be given).
+///
+/// ```
+/// use trimorph::io::model::{auto_up, UpAxis};
+/// // A worm 1000 long, 170 wide, 60 thick: z is up.
+/// let v = [[0.0, 0.0, 0.0], [1000.0, 170.0, 60.0]];
+/// assert_eq!(auto_up(&v), Ok(UpAxis::Z));
+/// // Lying on its side (y thinnest): y is up.
+/// assert_eq!(auto_up(&[[0.0; 3], [1000.0, 60.0, 170.0]]), Ok(UpAxis::Y));
+/// // A cube has no up axis.
+/// assert!(auto_up(&[[0.0; 3], [1.0, 1.0, 0.9]]).unwrap_err().contains("--up"));
+/// ```
+pub fn auto_up(vertices: &[[f64; 3]]) -> Result<UpAxis, String> {
+    let e = extents(vertices);
+    let mut order = [0usize, 1, 2];
+    order.sort_by(|&a, &b| e[a].total_cmp(&e[b]));
+    let text = format!("extents x {:.4}, y {:.4}, z {:.4}", e[0], e[1], e[2]);
+    // NaN extents (no vertices) are no clear answer either.
+    let clear = e[order[0]] <= AUTO_UP_RATIO * e[order[1]];
+    if !clear {
+        return Err(format!(
+            "--up auto: no axis is clearly the model's thinnest ({text}; the rule needs one at \
+             most {AUTO_UP_RATIO} times the next), so its up axis is not known: give --up x, y \
+             or z"
+        ));
+    }
+    Ok([UpAxis::X, UpAxis::Y, UpAxis::Z][order[0]])
+}
+
 /// The scene key that records the up axis of the scene's model when it is not `z`
 /// (`"model_up": "x"` or `"y"`, written by `trimorph model bind --up`; an extra key, which the
 /// deformation format allows). Readers of a scene's `"model"` load it with this axis.
