@@ -187,3 +187,50 @@ fn the_barrier_acts_and_converges_before_the_newton_cap() {
     assert!(r.iterations < 150, "{} iterations", r.iterations);
     assert!(r.fold_free && r.fit.max <= MISS_TOLERANCE, "{r:?}");
 }
+
+/// `--phi-ab` without the morph's stored similarity keeps the alignment the map implies: the
+/// similarity is estimated from the map on A's frame border, so a map that holds the frame
+/// (here the pinned morph's own `phi_{A->B}`, saved without its similarity) gives a morph
+/// whose frame stays still. Estimated from the whole grid (as before), the face's non-rigid
+/// motion pulled the similarity away and the whole frame zoomed and turned.
+#[test]
+fn phi_ab_keeps_the_alignment_its_map_implies() {
+    let pinned = morph_of(&rounded(3), &MorphOptions { pin_frame: true, ..Default::default() });
+    let raw = pinned.phi_ab_raw().unwrap();
+    let (a, b) = images();
+    let again =
+        Morph::from_deformations(a, b, raw.clone(), None, &MorphOptions::default()).unwrap();
+    let (s0, s1) = (pinned.similarity().report(), again.similarity().report());
+    assert!((s0.scale - s1.scale).abs() < 2e-3 * s0.scale, "{s0:?} {s1:?}");
+    assert!((s0.rotation_deg - s1.rotation_deg).abs() < 0.1, "{s0:?} {s1:?}");
+    // At t = 1 the frame's border stays where it is (phi_{A->1} = S o phi_{A->B}).
+    let end = again.phi_a_at(1.0).unwrap();
+    let (w, h) = (149.0, 224.0);
+    let border: Vec<[f64; 2]> = (0..=20)
+        .flat_map(|k| {
+            let (x, y) = (w * f64::from(k) / 20.0, h * f64::from(k) / 20.0);
+            [[x, 0.0], [x, h], [0.0, y], [w, y]]
+        })
+        .collect();
+    let worst = border.iter().fold(0.0f64, |acc, &p| acc.max(dist(&end, p, p)));
+    assert!(worst < 1.0, "the border moves by {worst} px");
+    // The whole-grid estimate (the old rule) moves it by several pixels.
+    let (bw, bh) = (f64::from(b.width() - 1), f64::from(b.height() - 1));
+    let (mut x, mut y) = (Vec::new(), Vec::new());
+    for i in 0..24 {
+        for j in 0..24 {
+            let p = [w * f64::from(i) / 23.0, h * f64::from(j) / 23.0];
+            let q = raw.eval(p, None).unwrap();
+            if q[0] >= 0.0 && q[1] >= 0.0 && q[0] <= bw && q[1] <= bh {
+                x.push(q);
+                y.push(p);
+            }
+        }
+    }
+    let old = trimorph::morph::align::umeyama(&x, &y, &vec![1.0; x.len()]).unwrap();
+    let old_worst = border.iter().fold(0.0f64, |acc, &p| {
+        let q = old.apply(raw.eval(p, None).unwrap());
+        acc.max((q[0] - p[0]).hypot(q[1] - p[1]))
+    });
+    assert!(old_worst > 3.0 * worst, "old rule {old_worst} px, new {worst} px");
+}

@@ -466,9 +466,12 @@ impl Morph {
     /// [`MorphOptions::fit`], on a `cells x cells` mesh over `B`) to `phi_ab` sampled on a
     /// 24 x 24 grid over `A` (pairs `(phi_ab(p), p)` with `phi_ab(p)` inside `B`).
     ///
-    /// With [`MorphOptions::align`], the similarity `S` is the least-squares similarity of
-    /// the same samples `phi_ab(p) -> p` (the landmarks are not known here, so it is close
-    /// to, not equal to, the landmark morph's). The blends use each deformation's own mesh
+    /// With [`MorphOptions::align`], the similarity `S` is the alignment the map implies:
+    /// the least-squares similarity of the samples `phi_ab(p) -> p` on `A`'s frame border
+    /// (all samples when fewer than 3 border ones land in `B`), so that `S ∘ phi_ab` moves
+    /// the frame's border as little as a similarity allows: a map that takes `A`'s frame
+    /// onto `B`'s gives a morph whose frame stays still. (The landmarks are not known here,
+    /// so it is close to, not equal to, the landmark morph's.) The blends use each deformation's own mesh
     /// and degree (`phi_{A->t}` is `(1 - s) id + s S ∘ phi_ab` on `phi_ab`'s mesh), so they
     /// stay exactly C1. Pixels of `A` outside `phi_ab`'s domain have no preimage in any frame
     /// (they show `B`, or the background); [`Morph::coverage`] tells how much of `A` is
@@ -525,10 +528,20 @@ impl Morph {
                 inside.then_some(Landmark { name: None, src: q, dst: *p, weight: 1.0 })
             })
             .collect();
+        // The alignment the map implies: the similarity of its samples on A's frame border
+        // (so that the border moves as little as a similarity allows), or of all samples
+        // when fewer than 3 border samples land in B.
+        let on_border = |p: &[f64; 2]| {
+            let (wa, ha) = (f64::from(a.width() - 1), f64::from(a.height() - 1));
+            p[0] == 0.0 || p[1] == 0.0 || p[0] == wa || p[1] == ha
+        };
+        let border: Vec<&Landmark> = samples.iter().filter(|l| on_border(&l.dst)).collect();
+        let fit_on: Vec<&Landmark> =
+            if border.len() >= 3 { border } else { samples.iter().collect() };
         let sim = if let (true, Some(given)) = (opts.align, similarity) {
             given
-        } else if opts.align && samples.len() >= 2 {
-            let (x, y): (Vec<_>, Vec<_>) = samples.iter().map(|l| (l.src, l.dst)).unzip();
+        } else if opts.align && fit_on.len() >= 2 {
+            let (x, y): (Vec<_>, Vec<_>) = fit_on.iter().map(|l| (l.src, l.dst)).unzip();
             umeyama(&x, &y, &vec![1.0; x.len()])?
         } else {
             Similarity::identity()
