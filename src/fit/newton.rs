@@ -252,6 +252,9 @@ pub struct CertifiedNewton<'a> {
     certify: &'a dyn Fn(&[[f64; 2]]) -> bool,
     ridge_scale: f64,
     settled: f64,
+    /// The last step's factor and Hessian values, whose buffers the next step reuses.
+    spare: Option<crate::sparse::Factor>,
+    vals: Vec<f64>,
 }
 
 impl<'a> CertifiedNewton<'a> {
@@ -265,7 +268,17 @@ impl<'a> CertifiedNewton<'a> {
         let pairs = pattern_pairs(&st);
         let settled =
             NEWTON_TOL_PX * NEWTON_TOL_PX * obj.rows().iter().map(|r| r.weight).sum::<f64>();
-        Ok(CertifiedNewton { obj, st, pairs, require, certify, ridge_scale: 1e-12, settled })
+        Ok(CertifiedNewton {
+            obj,
+            st,
+            pairs,
+            require,
+            certify,
+            ridge_scale: 1e-12,
+            settled,
+            spare: None,
+            vals: Vec::new(),
+        })
     }
 }
 
@@ -295,7 +308,8 @@ impl<'a> Solver<FitProblem<'a>, NewtonState> for CertifiedNewton<'a> {
         let x = state.take_param().unwrap_or_default();
         let g = state.take_gradient().unwrap_or_default();
         let f = state.get_cost();
-        let mut vals = Vec::with_capacity(self.st.pattern.len());
+        let mut vals = std::mem::take(&mut self.vals);
+        vals.clear();
         self.st.values(obj, &x, 0.0, &mut vals);
         let mean_diag = {
             let mut s = 0.0;
@@ -311,7 +325,7 @@ impl<'a> Solver<FitProblem<'a>, NewtonState> for CertifiedNewton<'a> {
             for v in &mut vals[n - 2 * nv..] {
                 *v = self.ridge_scale * mean_diag;
             }
-            match self.st.pattern.factor(&vals) {
+            match self.st.pattern.refactor(&vals, self.spare.take()) {
                 Ok(fa) => break fa,
                 Err(_) if self.ridge_scale < 1e-2 => self.ridge_scale *= 100.0,
                 Err(e) => return Err(FitError::Solver(e.to_string()).into()),
@@ -319,6 +333,8 @@ impl<'a> Solver<FitProblem<'a>, NewtonState> for CertifiedNewton<'a> {
         };
         let mut dx: Vec<f64> = g.iter().map(|v| -v).collect();
         factor.solve(&mut dx);
+        self.spare = Some(factor);
+        self.vals = vals;
         let slope: f64 = g.iter().zip(&dx).map(|(a, b)| a * b).sum();
         if -slope * 0.5 < (NEWTON_TOL * f.abs().max(1.0)).max(self.settled) {
             let state = state.param(x).cost(f).gradient(g);
