@@ -35,7 +35,8 @@
 //! numbers near 0, so those frames keep the hard switch.
 
 use super::FrameStats;
-use crate::warp::edge::{fill_pixels_mode, sample_mode};
+use crate::warp::edge::sample_mode;
+use crate::warp::fill;
 use crate::warp::remap::RemapPlan;
 use crate::warp::sample::{Source, Texel};
 use crate::warp::{EdgeMode, Interp};
@@ -56,22 +57,6 @@ pub(super) struct Job<'p, 's> {
 
 pub(super) fn source<T>(data: &[T], w: u32, h: u32, nc: usize) -> Source<'_, T> {
     Source { data, w: w as usize, h: h as usize, nc }
-}
-
-fn fill<T: Texel>(
-    src: &Source<'_, T>,
-    pos: &[[f64; 2]],
-    out: &mut [T],
-    interp: Interp,
-    bg: f64,
-    mode: EdgeMode,
-) {
-    match src.nc {
-        1 => fill_pixels_mode::<T, 1>(src, pos, out, interp, bg, mode),
-        2 => fill_pixels_mode::<T, 2>(src, pos, out, interp, bg, mode),
-        3 => fill_pixels_mode::<T, 3>(src, pos, out, interp, bg, mode),
-        _ => fill_pixels_mode::<T, 4>(src, pos, out, interp, bg, mode),
-    }
 }
 
 /// The background pixel: `bg` in every colour channel, alpha 0.
