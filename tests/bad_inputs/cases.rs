@@ -325,6 +325,19 @@ pub fn cases() -> Vec<Case> {
         },
         Case { id: "model_empty", setup: |fx, id| model(fx, id, "obj", b"# nothing\n") },
         Case {
+            id: "model_up_auto_cube",
+            setup: |fx, id| {
+                let (mut a, p) = model(
+                    fx,
+                    id,
+                    "obj",
+                    b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nv 1 1 1\nf 1 2 3\nf 1 2 4\n",
+                );
+                a.extend(args(&["--up", "auto"]));
+                (a, p)
+            },
+        },
+        Case {
             id: "model_off_index",
             setup: |fx, id| model(fx, id, "off", b"OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n"),
         },
