@@ -76,11 +76,13 @@ fn field_and_jacobian_maps() {
     let o = trimorph(&["field", s(&id), "-o", s(&npy), "--jacobian", s(&jac)]);
     ok(&o);
     let text = String::from_utf8_lossy(&o.stdout);
-    assert!(text.contains("0 of 231 samples fold"), "{text}");
+    // The grid records the 20 x 10 frame: the field covers its pixels, not the 21 x 11
+    // pixel centres of the mesh's extent.
+    assert!(text.contains("0 of 200 samples fold"), "{text}");
     let b = std::fs::read(&npy).unwrap();
     assert_eq!(&b[..6], b"\x93NUMPY");
     let hl = u16::from_le_bytes([b[8], b[9]]) as usize;
-    assert!(std::str::from_utf8(&b[10..10 + hl]).unwrap().contains("(11, 21, 2)"));
+    assert!(std::str::from_utf8(&b[10..10 + hl]).unwrap().contains("(10, 20, 2)"));
     // The identity has zero displacement everywhere (up to f64 evaluation rounding).
     assert!(b[10 + hl..]
         .chunks(4)
@@ -375,16 +377,16 @@ fn jacobian_map_has_a_colour_bar_below() {
     let o = trimorph(&["field", s(&id), "-o", s(&npy), "--jacobian", s(&jac)]);
     ok(&o);
     let text = String::from_utf8_lossy(&o.stdout);
-    assert!(text.contains("map 21x11 with its colour bar below (360x51 in all)"), "{text}");
+    assert!(text.contains("map 20x10 with its colour bar below (360x50 in all)"), "{text}");
     let j = image::open(&jac).unwrap().to_rgba8();
-    assert_eq!(j.dimensions(), (360, 51));
-    for y in 0..11 {
-        for x in 0..21 {
+    assert_eq!(j.dimensions(), (360, 50));
+    for y in 0..10 {
+        for x in 0..20 {
             assert_eq!(j.get_pixel(x, y).0, [255, 255, 255, 255], "map pixel ({x}, {y})");
         }
         assert_eq!(j.get_pixel(30, y).0[3], 0, "beside the map");
     }
-    let strip: Vec<[u8; 4]> = (11..51)
+    let strip: Vec<[u8; 4]> = (10..50)
         .flat_map(|y| (0..360).map(move |x| (x, y)))
         .map(|(x, y)| j.get_pixel(x, y).0)
         .collect();

@@ -15,7 +15,7 @@ const INVERSE_TOL: f64 = 0.01;
 /// tracks (frame 0 -> 9 of the time-lapse) fitted over a 6 x 6 grid on the 511 x 511 frame.
 fn fitted(dir: &Path) -> PathBuf {
     let (mesh, def) = (dir.join("ref.json"), dir.join("def.json"));
-    ok(&trimorph(&["mesh", "--grid", "6x6", "--size", "510,510", "-o", s(&mesh)]));
+    ok(&trimorph(&["mesh", "--grid", "6x6", "--size", "511,511", "-o", s(&mesh)]));
     let lms = concat!(env!("CARGO_MANIFEST_DIR"), "/data/microscopy/timelapse/tracks_0_9.csv");
     ok(&trimorph(&["fit", s(&mesh), "--landmarks", lms, "-o", s(&def)]));
     def

@@ -73,7 +73,7 @@ def write_points(path: Path, pts: np.ndarray) -> None:
 @pytest.fixture(scope="module")
 def case(tmp_path_factory):
     d = tmp_path_factory.mktemp("itk")
-    run("mesh", "--grid", "6x6", "--size", "510,510", "-o", d / "ref.json")
+    run("mesh", "--grid", "6x6", "--size", "511,511", "-o", d / "ref.json")
     tracks = REPO / "data" / "microscopy" / "timelapse" / "tracks_0_9.csv"
     run("fit", d / "ref.json", "--landmarks", tracks, "-o", d / "def.json")
     line = run("field", d / "def.json", "-o", d / "F.h5")

@@ -25,8 +25,9 @@ pub struct MeshCli {
     /// A regular grid of COLSxROWS cells (e.g. 6x4), with --size.
     #[arg(long, value_parser = text(parse_grid))]
     pub grid: Option<(usize, usize)>,
-    /// Width and height covered by --grid, e.g. 640,480 (pixels; with --landmarks the
-    /// frame, whole pixels).
+    /// The image size W,H in pixels, e.g. 640,480: --grid spans [0, W] x [0, H] (every pixel
+    /// centre of a W x H image) and records the W x H frame, the default size of fields;
+    /// with --landmarks the frame (whole pixels).
     #[arg(long, value_parser = text(parse_extent))]
     pub size: Option<[f64; 2]>,
     /// A 2D reference mesh in OBJ (`v` and `f` lines).
@@ -189,7 +190,7 @@ pub struct MorphCli {
     #[arg(long, value_name = "FILE", requires = "landmarks_dst",
           conflicts_with_all = ["landmarks", "phi_ab"])]
     pub landmarks_src: Option<PathBuf>,
-    /// The landmarks in B (see --landmarks-src), as many as there.
+    /// The landmarks in B (see --landmarks-src): as many as in that file, in the same order.
     #[arg(long, value_name = "FILE", requires = "landmarks_src")]
     pub landmarks_dst: Option<PathBuf>,
     /// Instead of landmarks: a deformation (format v1) mapping A's pixel coordinates to

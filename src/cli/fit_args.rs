@@ -28,7 +28,8 @@ pub struct FitCli {
     #[arg(long, value_name = "FILE", requires = "landmarks_dst",
           conflicts_with_all = ["landmarks", "frames"])]
     pub landmarks_src: Option<PathBuf>,
-    /// The landmarks' target points (see --landmarks-src), as many as there.
+    /// The landmarks' target points (see --landmarks-src): as many as in that file, in the
+    /// same order.
     #[arg(long, value_name = "FILE", requires = "landmarks_src")]
     pub landmarks_dst: Option<PathBuf>,
     /// Output deformation (single fit) or output folder (with --frames).

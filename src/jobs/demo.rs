@@ -145,7 +145,7 @@ fn spline_part(dir: &Path, log: &mut Log) -> JobResult<()> {
     let id = dir.join("identity.json");
     let grid = MeshSource::Grid { cols: 6, rows: 6, width: 550.0, height: 660.0 };
     let mesh = build_mesh(&grid, MeshOptions { grid: 16 })?;
-    log.out(write_identity(mesh, 5, None, None, &id)?)?;
+    log.out(write_identity(mesh, 5, None, grid.frame(), &id)?)?;
     let script = dir.join("edits.json");
     write_atomic(&script, serde_json::to_string_pretty(&demo_script())?.as_bytes())?;
     let edited = dir.join("edited.json");

@@ -59,10 +59,19 @@ pub enum MeshSource {
 }
 
 impl MeshSource {
-    /// The image frame of a landmark mesh (its `size`); other meshes have none.
+    /// The image frame the mesh is made for: a landmark mesh's `size`, and a grid's
+    /// `width x height` when both are whole numbers (`mesh --grid 6x6 --size 550,660` is
+    /// for a 550 x 660 image: the grid spans `[0, 550] x [0, 660]`, which holds every pixel
+    /// centre, and fields default to 550 x 660 pixels, not to the 551 x 661 pixel centres
+    /// of its extent). Other meshes have none.
     pub fn frame(&self) -> Option<ImageFrame> {
         match self {
             MeshSource::Landmarks { size, .. } => ImageFrame::new(*size).ok(),
+            MeshSource::Grid { width, height, .. }
+                if width.fract() == 0.0 && height.fract() == 0.0 =>
+            {
+                ImageFrame::new([*width, *height]).ok()
+            }
             _ => None,
         }
     }
@@ -339,4 +348,29 @@ pub fn render_file(
     let pm = rd::render(s, last, bg.as_ref(), opts)?;
     rd::save_png(&pm, output)?;
     Ok((pm.width(), pm.height()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Bug: `mesh --grid 6x6 --size 550,660` for a 550 x 660 image recorded no frame, so its
+    /// fields defaulted to the 551 x 661 pixel centres of the mesh's extent. A grid of whole
+    /// pixels now records its frame; a fractional one (not an image) records none.
+    #[test]
+    fn a_grid_of_whole_pixels_records_its_image_frame() {
+        let grid = MeshSource::Grid { cols: 6, rows: 6, width: 550.0, height: 660.0 };
+        let frame = grid.frame().expect("a frame");
+        assert_eq!(frame.grid(), (550, 660));
+        let odd = MeshSource::Grid { cols: 2, rows: 2, width: 20.5, height: 10.0 };
+        assert_eq!(odd.frame(), None);
+        let obj = MeshSource::Obj(PathBuf::from("m.obj"));
+        assert_eq!(obj.frame(), None);
+        let mesh = build_mesh(&grid, MeshOptions { grid: 16 }).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("id.json");
+        write_identity(mesh, 5, None, grid.frame(), &out).unwrap();
+        let (s, _) = crate::jobs::read_deformation(&out).unwrap();
+        assert_eq!(crate::jobs::field::default_size(&s), (550, 660));
+    }
 }

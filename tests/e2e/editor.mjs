@@ -157,10 +157,17 @@ try {
   // Tolerances: the page interpolates phi^-1 bilinearly between nodes 8 px apart, and
   // rounds to 8 bits; `trimorph warp` solves it to 0.01 px.
   if (!(cmp.mean_abs <= 1.0 && cmp.over_8 <= 0.005 && cmp.missing <= 0.01 * cmp.pixels)) fail('live warp differs from trimorph warp: ' + JSON.stringify(cmp));
-  await page.evaluate(() => { document.getElementById('blend').value = 1; });
+  // Setting the slider's value fires no event: dispatch one so that the page redraws with
+  // the warped frame only (the screenshot used to show the blend of 0.5 instead).
+  const setBlend = (v) => page.evaluate((v) => {
+    const b = document.getElementById('blend');
+    b.value = v;
+    b.dispatchEvent(new Event('input'));
+  }, v);
+  await setBlend(1);
   await page.evaluate(() => window.trimorph.idle());
   await page.screenshot({ path: shot.replace(/\.png$/, '_warp.png') });
-  await page.evaluate(() => { document.getElementById('blend').value = 0.5; });
+  await setBlend(0.5);
   const check = spawnSync(bin, ['check', 'e2e.json'], { cwd: work, encoding: 'utf8' });
   if (check.status !== 0) fail('trimorph check failed: ' + check.stderr);
   const rep = JSON.parse(check.stdout);
