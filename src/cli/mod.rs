@@ -15,6 +15,7 @@ mod fit_cmd;
 mod match_cmd;
 mod model_cmd;
 mod morph_cmd;
+pub mod reference;
 mod register_cmd;
 mod solve;
 mod spline_cmds;
