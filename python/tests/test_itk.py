@@ -73,12 +73,15 @@ def write_points(path: Path, pts: np.ndarray) -> None:
 @pytest.fixture(scope="module")
 def case(tmp_path_factory):
     d = tmp_path_factory.mktemp("itk")
-    run("mesh", "--grid", "6x6", "--size", "511,511", "-o", d / "ref.json")
+    run("mesh", "--grid", "6x6", "--size", "510,510", "-o", d / "ref.json")
     tracks = REPO / "data" / "microscopy" / "timelapse" / "tracks_0_9.csv"
     run("fit", d / "ref.json", "--landmarks", tracks, "-o", d / "def.json")
-    line = run("field", d / "def.json", "-o", d / "F.h5")
+    # The grid spans the pixel centres 0..510 exactly (so trimorph and ITK agree on every
+    # pixel, see the README's "One difference"); its recorded frame is then 510 x 510, and
+    # the field is asked for the image's 511 x 511 grid.
+    line = run("field", d / "def.json", "-o", d / "F.h5", "--size", "511,511")
     assert "phi^-1(q) - q" in line and "511x511" in line, line
-    line_fwd = run("field", d / "def.json", "--inverse", "-o", d / "Fi.h5")
+    line_fwd = run("field", d / "def.json", "--inverse", "-o", d / "Fi.h5", "--size", "511,511")
     assert "phi(p) - p" in line_fwd, line_fwd
     centres = np.array([[x, y] for y in range(H) for x in range(W)], dtype=float)
     write_points(d / "centres.csv", centres)
@@ -215,7 +218,7 @@ def test_python_to_itk_writes_the_cli_file(case, tmp_path):
     d = trimorph.Deformation.load(case["dir"] / "def.json")
     for inverse, name in [(False, "F.h5"), (True, "Fi.h5")]:
         out = tmp_path / name
-        undefined = d.to_itk(out, inverse=inverse)
+        undefined = d.to_itk(out, inverse=inverse, size=(W, H))
         with h5py.File(out, "r") as ours, h5py.File(case["dir"] / name, "r") as ref:
             for key in ["TranformFixedParameters", "TranformParameters"]:
                 np.testing.assert_array_equal(
