@@ -16,6 +16,7 @@ use trimorph::edit::extra::Extra;
 use trimorph::edit::script::{Script, ScriptError};
 use trimorph::edit::{Editor, LastEdit};
 use trimorph::io::{deformation as dio, read_text, write_atomic, IoError};
+use trimorph::jobs::spline::MeshSource;
 use trimorph::mesh::{AdaptOptions, Mesh, MeshOptions};
 use trimorph::spline::Spline;
 use trimorph::warp::inverse::InverseOptions;
@@ -265,7 +266,11 @@ impl Deformation {
             ));
         }
         let mesh = Mesh::grid(cols, rows, w, h, MeshOptions { grid: snap }).map_err(value_error)?;
-        Ok(Deformation::new(Spline::identity(mesh, degree).map_err(value_error)?))
+        let mut s = Spline::identity(mesh, degree).map_err(value_error)?;
+        // A grid of whole pixels records its W x H frame, as `trimorph mesh --grid` does.
+        let source = MeshSource::Grid { cols, rows, width: w, height: h };
+        s.set_frame(source.frame());
+        Ok(Deformation::new(s))
     }
 
     /// The identity over a mesh adapted to landmark sources `src` ((n, 2) pixels) in a frame

@@ -37,6 +37,10 @@ def test_mesh_grid_equals_cli_mesh_grid(cli, tmp_path):
     assert d.to_json() == out.read_text()
     assert d.num_triangles == 48 and d.degree == 5
     assert d.bbox == ((0.0, 0.0), (120.0, 80.0))
+    # The grid records its 120 x 80 frame: fields cover the image's pixels (bug: they were
+    # the 121 x 81 pixel centres of the mesh's extent).
+    assert d.frame["size"] == [120.0, 80.0]
+    assert d.field().shape == (80, 120, 2)
 
 
 def test_mesh_landmarks_equals_cli_mesh_landmarks(cli, nuclei, tmp_path):
