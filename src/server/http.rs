@@ -34,8 +34,12 @@
 //!
 //! # Checks, in order
 //!
+//! The first five run on the request line and headers, before any byte of the body is
+//! read: a client without the token cannot make the server buffer a body.
+//!
 //! | check | applies to | refused with |
 //! |---|---|---|
+//! | exactly one `Host` header (RFC 9112, 3.2) | every request | 400 |
 //! | `Host` is `127.0.0.1:P` or `localhost:P` | every request | 403 |
 //! | `Origin`, if sent, is `http://127.0.0.1:P` or `http://localhost:P` | every request | 403 |
 //! | `Sec-Fetch-Site`, if sent, is `same-origin` or `none` | `/api/` | 403 |
@@ -274,10 +278,13 @@ impl Input<'_> {
 }
 
 /// Reads one request from `s`, all of it within `timeout`, the body capped at `max_body`.
+/// `admit_head` sees the request line and headers before any byte of the body is read (the
+/// token check: a client without the token cannot make the server buffer a body).
 pub fn read_request(
     s: &TcpStream,
     timeout: Duration,
     max_body: usize,
+    admit_head: &dyn Fn(&Request) -> Result<(), ServerError>,
 ) -> Result<Request, ReadFail> {
     let mut input = Input { s, buf: Vec::new(), pos: 0, deadline: Instant::now() + timeout };
     let first = match input.line(MAX_HEAD) {
@@ -314,6 +321,11 @@ pub fn read_request(
             .ok_or_else(|| ServerError::BadRequest(format!("header line `{l}`")))?;
         req.headers.push((k.trim().to_ascii_lowercase(), v.trim().to_string()));
     }
+    // RFC 9112 section 3.2: a request with more than one Host header is answered 400.
+    if req.headers.iter().filter(|(k, _)| k == "host").count() > 1 {
+        return Err(ServerError::BadRequest("more than one Host header".into()).into());
+    }
+    admit_head(&req)?;
     if req.header("expect").is_some_and(|e| e.eq_ignore_ascii_case("100-continue")) {
         let _ = (&*s).write_all(b"HTTP/1.1 100 Continue\r\n\r\n");
     }
@@ -331,7 +343,9 @@ pub fn read_request(
                 while !input.line(MAX_HEAD)?.is_empty() {}
                 break;
             }
-            if body.len() + n > max_body {
+            // `n` may be anything up to usize::MAX: compare without adding (an overflowing
+            // sum once let a body past the cap).
+            if n > max_body.saturating_sub(body.len()) {
                 return Err(ServerError::TooLarge.into());
             }
             input.take(n, &mut body)?;

@@ -520,7 +520,8 @@ impl Server {
     }
 
     fn serve_one(&self, doc: &std::sync::Mutex<&mut Doc>, s: &TcpStream) {
-        let req = match http::read_request(s, self.read_timeout, MAX_BODY) {
+        let head = |r: &http::Request| self.guard.admit(r).map(|_| ());
+        let req = match http::read_request(s, self.read_timeout, MAX_BODY, &head) {
             Ok(r) => r,
             Err(http::ReadFail::Gone) => return,
             Err(http::ReadFail::Answer(e)) => {

@@ -154,3 +154,57 @@ fn concurrent_requests_are_all_answered() {
     });
     assert!(t0.elapsed() < Duration::from_secs(30));
 }
+
+/// Sends `head` and then `body` slowly enough to matter, and reads the answer's status.
+fn status_after(addr: std::net::SocketAddr, head: &str, body: &[u8]) -> (u16, Duration) {
+    let t0 = Instant::now();
+    let mut s = TcpStream::connect(addr).unwrap();
+    s.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
+    s.write_all(head.as_bytes()).unwrap();
+    let _ = s.write_all(body);
+    let mut out = String::new();
+    let _ = s.read_to_string(&mut out);
+    let st = out.get(9..12).and_then(|c| c.parse().ok()).unwrap_or(0);
+    (st, t0.elapsed())
+}
+
+/// Bug: a chunk of size 1 then one of size `ffffffffffffffff` overflowed the length sum, so
+/// the cap never fired and the server buffered what arrived until its deadline (RSS 34 ->
+/// 1,062 MiB), before the token was even checked. Now the token is checked on the head,
+/// before any body byte is read, and the cap is compared without adding.
+#[test]
+fn a_chunk_length_overflow_is_refused_before_anything_is_buffered() {
+    let dir = tempfile::tempdir().unwrap();
+    let srv = Running::start(dir.path(), Duration::from_secs(5));
+    let a = srv.addr;
+    let chunks = b"1\r\n{\r\nffffffffffffffff\r\nxxxxxxxxxxxxxxxx";
+    // Without the token: 401 at once, the body never read.
+    let head = format!(
+        "POST /api/save HTTP/1.1\r\nHost: {a}\r\nContent-Type: application/json\r\n\
+         Transfer-Encoding: chunked\r\nConnection: close\r\n\r\n"
+    );
+    let (st, took) = status_after(a, &head, chunks);
+    assert_eq!(st, 401);
+    assert!(took < Duration::from_secs(2), "answered after {took:?}");
+    // With the token: 413 on the second chunk's size, not a timeout.
+    let head = srv.head(
+        "POST",
+        "/api/save",
+        "Content-Type: application/json\r\nTransfer-Encoding: chunked\r\n",
+    );
+    let (st, took) = status_after(a, &head, chunks);
+    assert_eq!(st, 413);
+    assert!(took < Duration::from_secs(2), "answered after {took:?}");
+}
+
+/// RFC 9112 section 3.2: a request with two Host headers gets 400, even when the first one
+/// is this editor's (it was accepted).
+#[test]
+fn a_duplicated_host_header_is_a_bad_request() {
+    let dir = tempfile::tempdir().unwrap();
+    let srv = Running::start(dir.path(), Duration::from_secs(5));
+    let a = srv.addr;
+    let twice = srv.head("GET", "/api/state", "Host: evil.example\r\n");
+    assert_eq!(raw(a, &twice).0, 400);
+    assert_eq!(raw(a, &srv.head("GET", "/api/state", "")).0, 200);
+}
