@@ -55,7 +55,10 @@ fn read_image(p: &Path) -> Result<image::DynamicImage, JobError> {
 }
 
 /// The document the editor starts with, its files inside `root` (see the module docs).
+/// Temporary files that a killed save left in `root` (`.NAME.PID-N.tmp` of a process that no
+/// longer runs, untouched for [`crate::io::STALE_AFTER`]) are removed first.
 pub fn initial_doc(a: &StartOptions, root: &Path) -> Result<Doc, StartError> {
+    crate::io::remove_stale_temps(root, crate::io::STALE_AFTER);
     let mut model_path = a.model.clone();
     let mut image_path = a.image.clone();
     let mut pinned = Vec::new();
@@ -126,4 +129,27 @@ pub fn initial_doc(a: &StartOptions, root: &Path) -> Result<Doc, StartError> {
         doc.set_frame(p, img)?;
     }
     Ok(doc)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Bug: temporary files left by a killed save stayed in the editor's folder forever.
+    /// Starting the editor removes those of dead writers; a live writer's file stays.
+    #[cfg(target_os = "linux")]
+    #[test]
+    fn starting_removes_the_temporary_files_of_a_killed_save() {
+        let dir = tempfile::tempdir().unwrap();
+        let dead = dir.path().join(".fit.json.4194400-3.tmp");
+        let live = dir.path().join(format!(".fit.json.{}-1.tmp", std::process::id()));
+        for p in [&dead, &live] {
+            std::fs::write(p, "{").unwrap();
+            let old = std::time::SystemTime::now() - std::time::Duration::from_secs(600);
+            std::fs::File::options().write(true).open(p).unwrap().set_modified(old).unwrap();
+        }
+        initial_doc(&StartOptions::default(), dir.path()).unwrap();
+        assert!(!dead.exists(), "the dead writer's file is removed");
+        assert!(live.exists(), "this process's own file stays");
+    }
 }
