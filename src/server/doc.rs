@@ -421,15 +421,39 @@ impl Doc {
         (v, copies)
     }
 
+    /// Where a save or an export of `rel` writes: inside the root ([`confine`]), and never
+    /// the image or the model this editor works on (an export named after the frame replaced
+    /// the raw image). Overwriting anything else is the page's question to ask
+    /// (`POST /api/stat` first).
+    pub fn output_path(&self, rel: &str) -> Result<PathBuf, ServerError> {
+        let path = confine(&self.root, rel, true)?;
+        let same = |p: &std::path::Path| {
+            let p = if p.is_absolute() { p.to_path_buf() } else { self.root.join(p) };
+            p.canonicalize().is_ok_and(|c| c == path)
+        };
+        let input = match (&self.frame, &self.model) {
+            (Some(f), _) if same(&f.path) => Some("image"),
+            (_, Some(m)) if same(&m.path) => Some("model"),
+            _ => None,
+        };
+        match input {
+            Some(what) => Err(ServerError::Forbidden(format!(
+                "`{rel}` is the {what} this editor works on: writing it would replace an input; \
+                 choose another name"
+            ))),
+            None => Ok(path),
+        }
+    }
+
     /// Saves the deformation (or the scene, with the copies [`Doc::to_json`] names) to
     /// `rel` inside the root; returns the file and the copies written.
     pub fn save(&self, rel: &str, scene: bool) -> Result<(PathBuf, Vec<String>), ServerError> {
-        let path = confine(&self.root, rel, true)?;
+        let path = self.output_path(rel)?;
         let (v, copies) = self.to_json(scene.then_some(rel));
         let io = |e: crate::io::IoError| ServerError::Io(e.to_string());
         let mut written = Vec::new();
         for (c, bytes) in &copies {
-            let p = confine(&self.root, c, true)?;
+            let p = self.output_path(c)?;
             match (bytes, &self.model) {
                 (Some(b), _) => write_atomic(&p, b).map_err(io)?,
                 (None, Some(m)) => {
@@ -566,7 +590,7 @@ impl Doc {
     pub fn export_model(&self, rel: &str) -> Result<PathBuf, ServerError> {
         let m =
             self.model.as_ref().ok_or(ServerError::Unprocessable("no model is loaded".into()))?;
-        let path = confine(&self.root, rel, true)?;
+        let path = self.output_path(rel)?;
         let v = m.to_file_axes(&deform(&m.model, &m.binding, self.spline()));
         save_model(&m.model, &v, &path).map_err(|e| ServerError::Io(e.to_string()))?;
         Ok(path)
@@ -576,7 +600,7 @@ impl Doc {
     pub fn export_warped(&self, rel: &str) -> Result<PathBuf, ServerError> {
         let f =
             self.frame.as_ref().ok_or(ServerError::Unprocessable("no image is loaded".into()))?;
-        let path = confine(&self.root, rel, true)?;
+        let path = self.output_path(rel)?;
         let (out, _) = crate::warp::warp_image(
             self.spline(),
             &f.image,

@@ -633,3 +633,25 @@ fn load_model_back(d: &Doc, root: &std::path::Path, name: &str) -> Vec<[f64; 3]>
     d.export_model(name).unwrap();
     crate::io::model::load_model(&root.join(name)).unwrap().vertices
 }
+
+/// Bug: "export warped" with the path field at the frame's name replaced the raw image
+/// without a word. Saves and exports never write over the image or the model the editor
+/// works on; other names are written (the page asks before replacing them).
+#[test]
+fn an_export_over_an_input_is_refused_and_the_input_kept() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut d = doc25(dir.path());
+    std::fs::write(dir.path().join("frame.png"), b"raw frame").unwrap();
+    std::fs::write(dir.path().join("worm.obj"), b"raw model").unwrap();
+    for (kind, path) in [("warped", "frame.png"), ("obj", "worm.obj"), ("warped", "./frame.png")] {
+        let (st, v) = call(&mut d, "POST", "/api/export", json!({"kind": kind, "path": path}));
+        assert_eq!(st, 403, "{kind} {path}: {v}");
+        assert!(v.to_string().contains("replace an input"), "{v}");
+    }
+    let (st, _) = call(&mut d, "POST", "/api/save", json!({"path": "frame.png"}));
+    assert_eq!(st, 403);
+    assert_eq!(std::fs::read(dir.path().join("frame.png")).unwrap(), b"raw frame");
+    assert_eq!(std::fs::read(dir.path().join("worm.obj")).unwrap(), b"raw model");
+    let (st, v) = call(&mut d, "POST", "/api/export", json!({"kind": "warped", "path": "w.png"}));
+    assert_eq!(st, 200, "{v}");
+}

@@ -724,6 +724,14 @@ async function undoRedo(which) {
   await refreshPairs();
 }
 
+// An export asks before it replaces a file (the server refuses the editor's own inputs).
+async function exportAs(kind, path) {
+  const st = await api('POST', '/api/stat', { path });
+  if (st.exists && !confirm(`${path} exists. Overwrite it?`)) { message('not exported: ' + path + ' exists'); return; }
+  const r = await api('POST', '/api/export', { kind, path });
+  message('exported ' + r.saved);
+}
+
 // Saving asks before overwriting a file and before saving a map that is not certified
 // fold-free; `scene` also keeps the model and the frame (written beside it when they have
 // no file in the folder).
@@ -765,8 +773,8 @@ const commands = {
     await reload(false);
     message('loaded ' + path + (st.same_layout === false ? ' (new document: the undo history was cleared)' : ' (undo restores the previous state)'));
   }),
-  exportobj: () => run(async () => { const r = await api('POST', '/api/export', { kind: 'obj', path: $('path').value.replace(/\.[^.]*$/, '') + '.obj' }); message('exported ' + r.saved); }),
-  exportimg: () => run(async () => { const r = await api('POST', '/api/export', { kind: 'warped', path: $('path').value.replace(/\.[^.]*$/, '') + '.png' }); message('exported ' + r.saved); }),
+  exportobj: () => run(() => exportAs('obj', $('path').value.replace(/\.[^.]*$/, '') + '.obj')),
+  exportimg: () => run(() => exportAs('warped', $('path').value.replace(/\.[^.]*$/, '') + '.png')),
   // The re-fit uses the pairs in the page; the residuals after it are in the table.
   refit: () => run(async () => {
     await updatesDone();

@@ -206,7 +206,7 @@ impl Doc {
 
     /// Writes the pairs to `rel` inside the root in `format` (atomically).
     pub fn export_pairs(&self, rel: &str, format: LandmarkFormat) -> Result<PathBuf, ServerError> {
-        let path = confine(&self.root, rel, true)?;
+        let path = self.output_path(rel)?;
         write_landmarks(&path, &self.landmarks, format)
             .map_err(|e| ServerError::Io(e.to_string()))?;
         Ok(path)
