@@ -52,8 +52,9 @@ use std::path::{Path, PathBuf};
 /// ITK's name of the transform class this module writes.
 pub const TRANSFORM_TYPE: &str = "DisplacementFieldTransform_double_2_2";
 
-/// The largest grid written, in pixels (as for `.npy` / `.tif` fields).
-pub const MAX_PIXELS: u64 = 100_000_000;
+/// The largest grid written, in pixels: [`crate::io::MAX_RASTER_PIXELS`], as for `.npy` /
+/// `.tif` fields.
+pub const MAX_PIXELS: u64 = crate::io::MAX_RASTER_PIXELS;
 
 /// The file extensions ITK's HDF5 transform writer accepts (`CanWriteFile`), lower case.
 pub const EXTENSIONS: [&str; 8] = ["hdf", "h4", "hdf4", "h5", "hdf5", "he4", "he5", "hd5"];

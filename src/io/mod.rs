@@ -4,6 +4,11 @@
 //! over the destination, so a reader never sees a half-written file and a failed command
 //! never destroys an earlier output.
 
+/// Most pixels of a raster computed point by point: displacement fields (`.npy`, `.tif`,
+/// ITK, NGFF), Jacobian maps and pictures of a warped mesh. One limit for all of them, the
+/// command line and the Python bindings alike.
+pub const MAX_RASTER_PIXELS: u64 = 100_000_000;
+
 pub mod clash;
 pub mod colormesh;
 pub mod deformation;

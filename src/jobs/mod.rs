@@ -205,8 +205,7 @@ pub fn parse_deformation(text: &str, path: &Path) -> JobResult<(Spline, Option<L
     })
 }
 
-/// Most pixels of a raster computed point by point (`field`, pictures of a warped mesh).
-pub const MAX_RASTER_PIXELS: u64 = 100_000_000;
+pub use crate::io::MAX_RASTER_PIXELS;
 
 /// Whether a `w` x `h` raster is non-empty and within [`MAX_RASTER_PIXELS`].
 pub fn raster_fits(w: u32, h: u32) -> bool {
