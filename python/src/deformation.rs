@@ -16,6 +16,7 @@ use trimorph::edit::extra::Extra;
 use trimorph::edit::script::{Script, ScriptError};
 use trimorph::edit::{Editor, LastEdit};
 use trimorph::io::{deformation as dio, read_text, write_atomic, IoError};
+use trimorph::jobs::spline::{build_mesh, MeshSource};
 use trimorph::mesh::{AdaptOptions, Mesh, MeshOptions};
 use trimorph::spline::Spline;
 use trimorph::warp::inverse::InverseOptions;
@@ -155,7 +156,8 @@ impl Deformation {
     /// of the edit are rounded to multiples of `2^-bits` and the rest recomputed exactly, so
     /// C1 still holds exactly but the numbers stay small over long histories; `None` keeps
     /// every value exact (as `trimorph edit --unbounded`).
-    #[pyo3(signature = (ops, bounded_bits = Some(24)))]
+    // The text signature spells the default (`Some(24)` shows as `...` otherwise).
+    #[pyo3(signature = (ops, bounded_bits = Some(24)), text_signature = "(self, ops, bounded_bits=24)")]
     fn edit<'py>(
         &mut self,
         py: Python<'py>,
@@ -249,6 +251,9 @@ impl Deformation {
 
     /// The identity over a `cols x rows` grid of cells (two triangles each) covering
     /// `size = (w, h)` pixels from the origin; `snap` is the mesh's snapping denominator.
+    /// As `trimorph mesh --grid COLSxROWS --size W,H`: a whole-pixel size is recorded as the
+    /// image frame (`frame`), so `field()` is `h x w` pixels, not the `(h + 1) x (w + 1)`
+    /// pixel centres of the grid's extent.
     #[staticmethod]
     #[pyo3(signature = (cols, rows, size, degree = 5, snap = 16))]
     fn mesh_grid(
@@ -264,8 +269,11 @@ impl Deformation {
                 "cols and rows must be whole numbers >= 1 (at most 10^6 cells)",
             ));
         }
-        let mesh = Mesh::grid(cols, rows, w, h, MeshOptions { grid: snap }).map_err(value_error)?;
-        Ok(Deformation::new(Spline::identity(mesh, degree).map_err(value_error)?))
+        let source = MeshSource::Grid { cols, rows, width: w, height: h };
+        let mesh = build_mesh(&source, MeshOptions { grid: snap }).map_err(value_error)?;
+        let mut s = Spline::identity(mesh, degree).map_err(value_error)?;
+        s.set_frame(source.frame());
+        Ok(Deformation::new(s))
     }
 
     /// The identity over a mesh adapted to landmark sources `src` ((n, 2) pixels) in a frame
@@ -475,8 +483,9 @@ impl Deformation {
     }
 
     /// The image frame the deformation was made for, as a dict (`size` = `(w, h)` pixels;
-    /// `spacing`, `origin`, `unit` when known), or None. `trimorph.fit(..., size=)` and
-    /// `Deformation.landmark_mesh` record it; `field`, `to_itk` and `to_ngff` default to it.
+    /// `spacing`, `origin`, `unit` when known), or None. `trimorph.fit(..., size=)`,
+    /// `trimorph.register`, `Deformation.mesh_landmarks` and `Deformation.mesh_grid` (a
+    /// whole-pixel size) record it; `field`, `to_itk` and `to_ngff` default to it.
     #[getter]
     fn frame(&self, py: Python<'_>) -> PyResult<Option<Py<PyAny>>> {
         self.spline

@@ -39,7 +39,9 @@ class Deformation:
     def mesh_grid(
         cols: int, rows: int, size: Tuple[float, float], degree: int = 5, snap: int = 16
     ) -> "Deformation":
-        """The identity over a cols x rows grid of cells covering size = (w, h) pixels."""
+        """The identity over a cols x rows grid of cells covering size = (w, h) pixels; a
+        whole-pixel size is recorded as the frame (`field()` is h x w), as
+        `trimorph mesh --grid --size`."""
     @staticmethod
     def mesh_landmarks(
         src: _Points,
@@ -50,7 +52,9 @@ class Deformation:
         degree: int = 5,
         snap: Optional[int] = None,
     ) -> "Deformation":
-        """The identity over a mesh adapted to landmark sources in a w x h frame."""
+        """The identity over a mesh adapted to landmark sources in a w x h frame, with
+        `far_rings` far-field rings around it (`trimorph mesh --far-rings`)."""
+        far_rings: int = 0,
     def warp(
         self,
         array: _Image,
