@@ -270,14 +270,19 @@ def read_ome_zarr(url, level=0):
     if not 0 <= level < len(datasets):
         raise ValueError(f"{url}: level {level} out of range ({len(datasets)} levels)")
     arr = group[datasets[level]["path"]]
-    return da.from_zarr(arr), {"attrs": attrs, "level": level, "zarr_format": group.metadata.zarr_format}
+    like = {"attrs": attrs, "level": level, "zarr_format": group.metadata.zarr_format}
+    names = getattr(arr.metadata, "dimension_names", None)
+    if names:
+        like["dimension_names"] = list(names)
+    return da.from_zarr(arr), like
 
 
 def to_ome_zarr(arr, url, like, compute=True):
     """Writes ``arr`` (a dask array, e.g. ``warp``'s result) as a one-level OME-Zarr image at
     ``url``, with the metadata ``like`` from ``read_ome_zarr`` (axes, the level's scale and
     translation, omero channels and the rest of the group attributes kept; only the
-    warped level is listed), chunk by chunk by Dask.
+    warped level is listed; a Zarr v3 array keeps the source's ``dimension_names``, else
+    gets the axes' names, as NGFF 0.5 asks), chunk by chunk by Dask.
 
     A local path is written to a temporary store beside it and renamed into place when every
     chunk is written, so a failed run leaves an existing store as it was. With
@@ -387,7 +392,13 @@ def _write_ome_zarr(arr, url, like, compute, guard=None):
     # Regular chunks, the stored ones: each task writes whole stored chunks, no locks.
     chunks = tuple(c[0] for c in arr.chunks)
     arr = arr.rechunk(chunks)
-    target = group.create_array("0", shape=arr.shape, dtype=arr.dtype, chunks=chunks)
+    extra = {}
+    if fmt == 3:
+        # NGFF 0.5: a level's zarr.json holds dimension_names, the axes' names.
+        names = like.get("dimension_names") or [a.get("name") for a in ms.get("axes", [])]
+        if len(names) == arr.ndim and all(isinstance(n, str) for n in names):
+            extra["dimension_names"] = list(names)
+    target = group.create_array("0", shape=arr.shape, dtype=arr.dtype, chunks=chunks, **extra)
     if guard is not None:
         target = _GuardedTarget(target, guard)
     return da.store(arr, target, lock=False, compute=compute)
