@@ -1,5 +1,6 @@
-//! numpy arrays in and out: images (2-D, or H x W x C) of `uint8`, `uint16` or `float32`,
-//! and point lists `(n, 2)` of `float64`.
+//! numpy arrays in and out: images (2-D, H x W x C, and stacks of either, their axes read
+//! by [`crate::axes`]) of `uint8`, `uint16` or `float32`, and point lists `(n, 2)` of
+//! `float64` (in `(x, y)` or `(row, col)` order, [`PointOrder`]).
 //!
 //! Images are read without a copy when C-contiguous (otherwise copied once into C order),
 //! and results are handed to numpy without a copy (`PyArray::from_vec`).
@@ -72,58 +73,69 @@ pub fn to_numpy<'py, T: Element>(
     PyArray1::from_vec(py, data).reshape(shape.to_vec())
 }
 
-/// Warps one image array of sample type `T`: `O(q) = I(phi^-1(q))`, same shape and dtype.
+/// The sizes of an image array in the order `warp_typed` reads it: `planes` stacked
+/// planes of `h x w` pixels of `c` channels (C order: plane, y, x, channel).
+#[derive(Clone, Copy, Debug)]
+struct Dims {
+    planes: usize,
+    h: usize,
+    w: usize,
+    c: usize,
+}
+
+/// Warps an image array of sample type `T` laid out as `dims`: `O(q) = I(phi^-1(q))`, same
+/// shape and dtype. All planes go through one library call (one preimage computation).
 ///
-/// Up to 4 channels go through the library in one call, with its conventions (2 and 4
+/// Up to 4 channels go through the library as they are, with its conventions (2 and 4
 /// channels: the last is alpha, 0 where the preimage is outside the mesh), exactly as
 /// `trimorph warp` treats a gray+alpha or RGBA file. More channels are warped as independent
-/// gray planes sharing one preimage computation (no alpha).
+/// gray planes (no alpha).
 fn warp_typed<'py, T: Sample>(
     py: Python<'py>,
     s: &Spline,
     a: &Bound<'py, PyArrayDyn<T>>,
+    dims: Dims,
     opts: &WarpOptions,
 ) -> PyResult<(Bound<'py, PyAny>, WarpReport, f64)> {
     let ro = a.readonly();
     let shape = ro.shape().to_vec();
-    let (h, w, c) = image_dims(&shape)?;
-    if h == 0 || w == 0 {
-        return Err(value_error(format!("the image is empty (shape {shape:?})")));
-    }
-    let (wu, hu) = (u32::try_from(w), u32::try_from(h));
-    let (Ok(wu), Ok(hu)) = (wu, hu) else {
+    let Dims { planes, h, w, c } = dims;
+    let (Ok(wu), Ok(hu)) = (u32::try_from(w), u32::try_from(h)) else {
         return Err(value_error(format!("image of shape {shape:?} is too large")));
     };
     let data = c_order(&ro);
     // Timed from the output's allocation, as `warp_pages` (the Rust API) allocates its own.
     let t0 = std::time::Instant::now();
     let mut out = vec![T::default(); data.len()];
+    let plane = h * w * c;
     let report = if c <= 4 {
         let layout = Layout { width: wu, height: hu, channels: c };
         py.detach(|| {
-            warp_samples_into(
-                s,
-                layout,
-                &[T::samples(&data)],
-                &mut [T::samples_mut(&mut out)],
-                opts,
-                &|_| {},
-            )
+            let ins: Vec<Samples<'_>> = data.chunks(plane).map(T::samples).collect();
+            let mut outs: Vec<SamplesMut<'_>> =
+                out.chunks_mut(plane).map(|p| T::samples_mut(p)).collect();
+            warp_samples_into(s, layout, &ins, &mut outs, opts, &|_| {})
         })
     } else {
         py.detach(|| {
-            let planes: Vec<Vec<T>> =
-                (0..c).map(|k| data.iter().skip(k).step_by(c).copied().collect()).collect();
-            let mut outs: Vec<Vec<T>> = (0..c).map(|_| vec![T::default(); w * h]).collect();
-            let ins: Vec<Samples<'_>> = planes.iter().map(|p| T::samples(p)).collect();
+            // Plane p, channel k is gray page p * c + k.
+            let gray: Vec<Vec<T>> = data
+                .chunks(plane)
+                .flat_map(|p| (0..c).map(move |k| p.iter().skip(k).step_by(c).copied().collect()))
+                .collect();
+            let mut outs: Vec<Vec<T>> =
+                (0..planes * c).map(|_| vec![T::default(); w * h]).collect();
+            let ins: Vec<Samples<'_>> = gray.iter().map(|p| T::samples(p)).collect();
             let mut outs_v: Vec<SamplesMut<'_>> =
                 outs.iter_mut().map(|p| T::samples_mut(p)).collect();
             let layout = Layout { width: wu, height: hu, channels: 1 };
             let r = warp_samples_into(s, layout, &ins, &mut outs_v, opts, &|_| {});
             drop(outs_v);
-            for (k, plane) in outs.iter().enumerate() {
-                for (i, v) in plane.iter().enumerate() {
-                    out[i * c + k] = *v;
+            for (g, page) in outs.iter().enumerate() {
+                let (p, k) = (g / c, g % c);
+                let dst = &mut out[p * plane..(p + 1) * plane];
+                for (i, v) in page.iter().enumerate() {
+                    dst[i * c + k] = *v;
                 }
             }
             r
@@ -134,34 +146,111 @@ fn warp_typed<'py, T: Sample>(
     Ok((to_numpy(py, out, &shape)?.into_any(), report, inner))
 }
 
-/// Warps a numpy image of dtype `uint8`, `uint16` or `float32` (see [`warp_typed`]).
-/// Returns the image, the library's report, and the seconds spent in the library call
-/// alone (for the numpy-overhead benchmark, `python/benches/numpy_overhead.py`).
+/// Warps a numpy image of dtype `uint8`, `uint16` or `float32`, its axes read by
+/// [`crate::axes::resolve`] from `channel_axis` and `stack_axis` (see [`warp_typed`]).
+/// Returns the image (same shape, dtype and axis order, C-contiguous), the library's report,
+/// and the seconds spent in the library call alone (for the numpy-overhead benchmark,
+/// `python/benches/numpy_overhead.py`).
 pub fn warp_any<'py>(
     py: Python<'py>,
     s: &Spline,
     array: &Bound<'py, PyAny>,
     opts: &WarpOptions,
+    channel_axis: Option<isize>,
+    stack_axis: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<(Bound<'py, PyAny>, WarpReport, f64)> {
     let a = array
         .cast::<PyUntypedArray>()
         .map_err(|_| value_error("expected a numpy array (use numpy.asarray)"))?;
+    let shape = a.shape().to_vec();
+    let axes = crate::axes::resolve_py(&shape, channel_axis, stack_axis)?;
+    if shape.contains(&0) {
+        return Err(value_error(format!("the image is empty (shape {shape:?})")));
+    }
+    let nd = shape.len();
+    // The array as (planes..., y, x, channels): the stack axes first, the channel axis last.
+    let mut from = axes.stacks.clone();
+    let mut to: Vec<usize> = (0..from.len()).collect();
+    if let Some(k) = axes.channel {
+        from.push(k);
+        to.push(nd - 1);
+    }
+    let moved = from != to;
+    let np = py.import("numpy")?;
+    let canonical = if moved {
+        np.call_method1("moveaxis", (a, from.clone(), to.clone()))?
+    } else {
+        a.clone().into_any()
+    };
+    let spatial: Vec<usize> =
+        (0..nd).filter(|i| !axes.stacks.contains(i) && Some(*i) != axes.channel).collect();
+    let dims = Dims {
+        planes: axes.stacks.iter().map(|&k| shape[k]).product(),
+        h: shape[spatial[0]],
+        w: shape[spatial[1]],
+        c: axes.channel.map_or(1, |k| shape[k]),
+    };
     let dt = a.dtype();
-    if dt.is_equiv_to(&dtype::<u8>(py)) {
-        warp_typed(py, s, a.cast::<PyArrayDyn<u8>>()?, opts)
+    let (out, report, secs) = if dt.is_equiv_to(&dtype::<u8>(py)) {
+        warp_typed(py, s, canonical.cast::<PyArrayDyn<u8>>()?, dims, opts)
     } else if dt.is_equiv_to(&dtype::<u16>(py)) {
-        warp_typed(py, s, a.cast::<PyArrayDyn<u16>>()?, opts)
+        warp_typed(py, s, canonical.cast::<PyArrayDyn<u16>>()?, dims, opts)
     } else if dt.is_equiv_to(&dtype::<f32>(py)) {
-        warp_typed(py, s, a.cast::<PyArrayDyn<f32>>()?, opts)
+        warp_typed(py, s, canonical.cast::<PyArrayDyn<f32>>()?, dims, opts)
     } else {
         Err(value_error(format!(
             "unsupported dtype {dt} (use uint8, uint16 or float32; convert with .astype)"
         )))
+    }?;
+    if !moved {
+        return Ok((out, report, secs));
+    }
+    let back = np.call_method1("moveaxis", (out, to, from))?;
+    Ok((np.call_method1("ascontiguousarray", (back,))?, report, secs))
+}
+
+/// The order of the two columns of a point array (keyword `order` of the point APIs):
+/// trimorph's `(x, y)`, or numpy's `(row, col)` = `(y, x)` (napari Points layers,
+/// scikit-image). The same pixel centres either way: only the columns are swapped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PointOrder {
+    /// `(x, y)`: x to the right, y down (trimorph's, the default).
+    Xy,
+    /// `(row, col)`: `(y, x)`.
+    Rc,
+}
+
+impl PointOrder {
+    /// `"xy"` or `"rc"`.
+    pub fn parse(order: &str) -> PyResult<PointOrder> {
+        match order {
+            "xy" => Ok(PointOrder::Xy),
+            "rc" => Ok(PointOrder::Rc),
+            other => Err(value_error(format!(
+                "order must be \"xy\" ((x, y) columns, trimorph's) or \"rc\" ((row, col), \
+                 napari's and scikit-image's), got {other:?}"
+            ))),
+        }
+    }
+
+    /// A point in this order as `(x, y)`, or an `(x, y)` point in this order (a swap is its
+    /// own inverse).
+    fn swap(self, p: [f64; 2]) -> [f64; 2] {
+        match self {
+            PointOrder::Xy => p,
+            PointOrder::Rc => [p[1], p[0]],
+        }
     }
 }
 
-/// `(n, 2)` float64 points from any array-like (converted by `numpy.asarray`).
-pub fn points_in(py: Python<'_>, xy: &Bound<'_, PyAny>, what: &str) -> PyResult<Vec<[f64; 2]>> {
+/// `(n, 2)` float64 points from any array-like (converted by `numpy.asarray`), in `order`,
+/// as `(x, y)`.
+pub fn points_in(
+    py: Python<'_>,
+    xy: &Bound<'_, PyAny>,
+    what: &str,
+    order: PointOrder,
+) -> PyResult<Vec<[f64; 2]>> {
     let np = py.import("numpy")?;
     let arr = np.call_method1("asarray", (xy, "float64"))?;
     let a = arr.cast::<PyArrayDyn<f64>>()?.readonly();
@@ -176,15 +265,17 @@ pub fn points_in(py: Python<'_>, xy: &Bound<'_, PyAny>, what: &str) -> PyResult<
         }
     };
     let v = c_order(&a);
-    Ok((0..n).map(|i| [v[2 * i], v[2 * i + 1]]).collect())
+    Ok((0..n).map(|i| order.swap([v[2 * i], v[2 * i + 1]])).collect())
 }
 
-/// `(n, 2)` float64 array, NaN rows for `None`.
+/// `(x, y)` points as an `(n, 2)` float64 array in `order`, NaN rows for `None`.
 pub fn points_out<'py>(
     py: Python<'py>,
     pts: &[Option<[f64; 2]>],
+    order: PointOrder,
 ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-    let flat: Vec<f64> = pts.iter().flat_map(|p| p.unwrap_or([f64::NAN; 2])).collect();
+    let flat: Vec<f64> =
+        pts.iter().flat_map(|p| p.map_or([f64::NAN; 2], |p| order.swap(p))).collect();
     to_numpy(py, flat, &[pts.len(), 2])
 }
 

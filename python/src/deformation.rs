@@ -6,7 +6,7 @@
 //! `warp` computes `O(q) = I(phi^-1(q))`, so a feature at `p` in the input appears at
 //! `phi(p)` in the output.
 
-use crate::arrays::{points_in, points_out, to_numpy, warp_any};
+use crate::arrays::{points_in, points_out, to_numpy, warp_any, PointOrder};
 use crate::errors::{io_error, value_error};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -16,15 +16,15 @@ use trimorph::edit::extra::Extra;
 use trimorph::edit::script::{Script, ScriptError};
 use trimorph::edit::{Editor, LastEdit};
 use trimorph::io::{deformation as dio, read_text, write_atomic, IoError};
-use trimorph::jobs::spline::MeshSource;
+use trimorph::jobs::spline::{build_mesh, MeshSource};
 use trimorph::mesh::{AdaptOptions, Mesh, MeshOptions};
 use trimorph::spline::Spline;
 use trimorph::warp::inverse::InverseOptions;
 use trimorph::warp::remap::RemapOptions;
 use trimorph::warp::{field, EdgeMode, Interp, WarpOptions};
 
-/// The largest field `field()` computes (pixels), as `trimorph field` allows.
-const MAX_FIELD_PIXELS: u64 = 100_000_000;
+/// The largest field `field()` computes (pixels): the limit of `trimorph field`.
+const MAX_FIELD_PIXELS: u64 = trimorph::io::MAX_RASTER_PIXELS;
 
 /// A C1 spline deformation `phi: R^2 -> R^2` over a triangle mesh (pixel coordinates).
 ///
@@ -156,7 +156,8 @@ impl Deformation {
     /// of the edit are rounded to multiples of `2^-bits` and the rest recomputed exactly, so
     /// C1 still holds exactly but the numbers stay small over long histories; `None` keeps
     /// every value exact (as `trimorph edit --unbounded`).
-    #[pyo3(signature = (ops, bounded_bits = Some(24)))]
+    // The text signature spells the default (`Some(24)` shows as `...` otherwise).
+    #[pyo3(signature = (ops, bounded_bits = Some(24)), text_signature = "(self, ops, bounded_bits=24)")]
     fn edit<'py>(
         &mut self,
         py: Python<'py>,
@@ -250,6 +251,9 @@ impl Deformation {
 
     /// The identity over a `cols x rows` grid of cells (two triangles each) covering
     /// `size = (w, h)` pixels from the origin; `snap` is the mesh's snapping denominator.
+    /// As `trimorph mesh --grid COLSxROWS --size W,H`: a whole-pixel size is recorded as the
+    /// image frame (`frame`), so `field()` is `h x w` pixels, not the `(h + 1) x (w + 1)`
+    /// pixel centres of the grid's extent.
     #[staticmethod]
     #[pyo3(signature = (cols, rows, size, degree = 5, snap = 16))]
     fn mesh_grid(
@@ -265,10 +269,9 @@ impl Deformation {
                 "cols and rows must be whole numbers >= 1 (at most 10^6 cells)",
             ));
         }
-        let mesh = Mesh::grid(cols, rows, w, h, MeshOptions { grid: snap }).map_err(value_error)?;
-        let mut s = Spline::identity(mesh, degree).map_err(value_error)?;
-        // A grid of whole pixels records its W x H frame, as `trimorph mesh --grid` does.
         let source = MeshSource::Grid { cols, rows, width: w, height: h };
+        let mesh = build_mesh(&source, MeshOptions { grid: snap }).map_err(value_error)?;
+        let mut s = Spline::identity(mesh, degree).map_err(value_error)?;
         s.set_frame(source.frame());
         Ok(Deformation::new(s))
     }
@@ -276,9 +279,10 @@ impl Deformation {
     /// The identity over a mesh adapted to landmark sources `src` ((n, 2) pixels) in a frame
     /// of `size = (w, h)`, like `trimorph mesh --landmarks`: refined where the landmarks are,
     /// with a margin around the frame so a fit keeps the whole frame covered. `far_rings`
-    /// adds far-field rings around it (`trimorph mesh --far-rings`).
+    /// adds far-field rings around it (`trimorph mesh --far-rings`). `order` is the columns'
+    /// order of `src`: "xy" or "rc" (row, col); `size` is `(w, h)` either way.
     #[staticmethod]
-    #[pyo3(signature = (src, size, margin = None, max_edge = None, min_angle = 15.0, degree = 5, snap = None, far_rings = 0))]
+    #[pyo3(signature = (src, size, margin = None, max_edge = None, min_angle = 15.0, degree = 5, snap = None, far_rings = 0, order = "xy"))]
     fn mesh_landmarks(
         py: Python<'_>,
         src: &Bound<'_, PyAny>,
@@ -289,9 +293,10 @@ impl Deformation {
         degree: usize,
         snap: Option<i64>,
         far_rings: usize,
+        order: &str,
     ) -> PyResult<Deformation> {
         let size = frame_size(size)?;
-        let sources = points_in(py, src, "src")?;
+        let sources = points_in(py, src, "src", PointOrder::parse(order)?)?;
         let lms = crate::fitting::landmarks_of(&sources, &sources, None, None)?;
         let grid = snap.unwrap_or_else(|| trimorph::fit::frame::source_grid(&lms));
         let ao =
@@ -303,12 +308,28 @@ impl Deformation {
         Ok(Deformation::new(s))
     }
 
-    /// Warps an image array: `O(q) = I(phi^-1(q))`, same shape and dtype (uint8, uint16 or
-    /// float32; 2-D or H x W x C). `interp` is "nearest", "bilinear" or "bicubic";
-    /// `background` fills pixels whose preimage is outside the mesh, and (`mode="constant"`,
-    /// the default) outside the image; `mode` is scikit-image's: "constant", "edge" or
-    /// "reflect". Bit-identical to `trimorph warp --image --mode`. Releases the GIL.
-    #[pyo3(signature = (array, interp = "bilinear", background = 0.0, tolerance = 0.01, mode = "constant"))]
+    /// Warps an image array: `O(q) = I(phi^-1(q))`, same shape, dtype and axis order
+    /// (uint8, uint16 or float32). Releases the GIL.
+    ///
+    /// Axes, as in scikit-image: `channel_axis` names the axis of channels and
+    /// `stack_axis` the axis (or a tuple of axes) of planes warped one by one (a
+    /// time-lapse's t, a z-stack's z, OME-Zarr's t and c); they may be negative and
+    /// anywhere, and the two axes left are y then x. Without them a 2-D array is `(Y, X)`
+    /// and a 3-D array `(Y, X, C)` only when its last axis has 1 to 4 channels and its
+    /// first more than 4 pixels; other 3-D arrays (a `(T, Y, X)` stack, channels first) are
+    /// refused with a `ValueError` naming the readings and their keyword. With `stack_axis`
+    /// alone the planes follow the same rule, so `(T, Y, X, C)` needs only `stack_axis=0`.
+    /// 1 to 4 channels are gray, gray + alpha, RGB, RGBA (the alpha of 2 and 4 is 0 where
+    /// the preimage is outside the mesh, as for such files); more are warped alike as
+    /// independent planes, and so are planes (to warp 2 or 4 channels without alpha, name
+    /// their axis in `stack_axis`). Every plane of a stack equals the warp of that plane
+    /// alone.
+    ///
+    /// `interp` is "nearest", "bilinear" or "bicubic"; `background` fills pixels whose
+    /// preimage is outside the mesh, and (`mode="constant"`, the default) outside the
+    /// image; `mode` is scikit-image's: "constant", "edge" or "reflect". Bit-identical to
+    /// `trimorph warp --image --mode`.
+    #[pyo3(signature = (array, interp = "bilinear", background = 0.0, tolerance = 0.01, mode = "constant", channel_axis = None, stack_axis = None))]
     fn warp<'py>(
         &self,
         py: Python<'py>,
@@ -317,17 +338,19 @@ impl Deformation {
         background: f64,
         tolerance: f64,
         mode: &str,
+        channel_axis: Option<isize>,
+        stack_axis: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let opts = warp_options(interp, background, tolerance, mode)?;
-        Ok(warp_any(py, &self.spline, array, &opts)?.0)
+        Ok(warp_any(py, &self.spline, array, &opts, channel_axis, stack_axis)?.0)
     }
 
-    /// `warp`, returning `(image, report, seconds)`: the library's report as a dict (pixels,
-    /// outside, folded, max_error_bound, the inverse map's path counts) and the time spent in
-    /// what the Rust API `warp_pages` also does (allocating the output and the library
-    /// call), so that `total - seconds` is what numpy in and out costs
-    /// (`python/benches/numpy_overhead.py`).
-    #[pyo3(signature = (array, interp = "bilinear", background = 0.0, tolerance = 0.01, mode = "constant"))]
+    /// `warp` (the same keywords and axes), returning `(image, report, seconds)`: the
+    /// library's report as a dict (pixels, outside, folded, max_error_bound, the inverse
+    /// map's path counts) and the time spent in what the Rust API `warp_pages` also does
+    /// (allocating the output and the library call), so that `total - seconds` is what
+    /// numpy in and out costs (`python/benches/numpy_overhead.py`).
+    #[pyo3(signature = (array, interp = "bilinear", background = 0.0, tolerance = 0.01, mode = "constant", channel_axis = None, stack_axis = None))]
     fn warp_profiled<'py>(
         &self,
         py: Python<'py>,
@@ -336,9 +359,11 @@ impl Deformation {
         background: f64,
         tolerance: f64,
         mode: &str,
+        channel_axis: Option<isize>,
+        stack_axis: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyDict>, f64)> {
         let opts = warp_options(interp, background, tolerance, mode)?;
-        let (img, r, secs) = warp_any(py, &self.spline, array, &opts)?;
+        let (img, r, secs) = warp_any(py, &self.spline, array, &opts, channel_axis, stack_axis)?;
         let d = PyDict::new(py);
         d.set_item("pixels", r.pixels)?;
         d.set_item("outside", r.outside)?;
@@ -348,27 +373,35 @@ impl Deformation {
         Ok((img, d, secs))
     }
 
-    /// `phi(p)` for each row of `xy` ((n, 2) float64); NaN rows outside the mesh.
+    /// `phi(p)` for each row of `xy` ((n, 2) float64); NaN rows outside the mesh. `order`
+    /// is the columns' order, of the input and the result alike: "xy" (x, y), trimorph's,
+    /// or "rc" (row, col), napari's and scikit-image's.
+    #[pyo3(signature = (xy, order = "xy"))]
     fn map_points<'py>(
         &self,
         py: Python<'py>,
         xy: &Bound<'py, PyAny>,
+        order: &str,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let pts = points_in(py, xy, "xy")?;
+        let order = PointOrder::parse(order)?;
+        let pts = points_in(py, xy, "xy", order)?;
         let out = py.detach(|| trimorph::warp::forward(&self.spline, &pts));
-        Ok(points_out(py, &out)?.into_any())
+        Ok(points_out(py, &out, order)?.into_any())
     }
 
     /// `phi^-1(q)` for each row of `xy` ((n, 2) float64), certified to `tolerance` pixels;
     /// NaN rows with no preimage in the mesh. The same as `trimorph warp --points --inverse`.
-    #[pyo3(signature = (xy, tolerance = 0.01))]
+    /// `order` as in `map_points` ("xy" or "rc", input and result alike).
+    #[pyo3(signature = (xy, tolerance = 0.01, order = "xy"))]
     fn inverse_points<'py>(
         &self,
         py: Python<'py>,
         xy: &Bound<'py, PyAny>,
         tolerance: f64,
+        order: &str,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let pts = points_in(py, xy, "xy")?;
+        let order = PointOrder::parse(order)?;
+        let pts = points_in(py, xy, "xy", order)?;
         let opts = inverse_options(tolerance)?;
         let out: Vec<Option<[f64; 2]>> = py.detach(|| {
             trimorph::warp::inverse(&self.spline, &pts, opts)
@@ -376,7 +409,7 @@ impl Deformation {
                 .map(|r| r.map(|r| r.p))
                 .collect()
         });
-        Ok(points_out(py, &out)?.into_any())
+        Ok(points_out(py, &out, order)?.into_any())
     }
 
     /// The displacement field on a `size = (W, H)` pixel grid (default: the image frame the
@@ -480,8 +513,9 @@ impl Deformation {
     }
 
     /// The image frame the deformation was made for, as a dict (`size` = `(w, h)` pixels;
-    /// `spacing`, `origin`, `unit` when known), or None. `trimorph.fit(..., size=)` and
-    /// `Deformation.landmark_mesh` record it; `field`, `to_itk` and `to_ngff` default to it.
+    /// `spacing`, `origin`, `unit` when known), or None. `trimorph.fit(..., size=)`,
+    /// `trimorph.register`, `Deformation.mesh_landmarks` and `Deformation.mesh_grid` (a
+    /// whole-pixel size) record it; `field`, `to_itk` and `to_ngff` default to it.
     #[getter]
     fn frame(&self, py: Python<'_>) -> PyResult<Option<Py<PyAny>>> {
         self.spline

@@ -5,7 +5,7 @@
 //! `deformation=d` it is `trimorph fit DEF` (a fit on `d`'s mesh). The report is the same
 //! JSON the command line writes with `--report`, as a dict.
 
-use crate::arrays::{image_to_numpy, numpy_to_image, points_in};
+use crate::arrays::{image_to_numpy, numpy_to_image, points_in, PointOrder};
 use crate::deformation::Deformation;
 use crate::errors::{unsolvable, value_error, variant_name};
 use pyo3::prelude::*;
@@ -116,7 +116,10 @@ pub fn fit_options(
 /// (scale `loss_scale` px), `bend` "auto" (leave-one-out cross-validation) or a weight >= 0,
 /// `hard=True` makes every landmark an exact constraint, `barrier` keeps det J above
 /// `min_det`. `far_rings` (with `size`) adds far-field rings around the adapted mesh
-/// (`trimorph fit --far-rings`, default 2). Returns a Deformation whose `report` holds the fit report. Releases the GIL.
+/// (`trimorph fit --far-rings`, default 2). `order` is the columns' order of `src` and
+/// `dst`: "xy" (x, y), trimorph's, or "rc" (row, col), napari's and scikit-image's; `size`
+/// is `(w, h)` either way. Returns a Deformation whose `report` holds the fit report.
+/// Releases the GIL.
 // The signature spells the default as a literal so that `inspect.signature` shows it (a
 // path shows as `...`); this keeps it the library's.
 const _: () = assert!(trimorph::fit::frame::FAR_RINGS == 2);
@@ -125,7 +128,7 @@ const _: () = assert!(trimorph::fit::frame::FAR_RINGS == 2);
 #[pyo3(signature = (src, dst, size = None, weights = None, names = None, loss = "squares",
     loss_scale = 2.0, bend = None, hard = false, barrier = true, min_det = 0.1, max_iters = 200,
     radius = None, margin = None, max_edge = None, min_angle = 15.0, deformation = None,
-    far_rings = 2))]
+    far_rings = 2, order = "xy"))]
 pub fn fit(
     py: Python<'_>,
     src: &Bound<'_, PyAny>,
@@ -146,8 +149,10 @@ pub fn fit(
     min_angle: f64,
     deformation: Option<PyRef<'_, Deformation>>,
     far_rings: usize,
+    order: &str,
 ) -> PyResult<Deformation> {
-    let (s, d) = (points_in(py, src, "src")?, points_in(py, dst, "dst")?);
+    let order = PointOrder::parse(order)?;
+    let (s, d) = (points_in(py, src, "src", order)?, points_in(py, dst, "dst", order)?);
     let lms = landmarks_of(&s, &d, weights, names)?;
     let opts = fit_options(loss, loss_scale, bend, hard, barrier, min_det, max_iters, radius)?;
     match (deformation, size) {
@@ -211,12 +216,12 @@ fn morph_exc(py: Python<'_>, e: MorphError) -> PyErr {
 /// landmarks unless `bend` ("auto" or a weight, as in `fit`) smooths them; `hard` meets them
 /// exactly; `pin_frame` keeps `a`'s frame border still; `mode` ("constant", "edge",
 /// "reflect") says what shows where neither image has a preimage on its pixels
-/// (`--bend --hard --pin-frame --mode`).
-/// Releases the GIL.
+/// (`--bend --hard --pin-frame --mode`). `order` is the columns' order of `src` and `dst`
+/// ("xy" or "rc", as in `fit`). Releases the GIL.
 #[pyfunction]
 #[pyo3(signature = (a, b, src, dst, frames = 11, shape = "linear", color = "linear",
     interp = "bilinear", align = true, background = 0.0, t0 = 0.0, t1 = 1.0, bend = None,
-    hard = false, pin_frame = false, mode = "constant"))]
+    hard = false, pin_frame = false, mode = "constant", order = "xy"))]
 #[allow(clippy::too_many_arguments)]
 pub fn morph<'py>(
     py: Python<'py>,
@@ -236,10 +241,13 @@ pub fn morph<'py>(
     hard: bool,
     pin_frame: bool,
     mode: &str,
+    order: &str,
 ) -> PyResult<Bound<'py, PyList>> {
     let (img_a, gray_a) = numpy_to_image(py, a, "a")?;
     let (img_b, gray_b) = numpy_to_image(py, b, "b")?;
-    let lms = landmarks_of(&points_in(py, src, "src")?, &points_in(py, dst, "dst")?, None, None)?;
+    let order = PointOrder::parse(order)?;
+    let (s, d) = (points_in(py, src, "src", order)?, points_in(py, dst, "dst", order)?);
+    let lms = landmarks_of(&s, &d, None, None)?;
     if frames < 2 {
         return Err(value_error(format!("frames must be at least 2, got {frames}")));
     }

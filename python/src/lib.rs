@@ -15,6 +15,7 @@
 use pyo3::prelude::*;
 
 mod arrays;
+mod axes;
 mod deformation;
 mod errors;
 mod fitting;
@@ -40,6 +41,7 @@ fn _trimorph(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(arrays::read_ome_zarr, m)?)?;
     m.add_function(wrap_pyfunction!(tiles::tile_inputs, m)?)?;
     m.add_function(wrap_pyfunction!(tiles::warp_tile, m)?)?;
+    m.add_function(wrap_pyfunction!(axes::image_axes, m)?)?;
     m.add_function(wrap_pyfunction!(memory::set_max_memory, m)?)?;
     m.add_function(wrap_pyfunction!(memory::max_memory, m)?)?;
     m.add("TrimorphError", m.py().get_type::<errors::TrimorphError>())?;

@@ -1,6 +1,6 @@
 //! `trimorph.register`: registration from the images themselves (`trimorph register`).
 
-use crate::arrays::{numpy_to_image, points_in};
+use crate::arrays::{numpy_to_image, points_in, PointOrder};
 use crate::deformation::Deformation;
 use crate::errors::value_error;
 use crate::fitting::landmarks_of;
@@ -36,12 +36,13 @@ fn input(
 /// MOVING onto FIXED), exactly C1 and certified fold-free; its `report` holds the
 /// registration report. `metric` is "ncc", "ssd" or "mi"; `src`/`dst` add landmarks
 /// (MOVING -> FIXED; `hard=True` meets them exactly); `init` starts from a deformation
-/// whose pinned points stay pinned. Releases the GIL.
+/// whose pinned points stay pinned. `order` is the columns' order of `src` and `dst`:
+/// "xy" (x, y) or "rc" (row, col), as in `fit`. Releases the GIL.
 #[pyfunction]
 #[pyo3(signature = (fixed, moving, metric = "ncc", mask_fixed = None, mask_moving = None,
     src = None, dst = None, weights = None, hard = false, landmark_weight = 1.0, init = None,
     prealign = "affine", levels = None, spacing = 48.0, bend = 1.0, iterations = 30,
-    samples = 32768))]
+    samples = 32768, order = "xy"))]
 #[allow(clippy::too_many_arguments)]
 pub fn register(
     py: Python<'_>,
@@ -62,14 +63,17 @@ pub fn register(
     bend: f64,
     iterations: u64,
     samples: usize,
+    order: &str,
 ) -> PyResult<Deformation> {
+    let order = PointOrder::parse(order)?;
     let metric: Metric = metric.parse().map_err(value_error)?;
     let prealign: Prealign = prealign.parse().map_err(value_error)?;
     let f = input(py, fixed, mask_fixed, "fixed")?;
     let m = input(py, moving, mask_moving, "moving")?;
     let landmarks = match (src, dst) {
         (Some(s), Some(d)) => {
-            landmarks_of(&points_in(py, s, "src")?, &points_in(py, d, "dst")?, weights, None)?
+            let (s, d) = (points_in(py, s, "src", order)?, points_in(py, d, "dst", order)?);
+            landmarks_of(&s, &d, weights, None)?
         }
         (None, None) => Vec::new(),
         _ => {

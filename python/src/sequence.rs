@@ -115,6 +115,22 @@ impl FrameSequence {
         max_iters: u64,
         radius: Option<usize>,
     ) -> PyResult<FrameSequence> {
+        let model = model.map(absolute).transpose()?;
+        let paths = [absolute(frames)?, absolute(landmarks)?, absolute(out_dir)?];
+        // Missing inputs are FileNotFoundError, as documented, before any other check of
+        // the arguments (a missing folder with no scene and no size named the scene).
+        for (what, p) in [
+            ("scene", model.as_deref()),
+            ("frames", Some(&*paths[0])),
+            ("landmarks", Some(&*paths[1])),
+        ] {
+            if let Some(p) = p.filter(|p| !p.exists()) {
+                return Err(pyo3::exceptions::PyFileNotFoundError::new_err(format!(
+                    "{what} {} does not exist",
+                    p.display()
+                )));
+            }
+        }
         let kwargs = PyDict::new(py);
         kwargs.set_item("size", size)?;
         kwargs.set_item("track", track)?;
@@ -150,7 +166,6 @@ impl FrameSequence {
             .map_err(AnchorChoiceError::from)
             .and_then(|kind| choose_anchor(track, kind, key_every))
             .map_err(value_error)?;
-        let model = model.map(absolute).transpose()?;
         let scene = match (&model, size) {
             (Some(m), None) => SceneSource::File(m.clone()),
             (None, Some((w, h))) => SceneSource::Landmarks {
@@ -168,20 +183,6 @@ impl FrameSequence {
                 ))
             }
         };
-        let paths = [absolute(frames)?, absolute(landmarks)?, absolute(out_dir)?];
-        // Missing inputs are FileNotFoundError, as documented for unreadable files.
-        for (what, p) in [
-            ("scene", model.as_deref()),
-            ("frames", Some(&*paths[0])),
-            ("landmarks", Some(&*paths[1])),
-        ] {
-            if let Some(p) = p.filter(|p| !p.exists()) {
-                return Err(pyo3::exceptions::PyFileNotFoundError::new_err(format!(
-                    "{what} {} does not exist",
-                    p.display()
-                )));
-            }
-        }
         let inputs = py
             .detach(|| {
                 SequenceInputs::load(

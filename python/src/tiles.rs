@@ -67,15 +67,24 @@ fn warp_tile_typed<'py, T: Sample>(
     shape: (u32, u32),
     tile: Rect,
     opts: &WarpOptions,
+    channels: bool,
 ) -> PyResult<Bound<'py, PyAny>> {
     let ro = a.readonly();
     let wshape = ro.shape().to_vec();
-    let (planes, wh, ww) = match *wshape {
-        [wh, ww] => (1, wh, ww),
-        [n, wh, ww] => (n, wh, ww),
-        _ => {
+    let (planes, wh, ww, nc) = match (channels, &*wshape) {
+        (false, &[wh, ww]) => (1, wh, ww, 1),
+        (false, &[n, wh, ww]) => (n, wh, ww, 1),
+        (true, &[wh, ww, c]) if (1..=4).contains(&c) => (1, wh, ww, c),
+        (true, &[n, wh, ww, c]) if (1..=4).contains(&c) => (n, wh, ww, c),
+        (false, _) => {
             return Err(value_error(format!(
                 "window: expected shape (h, w) or (planes, h, w), got {wshape:?}"
+            )))
+        }
+        (true, _) => {
+            return Err(value_error(format!(
+                "window: expected shape (h, w, c) or (planes, h, w, c) with 1 to 4 channels \
+                 c, got {wshape:?}"
             )))
         }
     };
@@ -84,34 +93,41 @@ fn warp_tile_typed<'py, T: Sample>(
     };
     let window = Rect { x0: origin.1, y0: origin.0, w: ww32, h: wh32 };
     let data = c_order(&ro);
-    let plane = wh * ww;
-    let mut out = vec![T::default(); planes * tile.len()];
+    let plane = wh * ww * nc;
+    let out_plane = tile.len() * nc;
+    let mut out = vec![T::default(); planes * out_plane];
     let s = &deformation.spline;
     let (h, w) = shape;
     py.detach(|| {
         let ins: Vec<Samples<'_>> =
             (0..planes).map(|k| T::samples(&data[k * plane..(k + 1) * plane])).collect();
         let mut outs: Vec<SamplesMut<'_>> =
-            out.chunks_mut(tile.len().max(1)).take(planes).map(|c| T::samples_mut(c)).collect();
-        let layout = TileLayout { size: (w, h), tile, window, channels: 1 };
+            out.chunks_mut(out_plane.max(1)).take(planes).map(|c| T::samples_mut(c)).collect();
+        let layout = TileLayout { size: (w, h), tile, window, channels: nc };
         warp_tile_into(s, layout, &ins, &mut outs, opts)
     })
     .map_err(value_error)?;
-    let oshape: Vec<usize> = if wshape.len() == 2 {
-        vec![tile.h as usize, tile.w as usize]
-    } else {
-        vec![planes, tile.h as usize, tile.w as usize]
-    };
+    let mut oshape: Vec<usize> = Vec::new();
+    if wshape.len() == 3 + usize::from(channels) {
+        oshape.push(planes);
+    }
+    oshape.extend([tile.h as usize, tile.w as usize]);
+    if channels {
+        oshape.push(nc);
+    }
     Ok(to_numpy(py, out, &oshape)?.into_any())
 }
 
 /// Warps the output tile `(y0, x0, h, w)` of an image of `shape = (H, W)` from `window`, the
 /// input pixels of the rectangle at `origin = (y, x)` (a 2-D array, or `(planes, h, w)` for
-/// planes warped alike), which must contain `tile_inputs` of the tile. Returns the tile
-/// (2-D, or `(planes, h, w)`), bit-identical to the same pixels of `Deformation.warp` on the
+/// planes warped alike), which must contain `tile_inputs` of the tile. With
+/// `channel_axis=-1` the window's last axis holds 1 to 4 channels (`(h, w, c)` or
+/// `(planes, h, w, c)`: gray, gray + alpha, RGB, RGBA, as `Deformation.warp` reads them);
+/// no other channel axis is taken (move it last with `numpy.moveaxis`). Returns the tile
+/// (the window's layout), bit-identical to the same pixels of `Deformation.warp` on the
 /// whole image with the same `interp`, `background` and `tolerance`. Releases the GIL.
 #[pyfunction]
-#[pyo3(signature = (deformation, window, origin, shape, tile, interp = "bilinear", background = 0.0, tolerance = 0.01, mode = "constant"))]
+#[pyo3(signature = (deformation, window, origin, shape, tile, interp = "bilinear", background = 0.0, tolerance = 0.01, mode = "constant", channel_axis = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn warp_tile<'py>(
     py: Python<'py>,
@@ -124,19 +140,58 @@ pub fn warp_tile<'py>(
     background: f64,
     tolerance: f64,
     mode: &str,
+    channel_axis: Option<isize>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let opts = warp_options(interp, background, tolerance, mode)?;
     let tile = rect(tile);
     let a = window
         .cast::<PyUntypedArray>()
         .map_err(|_| value_error("window: expected a numpy array (use numpy.asarray)"))?;
+    let nd = a.ndim() as isize;
+    let channels = match channel_axis {
+        None => false,
+        Some(k) if k == -1 || k == nd - 1 => true,
+        Some(k) => {
+            return Err(value_error(format!(
+                "channel_axis={k}: a window's channels must be its last axis (-1); move them \
+                 there with numpy.moveaxis"
+            )))
+        }
+    };
     let dt = a.dtype();
     if dt.is_equiv_to(&dtype::<u8>(py)) {
-        warp_tile_typed(py, deformation, a.cast::<PyArrayDyn<u8>>()?, origin, shape, tile, &opts)
+        warp_tile_typed(
+            py,
+            deformation,
+            a.cast::<PyArrayDyn<u8>>()?,
+            origin,
+            shape,
+            tile,
+            &opts,
+            channels,
+        )
     } else if dt.is_equiv_to(&dtype::<u16>(py)) {
-        warp_tile_typed(py, deformation, a.cast::<PyArrayDyn<u16>>()?, origin, shape, tile, &opts)
+        warp_tile_typed(
+            py,
+            deformation,
+            a.cast::<PyArrayDyn<u16>>()?,
+            origin,
+            shape,
+            tile,
+            &opts,
+            channels,
+        )
     } else if dt.is_equiv_to(&dtype::<f32>(py)) {
-        warp_tile_typed(py, deformation, a.cast::<PyArrayDyn<f32>>()?, origin, shape, tile, &opts)
+        warp_tile_typed(
+            py,
+            deformation,
+            a.cast::<PyArrayDyn<f32>>()?,
+            origin,
+            shape,
+            tile,
+            &opts,
+            channels,
+        )
     } else {
         Err(value_error(format!(
             "window: unsupported dtype {dt} (use uint8, uint16 or float32; convert with .astype)"

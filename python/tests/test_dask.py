@@ -68,7 +68,7 @@ def test_leading_axes_and_every_dtype(tracks):
         stack = np.stack([np.stack([base, base[::-1], base[:, ::-1]]) for _ in range(2)])
         stack[1] = stack[1] // 2 if dtype != np.float32 else stack[1] / 3
         a = da.from_array(stack, chunks=(1, 2, 200, 170))
-        got = tdask.warp(a, d, interp="bicubic", background=3).compute()
+        got = tdask.warp(a, d, interp="bicubic", background=3, stack_axis=(0, 1)).compute()
         expect = np.stack(
             [np.stack([d.warp(p, interp="bicubic", background=3) for p in t]) for t in stack]
         )
@@ -225,7 +225,7 @@ def test_ome_zarr_round_trip_keeps_the_ngff_metadata(tmp_path):
     assert arr.shape == (2, 2, 48, 64) and arr.dtype == np.uint16
     d = trimorph.Deformation.mesh_grid(3, 3, (63, 47))
     d.edit([{"anchors": {"near": [[31, 23]]}, "neighborhood": 1, "op": "translate", "by": [3, 2]}])
-    out = tdask.warp(arr, d, interp="bicubic")
+    out = tdask.warp(arr, d, interp="bicubic", stack_axis=(0, 1))
     dst = tmp_path / "warped.zarr"
     tdask.to_ome_zarr(out, dst, like)
     back, meta = tdask.read_ome_zarr(dst)
@@ -246,7 +246,7 @@ def test_bad_input_is_refused_by_name(tracks):
     d, img = tracks
     with pytest.raises(ValueError, match="dtype"):
         tdask.warp(da.from_array(img.astype(np.int32)), d)
-    with pytest.raises(ValueError, match="last two axes"):
+    with pytest.raises(ValueError, match="y and x axes"):
         tdask.warp(da.from_array(np.zeros(5, np.uint8)), d)
     with pytest.raises(ValueError, match="multiscales"):
         tdask.read_ome_zarr(FRAMES)

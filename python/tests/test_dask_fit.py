@@ -196,4 +196,10 @@ def test_missing_inputs_are_file_not_found(demo, tmp_path):
         fit_frames(scene, frames, tmp_path / "none.csv", tmp_path / "out")
     with pytest.raises(FileNotFoundError, match="scene"):
         trimorph.FrameSequence(tmp_path / "none.json", frames, lms, tmp_path / "out")
+    # Checked before the other arguments: with neither scene nor size, a missing folder
+    # raised the ValueError about the scene.
+    with pytest.raises(FileNotFoundError, match="frames .*nowhere"):
+        fit_frames(None, tmp_path / "nowhere", lms, tmp_path / "out")
+    with pytest.raises(FileNotFoundError, match="landmarks"):
+        trimorph.FrameSequence(scene, frames, tmp_path / "none.csv", tmp_path / "out", size=(9, 9))
     assert not (tmp_path / "out").exists()

@@ -43,6 +43,24 @@ def test_mesh_grid_equals_cli_mesh_grid(cli, tmp_path):
     assert d.field().shape == (80, 120, 2)
 
 
+def test_mesh_grid_of_whole_pixels_records_its_frame_as_the_cli(cli, tmp_path):
+    """Bug (issue 55): `mesh_grid(4, 4, (100, 80)).field()` was (81, 101, 2), the pixel
+    centres of the grid's extent, while `trimorph mesh --grid 4x4 --size 100,80` records
+    the 100 x 80 frame; it goes through the library's mesh source now."""
+    d = trimorph.Deformation.mesh_grid(4, 4, (100, 80))
+    assert d.frame == {"size": [100.0, 80.0]}
+    assert d.field().shape == (80, 100, 2)
+    assert d.field(inverse=True).shape == (80, 100, 2)
+    out = tmp_path / "g.json"
+    cli("mesh", "--grid", "4x4", "--size", "100,80", "-o", out)
+    assert trimorph.Deformation.load(out).frame == d.frame
+    assert d.to_json() == out.read_text()
+    # A fractional size is no image: no frame, fields over the extent's pixel centres.
+    odd = trimorph.Deformation.mesh_grid(4, 4, (100.5, 80))
+    assert odd.frame is None
+    assert odd.field().shape == (81, 101, 2)
+
+
 def test_mesh_landmarks_equals_cli_mesh_landmarks(cli, nuclei, tmp_path):
     out = tmp_path / "lm.json"
     cli("mesh", "--landmarks", nuclei["landmarks"], "--size", "184,184", "-o", out)

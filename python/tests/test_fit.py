@@ -142,7 +142,7 @@ def test_a_fit_records_its_frame_and_fields_default_to_it(nuclei, tmp_path):
     assert pickle.loads(pickle.dumps(d)).frame == d.frame
     m = trimorph.Deformation.mesh_landmarks(nuclei["src"], size=(184, 184))
     assert m.frame == {"size": [184.0, 184.0]}
-    assert trimorph.Deformation.mesh_grid(4, 4, (100, 80)).frame is None
+    assert trimorph.Deformation.mesh_grid(4, 4, (100, 80)).frame == {"size": [100.0, 80.0]}
 
 
 def test_the_fit_report_survives_save_load_and_pickle(nuclei, tmp_path):
@@ -167,3 +167,44 @@ def test_fit_signature_shows_every_default():
     params = inspect.signature(trimorph.fit).parameters
     assert params["far_rings"].default == 2
     assert all(p.default is not Ellipsis for p in params.values())
+
+
+def test_stubs_match_the_runtime_signatures():
+    """Issue 55: `far_rings` was missing from the stubs (`mesh_landmarks`). Every function
+    and method of `_trimorph.pyi` has the runtime's parameters, in order, with its defaults."""
+    import ast
+    import inspect
+    from pathlib import Path
+
+    from trimorph import _trimorph
+
+    tree = ast.parse((Path(trimorph.__file__).parent / "_trimorph.pyi").read_text())
+
+    def stub_params(fn):
+        a = fn.args
+        pos = a.posonlyargs + a.args
+        defaults = [None] * (len(pos) - len(a.defaults)) + a.defaults
+        out = [(p.arg, d) for p, d in zip(pos, defaults)]
+        out += list(zip([p.arg for p in a.kwonlyargs], a.kw_defaults))
+        return [(n, ast.literal_eval(d) if d is not None else inspect.Parameter.empty) for n, d in out if n != "self"]
+
+    def runtime_params(obj):
+        sig = inspect.signature(obj)
+        return [(n, p.default) for n, p in sig.parameters.items() if n != "self"]
+
+    checked = 0
+    for node in tree.body:
+        items = []
+        if isinstance(node, ast.FunctionDef):
+            items = [(node, getattr(_trimorph, node.name))]
+        elif isinstance(node, ast.ClassDef):
+            cls = getattr(_trimorph, node.name)
+            for f in node.body:
+                if isinstance(f, ast.FunctionDef) and f.name != "__init__":
+                    if any(isinstance(d, ast.Name) and d.id == "property" for d in f.decorator_list):
+                        continue
+                    items.append((f, getattr(cls, f.name)))
+        for fn, obj in items:
+            assert stub_params(fn) == runtime_params(obj), fn.name
+            checked += 1
+    assert checked > 20

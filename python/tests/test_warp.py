@@ -88,7 +88,7 @@ def test_single_channel_axis_equals_the_2d_warp(fitted):
 def test_many_channels_are_warped_as_independent_planes(fitted):
     d, _ = fitted
     a = (np.random.default_rng(5).random((40, 50, 6)) * 60000).astype(np.uint16)
-    o = d.warp(a, interp="bicubic")
+    o = d.warp(a, interp="bicubic", channel_axis=-1)
     for k in range(6):
         np.testing.assert_array_equal(o[:, :, k], d.warp(np.ascontiguousarray(a[:, :, k]), interp="bicubic"))
 

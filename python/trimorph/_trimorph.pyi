@@ -2,14 +2,16 @@
 
 from os import PathLike
 from pathlib import Path
-from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
+from typing import Any, Dict, List, Literal, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
 
 _Path = Union[str, PathLike]
-_Points = npt.ArrayLike  # (n, 2) float64 pixels
+_Points = npt.ArrayLike  # (n, 2) float64 pixels, (x, y) or with order="rc" (row, col)
 _Image = npt.NDArray[Union[np.uint8, np.uint16, np.float32]]
+_Order = Literal["xy", "rc"]
+_Axes = Union[int, Sequence[int]]
 
 __version__: str
 
@@ -39,7 +41,9 @@ class Deformation:
     def mesh_grid(
         cols: int, rows: int, size: Tuple[float, float], degree: int = 5, snap: int = 16
     ) -> "Deformation":
-        """The identity over a cols x rows grid of cells covering size = (w, h) pixels."""
+        """The identity over a cols x rows grid of cells covering size = (w, h) pixels; a
+        whole-pixel size is recorded as the frame (`field()` is h x w), as
+        `trimorph mesh --grid --size`."""
     @staticmethod
     def mesh_landmarks(
         src: _Points,
@@ -49,8 +53,11 @@ class Deformation:
         min_angle: float = 15.0,
         degree: int = 5,
         snap: Optional[int] = None,
+        far_rings: int = 0,
+        order: _Order = "xy",
     ) -> "Deformation":
-        """The identity over a mesh adapted to landmark sources in a w x h frame."""
+        """The identity over a mesh adapted to landmark sources in a w x h frame, with
+        `far_rings` far-field rings around it (`trimorph mesh --far-rings`)."""
     def warp(
         self,
         array: _Image,
@@ -58,8 +65,14 @@ class Deformation:
         background: float = 0.0,
         tolerance: float = 0.01,
         mode: str = "constant",
+        channel_axis: Optional[int] = None,
+        stack_axis: Optional[_Axes] = None,
     ) -> _Image:
-        """O(q) = I(phi^-1(q)), same shape and dtype; bit-identical to `trimorph warp`."""
+        """O(q) = I(phi^-1(q)), same shape, dtype and axis order; bit-identical to
+        `trimorph warp`. `channel_axis` / `stack_axis` name the channels and the axes of
+        planes (as scikit-image); without them a 2-D array is (Y, X) and a 3-D one (Y, X, C)
+        only when its last axis has 1 to 4 channels and its first more than 4 pixels (other
+        3-D arrays are refused, naming the readings)."""
     def warp_profiled(
         self,
         array: _Image,
@@ -67,12 +80,18 @@ class Deformation:
         background: float = 0.0,
         tolerance: float = 0.01,
         mode: str = "constant",
+        channel_axis: Optional[int] = None,
+        stack_axis: Optional[_Axes] = None,
     ) -> Tuple[_Image, Dict[str, Any], float]:
         """warp, plus the library's report and the seconds spent in the library alone."""
-    def map_points(self, xy: _Points) -> npt.NDArray[np.float64]:
-        """phi(p) per row of xy ((n, 2)); NaN rows outside the mesh."""
-    def inverse_points(self, xy: _Points, tolerance: float = 0.01) -> npt.NDArray[np.float64]:
-        """phi^-1(q) per row of xy ((n, 2)), certified to tolerance px; NaN without preimage."""
+    def map_points(self, xy: _Points, order: _Order = "xy") -> npt.NDArray[np.float64]:
+        """phi(p) per row of xy ((n, 2)); NaN rows outside the mesh. `order`: the columns
+        of xy and of the result, "xy" or "rc" (row, col)."""
+    def inverse_points(
+        self, xy: _Points, tolerance: float = 0.01, order: _Order = "xy"
+    ) -> npt.NDArray[np.float64]:
+        """phi^-1(q) per row of xy ((n, 2)), certified to tolerance px; NaN without preimage.
+        `order`: the columns of xy and of the result, "xy" or "rc" (row, col)."""
     def field(
         self, inverse: bool = False, size: Optional[Tuple[int, int]] = None
     ) -> npt.NDArray[np.float32]:
@@ -192,11 +211,13 @@ def fit(
     min_angle: float = 15.0,
     deformation: Optional[Deformation] = None,
     far_rings: int = 2,
+    order: _Order = "xy",
 ) -> Deformation:
     """Fits phi with phi(src) ~ dst; the result's `report` holds the fit report. With
     `size`, the mesh is adapted to the landmarks over that frame, with `far_rings`
     far-field rings around it (`trimorph fit --far-rings`); the frame is recorded
-    (`Deformation.frame`)."""
+    (`Deformation.frame`). `order`: the columns of src and dst, "xy" or "rc" (row, col);
+    `size` is (w, h) either way."""
 
 def register(
     fixed: _Image,
@@ -216,6 +237,7 @@ def register(
     bend: float = 1.0,
     iterations: int = 30,
     samples: int = 32768,
+    order: _Order = "xy",
 ) -> Deformation:
     """Registers MOVING to FIXED from the images (`trimorph register`): phi maps MOVING
     pixels to FIXED pixels, exactly C1 and certified fold-free; `report` holds the
@@ -238,6 +260,7 @@ def morph(
     hard: bool = False,
     pin_frame: bool = False,
     mode: str = "constant",
+    order: _Order = "xy",
 ) -> List[_Image]:
     """Frames of the morph from a to b (like `trimorph morph`), in a's frame."""
 
@@ -276,6 +299,13 @@ def warp_tile(
     background: float = 0.0,
     tolerance: float = 0.01,
     mode: str = "constant",
+    channel_axis: Optional[int] = None,
 ) -> _Image:
     """The output tile (y0, x0, h, w) warped from the input window at origin (y, x), 2-D or
-    (planes, h, w); bit-identical to Deformation.warp on the whole image."""
+    (planes, h, w), or with channel_axis=-1 (h, w, c) / (planes, h, w, c) with 1 to 4
+    channels; bit-identical to Deformation.warp on the whole image."""
+
+def _image_axes(
+    shape: Sequence[int], channel_axis: Optional[int] = None, stack_axis: Optional[_Axes] = None
+) -> Tuple[List[int], Optional[int]]:
+    """(stack axes, channel axis) of an array of `shape` as Deformation.warp reads it."""

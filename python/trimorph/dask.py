@@ -4,7 +4,8 @@ A spline map is small and global, so the solve stays on one machine and only the
 work is distributed (no scheduler of our own: Dask's, on a laptop or a cluster).
 
 ``warp(arr, deformation)`` returns a lazy dask array ``O(q) = I(phi^-1(q))`` of ``arr``'s
-shape and dtype (2-D, or with leading time/channel axes; the last two axes are y, x).
+shape and dtype, its axes read as ``Deformation.warp`` reads them (``channel_axis``,
+``stack_axis``), with one deformation or one per plane of a stack.
 Each output chunk is one task that reads only the input chunks its preimage touches: the
 input rectangle of a chunk comes from certified bounds on the spline
 (``trimorph.tile_inputs``: its Jacobian and control points, not a solve), and the task
@@ -44,33 +45,42 @@ def _overlap(starts, lo, hi):
     return range(max(first, 0), min(last, len(starts) - 2) + 1)
 
 
-def _warp_block(deformation, blocks, origins, rect, tile, shape, interp, background, tolerance, mode):
-    """One output chunk: assemble the input window from the chunks it meets, warp it."""
+def _warp_block(deformation, blocks, origins, rect, tile, shape, interp, background, tolerance, mode, channels):
+    """One output chunk: assemble the input window from the chunks it meets, warp it.
+    Blocks are ``(..., y, x)``, or ``(..., y, x, c)`` with ``channels`` (1 to 4, one chunk)."""
     y0, x0, h, w = rect
     first = blocks[0][0]
-    lead = first.shape[:-2]
-    window = np.empty(lead + (h, w), dtype=first.dtype)
+    tail = (first.shape[-1],) if channels else ()
+    lead = first.shape[: first.ndim - 2 - len(tail)]
+    window = np.empty(lead + (h, w) + tail, dtype=first.dtype)
+    rest = (slice(None),) * len(tail)
     for row, row_origins in zip(blocks, origins):
         for b, (by, bx) in zip(row, row_origins):
             b = np.asarray(b)
+            bh, bw = b.shape[len(lead)], b.shape[len(lead) + 1]
             ya, xa = max(by, y0), max(bx, x0)
-            yb, xb = min(by + b.shape[-2], y0 + h), min(bx + b.shape[-1], x0 + w)
-            window[..., ya - y0 : yb - y0, xa - x0 : xb - x0] = b[..., ya - by : yb - by, xa - bx : xb - bx]
-    planes = window.reshape((-1, h, w))
+            yb, xb = min(by + bh, y0 + h), min(bx + bw, x0 + w)
+            window[(Ellipsis, slice(ya - y0, yb - y0), slice(xa - x0, xb - x0)) + rest] = b[
+                (Ellipsis, slice(ya - by, yb - by), slice(xa - bx, xb - bx)) + rest
+            ]
+    planes = window.reshape((-1, h, w) + tail)
     out = _trimorph.warp_tile(
-        deformation, planes, (y0, x0), shape, tile, interp, background, tolerance, mode
+        deformation, planes, (y0, x0), shape, tile, interp, background, tolerance, mode,
+        channel_axis=-1 if channels else None,
     )
-    return out.reshape(lead + (tile[2], tile[3]))
+    return out.reshape(lead + (tile[2], tile[3]) + tail)
 
 
-def _background_block(deformation, lead, dtype, shape, tile, interp, background, tolerance, mode):
+def _background_block(deformation, lead, dtype, shape, tile, interp, background, tolerance, mode, channels):
     """An output chunk no preimage reaches: the background, as the library converts it."""
     planes = int(np.prod(lead, dtype=np.int64)) if lead else 1
-    dummy = np.zeros((planes, 1, 1), dtype=dtype)
+    tail = (channels,) if channels else ()
+    dummy = np.zeros((planes, 1, 1) + tail, dtype=dtype)
     out = _trimorph.warp_tile(
-        deformation, dummy, (0, 0), shape, tile, interp, background, tolerance, mode
+        deformation, dummy, (0, 0), shape, tile, interp, background, tolerance, mode,
+        channel_axis=-1 if channels else None,
     )
-    return out.reshape(tuple(lead) + (tile[2], tile[3]))
+    return out.reshape(tuple(lead) + (tile[2], tile[3]) + tail)
 
 
 def warp_graph_inputs(shape, chunks, deformation, tolerance=0.01, resolution=None, mode="constant"):
@@ -97,28 +107,37 @@ def warp(
     chunks=None,
     resolution=None,
     mode="constant",
+    channel_axis=None,
+    stack_axis=None,
 ):
-    """Warps a dask array lazily: ``O(q) = I(phi^-1(q))`` on the last two axes (y, x) of
-    every plane, same shape and dtype (uint8, uint16 or float32).
+    """Warps a dask array lazily: ``O(q) = I(phi^-1(q))`` on every plane, same shape, dtype
+    (uint8, uint16 or float32) and axis order, equal to ``Deformation.warp`` on the same
+    array in memory.
 
-    ``chunks`` sets the output's chunks on the last two axes (``(y, x)`` sizes, or anything
-    ``dask.array.core.normalize_chunks`` takes); by default the input's. Leading axes keep
-    the input's chunks. Each output chunk reads only the input chunks that meet its
+    Axes are read as ``Deformation.warp`` reads them (``channel_axis``, ``stack_axis``: see
+    its docstring): a 2-D array is ``(Y, X)``, a 3-D one ``(Y, X, C)`` when its last axis
+    has 1 to 4 channels and its first more than 4 pixels, and anything else names its
+    axes; e.g. ``stack_axis=0`` for a ``(T, Y, X)`` time-lapse, ``stack_axis=(0, 1)`` for an
+    OME-Zarr ``(T, C, Y, X)`` image whose channels are warped alike.
+
+    ``deformation``: one ``Deformation`` for every plane, or a sequence of them, one per
+    plane along ``stack_axis`` (a single axis; a sequence registered frame by frame).
+
+    ``chunks`` sets the output's chunks on the y and x axes (``(y, x)`` sizes, or anything
+    ``dask.array.core.normalize_chunks`` takes); by default the input's. Stack axes keep
+    the input's chunks (one plane per chunk with a sequence of deformations), and 1 to 4
+    channels are one chunk. Each output chunk reads only the input chunks that meet its
     certified input rectangle (``warp_graph_inputs``), so memory per task is about one
-    output chunk and its preimage, whatever the image size. The result is bit-identical to
-    ``deformation.warp`` on each plane in memory. ``mode`` is ``"constant"`` (the
-    background outside the image, the default) or ``"edge"``; ``"reflect"`` needs pixels
-    outside a tile's window and is refused.
+    output chunk and its preimage, whatever the image size. ``mode`` is ``"constant"``
+    (the background outside the image, the default) or ``"edge"``; ``"reflect"`` needs
+    pixels outside a tile's window and is refused.
     """
     import dask.array as da
-    from dask.base import tokenize
-    from dask.highlevelgraph import HighLevelGraph
 
     arr = da.asarray(arr)
-    if arr.ndim < 2:
-        raise ValueError(f"expected an array with y and x as its last two axes, got shape {arr.shape}")
     if arr.dtype not in [np.dtype(t) for t in _DTYPES]:
         raise ValueError(f"unsupported dtype {arr.dtype} (use uint8, uint16 or float32; convert with .astype)")
+    stacks, channel = _trimorph._image_axes(arr.shape, channel_axis, stack_axis)
     if 0 in arr.shape:
         raise ValueError(f"the image is empty (shape {arr.shape})")
     if not np.isfinite(background):
@@ -128,36 +147,105 @@ def warp(
             f"mode {mode!r}: dask warps take 'constant' or 'edge' ('reflect' reads pixels "
             "outside a tile's input window)"
         )
-    H, W = arr.shape[-2:]
+    per_plane = not isinstance(deformation, _trimorph.Deformation)
+    if per_plane:
+        try:
+            deformation = list(deformation)
+        except TypeError:
+            raise TypeError(
+                f"deformation must be a Deformation or a sequence of them (one per plane), "
+                f"got {type(deformation).__name__}"
+            ) from None
+        if len(stacks) != 1:
+            raise ValueError(
+                f"deformation: a sequence of {len(deformation)} deformations needs one stack "
+                f"axis to give them to (stack_axis=), the array of shape {arr.shape} has "
+                f"{len(stacks)}"
+            )
+        n = arr.shape[stacks[0]]
+        if len(deformation) != n:
+            raise ValueError(
+                f"deformation: {len(deformation)} deformations for {n} planes along "
+                f"stack_axis={stacks[0]} (shape {arr.shape}); give one per plane"
+            )
+        bad = [i for i, d in enumerate(deformation) if not isinstance(d, _trimorph.Deformation)]
+        if bad:
+            raise TypeError(f"deformation[{bad[0]}] is {type(deformation[bad[0]]).__name__}, not a Deformation")
+    # The array as (stacks..., y, x[, c]): stack axes first, channels last.
+    nd = arr.ndim
+    src = list(stacks) + ([channel] if channel is not None else [])
+    dst = list(range(len(stacks))) + ([nd - 1] if channel is not None else [])
+    canon = da.moveaxis(arr, src, dst) if src != dst else arr
+    channels = None
+    if channel is not None:
+        c = canon.shape[-1]
+        if c <= 4:
+            channels = c
+            if len(canon.chunks[-1]) > 1:
+                canon = canon.rechunk({nd - 1: -1})
+        else:
+            # More than 4 channels are independent gray planes, as in Deformation.warp.
+            canon = da.moveaxis(canon, -1, len(stacks))
+    if per_plane and len(canon.chunks[0]) != canon.shape[0]:
+        canon = canon.rechunk({0: 1})
+    out = _warp_canonical(
+        canon, deformation, per_plane, channels, interp, background, tolerance, chunks, resolution, mode
+    )
+    if channel is not None and channels is None:
+        out = da.moveaxis(out, len(stacks), -1)
+    return da.moveaxis(out, dst, src) if src != dst else out
+
+
+def _warp_canonical(arr, deformation, per_plane, channels, interp, background, tolerance, chunks, resolution, mode):
+    """``warp`` of an array laid out ``(lead..., y, x)``, or ``(lead..., y, x, c)`` with
+    ``channels`` (1 to 4, one chunk); ``deformation`` a list with ``per_plane`` (one per
+    index of the first axis, chunked by one)."""
+    import dask.array as da
+    from dask.base import tokenize
+    from dask.highlevelgraph import HighLevelGraph
+
+    tail = 1 if channels else 0
+    nlead = arr.ndim - 2 - tail
+    H, W = arr.shape[nlead], arr.shape[nlead + 1]
+    in_yx = arr.chunks[nlead : nlead + 2]
     if chunks is None:
-        yx = arr.chunks[-2:]
+        yx = in_yx
     else:
         yx = da.core.normalize_chunks(chunks, (H, W), dtype=arr.dtype)
-    lead_chunks = arr.chunks[:-2]
-    out_chunks = tuple(lead_chunks) + tuple(yx)
-    plan = warp_graph_inputs((H, W), yx, deformation, tolerance, resolution, mode)
-    ys, xs = _bounds(arr.chunks[-2]), _bounds(arr.chunks[-1])
-    token = tokenize(arr.name, deformation.to_json(), interp, background, tolerance, out_chunks, mode)
+    lead_chunks = arr.chunks[:nlead]
+    out_chunks = tuple(lead_chunks) + tuple(yx) + ((channels,),) * tail
+    defs = deformation if per_plane else [deformation]
+    plans, seen = [], {}
+    for d in defs:
+        if id(d) not in seen:
+            seen[id(d)] = warp_graph_inputs((H, W), yx, d, tolerance, resolution, mode)
+        plans.append(seen[id(d)])
+    ys, xs = _bounds(in_yx[0]), _bounds(in_yx[1])
+    token = tokenize(
+        arr.name, [d.to_json() for d in defs], interp, background, tolerance, out_chunks, mode
+    )
     name = f"trimorph-warp-{token}"
-    dname = f"trimorph-deformation-{token}"
-    dsk = {dname: deformation}
+    dnames = [f"trimorph-deformation-{token}-{k}" for k in range(len(defs))]
+    dsk = dict(zip(dnames, defs))
+    ctail = (0,) * tail
     for lead in itertools.product(*[range(len(c)) for c in lead_chunks]):
         lead_shape = tuple(c[i] for c, i in zip(lead_chunks, lead))
-        for (i, j), (tile, rect) in plan.items():
-            key = (name, *lead, i, j)
+        k = lead[0] if per_plane else 0
+        for (i, j), (tile, rect) in plans[k].items():
+            key = (name, *lead, i, j, *ctail)
             if rect is None:
                 dsk[key] = (
-                    _background_block, dname, lead_shape, arr.dtype.str, (H, W), tile,
-                    interp, float(background), float(tolerance), mode,
+                    _background_block, dnames[k], lead_shape, arr.dtype.str, (H, W), tile,
+                    interp, float(background), float(tolerance), mode, channels,
                 )
                 continue
             y0, x0, h, w = rect
             iy, ix = _overlap(ys, y0, y0 + h), _overlap(xs, x0, x0 + w)
-            blocks = [[(arr.name, *lead, a, b) for b in ix] for a in iy]
+            blocks = [[(arr.name, *lead, a, b, *ctail) for b in ix] for a in iy]
             origins = [[(ys[a], xs[b]) for b in ix] for a in iy]
             dsk[key] = (
-                _warp_block, dname, blocks, origins, rect, tile, (H, W),
-                interp, float(background), float(tolerance), mode,
+                _warp_block, dnames[k], blocks, origins, rect, tile, (H, W),
+                interp, float(background), float(tolerance), mode, channels,
             )
     graph = HighLevelGraph.from_collections(name, dsk, dependencies=[arr])
     meta = np.empty((0,) * arr.ndim, dtype=arr.dtype)
@@ -182,14 +270,19 @@ def read_ome_zarr(url, level=0):
     if not 0 <= level < len(datasets):
         raise ValueError(f"{url}: level {level} out of range ({len(datasets)} levels)")
     arr = group[datasets[level]["path"]]
-    return da.from_zarr(arr), {"attrs": attrs, "level": level, "zarr_format": group.metadata.zarr_format}
+    like = {"attrs": attrs, "level": level, "zarr_format": group.metadata.zarr_format}
+    names = getattr(arr.metadata, "dimension_names", None)
+    if names:
+        like["dimension_names"] = list(names)
+    return da.from_zarr(arr), like
 
 
 def to_ome_zarr(arr, url, like, compute=True):
     """Writes ``arr`` (a dask array, e.g. ``warp``'s result) as a one-level OME-Zarr image at
     ``url``, with the metadata ``like`` from ``read_ome_zarr`` (axes, the level's scale and
     translation, omero channels and the rest of the group attributes kept; only the
-    warped level is listed), chunk by chunk by Dask.
+    warped level is listed; a Zarr v3 array keeps the source's ``dimension_names``, else
+    gets the axes' names, as NGFF 0.5 asks), chunk by chunk by Dask.
 
     A local path is written to a temporary store beside it and renamed into place when every
     chunk is written, so a failed run leaves an existing store as it was. With
@@ -299,7 +392,13 @@ def _write_ome_zarr(arr, url, like, compute, guard=None):
     # Regular chunks, the stored ones: each task writes whole stored chunks, no locks.
     chunks = tuple(c[0] for c in arr.chunks)
     arr = arr.rechunk(chunks)
-    target = group.create_array("0", shape=arr.shape, dtype=arr.dtype, chunks=chunks)
+    extra = {}
+    if fmt == 3:
+        # NGFF 0.5: a level's zarr.json holds dimension_names, the axes' names.
+        names = like.get("dimension_names") or [a.get("name") for a in ms.get("axes", [])]
+        if len(names) == arr.ndim and all(isinstance(n, str) for n in names):
+            extra["dimension_names"] = list(names)
+    target = group.create_array("0", shape=arr.shape, dtype=arr.dtype, chunks=chunks, **extra)
     if guard is not None:
         target = _GuardedTarget(target, guard)
     return da.store(arr, target, lock=False, compute=compute)

@@ -468,9 +468,10 @@ pub fn write_image(path: &Path, like: &NgffImage, pages: &[DynamicImage]) -> Res
         group
             .store_metadata_opt(&GroupMetadataOptions::default())
             .map_err(|e| werr(e.to_string()))?;
-        let array =
-            Array::new_with_metadata(store, &format!("/{}", like.dataset), like.array_meta.clone())
-                .map_err(|e| werr(e.to_string()))?;
+        let mut meta = like.array_meta.clone();
+        codecs_as_objects(&mut meta);
+        let array = Array::new_with_metadata(store, &format!("/{}", like.dataset), meta)
+            .map_err(|e| werr(e.to_string()))?;
         array
             .store_metadata_opt(&ArrayMetadataOptions::default().with_include_zarrs_metadata(false))
             .map_err(|e| werr(e.to_string()))?;
@@ -482,6 +483,47 @@ pub fn write_image(path: &Path, like: &NgffImage, pages: &[DynamicImage]) -> Res
         };
         r.map_err(|e| werr(e.to_string()))
     })
+}
+
+/// Writes every Zarr v3 codec (and the chunk grid, chunk key encoding and storage
+/// transformers) of `meta` in the object form `{"name": ...}`, also inside a codec's
+/// configuration (a sharding codec's `codecs` and `index_codecs`).
+///
+/// zarrs writes an entry without configuration, such as the `bytes` codec of a uint8 array
+/// (no byte order), as the bare string `"bytes"`: Zarr 3.1 allows that short form, but
+/// zarr-python 3.1 refuses such an array ("Expected dict, got <class 'str'>"), and the
+/// specification's examples and every writer use objects. An empty configuration makes
+/// zarrs write `{"name": "bytes"}`. The data type keeps its string form (`"uint8"`), the
+/// form the specification gives for core types. Zarr v2 metadata is left as it is.
+fn codecs_as_objects(meta: &mut zarrs::metadata::ArrayMetadata) {
+    use zarrs::metadata::v3::MetadataV3;
+    use zarrs::metadata::Configuration;
+    fn nested(conf: &mut serde_json::Map<String, serde_json::Value>) {
+        for key in ["codecs", "index_codecs"] {
+            for c in conf.get_mut(key).and_then(|l| l.as_array_mut()).into_iter().flatten() {
+                if let serde_json::Value::String(name) = c {
+                    *c = serde_json::json!({ "name": name });
+                } else if let Some(inner) =
+                    c.get_mut("configuration").and_then(|v| v.as_object_mut())
+                {
+                    nested(inner);
+                }
+            }
+        }
+    }
+    fn object(m: &mut MetadataV3) {
+        let mut conf = m.configuration().cloned().map(serde_json::Map::from).unwrap_or_default();
+        nested(&mut conf);
+        let must = m.must_understand();
+        *m = MetadataV3::new_with_configuration(m.name().to_string(), Configuration::from(conf))
+            .with_must_understand(must);
+    }
+    if let zarrs::metadata::ArrayMetadata::V3(v3) = meta {
+        v3.codecs.iter_mut().for_each(object);
+        v3.storage_transformers.iter_mut().for_each(object);
+        object(&mut v3.chunk_grid);
+        object(&mut v3.chunk_key_encoding);
+    }
 }
 
 /// Keeps only `datasets[0]` in every `multiscales` entry.

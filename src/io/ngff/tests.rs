@@ -128,3 +128,76 @@ fn a_directory_that_is_not_a_store_is_never_replaced() {
     assert!(!t.exists());
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1, "only `precious` is left");
 }
+
+/// Bug (issue 55): the warp of a uint8 Zarr v3 image wrote its `bytes` codec (which has no
+/// byte order for one-byte samples) as the bare string `"bytes"`, and zarr-python 3.1
+/// could not open the result. Every codec is now an object; `dimension_names` are kept.
+#[test]
+fn a_uint8_v3_image_is_written_with_codec_objects_and_its_dimension_names() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("u8.zarr");
+    std::fs::create_dir(&p).unwrap();
+    let store = Arc::new(FilesystemStore::new(&p).unwrap());
+    let attrs = json!({"ome": {"version": "0.5", "multiscales": [{
+        "axes": [{"name": "t", "type": "time"}, {"name": "y", "type": "space"}, {"name": "x", "type": "space"}],
+        "datasets": [{"path": "0", "coordinateTransformations": [{"type": "scale", "scale": [1.0, 1.0, 1.0]}]}]
+    }]}});
+    GroupBuilder::new()
+        .attributes(attrs.as_object().unwrap().clone())
+        .build(store.clone(), "/")
+        .unwrap()
+        .store_metadata()
+        .unwrap();
+    let a = ArrayBuilder::new(vec![2, 5, 7], vec![1, 4, 4], data_type::uint8(), 0u8)
+        .dimension_names(Some(["t", "y", "x"]))
+        .build(store, "/0")
+        .unwrap();
+    a.store_metadata().unwrap();
+    let d: Vec<u8> = (0..70u32).map(|i| (i * 37 % 256) as u8).collect();
+    a.store_array_subset(&a.subset_all(), &d[..]).unwrap();
+
+    let img = read_image(&p).unwrap();
+    assert_eq!(img.dtype, SampleType::U8);
+    let out = dir.path().join("out.zarr");
+    write_image(&out, &img, &img.pages).unwrap();
+    let meta: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("0").join("zarr.json")).unwrap()).unwrap();
+    let codecs = meta["codecs"].as_array().unwrap();
+    assert!(!codecs.is_empty());
+    for c in codecs {
+        assert!(c.is_object() && c["name"].is_string(), "codec {c} in {meta}");
+    }
+    assert!(codecs.iter().any(|c| c["name"] == "bytes"), "{meta}");
+    assert!(meta["chunk_grid"].is_object() && meta["chunk_key_encoding"].is_object(), "{meta}");
+    assert_eq!(meta["data_type"], "uint8");
+    assert_eq!(meta["dimension_names"], json!(["t", "y", "x"]));
+    let back = read_image(&out).unwrap();
+    for (a, b) in back.pages.iter().zip(&img.pages) {
+        assert_eq!(a.as_bytes(), b.as_bytes());
+    }
+}
+
+/// Codecs nested in a sharding codec's configuration get the object form too.
+#[test]
+fn nested_codec_names_become_objects() {
+    use zarrs::metadata::v3::MetadataV3;
+    let dir = tempfile::tempdir().unwrap();
+    let store = Arc::new(FilesystemStore::new(dir.path()).unwrap());
+    let a = ArrayBuilder::new(vec![4, 4], vec![4, 4], data_type::uint8(), 0u8)
+        .build(store, "/a")
+        .unwrap();
+    let zarrs::metadata::ArrayMetadata::V3(mut v3) = a.metadata().clone() else {
+        panic!("a v3 array")
+    };
+    let conf = json!({"chunk_shape": [2, 2], "codecs": ["bytes"], "index_codecs": ["bytes", {"name": "crc32c"}]});
+    v3.codecs = vec![MetadataV3::new_with_configuration(
+        "sharding_indexed",
+        conf.as_object().unwrap().clone(),
+    )];
+    let mut meta = zarrs::metadata::ArrayMetadata::V3(v3);
+    codecs_as_objects(&mut meta);
+    let v = serde_json::to_value(&meta).unwrap();
+    let c = &v["codecs"][0]["configuration"];
+    assert_eq!(c["codecs"], json!([{"name": "bytes"}]), "{v}");
+    assert_eq!(c["index_codecs"], json!([{"name": "bytes"}, {"name": "crc32c"}]), "{v}");
+}
