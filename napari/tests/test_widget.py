@@ -53,7 +53,7 @@ def test_fit_warp_jacobian_mesh_export(viewer_factory, qtbot, frames, tracks, la
     assert d is not None and d.frame["size"] == [511.0, 511.0]
     s = _core.report_summary(d)
     assert s["fold_free"] and s["covers_frame"] and s["rms"] < 30
-    assert "rms" in widget.status.value and "fold-free" in widget.status.value
+    assert "rms" in widget.result.value and "fold-free" in widget.result.value
     mapped = viewer.layers["phi(moving points)"]
     assert mapped.metadata["trimorph"]["role"] == "fit"
     again = _core.deformation_from_layer(mapped)

@@ -128,7 +128,11 @@ class TrimorphWidget(Container):
 
         # Status
         self.progress = ProgressBar(label="", value=0, min=0, max=1, visible=False)
-        self.status = Label(label="", value="no result yet")
+        self.result = Label(label="result", value="none yet")
+        self.status = Label(label="", value="")
+        for lab in (self.result, self.status):
+            lab.native.setWordWrap(True)
+            lab.native.setMinimumWidth(240)
 
         self.extend(
             [
@@ -162,6 +166,7 @@ class TrimorphWidget(Container):
                 self.direction,
                 self.export_button,
                 self.progress,
+                self.result,
                 self.status,
             ]
         )
@@ -290,7 +295,8 @@ class TrimorphWidget(Container):
         self.deformation = d
         self.frame_layer = frame_layer
         s = _core.report_summary(d)
-        self.status.value = f"{role}: {_core.format_summary(s)}"
+        self.result.value = f"{role}: " + _core.format_summary(s).replace(", ", "\n")
+        self.status.value = f"{role} done"
         show_info(f"trimorph {role}: {_core.format_summary(s)}")
         if self.update_outputs.value:
             for key, refresh in list(self._outputs.items()):
@@ -472,6 +478,7 @@ class TrimorphWidget(Container):
                     colormap=None if rgb else layer.colormap.name,
                 )
                 self._put(name, out, "image", **kw)
+            self.status.value = f"warped {layer.name!r} -> {name!r}"
             self._outputs[f"warp:{id(layer)}"] = lambda: (
                 layer in self.viewer.layers and name in self.viewer.layers and bool(self.warp(layer))
             )
@@ -517,6 +524,14 @@ class TrimorphWidget(Container):
                     layer.colorbar.visible = True
                 except Exception:  # noqa: BLE001 - older napari: no colour bar
                     pass
+            lo, hi = layer.metadata[_core.METADATA_KEY]["sampled_min"], layer.metadata[
+                _core.METADATA_KEY
+            ]["sampled_max"]
+            self.status.value = (
+                f"det J ({which} frame, sampled): {lo:.3f} .. {hi:.3f}"
+                if lo is not None
+                else "det J: undefined everywhere"
+            )
             self._outputs["jacobian"] = lambda: "det J" in self.viewer.layers and bool(
                 self.jacobian(which)
             )
@@ -547,6 +562,7 @@ class TrimorphWidget(Container):
                 metadata=_core.metadata(d, "mesh", samples_per_edge=k),
                 **_core.frame_transform_kwargs(flayer),
             )
+            self.status.value = f"deformed mesh: {len(paths)} edges"
             self._outputs["mesh"] = lambda: name in self.viewer.layers and bool(self.mesh(k))
 
         return self._start(work, done, "mesh")
