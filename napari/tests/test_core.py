@@ -56,6 +56,8 @@ def test_fit_warp_and_labels(frames, tracks, labels_of):
     # A stack of 3 planes (not H x W x 3 colour) and a float64 image.
     st = _core.warp_image(d, np.stack([f0, f0[::-1], f0]))
     np.testing.assert_array_equal(st[1], d.warp(np.ascontiguousarray(f0[::-1])))
+    rgb = np.dstack([f0, f0[::-1], f0.T]).copy()
+    np.testing.assert_array_equal(_core.warp_image(d, rgb, rgb=True), d.warp(rgb))
     f64 = _core.warp_image(d, f0.astype(np.float64))
     assert f64.dtype == np.float64
     np.testing.assert_allclose(f64, d.warp(f0.astype(np.float32)), atol=1e-4)

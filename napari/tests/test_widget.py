@@ -185,6 +185,26 @@ def test_identity_jacobian_layer(viewer_factory, qtbot):
     np.testing.assert_allclose(j[np.isfinite(j)], 1.0, atol=1e-4)
 
 
+def test_stack_warp_and_closed_dock(viewer_factory, qtbot, frames, tracks):
+    f0, _ = frames
+    viewer, widget = setup(viewer_factory, frames, tracks)
+    widget.fit()
+    wait(qtbot, widget)
+    d = widget.deformation
+    stack = viewer.add_image(np.stack([f0, f0[::-1], f0.T]).astype(np.uint16), name="stack")
+    widget.warp(stack)  # a generator worker: one yield (progress step) per plane
+    wait(qtbot, widget)
+    out = viewer.layers["stack warped"].data
+    assert out.shape == (3, 511, 511) and out.dtype == np.uint16
+    np.testing.assert_array_equal(out[2], d.warp(np.ascontiguousarray(f0.T).astype(np.uint16)))
+    # Closing the dock widget leaves the viewer working.
+    viewer.window.remove_dock_widget(widget.native)
+    widget.native.deleteLater()
+    qtbot.wait(50)
+    viewer.add_image(f0, name="after")
+    assert "after" in viewer.layers
+
+
 def test_errors_are_reported_not_raised(viewer_factory, qtbot, frames, tracks):
     viewer, widget = setup(viewer_factory, frames, tracks)
     viewer.layers["fixed"].data = viewer.layers["fixed"].data[:-1]

@@ -5,7 +5,8 @@ the PyQt5 wheels, so a viewer there cannot add an Image layer (``glGetString`` r
 None). Without a ``DISPLAY``, :func:`ensure_display` starts a private ``Xvfb`` (Debian
 package ``xvfb``; Mesa's software OpenGL draws) on a free display number and selects
 Qt's ``xcb`` platform; it is stopped when the process exits. Without ``Xvfb`` it falls
-back to ``QT_QPA_PLATFORM=offscreen`` and returns False (no OpenGL: widgets only).
+back to ``QT_QPA_PLATFORM=offscreen`` and returns False (no OpenGL: widgets only). A
+``QT_QPA_PLATFORM`` other than ``xcb`` set by the caller is left alone.
 
 Call it before anything imports Qt.
 """
@@ -24,8 +25,10 @@ _XVFB = None
 def ensure_display() -> bool:
     """True when napari can draw: a ``DISPLAY`` was set, or a private Xvfb was started."""
     global _XVFB
-    if _XVFB is not None or os.environ.get("DISPLAY"):
-        return os.environ.get("QT_QPA_PLATFORM", "xcb") != "offscreen"
+    chosen = os.environ.get("QT_QPA_PLATFORM")
+    if _XVFB is not None or os.environ.get("DISPLAY") or chosen not in (None, "", "xcb"):
+        # A display, or a platform chosen by the caller (offscreen: no OpenGL).
+        return chosen != "offscreen"
     xvfb = shutil.which("Xvfb")
     if xvfb is None:
         os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")

@@ -197,7 +197,11 @@ class TrimorphWidget(Container):
     # Plumbing
 
     def _layers_changed(self, event=None):
-        self.reset_choices()
+        try:
+            self.reset_choices()
+        except RuntimeError:  # the dock widget was closed: its Qt widgets are gone
+            self._disconnect_viewer()
+            return
         for layer in self.viewer.layers:
             try:
                 layer.events.name.disconnect(self._on_rename)
@@ -206,7 +210,22 @@ class TrimorphWidget(Container):
             layer.events.name.connect(self._on_rename)
 
     def _on_rename(self, event=None):
-        self.reset_choices()
+        self._layers_changed()
+
+    def _disconnect_viewer(self):
+        for ev in ("inserted", "removed", "moved", "reordered"):
+            emitter = getattr(self.viewer.layers.events, ev, None)
+            if emitter is not None:
+                try:
+                    emitter.disconnect(self._layers_changed)
+                except (TypeError, ValueError, RuntimeError):
+                    pass
+        for layer in self.viewer.layers:
+            try:
+                layer.events.name.disconnect(self._on_rename)
+            except (TypeError, ValueError, RuntimeError):
+                pass
+        self.auto_refit.value = False
 
     @property
     def busy(self) -> bool:
