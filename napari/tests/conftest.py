@@ -64,8 +64,12 @@ def labels_of():
 
 
 @pytest.fixture
-def viewer_factory(make_napari_viewer):
-    """napari's ``make_napari_viewer``, skipping the test where nothing can draw."""
+def viewer_factory(request):
+    """napari's ``make_napari_viewer``, skipping the test where nothing can draw (asked for
+    only then: its teardown needs a test that ran)."""
     if not HAS_GL:
-        pytest.skip("napari needs OpenGL: no DISPLAY and no Xvfb (apt-get install xvfb)")
-    return make_napari_viewer
+        pytest.skip(
+            "napari needs OpenGL: no DISPLAY and no Xvfb (apt-get install xvfb), or "
+            f"QT_QPA_PLATFORM={os.environ.get('QT_QPA_PLATFORM')}"
+        )
+    return request.getfixturevalue("make_napari_viewer")

@@ -22,6 +22,18 @@ import subprocess
 _XVFB = None
 
 
+def _die_with_parent() -> None:
+    """In the child: SIGTERM when the parent dies, even killed (Linux prctl
+    PR_SET_PDEATHSIG), so no Xvfb outlives a test run that was stopped."""
+    try:
+        import ctypes
+        import signal
+
+        ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, int(signal.SIGTERM), 0, 0, 0)
+    except Exception:  # noqa: BLE001 - not Linux: atexit still stops it
+        pass
+
+
 def ensure_display() -> bool:
     """True when napari can draw: a ``DISPLAY`` was set, or a private Xvfb was started."""
     global _XVFB
@@ -39,6 +51,7 @@ def ensure_display() -> bool:
         pass_fds=(w,),
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
+        preexec_fn=_die_with_parent,
     )
     os.close(w)
     number = b""

@@ -48,6 +48,26 @@ from . import _core
 JACOBIAN_CMAP = "PiYG"  # diverging: green < 1 (shrink), 1 white, magenta > 1 (grow)
 
 
+_POOL = None
+
+
+def _pool():
+    """The plugin's own thread pool.
+
+    Not Qt's global pool (where ``worker.start()`` would put the workers): Qt converts
+    images on the global pool (``QImage.convertToFormat``, e.g. for napari's activity
+    animation) while the GUI thread waits *holding the GIL*; workers that fill the global
+    pool (2 threads on 2 cores) and wait for the GIL to return from trimorph deadlock it.
+    """
+    global _POOL
+    if _POOL is None:
+        from qtpy.QtCore import QThreadPool
+
+        _POOL = QThreadPool()
+        _POOL.setMaxThreadCount(2)
+    return _POOL
+
+
 def _layer_choices(viewer, kinds):
     def choices(_widget=None):
         return [(layer.name, layer) for layer in viewer.layers if isinstance(layer, kinds)]
@@ -278,9 +298,9 @@ class TrimorphWidget(Container):
         worker.returned.connect(returned)
         worker.errored.connect(lambda e: self._error(e, what))
         worker.finished.connect(finished)
-        self._workers.append(worker)
+        self._workers.append(worker)  # also keeps the Python object alive while it runs
         self.worker = worker
-        worker.start()
+        _pool().start(worker)
         return worker
 
     def _error(self, e: BaseException, what: str):
