@@ -225,3 +225,30 @@ def test_npe2_manifest_validates():
     assert [w.display_name for w in pm.contributions.widgets] == [
         "Deformation (fit, register, warp, export)"
     ]
+
+
+def test_the_plugin_menu_entry_opens_the_widget(viewer_factory, qtbot, frames, tracks):
+    """Through npe2, as Plugins -> trimorph does: napari injects the viewer (as a
+    PublicOnlyProxy: the widget must use napari's public API only)."""
+    f0, f9 = frames
+    src, dst = tracks
+    viewer = viewer_factory()
+    dock, widget = viewer.window.add_plugin_dock_widget(
+        "trimorph-napari", "Deformation (fit, register, warp, export)"
+    )
+    assert isinstance(widget, TrimorphWidget)
+    viewer.add_image(f0, name="frame 0")
+    viewer.add_image(f9, name="frame 9")
+    viewer.add_points(xy_to_rc(src), name="moving")
+    viewer.add_points(xy_to_rc(dst), name="fixed")
+    named = {layer.name: layer for layer in widget.frame.choices if layer is not None}
+    assert sorted(named) == ["frame 0", "frame 9"]
+    widget.frame.value = named["frame 9"]
+    widget.warp_layer.value = named["frame 0"]
+    pts = {layer.name: layer for layer in widget.moving_points.choices if layer is not None}
+    widget.moving_points.value, widget.fixed_points.value = pts["moving"], pts["fixed"]
+    for step in (widget.fit, widget.warp, widget.jacobian, widget.mesh):
+        step()
+        wait(qtbot, widget)
+    for name in ("phi(moving points)", "frame 0 warped", "det J", "deformed mesh"):
+        assert name in viewer.layers

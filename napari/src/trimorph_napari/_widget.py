@@ -78,7 +78,7 @@ def _layer_choices(viewer, kinds):
 class TrimorphWidget(Container):
     """The plugin's dock widget (see the module docstring)."""
 
-    def __init__(self, viewer: "napari.viewer.Viewer"):
+    def __init__(self, viewer: napari.viewer.Viewer):
         super().__init__(labels=True)
         self.viewer = viewer
         #: The current result (from the last fit or registration), or None.
@@ -632,6 +632,7 @@ class TrimorphWidget(Container):
         return self._start(work, done, "export")
 
 
-def make_widget(viewer: "napari.viewer.Viewer") -> TrimorphWidget:
-    """The npe2 widget command (napari passes the viewer)."""
+def make_widget(viewer: napari.viewer.Viewer) -> TrimorphWidget:
+    """The widget for a viewer (the npe2 command names the class itself, whose
+    ``viewer: napari.viewer.Viewer`` parameter napari fills in)."""
     return TrimorphWidget(viewer)
