@@ -78,8 +78,16 @@ def main(out: str) -> None:
     viewer.layers["det J"].opacity = 0.45
     viewer.layers.selection.active = viewer.layers["det J"]
     # Stack order, bottom to top: images, Jacobian, mesh, points.
-    names = ["frame 9 (fixed)", "frame 0 (moving)", "frame 0 (moving) warped", "det J",
-             "deformed mesh", "moving points", "fixed points", "phi(moving points)"]
+    names = [
+        "frame 9 (fixed)",
+        "frame 0 (moving)",
+        "frame 0 (moving) warped",
+        "det J",
+        "deformed mesh",
+        "moving points",
+        "fixed points",
+        "phi(moving points)",
+    ]
     for i, n in enumerate(names):
         viewer.layers.move(viewer.layers.index(n), i)
     viewer.reset_view()
@@ -87,7 +95,9 @@ def main(out: str) -> None:
     try:  # 256 colours keep the README picture small
         from PIL import Image
 
-        Image.fromarray(shot[..., :3]).quantize(colors=256, dither=Image.Dither.NONE).save(out, optimize=True)
+        Image.fromarray(shot[..., :3]).quantize(colors=256, dither=Image.Dither.NONE).save(
+            out, optimize=True
+        )
     except ImportError:
         from napari.utils.io import imsave
 

@@ -136,11 +136,15 @@ def test_scaled_translated_layers_give_the_same_fit(viewer_factory, qtbot, frame
         viewer_factory, frames, tracks, scale=(0.5, 2.0), translate=(10.0, -30.0)
     )
     # The Points layers are in world units (scale 1): convert back to the frame's pixels.
-    np.testing.assert_allclose(_core.points_to_pixels(widget.moving_points.value, widget.frame.value), src)
+    np.testing.assert_allclose(
+        _core.points_to_pixels(widget.moving_points.value, widget.frame.value), src
+    )
     widget.fit()
     wait(qtbot, widget)
     direct = trimorph.fit(src, dst, size=(511, 511))
-    np.testing.assert_allclose(widget.deformation.map_points(src), direct.map_points(src), atol=1e-9)
+    np.testing.assert_allclose(
+        widget.deformation.map_points(src), direct.map_points(src), atol=1e-9
+    )
     # The outputs overlay the frame in world coordinates.
     mapped = viewer.layers["phi(moving points)"]
     np.testing.assert_allclose(mapped.scale, (0.5, 2.0))

@@ -71,9 +71,7 @@ def _affine_2d(layer) -> np.ndarray:
         shear=layer.shear,
         ndim=ndim,
     )
-    full = np.asarray(layer.affine.affine_matrix, float) @ np.asarray(
-        physical.affine_matrix, float
-    )
+    full = np.asarray(layer.affine.affine_matrix, float) @ np.asarray(physical.affine_matrix, float)
     idx = [ndim - 2, ndim - 1]
     m = np.eye(3)
     m[:2, :2] = full[np.ix_(idx, idx)]
@@ -274,7 +272,7 @@ def warp_image_iter(
     dtype = arr.dtype
     work = dtype if dtype in NATIVE_DTYPES else np.dtype(np.float32)
     lead, n = _planes(arr, rgb)
-    inner = arr.shape[len(lead):]
+    inner = arr.shape[len(lead) :]
     flat = arr.reshape((n,) + inner)
     out = np.empty((n,) + inner, dtype=dtype)
     for k in range(n):
@@ -293,9 +291,7 @@ def warp_image_iter(
 
 def warp_image(d, data, **kwargs) -> np.ndarray:
     """:func:`warp_image_iter` run to its end."""
-    for _, _, res in warp_image_iter(d, data, **kwargs):
-        pass
-    return res
+    return list(warp_image_iter(d, data, **kwargs))[-1][2]
 
 
 def warp_labels_iter(
@@ -313,7 +309,9 @@ def warp_labels_iter(
     arr = np.asarray(data)
     if arr.ndim < 2:
         raise ValueError(f"expected labels of 2 or more dimensions, got shape {arr.shape}")
-    values, index = np.unique(np.concatenate([[0], arr.ravel()]).astype(arr.dtype), return_inverse=True)
+    values, index = np.unique(
+        np.concatenate([[0], arr.ravel()]).astype(arr.dtype), return_inverse=True
+    )
     index = index[1:].reshape(arr.shape)
     zero = int(np.searchsorted(values, 0))  # values holds 0: the background's index
     if len(values) <= 65535:
@@ -339,9 +337,7 @@ def warp_labels_iter(
 
 def warp_labels(d, data) -> np.ndarray:
     """:func:`warp_labels_iter` run to its end."""
-    for _, _, res in warp_labels_iter(d, data):
-        pass
-    return res
+    return list(warp_labels_iter(d, data))[-1][2]
 
 
 # --------------------------------------------------------------------------------------

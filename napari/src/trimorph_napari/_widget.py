@@ -39,7 +39,7 @@ from magicgui.widgets import (
 
 import napari
 import trimorph
-from napari.layers import Image, Labels, Points, Shapes
+from napari.layers import Image, Labels, Points
 from napari.qt.threading import thread_worker
 from napari.utils.notifications import show_error, show_info, show_warning
 
@@ -122,7 +122,9 @@ class TrimorphWidget(Container):
         self.interp = ComboBox(
             label="interpolation", choices=["bilinear", "bicubic", "nearest"], value="bilinear"
         )
-        self.mode = ComboBox(label="edges", choices=["constant", "edge", "reflect"], value="constant")
+        self.mode = ComboBox(
+            label="edges", choices=["constant", "edge", "reflect"], value="constant"
+        )
         self.background = FloatSpinBox(label="background", value=0.0, min=-1e9, max=1e9)
         self.warp_button = PushButton(text="Warp layer")
         self.jacobian_frame = ComboBox(
@@ -319,7 +321,9 @@ class TrimorphWidget(Container):
         meta = kwargs.pop("metadata", {})
         if name in self.viewer.layers:
             layer = self.viewer.layers[name]
-            if kind != "shapes" and isinstance(layer, {"image": Image, "labels": Labels, "points": Points}[kind]):
+            if kind != "shapes" and isinstance(
+                layer, {"image": Image, "labels": Labels, "points": Points}[kind]
+            ):
                 layer.data = data
                 layer.metadata.update(meta)
                 for k in ("scale", "translate", "affine"):
@@ -490,7 +494,9 @@ class TrimorphWidget(Container):
             it = (
                 _core.warp_labels_iter(d, data)
                 if is_labels
-                else _core.warp_image_iter(d, data, rgb=rgb, interp=interp, background=bg, mode=mode)
+                else _core.warp_image_iter(
+                    d, data, rgb=rgb, interp=interp, background=bg, mode=mode
+                )
             )
             for done, n, res in it:
                 if res is None:
@@ -519,7 +525,9 @@ class TrimorphWidget(Container):
                 self._put(name, out, "image", **kw)
             self.status.value = f"warped {layer.name!r} -> {name!r}"
             self._outputs[f"warp:{id(layer)}"] = lambda: (
-                layer in self.viewer.layers and name in self.viewer.layers and bool(self.warp(layer))
+                layer in self.viewer.layers
+                and name in self.viewer.layers
+                and bool(self.warp(layer))
             )
 
         lead = data.shape[: data.ndim - (3 if rgb else 2)]
@@ -563,16 +571,17 @@ class TrimorphWidget(Container):
                     layer.colorbar.visible = True
                 except Exception:  # noqa: BLE001 - older napari: no colour bar
                     pass
-            lo, hi = layer.metadata[_core.METADATA_KEY]["sampled_min"], layer.metadata[
-                _core.METADATA_KEY
-            ]["sampled_max"]
+            lo, hi = (
+                layer.metadata[_core.METADATA_KEY]["sampled_min"],
+                layer.metadata[_core.METADATA_KEY]["sampled_max"],
+            )
             self.status.value = (
                 f"det J ({which} frame, sampled): {lo:.3f} .. {hi:.3f}"
                 if lo is not None
                 else "det J: undefined everywhere"
             )
-            self._outputs["jacobian"] = lambda: "det J" in self.viewer.layers and bool(
-                self.jacobian(which)
+            self._outputs["jacobian"] = lambda: (
+                "det J" in self.viewer.layers and bool(self.jacobian(which))
             )
 
         return self._start(work, done, "Jacobian map")
