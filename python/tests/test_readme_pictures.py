@@ -31,6 +31,7 @@ ELSEWHERE = {
     "editor_warp.png": "tests/editor_e2e.rs",
     "editor_z1.png": "tests/editor_e2e.rs",
     "editor_landmarks.png": "tests/editor_e2e.rs",
+    "napari.png": "napari/examples/screenshot.py",
 }
 
 
