@@ -17,3 +17,10 @@ PYTHON="${PYTHON:-python3}"
 export CARGO_TARGET_DIR="$PWD/target/python"
 "$VENV/bin/python" -m pip install --quiet --disable-pip-version-check "./python[test]"
 TRIMORPH_BIN="$PWD/target/debug/trimorph" "$VENV/bin/python" -m pytest -q python/tests
+
+# The napari plugin (napari/), installed after the package it wraps; its own pytest run, as
+# both test folders have a conftest.py. Its viewer tests need an X server: a private Xvfb
+# is started when there is no display (apt-get install xvfb), else they are skipped.
+echo "== napari plugin: pip install ./napari[test], then pytest napari/tests"
+"$VENV/bin/python" -m pip install --quiet --disable-pip-version-check "./napari[test]"
+"$VENV/bin/python" -m pytest -q napari/tests
