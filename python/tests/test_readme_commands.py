@@ -1,6 +1,8 @@
 """README.md runs as written: every command block in order, every quoted output compared
 (`readme_harness.py` says how), plus the harness's own rules checked on small inputs."""
 
+import re
+
 import pytest
 
 import readme_harness as h
@@ -79,3 +81,25 @@ def test_not_run_needs_a_reason():
         h.parse("<!-- not run -->\n```sh\ntrue\n```\n")
     blocks = h.parse("<!-- not run: a server -->\n```sh\ntrue\n```\n```console\n$ echo 1\n1\n```\n")
     assert [b.skip for b in blocks] == ["a server", None]
+
+
+def github_slug(heading: str) -> str:
+    """GitHub's anchor for a Markdown heading: lower case, punctuation dropped (but `-` and
+    `_`), spaces to `-`."""
+    text = heading.strip().lower()
+    text = re.sub(r"[^\w\- ]", "", text)
+    return text.replace(" ", "-")
+
+
+def test_every_link_to_a_readme_section_names_a_heading():
+    text = (REPO / "README.md").read_text()
+    lines, inside = [], False
+    for line in text.split("\n"):
+        if line.strip().startswith("```"):
+            inside = not inside
+        elif not inside:
+            lines.append(line)
+    slugs = {github_slug(m.group(1)) for m in re.finditer(r"^#+ (.*)$", "\n".join(lines), re.M)}
+    links = set(re.findall(r"\]\(#([^)]+)\)", text))
+    assert links, "the contents list links to sections"
+    assert not links - slugs, f"links to no heading: {sorted(links - slugs)}"
