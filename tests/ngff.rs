@@ -62,7 +62,11 @@ fn field_array(store: &Arc<FilesystemStore>, name: &str, w: u64, h: u64) -> Vec<
     let g = attrs(store, &format!("/coordinateTransformations/{name}"));
     let ms = &g["ome"]["multiscales"][0];
     let axes = &ms["coordinateSystems"][0]["axes"];
-    assert_eq!(ms["coordinateSystems"][0]["name"], name);
+    assert_eq!(ms["name"], name);
+    // The field's points are those of its transformation's input system.
+    let input = if name == "inverse" { "warped" } else { "original" };
+    assert_eq!(ms["coordinateSystems"][0]["name"], input);
+    assert_eq!(g["ome"]["version"], "0.6");
     assert_eq!(axes[0]["type"], "displacement");
     assert_eq!(axes[0]["discrete"], true);
     assert_eq!((axes[1]["name"].as_str(), axes[2]["name"].as_str()), (Some("y"), Some("x")));
@@ -91,11 +95,14 @@ fn field_zarr_is_the_resampling_direction_at_pixel_centres() {
     ok(&trimorph(&["field", s(def), "-o", s(&f), "--size", &format!("{w},{h}")]));
     let store = open(&f);
     let root = attrs(&store, "/");
-    let t = &root["ome"]["coordinateTransformations"][0];
+    let t = &root["ome"]["scene"]["coordinateTransformations"][0];
     assert_eq!(t["type"], "displacements");
-    assert_eq!((t["input"].as_str(), t["output"].as_str()), (Some("warped"), Some("original")));
+    assert_eq!(
+        (t["input"]["name"].as_str(), t["output"]["name"].as_str()),
+        (Some("warped"), Some("original"))
+    );
     assert_eq!(t["path"], "coordinateTransformations/inverse");
-    let systems: Vec<_> = root["ome"]["coordinateSystems"]
+    let systems: Vec<_> = root["ome"]["scene"]["coordinateSystems"]
         .as_array()
         .unwrap()
         .iter()
@@ -141,9 +148,12 @@ fn field_zarr_both_is_a_bijection_and_inverse_flag_is_forward() {
     let b = dir.path().join("B.zarr");
     ok(&trimorph(&["field", s(def), "-o", s(&b), "--both", "--size", &sz]));
     let store = open(&b);
-    let t = attrs(&store, "/")["ome"]["coordinateTransformations"][0].clone();
+    let t = attrs(&store, "/")["ome"]["scene"]["coordinateTransformations"][0].clone();
     assert_eq!(t["type"], "bijection");
-    assert_eq!((t["input"].as_str(), t["output"].as_str()), (Some("original"), Some("warped")));
+    assert_eq!(
+        (t["input"]["name"].as_str(), t["output"]["name"].as_str()),
+        (Some("original"), Some("warped"))
+    );
     assert_eq!(t["forward"]["type"], "displacements");
     assert_eq!(t["forward"]["path"], "coordinateTransformations/forward");
     assert_eq!(t["inverse"]["path"], "coordinateTransformations/inverse");
@@ -161,9 +171,12 @@ fn field_zarr_both_is_a_bijection_and_inverse_flag_is_forward() {
     let f = dir.path().join("F.zarr");
     ok(&trimorph(&["field", s(def), "-o", s(&f), "--inverse", "--size", &sz]));
     let store = open(&f);
-    let t = attrs(&store, "/")["ome"]["coordinateTransformations"][0].clone();
+    let t = attrs(&store, "/")["ome"]["scene"]["coordinateTransformations"][0].clone();
     assert_eq!(t["type"], "displacements");
-    assert_eq!((t["input"].as_str(), t["output"].as_str()), (Some("original"), Some("warped")));
+    assert_eq!(
+        (t["input"]["name"].as_str(), t["output"]["name"].as_str()),
+        (Some("original"), Some("warped"))
+    );
     assert_eq!(field_array(&store, "forward", w, h), fwd);
     assert!(!f.join("coordinateTransformations/inverse").exists());
     // The bijection's inverse equals the default store's.
@@ -418,4 +431,80 @@ fn walk(d: &Path) -> Vec<PathBuf> {
         }
     }
     out
+}
+
+#[test]
+fn field_zarr_with_spacing_origin_and_unit_is_placed_in_physical_space() {
+    let dir = tempfile::tempdir().unwrap();
+    let def = fitted();
+    let (w, h) = (70u64, 50u64);
+    let sz = format!("{w},{h}");
+    let px = dir.path().join("px.zarr");
+    ok(&trimorph(&["field", s(def), "-o", s(&px), "--both", "--size", &sz]));
+    let ph = dir.path().join("ph.zarr");
+    let out = trimorph(&[
+        "field",
+        s(def),
+        "-o",
+        s(&ph),
+        "--both",
+        "--size",
+        &sz,
+        "--spacing",
+        "0.5,0.25",
+        "--origin=-3,7.5",
+        "--unit",
+        "micrometer",
+    ]);
+    ok(&out);
+    let said = String::from_utf8_lossy(&out.stdout);
+    assert!(said.contains("spacing 0.5,0.25 origin -3,7.5 micrometer"), "{said}");
+    let (a, b) = (open(&px), open(&ph));
+    let root = attrs(&b, "/");
+    for cs in root["ome"]["scene"]["coordinateSystems"].as_array().unwrap() {
+        for ax in cs["axes"].as_array().unwrap() {
+            assert_eq!(ax["unit"], "micrometer", "{cs}");
+        }
+    }
+    for name in ["forward", "inverse"] {
+        let g = attrs(&b, &format!("/coordinateTransformations/{name}"));
+        let ms = &g["ome"]["multiscales"][0];
+        let axes = &ms["coordinateSystems"][0]["axes"];
+        assert_eq!(
+            (axes[1]["unit"].as_str(), axes[2]["unit"].as_str()),
+            (Some("micrometer"), Some("micrometer"))
+        );
+        assert!(axes[0].get("unit").is_none(), "the displacement axis has no unit");
+        let t = &ms["datasets"][0]["coordinateTransformations"][0];
+        assert_eq!(t["type"], "sequence");
+        assert_eq!(t["input"]["path"], "0");
+        assert_eq!(t["transformations"][0]["scale"], serde_json::json!([1.0, 0.25, 0.5]));
+        assert_eq!(t["transformations"][1]["translation"], serde_json::json!([0.0, 7.5, -3.0]));
+        // Physical displacements: the y component times 0.25, the x component times 0.5.
+        let (p, q) = (field_array(&a, name, w, h), field_array(&b, name, w, h));
+        let n = (w * h) as usize;
+        for i in 0..n {
+            for (c, sc) in [(0, 0.25), (1, 0.5)] {
+                let (u, v) = (p[c * n + i], q[c * n + i]);
+                assert!(u.is_nan() && v.is_nan() || u * sc == v, "{name} c={c} at {i}: {u} -> {v}");
+            }
+        }
+    }
+    // The placement alone, without a unit: a plain scale, and no unit on the axes.
+    let sc = dir.path().join("sc.zarr");
+    ok(&trimorph(&["field", s(def), "-o", s(&sc), "--size", &sz, "--spacing", "2,2"]));
+    let g = attrs(&open(&sc), "/coordinateTransformations/inverse");
+    let t = &g["ome"]["multiscales"][0]["datasets"][0]["coordinateTransformations"][0];
+    assert_eq!(
+        (t["type"].as_str(), &t["scale"]),
+        (Some("scale"), &serde_json::json!([1.0, 2.0, 2.0]))
+    );
+    assert!(g["ome"]["multiscales"][0]["coordinateSystems"][0]["axes"][1].get("unit").is_none());
+    // Out of range: refused, nothing written.
+    let bad = dir.path().join("bad.zarr");
+    let out = trimorph(&["field", s(def), "-o", s(&bad), "--size", &sz, "--spacing", "0,1"]);
+    assert_eq!(out.status.code(), Some(1), "refused");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("positive"), "{err}");
+    assert!(!bad.exists());
 }

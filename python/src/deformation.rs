@@ -61,6 +61,22 @@ impl Deformation {
         Ok(Deformation { spline, last, extras, kept })
     }
 
+    /// The physical placement of a field: each part given, else the frame's recorded one,
+    /// else pixels ([`trimorph::jobs::field::placement`]).
+    fn placement(
+        &self,
+        spacing: Option<(f64, f64)>,
+        origin: Option<(f64, f64)>,
+        unit: Option<String>,
+    ) -> PyResult<trimorph::spline::Physical> {
+        let parts = trimorph::jobs::field::PlacementParts {
+            spacing: spacing.map(|(x, y)| [x, y]),
+            origin: origin.map(|(x, y)| [x, y]),
+            unit,
+        };
+        trimorph::jobs::field::placement(&self.spline, &parts).map_err(value_error)
+    }
+
     /// Stores a fit report with the deformation (key `"report"` of its file).
     pub(crate) fn set_report(&mut self, report: Value) {
         self.kept.insert("report".into(), report);
@@ -434,16 +450,22 @@ impl Deformation {
         Ok(to_numpy(py, flat, &[h as usize, w as usize, 2])?.into_any())
     }
 
-    /// Writes an ITK HDF5 transform (`DisplacementFieldTransform_double_2_2`, ITK's pixel
-    /// grid: origin 0, spacing 1, identity direction) over `size = (W, H)` (default: the
-    /// image frame, `frame`, else the mesh's extent from 0), exactly as `trimorph field DEF -o F.h5`.
+    /// Writes an ITK HDF5 transform (`DisplacementFieldTransform_double_2_2`, identity
+    /// direction) over `size = (W, H)` (default: the image frame, `frame`, else the mesh's
+    /// extent from 0), exactly as `trimorph field DEF -o F.h5`.
     ///
     /// Direction: by default the file holds `phi^-1(q) - q`, the direction ITK resamples in:
     /// SimpleITK's `Resample(moving, reference, transform)` reproduces `warp`, and
     /// `transform.TransformPoint(q)` is `inverse_points(q)`. With `inverse=True` it holds
     /// `phi(p) - p` (`TransformPoint(p)` is `map_points(p)`). Undefined displacements are NaN
     /// (ITK resamples them to the background). Returns the number of undefined grid points.
-    #[pyo3(signature = (path, inverse = false, size = None, tolerance = 0.01))]
+    ///
+    /// Physical space: `spacing = (sx, sy)` and `origin = (ox, oy)` (default: the frame's
+    /// recorded ones, see `with_frame`, else 1 and 0, ITK's pixel grid) place pixel centre
+    /// `(i, j)` at `origin + spacing * (i, j)`; displacements are then physical, `spacing *`
+    /// pixels. Resampling a SimpleITK image with that spacing and origin still reproduces
+    /// `warp` on its array.
+    #[pyo3(signature = (path, inverse = false, size = None, tolerance = 0.01, spacing = None, origin = None))]
     fn to_itk(
         &self,
         py: Python<'_>,
@@ -451,13 +473,16 @@ impl Deformation {
         inverse: bool,
         size: Option<(u32, u32)>,
         tolerance: f64,
+        spacing: Option<(f64, f64)>,
+        origin: Option<(f64, f64)>,
     ) -> PyResult<usize> {
         use trimorph::io::itk::{displacement_transform, write_h5, FieldDirection, ItkError};
         let (w, h) = grid_size(size, &self.spline)?;
         let opts = inverse_options(tolerance)?;
+        let physical = self.placement(spacing, origin, None)?;
         let dir = if inverse { FieldDirection::Forward } else { FieldDirection::Resampling };
         py.detach(|| {
-            let f = displacement_transform(&self.spline, w, h, dir, opts)?;
+            let f = displacement_transform(&self.spline, w, h, dir, opts, &physical)?;
             write_h5(&f, &path)?;
             Ok(f.undefined())
         })
@@ -467,13 +492,19 @@ impl Deformation {
         })
     }
 
-    /// Writes an OME-Zarr (NGFF coordinate-transformations proposal) displacement store,
+    /// Writes an OME-Zarr (NGFF 0.6 coordinate transformations) displacement store,
     /// exactly as `trimorph field DEF -o F.zarr`: a float64 `(2, H, W)` = `(c, y, x)` array
     /// (`c = 0` the y displacement, as the proposal orders components by output axis), NaN
     /// where undefined. By default `phi^-1(q) - q` (the resampling direction, from the
     /// `warped` to the `original` pixel coordinate system); `inverse=True` holds
-    /// `phi(p) - p`; `both=True` a `bijection` with the two. Written atomically.
-    #[pyo3(signature = (path, inverse = false, both = false, size = None, tolerance = 0.01))]
+    /// `phi(p) - p`; `both=True` a `bijection` with the two. Written atomically, NGFF 0.6.
+    ///
+    /// Physical space: `scale = (sx, sy)` (the pixel spacing, in trimorph's (x, y) order;
+    /// NGFF's `scale` lists it as `(1, sy, sx)`), `origin = (ox, oy)` and `units` (e.g.
+    /// `"micrometer"`, on both space axes); each defaults to the frame's recorded one (see
+    /// `with_frame`), else pixels. Displacements are then physical, `scale *` pixels.
+    #[allow(clippy::too_many_arguments)]
+    #[pyo3(signature = (path, inverse = false, both = false, size = None, tolerance = 0.01, scale = None, origin = None, units = None))]
     fn to_ngff(
         &self,
         py: Python<'_>,
@@ -482,12 +513,16 @@ impl Deformation {
         both: bool,
         size: Option<(u32, u32)>,
         tolerance: f64,
+        scale: Option<(f64, f64)>,
+        origin: Option<(f64, f64)>,
+        units: Option<String>,
     ) -> PyResult<()> {
         if both && inverse {
             return Err(value_error("both=True writes both directions; leave out inverse"));
         }
         let (w, h) = grid_size(size, &self.spline)?;
         let opts = inverse_options(tolerance)?;
+        let physical = self.placement(scale, origin, units)?;
         py.detach(|| {
             let forward = (both || inverse).then(|| field::forward_field_f64(&self.spline, w, h));
             let backward =
@@ -496,6 +531,7 @@ impl Deformation {
                 &path,
                 forward.as_ref(),
                 backward.as_ref(),
+                &physical,
             )
         })
         .map_err(|e| match e {
@@ -556,6 +592,49 @@ impl Deformation {
     fn bbox(&self) -> ((f64, f64), (f64, f64)) {
         let (lo, hi) = self.spline.mesh().bbox();
         ((lo[0], lo[1]), (hi[0], hi[1]))
+    }
+
+    /// A copy that records the image frame `size = (w, h)` pixels (default: the recorded
+    /// one) placed in physical space: `spacing = (sx, sy)` between pixel centres, `origin =
+    /// (ox, oy)` the position of pixel (0, 0)'s centre, in `unit`s (each default: the
+    /// recorded one). Pixel centre `(i, j)` lies at `origin + spacing * (i, j)`. `field`,
+    /// `to_itk` and `to_ngff` then default to this frame and placement; the map itself
+    /// (in pixels) is unchanged.
+    #[pyo3(signature = (size = None, spacing = None, origin = None, unit = None))]
+    fn with_frame(
+        &self,
+        size: Option<(f64, f64)>,
+        spacing: Option<(f64, f64)>,
+        origin: Option<(f64, f64)>,
+        unit: Option<String>,
+    ) -> PyResult<Deformation> {
+        let recorded = self.spline.frame().cloned();
+        let size = match (size, &recorded) {
+            (Some(s), _) => frame_size(s)?,
+            (None, Some(f)) => f.size,
+            (None, None) => {
+                return Err(value_error(
+                    "this deformation records no frame: give size=(w, h) in pixels",
+                ))
+            }
+        };
+        let frame = trimorph::spline::ImageFrame::new(size).map_err(value_error)?;
+        let parts = trimorph::jobs::field::PlacementParts {
+            spacing: spacing.map(|(x, y)| [x, y]),
+            origin: origin.map(|(x, y)| [x, y]),
+            unit,
+        };
+        let physical =
+            trimorph::jobs::field::placement(&self.spline, &parts).map_err(value_error)?;
+        let frame = if physical.is_pixels() && recorded.as_ref().is_none_or(|f| f.spacing.is_none())
+        {
+            frame
+        } else {
+            frame.with_physical(&physical).map_err(value_error)?
+        };
+        let mut d = self.copy();
+        d.spline.set_frame(Some(frame));
+        Ok(d)
     }
 
     /// An independent copy.

@@ -233,3 +233,76 @@ def test_python_to_itk_writes_the_cli_file(case, tmp_path):
     )
     with pytest.raises(ValueError, match=r"\.h5"):
         d.to_itk(tmp_path / "F.txt")
+
+
+def test_resample_with_spacing_and_origin_reproduces_warp(case, tmp_path):
+    """On a SimpleITK image with a physical spacing and origin, `Resample` through
+    `to_itk(spacing=, origin=)` reproduces trimorph's warp of its pixel array (the issue's
+    case: without the placement, spacing 0.5 differed by up to 87.5 grey levels)."""
+    import trimorph
+
+    spacing, origin = (0.5, 0.25), (12.5, -4.0)
+    frame = REPO / "data" / "microscopy" / "timelapse" / "frame_00.png"
+    img = sitk.GetArrayFromImage(sitk.ReadImage(str(frame))).astype(np.float32)
+    d = trimorph.Deformation.load(case["dir"] / "def.json")
+    want = d.warp(img, background=BACKGROUND)
+    moving = sitk.GetImageFromArray(img)
+    moving.SetSpacing(spacing)
+    moving.SetOrigin(origin)
+
+    def resample(h5):
+        t = sitk.ReadTransform(str(h5))
+        return sitk.GetArrayFromImage(
+            sitk.Resample(moving, moving, t, sitk.sitkLinear, BACKGROUND, sitk.sitkFloat32)
+        )
+
+    placed = tmp_path / "placed.h5"
+    d.to_itk(placed, size=(W, H), spacing=spacing, origin=origin)
+    got = resample(placed)
+    bg = want == BACKGROUND
+    assert bg.sum() > 1000 and (bg == (got == BACKGROUND)).all()
+    assert np.abs(got - want).max() <= IMAGE_TOL
+    # The pixel-unit file on the same image is wrong: that is what the placement fixes.
+    assert np.abs(resample(case["dir"] / "F.h5") - want).max() > 50
+    with h5py.File(placed, "r") as f:
+        fixed = f["TransformGroup/0/TranformFixedParameters"][()]
+    np.testing.assert_array_equal(fixed[2:6], [*origin, *spacing])
+    # Recorded with the frame: to_itk defaults to it, it survives save/load, and the CLI
+    # writes the same file (with --spacing/--origin, or from the recorded frame).
+    rec = d.with_frame(size=(W, H), spacing=spacing, origin=origin, unit="micrometer")
+    assert rec.frame == {"size": [W, H], "spacing": list(spacing), "origin": list(origin),
+                         "unit": "micrometer"}
+    assert d.frame is None or "spacing" not in d.frame, "with_frame returns a copy"
+    rec.save(tmp_path / "rec.json")
+    again = trimorph.Deformation.load(tmp_path / "rec.json")
+    assert again.frame == rec.frame
+    for h5, make in [
+        (tmp_path / "rec.h5", lambda p: again.to_itk(p)),
+        (tmp_path / "cli.h5", lambda p: run("field", case["dir"] / "def.json", "-o", p,
+                                            "--size", f"{W},{H}", "--spacing", "0.5,0.25",
+                                            "--origin", "12.5,-4")),
+        (tmp_path / "clirec.h5", lambda p: run("field", tmp_path / "rec.json", "-o", p)),
+    ]:
+        make(h5)
+        with h5py.File(h5, "r") as a, h5py.File(placed, "r") as b:
+            for key in ["TranformFixedParameters", "TranformParameters"]:
+                np.testing.assert_array_equal(
+                    a[f"TransformGroup/0/{key}"][()], b[f"TransformGroup/0/{key}"][()]
+                )
+    # A spacing that is not a binary fraction: ITK's own index arithmetic ((o + s i - o) / s
+    # is not exactly i) then reaches the undefined (NaN) neighbours of some pixels next to
+    # the background, which it resamples to the background too. Everywhere else it agrees.
+    moving.SetSpacing((0.3, 0.7))
+    d.to_itk(placed, size=(W, H), spacing=(0.3, 0.7), origin=origin)
+    got = resample(placed)
+    near = bg.copy()  # the background grown by one pixel, diagonals included
+    for dy in (-1, 0, 1):
+        for dx in (-1, 0, 1):
+            near |= np.roll(bg, (dy, dx), axis=(0, 1))
+    assert ((got == BACKGROUND) != bg).sum() < 0.01 * bg.size
+    assert not (((got == BACKGROUND) != bg) & ~near).any(), "only next to undefined pixels"
+    both = ~bg & (got != BACKGROUND)
+    assert np.abs(got - want)[both].max() <= IMAGE_TOL
+    with pytest.raises(ValueError, match="spacing"):
+        d.to_itk(tmp_path / "bad.h5", spacing=(0.0, 1.0))
+    assert not (tmp_path / "bad.h5").exists()

@@ -74,10 +74,11 @@ def test_field_store_is_read_by_zarr_python(fitted, tmp_path):
     run("field", fitted, "-o", store, "--size", f"{w},{h}")
     root = zarr.open_group(str(store), mode="r")
     ome = root.attrs["ome"]
-    t = ome["coordinateTransformations"][0]
+    assert ome["version"] == "0.6"
+    t = ome["scene"]["coordinateTransformations"][0]
     assert t["type"] == "displacements"
-    assert (t["input"], t["output"]) == ("warped", "original")
-    assert [c["name"] for c in ome["coordinateSystems"]] == ["original", "warped"]
+    assert (t["input"], t["output"]) == ({"name": "warped"}, {"name": "original"})
+    assert [c["name"] for c in ome["scene"]["coordinateSystems"]] == ["original", "warped"]
     field_group = zarr.open_group(str(store / t["path"]), mode="r")
     ms = field_group.attrs["ome"]["multiscales"][0]
     axes = ms["coordinateSystems"][0]["axes"]
@@ -102,9 +103,9 @@ def test_both_writes_a_bijection_with_the_forward_map(fitted, tmp_path):
     w, h = 64, 48
     store = tmp_path / "B.zarr"
     run("field", fitted, "-o", store, "--both", "--size", f"{w},{h}")
-    t = zarr.open_group(str(store), mode="r").attrs["ome"]["coordinateTransformations"][0]
+    t = zarr.open_group(str(store), mode="r").attrs["ome"]["scene"]["coordinateTransformations"][0]
     assert t["type"] == "bijection"
-    assert (t["input"], t["output"]) == ("original", "warped")
+    assert (t["input"], t["output"]) == ({"name": "original"}, {"name": "warped"})
     fwd = zarr.open_array(str(store / t["forward"]["path"] / "0"), mode="r")[:]
     inv = zarr.open_array(str(store / t["inverse"]["path"] / "0"), mode="r")[:]
     assert fwd.shape == inv.shape == (2, h, w)
@@ -204,7 +205,7 @@ def test_python_to_ngff_writes_the_cli_store(fitted, tmp_path):
         assert dict(gr.attrs) == dict(go.attrs)
         for name, arr in gr.arrays() if hasattr(gr, "arrays") else []:
             np.testing.assert_array_equal(arr[:], go[name][:])
-        t = gr.attrs["ome"]["coordinateTransformations"][0]
+        t = gr.attrs["ome"]["scene"]["coordinateTransformations"][0]
         paths = [t[k]["path"] for k in ("forward", "inverse") if k in t] or [t["path"]]
         for p in paths:
             np.testing.assert_array_equal(
@@ -213,3 +214,103 @@ def test_python_to_ngff_writes_the_cli_store(fitted, tmp_path):
             )
     with pytest.raises(ValueError, match="both"):
         d.to_ngff(tmp_path / "x.zarr", inverse=True, both=True)
+
+
+SCHEMAS = Path(__file__).resolve().parent / "data" / "ngff-0.6rc0"
+
+
+def ngff_validators():
+    """The NGFF 0.6 `scene` and `image` (multiscales) validators, from the specification's
+    own JSON schemas (vendored, see their NOTICE.md). No PyPI validator reads 0.6 coordinate
+    systems yet. The schemas' version enum says 0.6rc0; the released 0.6 is accepted too."""
+    import json
+
+    jsonschema = pytest.importorskip("jsonschema")
+    referencing = pytest.importorskip("referencing")
+    resources = {}
+    for f in SCHEMAS.glob("*.schema"):
+        doc = json.loads(f.read_text())
+        if f.stem == "_version":
+            doc = {**doc, "enum": [*doc["enum"], "0.6"]}
+        resources[doc["$id"]] = referencing.Resource.from_contents(doc)
+    registry = referencing.Registry().with_resources(resources.items())
+    base = "https://ngff.openmicroscopy.org/0.6rc0/schemas/"
+    return {
+        name: jsonschema.Draft202012Validator(
+            resources[base + f"{name}.schema"].contents, registry=registry
+        )
+        for name in ("scene", "image")
+    }
+
+
+def check_ngff(store, validators):
+    """Every group of a displacement store is valid NGFF 0.6: the root a scene, the fields
+    multiscale images."""
+    root = zarr.open_group(str(store), mode="r")
+    validators["scene"].validate(dict(root.attrs))
+    ts = root.attrs["ome"]["scene"]["coordinateTransformations"]
+    paths = [t[k]["path"] for t in ts for k in ("forward", "inverse") if k in t]
+    paths += [t["path"] for t in ts if "path" in t]
+    assert paths
+    for p in paths:
+        validators["image"].validate(dict(zarr.open_group(str(store / p), mode="r").attrs))
+    return root
+
+
+def test_displacement_stores_are_valid_ngff_0_6(fitted, tmp_path):
+    v = ngff_validators()
+    for i, flags in enumerate([[], ["--inverse"], ["--both"],
+                               ["--both", "--spacing", "0.5,0.25", "--origin=-3,7.5",
+                                "--unit", "micrometer"]]):
+        store = tmp_path / f"s{i}.zarr"
+        run("field", fitted, "-o", store, "--size", "40,30", *flags)
+        check_ngff(store, v)
+    # The validator is not a rubber stamp: the old layout (0.6.dev3: transformations at the
+    # top of `ome`, input and output as bare names) fails it.
+    import jsonschema
+
+    old = {"ome": {"version": "0.6", "coordinateTransformations": [
+        {"type": "displacements", "path": "x", "input": "warped", "output": "original"}]}}
+    with pytest.raises(jsonschema.ValidationError):
+        v["scene"].validate(old)
+
+
+def test_to_ngff_places_the_field_in_physical_space(fitted, tmp_path):
+    """`to_ngff(scale=, origin=, units=)` is `field --spacing --origin --unit`; the
+    displacements are physical (pixels times the spacing along each axis), and a frame
+    recorded with `with_frame` is the default."""
+    import trimorph
+
+    d = trimorph.Deformation.load(fitted)
+    ref, ours, rec = tmp_path / "ref.zarr", tmp_path / "ours.zarr", tmp_path / "rec.zarr"
+    px = tmp_path / "px.zarr"
+    run("field", fitted, "-o", ref, "--both", "--size", "64,48", "--spacing", "0.5,0.25",
+        "--origin=-3,7.5", "--unit", "micrometer")
+    d.to_ngff(ours, both=True, size=(64, 48), scale=(0.5, 0.25), origin=(-3, 7.5),
+              units="micrometer")
+    d.with_frame(size=(64, 48), spacing=(0.5, 0.25), origin=(-3, 7.5),
+                 unit="micrometer").to_ngff(rec, both=True)
+    d.to_ngff(px, both=True, size=(64, 48))
+    v = ngff_validators()
+    for s in (ref, ours, rec):
+        check_ngff(s, v)
+        assert dict(zarr.open_group(str(s), mode="r").attrs) == dict(
+            zarr.open_group(str(ref), mode="r").attrs)
+    axes = zarr.open_group(str(ref), mode="r").attrs["ome"]["scene"]["coordinateSystems"][0]["axes"]
+    assert [a.get("unit") for a in axes] == ["micrometer", "micrometer"]
+    for name in ("forward", "inverse"):
+        g = zarr.open_group(str(ref / "coordinateTransformations" / name), mode="r")
+        t = g.attrs["ome"]["multiscales"][0]["datasets"][0]["coordinateTransformations"][0]
+        assert t["type"] == "sequence"
+        assert [x["type"] for x in t["transformations"]] == ["scale", "translation"]
+        assert t["transformations"][0]["scale"] == [1.0, 0.25, 0.5]
+        a = zarr.open_array(str(ref / "coordinateTransformations" / name / "0"), mode="r")[:]
+        for s in (ours, rec):
+            b = zarr.open_array(str(s / "coordinateTransformations" / name / "0"), mode="r")[:]
+            np.testing.assert_array_equal(a, b)
+        p = zarr.open_array(str(px / "coordinateTransformations" / name / "0"), mode="r")[:]
+        np.testing.assert_array_equal(a[0], 0.25 * p[0])  # y displacement
+        np.testing.assert_array_equal(a[1], 0.5 * p[1])  # x displacement
+    with pytest.raises(ValueError, match="unit"):
+        d.to_ngff(tmp_path / "bad.zarr", units="")
+    assert not (tmp_path / "bad.zarr").exists()

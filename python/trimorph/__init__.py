@@ -25,11 +25,15 @@ napari Points, scikit-image            ``(j, i)``          ``(row, col)``: pass
                                                            ``points_from_rc`` /
                                                            ``points_to_rc``
 ITK / SimpleITK physical points        ``origin +          ``(x, y)``; ``to_itk`` writes
-                                       spacing * (i, j)``  origin 0, spacing 1, so they
-                                                           are trimorph's pixels
+                                       spacing * (i, j)``  origin 0, spacing 1 (trimorph's
+                                                           pixels) unless given
+                                                           ``spacing=`` / ``origin=`` or a
+                                                           frame placed by ``with_frame``
 OME-Zarr (NGFF) arrays and fields      index ``[..., j,    axes ``(y, x)``; a displacement
                                        i]``                store is ``(c, y, x)`` with
-                                                           ``c = 0`` the y displacement
+                                                           ``c = 0`` the y displacement;
+                                                           ``to_ngff(scale=(sx, sy))``
+                                                           is written ``(1, sy, sx)``
 =====================================  ==================  ==============================
 
 Every API that takes or returns points (``map_points``, ``inverse_points``, ``fit``,

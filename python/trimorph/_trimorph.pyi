@@ -109,8 +109,12 @@ class Deformation:
         inverse: bool = False,
         size: Optional[Tuple[int, int]] = None,
         tolerance: float = 0.01,
+        spacing: Optional[Tuple[float, float]] = None,
+        origin: Optional[Tuple[float, float]] = None,
     ) -> int:
-        """Writes an ITK HDF5 displacement-field transform (resampling direction by default)."""
+        """Writes an ITK HDF5 displacement-field transform (resampling direction by default).
+        `spacing=(sx, sy)` and `origin=(ox, oy)` (default: the frame's, else 1 and 0) place
+        it in physical space, displacements in physical units."""
     def to_ngff(
         self,
         path: _Path,
@@ -118,8 +122,13 @@ class Deformation:
         both: bool = False,
         size: Optional[Tuple[int, int]] = None,
         tolerance: float = 0.01,
+        scale: Optional[Tuple[float, float]] = None,
+        origin: Optional[Tuple[float, float]] = None,
+        units: Optional[str] = None,
     ) -> None:
-        """Writes an OME-Zarr NGFF displacement store ((2, H, W) float64, c = 0 is dy)."""
+        """Writes an OME-Zarr NGFF 0.6 displacement store ((2, H, W) float64, c = 0 is dy).
+        `scale=(sx, sy)`, `origin=(ox, oy)` and `units` (default: the frame's, else pixels)
+        place it in physical space, displacements in physical units."""
     @property
     def report(self) -> Optional[Dict[str, Any]]:
         """The fit report when made by `trimorph.fit`, else None (kept in the file: it
@@ -138,6 +147,16 @@ class Deformation:
     def num_triangles(self) -> int: ...
     @property
     def bbox(self) -> Tuple[Tuple[float, float], Tuple[float, float]]: ...
+    def with_frame(
+        self,
+        size: Optional[Tuple[float, float]] = None,
+        spacing: Optional[Tuple[float, float]] = None,
+        origin: Optional[Tuple[float, float]] = None,
+        unit: Optional[str] = None,
+    ) -> "Deformation":
+        """A copy recording the image frame (size in pixels) and its physical placement:
+        pixel centre (i, j) at origin + spacing * (i, j), in `unit`s. `field`, `to_itk` and
+        `to_ngff` default to it."""
     def copy(self) -> "Deformation": ...
 
 class FrameSequence:

@@ -6,7 +6,8 @@ use super::{editor_cmd, model_cmd, morph_cmd, spline_cmds, warp_cmd};
 use crate::fit::solve::Bend;
 use crate::jobs::model::AutoGrid;
 use crate::jobs::values::{
-    parse_canvas_size, parse_extent, parse_grid, parse_raster_size, parse_time_range,
+    parse_canvas_size, parse_extent, parse_grid, parse_origin, parse_raster_size, parse_spacing,
+    parse_time_range,
 };
 use crate::prism::ZRange;
 use crate::render::deformation::Layers;
@@ -312,9 +313,23 @@ pub struct FieldCli {
     /// 1, orange expansion, red folds.
     #[arg(long)]
     pub jacobian: Option<PathBuf>,
-    /// Grid size W,H in pixels (default: the mesh's extent from 0).
+    /// Grid size W,H in pixels (default: the frame the deformation was made for, else the
+    /// mesh's extent from 0).
     #[arg(long, value_parser = text(parse_raster_size))]
     pub size: Option<(u32, u32)>,
+    /// .h5 and .zarr only: the physical distance SX,SY between pixel centres (default: the
+    /// spacing recorded with the deformation's frame, else 1). Displacements are then
+    /// written in physical units, spacing times pixels.
+    #[arg(long, value_parser = text(parse_spacing), value_name = "SX,SY")]
+    pub spacing: Option<[f64; 2]>,
+    /// .h5 and .zarr only: the physical position OX,OY of pixel (0, 0)'s centre (default:
+    /// the recorded origin, else 0,0). Negative values: --origin=-5,2.
+    #[arg(long, value_parser = text(parse_origin), value_name = "OX,OY", allow_hyphen_values = true)]
+    pub origin: Option<[f64; 2]>,
+    /// .zarr only: the unit of spacing and origin written on the NGFF space axes (e.g.
+    /// micrometer; default: the recorded unit, else none).
+    #[arg(long)]
+    pub unit: Option<String>,
 }
 
 /// The command line of `trimorph model bind`.
@@ -432,6 +447,11 @@ impl FieldCli {
             inverse: self.inverse,
             both: self.both,
             jacobian: self.jacobian.clone(),
+            placement: crate::jobs::field::PlacementParts {
+                spacing: self.spacing,
+                origin: self.origin,
+                unit: self.unit.clone(),
+            },
         };
         warp_cmd::field(&self.deformation, &opts, self.size)
     }

@@ -16,14 +16,22 @@
 //! This is the opposite of the `.npy` / `.tif` default of `trimorph field` (which stores
 //! `u` and needs `--inverse` for `v`): each format's default is what its consumers expect.
 //!
-//! **Grid, in pixel units.** Grid point `(i, j)` (column `i`, row `j`) is at the physical
-//! point `origin + direction * diag(spacing) * (i, j) = (i, j)`: origin `(0, 0)`, spacing
-//! `(1, 1)`, identity direction. trimorph's pixel `(x, y)` has its centre at `(x, y)` (mesh
-//! coordinates, x right, y down), so grid point `(i, j)` is the centre of pixel `(i, j)` of
-//! an image read by ITK with the same default geometry. Values are `f64`, computed in `f64`:
-//! `u` from the spline ([`crate::warp::field::forward_field_f64`]) and `v` from the certified
-//! preimages of the image warp ([`crate::warp::field::inverse_field_f64`]), each within the
-//! inverse tolerance (0.01 px by default) of the Newton solution of `warp --points --inverse`.
+//! **Grid, in pixel units by default.** Grid point `(i, j)` (column `i`, row `j`) is at the
+//! physical point `origin + direction * diag(spacing) * (i, j)`. By default that is `(i, j)`:
+//! origin `(0, 0)`, spacing `(1, 1)`, identity direction. trimorph's pixel `(x, y)` has its
+//! centre at `(x, y)` (mesh coordinates, x right, y down), so grid point `(i, j)` is the
+//! centre of pixel `(i, j)` of an image read by ITK with the same default geometry. Values
+//! are `f64`, computed in `f64`: `u` from the spline
+//! ([`crate::warp::field::forward_field_f64`]) and `v` from the certified preimages of the
+//! image warp ([`crate::warp::field::inverse_field_f64`]), each within the inverse tolerance
+//! (0.01 px by default) of the Newton solution of `warp --points --inverse`.
+//!
+//! **Physical space.** With a [`Physical`] placement (spacing `s`, origin `o`, identity
+//! direction: pixel centre `(i, j)` at `o + s * (i, j)` per axis, the frame both images
+//! share) the grid gets that origin and spacing, and each displacement is scaled per axis:
+//! `d(o + s q) = s * v(q)`. Then `T(o + s q) = o + s phi^-1(q)`, so `Resample` of an ITK image
+//! with that spacing and origin onto itself still reproduces `trimorph warp --image` of its
+//! pixel array.
 //!
 //! **Where the map is undefined** (a pixel outside the mesh, or with no preimage in it) both
 //! components are NaN. ITK then transforms that grid point to `(NaN, NaN)`, which no image
@@ -44,7 +52,7 @@
 //! accepts both).
 
 use super::{write_atomic, IoError};
-use crate::spline::Spline;
+use crate::spline::{Physical, Spline};
 use crate::warp::field::{forward_field_f64, inverse_field_f64};
 use crate::warp::inverse::InverseOptions;
 use std::path::{Path, PathBuf};
@@ -86,6 +94,9 @@ pub enum ItkError {
         /// Height in pixels.
         height: u32,
     },
+    /// The physical placement is out of range (spacing not positive, origin not finite).
+    #[error("physical placement: {0}")]
+    Placement(String),
     /// The HDF5 library could not encode or decode the file.
     #[error("{path}: HDF5: {message}")]
     Hdf5 {
@@ -143,29 +154,37 @@ impl ItkDisplacementField {
     }
 }
 
-/// The displacement field of `s` on the `w x h` pixel grid (pixel units: origin 0, spacing
-/// 1, identity direction), in the given direction: `phi^-1(q) - q` for
-/// [`FieldDirection::Resampling`] (preimages within `opts.tolerance`), `phi(p) - p` for
-/// [`FieldDirection::Forward`]. NaN where undefined.
+/// The displacement field of `s` on the `w x h` pixel grid placed in physical space by
+/// `physical` (identity direction; [`Physical::pixels`] gives ITK's default geometry), in
+/// the given direction: `phi^-1(q) - q` for [`FieldDirection::Resampling`] (preimages within
+/// `opts.tolerance`), `phi(p) - p` for [`FieldDirection::Forward`], each scaled per axis by
+/// the spacing (see the module docs). NaN where undefined.
 pub fn displacement_transform(
     s: &Spline,
     w: u32,
     h: u32,
     direction: FieldDirection,
     opts: InverseOptions,
+    physical: &Physical,
 ) -> Result<ItkDisplacementField, ItkError> {
     if w == 0 || h == 0 || w as u64 * h as u64 > MAX_PIXELS {
         return Err(ItkError::Size { width: w, height: h });
     }
-    let data = match direction {
+    physical.validate().map_err(|e| ItkError::Placement(e.to_string()))?;
+    let mut data = match direction {
         FieldDirection::Resampling => inverse_field_f64(s, w, h, opts),
         FieldDirection::Forward => forward_field_f64(s, w, h),
     }
     .data;
+    if physical.spacing != [1.0; 2] {
+        for v in &mut data {
+            *v = physical.vector(*v);
+        }
+    }
     Ok(ItkDisplacementField {
         size: [w, h],
-        origin: [0.0; 2],
-        spacing: [1.0; 2],
+        origin: physical.origin,
+        spacing: physical.spacing,
         direction: [1.0, 0.0, 0.0, 1.0],
         data,
     })

@@ -9,7 +9,7 @@ use super::{ext_of, raster_fits, JobError, JobResult};
 use crate::io::itk::{self, displacement_transform, write_h5, FieldDirection};
 use crate::io::ngff;
 use crate::io::write_atomic;
-use crate::spline::Spline;
+use crate::spline::{Physical, Spline};
 use crate::warp::field as wf;
 use crate::warp::inverse::InverseOptions;
 use std::path::{Path, PathBuf};
@@ -26,6 +26,23 @@ pub struct FieldOptions {
     pub both: bool,
     /// Also write the Jacobian-determinant map here (a `.png`).
     pub jacobian: Option<PathBuf>,
+    /// `.h5` and `.zarr` only: where the grid's pixels sit in physical space. Each part
+    /// given replaces the one recorded with the deformation's frame
+    /// ([`crate::spline::ImageFrame::physical`]); without either, pixels. `.npy` and `.tif`
+    /// fields are always in pixels.
+    pub placement: PlacementParts,
+}
+
+/// Parts of a physical placement given by a caller (`field --spacing --origin --unit`,
+/// Python's `to_itk(spacing=, origin=)`), each replacing the recorded one ([`placement`]).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PlacementParts {
+    /// Distance between pixel centres along x and y.
+    pub spacing: Option<[f64; 2]>,
+    /// Physical position of pixel `(0, 0)`'s centre.
+    pub origin: Option<[f64; 2]>,
+    /// Unit of spacing and origin.
+    pub unit: Option<String>,
 }
 
 impl FieldOptions {
@@ -69,6 +86,38 @@ pub fn default_size(s: &Spline) -> (u32, u32) {
     (hi[0].max(0.0).floor() as u32 + 1, hi[1].max(0.0).floor() as u32 + 1)
 }
 
+/// Where a field of `s` is placed in physical space: each part `given`, else the one
+/// recorded with its frame, else pixels (spacing 1, origin 0, no unit). Refused when the
+/// result is out of range (a spacing not positive, an origin not finite, an empty unit).
+pub fn placement(
+    s: &Spline,
+    given: &PlacementParts,
+) -> Result<Physical, crate::spline::frame::FrameError> {
+    let recorded = s.frame().map(|f| f.physical()).unwrap_or_default();
+    let p = Physical {
+        spacing: given.spacing.unwrap_or(recorded.spacing),
+        origin: given.origin.unwrap_or(recorded.origin),
+        unit: given.unit.clone().or(recorded.unit),
+    };
+    p.validate()?;
+    Ok(p)
+}
+
+/// The words a report line adds for a placement: nothing for pixels.
+fn placement_words(p: &Physical) -> String {
+    if p.is_pixels() {
+        return String::new();
+    }
+    format!(
+        ", spacing {},{} origin {},{}{}",
+        p.spacing[0],
+        p.spacing[1],
+        p.origin[0],
+        p.origin[1],
+        p.unit.as_deref().map(|u| format!(" {u}")).unwrap_or_default()
+    )
+}
+
 /// Writes the fields of `s` (read from the file `deformation`, which errors name) over the
 /// `w x h` pixel grid as `opts` says, after checking the size and the memory budget.
 /// Returns the report lines, one per field written. The Jacobian map
@@ -92,10 +141,12 @@ pub fn write_field(
     crate::memory::check(field_bytes, || format!("a {w} x {h} displacement field"))
         .map_err(|e| JobError::context(deformation.display().to_string(), e))?;
     let output = &opts.output;
+    let physical = placement(s, &opts.placement)
+        .map_err(|e| JobError::context(deformation.display().to_string(), e))?;
     let lines = if itk::is_h5_path(output) {
-        vec![field_h5(s, (w, h), output, opts.inverse)?]
+        vec![field_h5(s, (w, h), output, opts.inverse, &physical)?]
     } else if ext_of(output) == "zarr" {
-        field_zarr(s, (w, h), output, opts.inverse, opts.both)?
+        field_zarr(s, (w, h), output, (opts.inverse, opts.both), &physical)?
     } else {
         vec![field_plain(s, (w, h), output, opts.inverse)?]
     };
@@ -131,9 +182,15 @@ fn field_plain(s: &Spline, (w, h): (u32, u32), output: &Path, inverse: bool) -> 
 
 /// The ITK transform of `s`: by default `phi^-1(q) - q` (ITK's resampling direction), with
 /// `inverse` the forward `phi(p) - p`.
-fn field_h5(s: &Spline, (w, h): (u32, u32), output: &Path, inverse: bool) -> JobResult<String> {
+fn field_h5(
+    s: &Spline,
+    (w, h): (u32, u32),
+    output: &Path,
+    inverse: bool,
+    physical: &Physical,
+) -> JobResult<String> {
     let direction = if inverse { FieldDirection::Forward } else { FieldDirection::Resampling };
-    let f = displacement_transform(s, w, h, direction, InverseOptions::default())?;
+    let f = displacement_transform(s, w, h, direction, InverseOptions::default(), physical)?;
     write_h5(&f, output)?;
     let what = match direction {
         FieldDirection::Resampling => {
@@ -144,8 +201,9 @@ fn field_h5(s: &Spline, (w, h): (u32, u32), output: &Path, inverse: bool) -> Job
         }
     };
     Ok(format!(
-        "ITK {} {w}x{h} -> {}: {what} ({} pixels undefined, NaN)",
+        "ITK {} {w}x{h}{} -> {}: {what} ({} pixels undefined, NaN)",
         itk::TRANSFORM_TYPE,
+        placement_words(physical),
         output.display(),
         f.undefined()
     ))
@@ -157,8 +215,8 @@ fn field_zarr(
     s: &Spline,
     (w, h): (u32, u32),
     output: &Path,
-    other_way: bool,
-    both: bool,
+    (other_way, both): (bool, bool),
+    physical: &Physical,
 ) -> JobResult<Vec<String>> {
     if both && other_way {
         return Err(OptionError::BothWithInverse.into());
@@ -166,18 +224,19 @@ fn field_zarr(
     let forward = (both || other_way).then(|| wf::forward_field_f64(s, w, h));
     let inverse =
         (both || !other_way).then(|| wf::inverse_field_f64(s, w, h, InverseOptions::default()));
-    ngff::write_displacements(output, forward.as_ref(), inverse.as_ref())?;
+    ngff::write_displacements(output, forward.as_ref(), inverse.as_ref(), physical)?;
     let mut lines = Vec::new();
+    let at = placement_words(physical);
     if let Some(f) = &forward {
         lines.push(format!(
-            "forward (phi(p) - p, original -> warped pixels) displacement field {w}x{h} float64 -> {} ({} pixels undefined)",
+            "forward (phi(p) - p, original -> warped pixels) displacement field {w}x{h}{at} float64 -> {} ({} pixels undefined)",
             output.display(),
             f.undefined()
         ));
     }
     if let Some(f) = &inverse {
         lines.push(format!(
-            "inverse (phi^-1(q) - q, warped -> original pixels) displacement field {w}x{h} float64 -> {} ({} pixels undefined)",
+            "inverse (phi^-1(q) - q, warped -> original pixels) displacement field {w}x{h}{at} float64 -> {} ({} pixels undefined)",
             output.display(),
             f.undefined()
         ));

@@ -70,6 +70,9 @@ pub enum ValueError {
     /// Times too far from 0.
     #[error("times must lie within -{MAX_TIME}..{MAX_TIME}, got `{0}`")]
     TimesOutOfRange(String),
+    /// A spacing that is not positive.
+    #[error("a spacing is two positive numbers SX,SY (the distance between pixel centres)")]
+    Spacing,
     /// Not a shard `i/n` with `0 <= i < n`.
     #[error("expected i/n with 0 <= i < n, e.g. 0/4")]
     Shard,
@@ -85,6 +88,21 @@ pub fn parse_pair(text: &str, sep: char) -> Result<(f64, f64), ValueError> {
         return Err(ValueError::NotFinite);
     }
     Ok((a, b))
+}
+
+/// A pixel spacing `SX,SY`: two positive finite numbers (`field --spacing`).
+pub fn parse_spacing(text: &str) -> Result<[f64; 2], ValueError> {
+    let (x, y) = parse_pair(text, ',')?;
+    if x <= 0.0 || y <= 0.0 {
+        return Err(ValueError::Spacing);
+    }
+    Ok([x, y])
+}
+
+/// A physical origin `OX,OY`: two finite numbers (`field --origin`).
+pub fn parse_origin(text: &str) -> Result<[f64; 2], ValueError> {
+    let (x, y) = parse_pair(text, ',')?;
+    Ok([x, y])
 }
 
 /// A frame size `W,H` in whole pixels, [`MIN_FRAME_SIDE`] to [`MAX_FRAME_SIDE`] each:

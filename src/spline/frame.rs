@@ -46,6 +46,9 @@ pub enum FrameError {
     /// An origin is not finite.
     #[error("frame origin {0:?}: both must be finite numbers")]
     Origin([f64; 2]),
+    /// A unit is empty or holds control characters.
+    #[error("frame unit {0:?}: give a unit name such as \"micrometer\"")]
+    Unit(String),
 }
 
 impl ImageFrame {
@@ -75,6 +78,9 @@ impl ImageFrame {
         if let Some(o) = self.origin.filter(|o| !o.iter().all(|v| v.is_finite())) {
             return Err(FrameError::Origin(o));
         }
+        if self.unit.as_deref().is_some_and(|u| u.is_empty() || u.chars().any(char::is_control)) {
+            return Err(FrameError::Unit(self.unit.clone().unwrap_or_default()));
+        }
         Ok(())
     }
 
@@ -82,6 +88,88 @@ impl ImageFrame {
     /// pixels is its own grid).
     pub fn grid(&self) -> (u32, u32) {
         (self.size[0].ceil() as u32, self.size[1].ceil() as u32)
+    }
+
+    /// Where the frame's pixels sit in physical space: the recorded spacing, origin and unit,
+    /// each defaulting to pixels (spacing 1, origin 0, no unit).
+    pub fn physical(&self) -> Physical {
+        Physical {
+            spacing: self.spacing.unwrap_or([1.0; 2]),
+            origin: self.origin.unwrap_or([0.0; 2]),
+            unit: self.unit.clone(),
+        }
+    }
+
+    /// The frame with `p` recorded as its physical placement (spacing, origin and unit).
+    pub fn with_physical(mut self, p: &Physical) -> Result<ImageFrame, FrameError> {
+        p.validate()?;
+        self.spacing = Some(p.spacing);
+        self.origin = Some(p.origin);
+        self.unit = p.unit.clone();
+        Ok(self)
+    }
+}
+
+/// The physical placement of a pixel grid, with an identity direction (ITK's and NGFF's
+/// convention): pixel centre `(i, j)` lies at `origin + spacing * (i, j)` per axis, in
+/// `unit`s. A displacement `d` in pixels is `spacing * d` in physical units.
+///
+/// ```
+/// use trimorph::spline::Physical;
+/// let p = Physical { spacing: [0.5, 0.25], origin: [10.0, -2.0], unit: Some("micrometer".into()) };
+/// assert_eq!(p.point([4.0, 8.0]), [12.0, 0.0]);
+/// assert_eq!(p.vector([4.0, 8.0]), [2.0, 2.0]);
+/// assert!(Physical::pixels().is_pixels());
+/// ```
+#[derive(Clone, Debug, PartialEq)]
+pub struct Physical {
+    /// The distance between pixel centres along x and y, in `unit`s (positive, finite).
+    pub spacing: [f64; 2],
+    /// The physical position of pixel `(0, 0)`'s centre (finite).
+    pub origin: [f64; 2],
+    /// The unit of `spacing` and `origin` (e.g. `"micrometer"`); `None`: unstated.
+    pub unit: Option<String>,
+}
+
+impl Default for Physical {
+    fn default() -> Physical {
+        Physical::pixels()
+    }
+}
+
+impl Physical {
+    /// Pixel units: spacing 1, origin 0, no unit.
+    pub fn pixels() -> Physical {
+        Physical { spacing: [1.0; 2], origin: [0.0; 2], unit: None }
+    }
+
+    /// Whether this is [`Physical::pixels`] (spacing exactly 1, origin exactly 0, no unit).
+    pub fn is_pixels(&self) -> bool {
+        *self == Physical::pixels()
+    }
+
+    /// Checks that the spacing is positive and finite and the origin finite.
+    pub fn validate(&self) -> Result<(), FrameError> {
+        if !self.spacing.iter().all(|v| *v > 0.0 && v.is_finite()) {
+            return Err(FrameError::Spacing(self.spacing));
+        }
+        if !self.origin.iter().all(|v| v.is_finite()) {
+            return Err(FrameError::Origin(self.origin));
+        }
+        if self.unit.as_deref().is_some_and(|u| u.is_empty() || u.chars().any(char::is_control)) {
+            return Err(FrameError::Unit(self.unit.clone().unwrap_or_default()));
+        }
+        Ok(())
+    }
+
+    /// The physical position of the pixel-coordinate point `p`.
+    pub fn point(&self, p: [f64; 2]) -> [f64; 2] {
+        [self.origin[0] + self.spacing[0] * p[0], self.origin[1] + self.spacing[1] * p[1]]
+    }
+
+    /// The physical length of the pixel-coordinate vector `v` (per axis).
+    pub fn vector(&self, v: [f64; 2]) -> [f64; 2] {
+        [self.spacing[0] * v[0], self.spacing[1] * v[1]]
     }
 }
 

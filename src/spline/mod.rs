@@ -39,7 +39,7 @@ use crate::exact::{rat_to_f64, Int, Rat, SparseIntMatrix};
 use crate::mesh::Mesh;
 use c1::Quad;
 use eval::EvalCache;
-pub use frame::ImageFrame;
+pub use frame::{ImageFrame, Physical};
 use layout::Layout;
 use num_traits::Zero;
 use rayon::prelude::*;

@@ -447,11 +447,26 @@ class ExportResult:
     undefined: Optional[int] = None
 
 
+def placement(frame_layer) -> Dict[str, Any]:
+    """The physical placement of a frame layer's pixels as ``to_itk`` / ``to_ngff`` take it:
+    ``spacing = (sx, sy)`` and ``origin = (ox, oy)`` from the layer's scale and translate
+    (napari lists them (row, col): they are swapped here). Empty when the layer's transform
+    is not a scale and translation (rotated or sheared layers are exported in pixels)."""
+    m = _affine_2d(frame_layer)
+    lin = m[:2, :2]
+    if not np.allclose(lin, np.diag(np.diag(lin))) or (np.diag(lin) <= 0).any():
+        return {}
+    (sy, sx), (oy, ox) = np.diag(lin), m[:2, 2]
+    return {"spacing": (float(sx), float(sy)), "origin": (float(ox), float(oy))}
+
+
 def export(
     d: trimorph.Deformation,
     path,
     direction: str = "resampling",
     size: Optional[Tuple[int, int]] = None,
+    spacing: Optional[Tuple[float, float]] = None,
+    origin: Optional[Tuple[float, float]] = None,
 ) -> ExportResult:
     """Writes the deformation by the path's suffix: ``.h5`` (``.hdf5``) an ITK transform
     (``Deformation.to_itk``), ``.zarr`` an OME-Zarr NGFF displacement store
@@ -460,6 +475,9 @@ def export(
     ``direction``: ``"resampling"`` (the files' default, ``phi^-1(q) - q``, what ITK and
     NGFF readers resample with), ``"forward"`` (``phi(p) - p``, ``inverse=True``), or for
     NGFF ``"both"``. ``size = (w, h)`` of the displacement grid (default: the frame).
+    ``spacing = (sx, sy)`` and ``origin = (ox, oy)`` place the grid in physical (world)
+    space, as :func:`placement` reads them from a layer; a ``.json`` file records them with
+    its frame.
     """
     p = Path(path)
     suffix = p.suffix.lower()
@@ -469,12 +487,15 @@ def export(
     if suffix in (".h5", ".hdf5", ".hdf", ".hd5", ".he5"):
         if direction == "both":
             raise ValueError("an ITK .h5 file holds one direction: resampling or forward")
-        n = d.to_itk(p, inverse=direction == "forward", size=size)
+        n = d.to_itk(p, inverse=direction == "forward", size=size, spacing=spacing, origin=origin)
         return ExportResult(p, "itk", int(n))
     if suffix == ".zarr":
-        d.to_ngff(p, inverse=direction == "forward", both=direction == "both", size=size)
+        d.to_ngff(p, inverse=direction == "forward", both=direction == "both", size=size,
+                  scale=spacing, origin=origin)
         return ExportResult(p, "ngff")
     if suffix == ".json":
+        if (spacing is not None or origin is not None) and (size or d.frame):
+            d = d.with_frame(size=size, spacing=spacing, origin=origin)
         d.save(p)
         return ExportResult(p, "json")
     raise ValueError(f"unknown export format {suffix!r}: use .h5 (ITK), .zarr (NGFF) or .json")

@@ -628,10 +628,11 @@ class TrimorphWidget(Container):
             return None
         d = self.deformation
         size = _core.frame_size(self.frame_layer) if self.frame_layer is not None else None
+        placed = _core.placement(self.frame_layer) if self.frame_layer is not None else {}
         direction = direction or self.direction.value
 
         def work():
-            return _core.export(d, p, direction=direction, size=size)
+            return _core.export(d, p, direction=direction, size=size, **placed)
 
         def done(r):
             extra = f" ({r.undefined} undefined grid points)" if r.undefined else ""
