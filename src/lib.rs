@@ -44,6 +44,7 @@
 
 pub mod alloc;
 pub mod bundled;
+pub mod cancel;
 pub mod cli;
 pub mod ecles;
 pub mod edit;

@@ -6,6 +6,7 @@
 //! and results are handed to numpy without a copy (`PyArray::from_vec`).
 
 use crate::errors::value_error;
+use crate::watch::Watch;
 use numpy::{
     dtype, Element, PyArray1, PyArrayDescrMethods, PyArrayDyn, PyArrayMethods, PyReadonlyArrayDyn,
     PyUntypedArray, PyUntypedArrayMethods,
@@ -13,7 +14,9 @@ use numpy::{
 use pyo3::prelude::*;
 use std::borrow::Cow;
 use trimorph::spline::Spline;
-use trimorph::warp::{warp_samples_into, Layout, Samples, SamplesMut, WarpOptions, WarpReport};
+use trimorph::warp::{
+    warp_samples_cancellable, Layout, Samples, SamplesMut, WarpOptions, WarpReport,
+};
 
 /// A sample type trimorph warps.
 pub trait Sample: Element + Copy + Default + Send + Sync + 'static {
@@ -96,6 +99,7 @@ fn warp_typed<'py, T: Sample>(
     a: &Bound<'py, PyArrayDyn<T>>,
     dims: Dims,
     opts: &WarpOptions,
+    watch: &Watch<'py>,
 ) -> PyResult<(Bound<'py, PyAny>, WarpReport, f64)> {
     let ro = a.readonly();
     let shape = ro.shape().to_vec();
@@ -110,14 +114,16 @@ fn warp_typed<'py, T: Sample>(
     let plane = h * w * c;
     let report = if c <= 4 {
         let layout = Layout { width: wu, height: hu, channels: c };
-        py.detach(|| {
+        watch.run(py, hu as u64, |sh| {
             let ins: Vec<Samples<'_>> = data.chunks(plane).map(T::samples).collect();
             let mut outs: Vec<SamplesMut<'_>> =
                 out.chunks_mut(plane).map(|p| T::samples_mut(p)).collect();
-            warp_samples_into(s, layout, &ins, &mut outs, opts, &|_| {})
-        })
+            let size = (wu, hu);
+            let rows = |n| sh.add(n);
+            warp_samples_cancellable(s, layout, &ins, size, &mut outs, opts, &rows, &sh.cancel)
+        })?
     } else {
-        py.detach(|| {
+        watch.run(py, hu as u64, |sh| {
             // Plane p, channel k is gray page p * c + k.
             let gray: Vec<Vec<T>> = data
                 .chunks(plane)
@@ -129,7 +135,17 @@ fn warp_typed<'py, T: Sample>(
             let mut outs_v: Vec<SamplesMut<'_>> =
                 outs.iter_mut().map(|p| T::samples_mut(p)).collect();
             let layout = Layout { width: wu, height: hu, channels: 1 };
-            let r = warp_samples_into(s, layout, &ins, &mut outs_v, opts, &|_| {});
+            let rows = |n| sh.add(n);
+            let r = warp_samples_cancellable(
+                s,
+                layout,
+                &ins,
+                (wu, hu),
+                &mut outs_v,
+                opts,
+                &rows,
+                &sh.cancel,
+            );
             drop(outs_v);
             for (g, page) in outs.iter().enumerate() {
                 let (p, k) = (g / c, g % c);
@@ -139,7 +155,7 @@ fn warp_typed<'py, T: Sample>(
                 }
             }
             r
-        })
+        })?
     }
     .map_err(value_error)?;
     let inner = t0.elapsed().as_secs_f64();
@@ -158,6 +174,7 @@ pub fn warp_any<'py>(
     opts: &WarpOptions,
     channel_axis: Option<isize>,
     stack_axis: Option<&Bound<'py, PyAny>>,
+    watch: &Watch<'py>,
 ) -> PyResult<(Bound<'py, PyAny>, WarpReport, f64)> {
     let a = array
         .cast::<PyUntypedArray>()
@@ -192,11 +209,11 @@ pub fn warp_any<'py>(
     };
     let dt = a.dtype();
     let (out, report, secs) = if dt.is_equiv_to(&dtype::<u8>(py)) {
-        warp_typed(py, s, canonical.cast::<PyArrayDyn<u8>>()?, dims, opts)
+        warp_typed(py, s, canonical.cast::<PyArrayDyn<u8>>()?, dims, opts, watch)
     } else if dt.is_equiv_to(&dtype::<u16>(py)) {
-        warp_typed(py, s, canonical.cast::<PyArrayDyn<u16>>()?, dims, opts)
+        warp_typed(py, s, canonical.cast::<PyArrayDyn<u16>>()?, dims, opts, watch)
     } else if dt.is_equiv_to(&dtype::<f32>(py)) {
-        warp_typed(py, s, canonical.cast::<PyArrayDyn<f32>>()?, dims, opts)
+        warp_typed(py, s, canonical.cast::<PyArrayDyn<f32>>()?, dims, opts, watch)
     } else {
         Err(value_error(format!(
             "unsupported dtype {dt} (use uint8, uint16 or float32; convert with .astype)"

@@ -8,6 +8,7 @@
 
 use crate::arrays::{points_in, points_out, to_numpy, warp_any, PointOrder};
 use crate::errors::{io_error, value_error};
+use crate::watch::{CancelToken, Cancelled, Watch};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use serde_json::{Map, Value};
@@ -345,7 +346,13 @@ impl Deformation {
     /// preimage is outside the mesh, and (`mode="constant"`, the default) outside the
     /// image; `mode` is scikit-image's: "constant", "edge" or "reflect". Bit-identical to
     /// `trimorph warp --image --mode`.
-    #[pyo3(signature = (array, interp = "bilinear", background = 0.0, tolerance = 0.01, mode = "constant", channel_axis = None, stack_axis = None))]
+    ///
+    /// `progress(done, total)`, when given, is called on the calling thread with the output
+    /// rows finished, about every 20 ms and once at the end; `cancel` takes a
+    /// `trimorph.CancelToken`. Ctrl-C (`KeyboardInterrupt`), an exception raised by
+    /// `progress`, or a cancelled token (`trimorph.Cancelled`) stops the warp between bands
+    /// of rows.
+    #[pyo3(signature = (array, interp = "bilinear", background = 0.0, tolerance = 0.01, mode = "constant", channel_axis = None, stack_axis = None, progress = None, cancel = None))]
     fn warp<'py>(
         &self,
         py: Python<'py>,
@@ -356,9 +363,12 @@ impl Deformation {
         mode: &str,
         channel_axis: Option<isize>,
         stack_axis: Option<&Bound<'py, PyAny>>,
+        progress: Option<Bound<'py, PyAny>>,
+        cancel: Option<&Bound<'py, CancelToken>>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let opts = warp_options(interp, background, tolerance, mode)?;
-        Ok(warp_any(py, &self.spline, array, &opts, channel_axis, stack_axis)?.0)
+        let watch = Watch::new(progress, cancel)?;
+        Ok(warp_any(py, &self.spline, array, &opts, channel_axis, stack_axis, &watch)?.0)
     }
 
     /// `warp` (the same keywords and axes), returning `(image, report, seconds)`: the
@@ -379,7 +389,9 @@ impl Deformation {
         stack_axis: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyDict>, f64)> {
         let opts = warp_options(interp, background, tolerance, mode)?;
-        let (img, r, secs) = warp_any(py, &self.spline, array, &opts, channel_axis, stack_axis)?;
+        let watch = Watch::new(None, None)?;
+        let (img, r, secs) =
+            warp_any(py, &self.spline, array, &opts, channel_axis, stack_axis, &watch)?;
         let d = PyDict::new(py);
         d.set_item("pixels", r.pixels)?;
         d.set_item("outside", r.outside)?;
@@ -431,22 +443,32 @@ impl Deformation {
     /// The displacement field on a `size = (W, H)` pixel grid (default: the image frame the
     /// deformation was made for, `frame`, else the mesh's extent from 0) as an (H, W, 2) float32 array, NaN where undefined: forward `phi(p) - p`, or
     /// with `inverse=True` `phi^-1(q) - q` (the same values as `trimorph field`).
-    #[pyo3(signature = (inverse = false, size = None))]
+    /// `progress(done, total)` hears of the rows finished and `cancel` takes a
+    /// `trimorph.CancelToken`, as in `warp`; the inverse field stops between bands of rows.
+    #[pyo3(signature = (inverse = false, size = None, progress = None, cancel = None))]
     fn field<'py>(
         &self,
         py: Python<'py>,
         inverse: bool,
         size: Option<(u32, u32)>,
+        progress: Option<Bound<'py, PyAny>>,
+        cancel: Option<&Bound<'py, CancelToken>>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let (w, h) = grid_size(size, &self.spline)?;
-        let f = py.detach(|| {
+        let watch = Watch::new(progress, cancel)?;
+        let f = watch.run(py, h as u64, |sh| {
             if inverse {
-                field::inverse_field(&self.spline, w, h, InverseOptions::default())
+                let rows = |n| sh.add(n);
+                let opts = InverseOptions::default();
+                field::inverse_field_watched(&self.spline, w, h, opts, &rows, &sh.cancel)
             } else {
-                field::forward_field(&self.spline, w, h)
+                let f = field::forward_field_f64(&self.spline, w, h);
+                sh.add(h as u64);
+                Ok(f)
             }
-        });
-        let flat: Vec<f32> = f.data.iter().flat_map(|v| *v).collect();
+        })?;
+        let Ok(f) = f else { return Err(Cancelled::new_err("cancelled")) };
+        let flat: Vec<f32> = f.data.iter().flat_map(|v| [v[0] as f32, v[1] as f32]).collect();
         Ok(to_numpy(py, flat, &[h as usize, w as usize, 2])?.into_any())
     }
 

@@ -8,6 +8,7 @@
 use crate::arrays::{image_to_numpy, numpy_to_image, points_in, PointOrder};
 use crate::deformation::Deformation;
 use crate::errors::{unsolvable, value_error, variant_name};
+use crate::watch::{CancelToken, Shared, Watch};
 use pyo3::prelude::*;
 use pyo3::types::PyList;
 use trimorph::fit::frame::{fit_frame, FrameFitOptions};
@@ -119,7 +120,9 @@ pub fn fit_options(
 /// (`trimorph fit --far-rings`, default 2). `order` is the columns' order of `src` and
 /// `dst`: "xy" (x, y), trimorph's, or "rc" (row, col), napari's and scikit-image's; `size`
 /// is `(w, h)` either way. Returns a Deformation whose `report` holds the fit report.
-/// Releases the GIL.
+/// Releases the GIL. `progress(done, total)` is called with `(1, 1)` when the fit is done;
+/// `cancel` takes a `trimorph.CancelToken`. Ctrl-C, an exception from `progress`, or a
+/// cancelled token (`trimorph.Cancelled`) stops the fit between Newton iterations.
 // The signature spells the default as a literal so that `inspect.signature` shows it (a
 // path shows as `...`); this keeps it the library's.
 const _: () = assert!(trimorph::fit::frame::FAR_RINGS == 2);
@@ -128,11 +131,11 @@ const _: () = assert!(trimorph::fit::frame::FAR_RINGS == 2);
 #[pyo3(signature = (src, dst, size = None, weights = None, names = None, loss = "squares",
     loss_scale = 2.0, bend = None, hard = false, barrier = true, min_det = 0.1, max_iters = 200,
     radius = None, margin = None, max_edge = None, min_angle = 15.0, deformation = None,
-    far_rings = 2, order = "xy"))]
-pub fn fit(
-    py: Python<'_>,
-    src: &Bound<'_, PyAny>,
-    dst: &Bound<'_, PyAny>,
+    far_rings = 2, order = "xy", progress = None, cancel = None))]
+pub fn fit<'py>(
+    py: Python<'py>,
+    src: &Bound<'py, PyAny>,
+    dst: &Bound<'py, PyAny>,
     size: Option<(f64, f64)>,
     weights: Option<Vec<f64>>,
     names: Option<Vec<String>>,
@@ -150,17 +153,21 @@ pub fn fit(
     deformation: Option<PyRef<'_, Deformation>>,
     far_rings: usize,
     order: &str,
+    progress: Option<Bound<'py, PyAny>>,
+    cancel: Option<&Bound<'py, CancelToken>>,
 ) -> PyResult<Deformation> {
     let order = PointOrder::parse(order)?;
     let (s, d) = (points_in(py, src, "src", order)?, points_in(py, dst, "dst", order)?);
     let lms = landmarks_of(&s, &d, weights, names)?;
     let opts = fit_options(loss, loss_scale, bend, hard, barrier, min_det, max_iters, radius)?;
+    let watch = Watch::new(progress, cancel)?;
+    let with_cancel = |sh: &Shared| FitOptions { cancel: sh.cancel.clone(), ..opts.clone() };
     match (deformation, size) {
         (Some(def), _) => {
             let spline = def.spline.clone();
             drop(def);
-            let f = py
-                .detach(|| fit_on(&spline, &lms, &opts))
+            let f = watch
+                .run(py, 1, |sh| fit_on(&spline, &lms, &with_cancel(sh)))?
                 .and_then(|f| {
                     let rep = with_holdout(f.report, &f.spline, &[])?;
                     Ok((f.spline, rep))
@@ -183,9 +190,13 @@ pub fn fit(
                     far_rings,
                 },
                 degree: 5,
-                fit: opts,
+                fit: opts.clone(),
             };
-            let r = py.detach(|| fit_frame(&lms, size, &fopts)).map_err(|e| fit_exc(py, e))?;
+            let r = watch
+                .run(py, 1, |sh| {
+                    fit_frame(&lms, size, &FrameFitOptions { fit: with_cancel(sh), ..fopts.clone() })
+                })?
+                .map_err(|e| fit_exc(py, e))?;
             let rep = with_holdout(r.fit.report, &r.fit.spline, &[]).map_err(|e| fit_exc(py, e))?;
             let mut v = serde_json::to_value(&rep).map_err(value_error)?;
             v["frame"] = serde_json::to_value(&r.frame).map_err(value_error)?;

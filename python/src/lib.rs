@@ -23,6 +23,7 @@ mod memory;
 mod registration;
 mod sequence;
 mod tiles;
+mod watch;
 
 /// The extension's own large buffers (warp outputs, maps) on transparent huge pages, as in
 /// the `trimorph` binary ([`trimorph::alloc`]); numpy's arrays keep Python's allocator.
@@ -34,6 +35,7 @@ static ALLOC: trimorph::alloc::HugePages = trimorph::alloc::HugePages;
 fn _trimorph(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<deformation::Deformation>()?;
     m.add_class::<sequence::FrameSequence>()?;
+    m.add_class::<watch::CancelToken>()?;
     m.add_function(wrap_pyfunction!(fitting::fit, m)?)?;
     m.add_function(wrap_pyfunction!(fitting::morph, m)?)?;
     m.add_function(wrap_pyfunction!(registration::register, m)?)?;
@@ -46,6 +48,7 @@ fn _trimorph(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(memory::max_memory, m)?)?;
     m.add("TrimorphError", m.py().get_type::<errors::TrimorphError>())?;
     m.add("UnsolvableError", m.py().get_type::<errors::UnsolvableError>())?;
+    m.add("Cancelled", m.py().get_type::<watch::Cancelled>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

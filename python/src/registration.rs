@@ -4,8 +4,10 @@ use crate::arrays::{numpy_to_image, points_in, PointOrder};
 use crate::deformation::Deformation;
 use crate::errors::value_error;
 use crate::fitting::landmarks_of;
+use crate::watch::{CancelToken, Watch};
 use pyo3::prelude::*;
 use std::path::PathBuf;
+use std::sync::atomic::Ordering::Relaxed;
 use trimorph::register::image::{Channel, Mask};
 use trimorph::register::samples::SampleOptions;
 use trimorph::register::{register as register_on, Input, Metric, Prealign, RegisterOptions};
@@ -42,12 +44,12 @@ fn input(
 #[pyo3(signature = (fixed, moving, metric = "ncc", mask_fixed = None, mask_moving = None,
     src = None, dst = None, weights = None, hard = false, landmark_weight = 1.0, init = None,
     prealign = "affine", levels = None, spacing = 48.0, bend = 1.0, iterations = 30,
-    samples = 32768, order = "xy"))]
+    samples = 32768, order = "xy", progress = None, cancel = None))]
 #[allow(clippy::too_many_arguments)]
-pub fn register(
-    py: Python<'_>,
-    fixed: &Bound<'_, PyAny>,
-    moving: &Bound<'_, PyAny>,
+pub fn register<'py>(
+    py: Python<'py>,
+    fixed: &Bound<'py, PyAny>,
+    moving: &Bound<'py, PyAny>,
     metric: &str,
     mask_fixed: Option<&Bound<'_, PyAny>>,
     mask_moving: Option<&Bound<'_, PyAny>>,
@@ -64,7 +66,10 @@ pub fn register(
     iterations: u64,
     samples: usize,
     order: &str,
+    progress: Option<Bound<'py, PyAny>>,
+    cancel: Option<&Bound<'py, CancelToken>>,
 ) -> PyResult<Deformation> {
+    let watch = Watch::new(progress, cancel)?;
     let order = PointOrder::parse(order)?;
     let metric: Metric = metric.parse().map_err(value_error)?;
     let prealign: Prealign = prealign.parse().map_err(value_error)?;
@@ -113,7 +118,24 @@ pub fn register(
         pinned,
         ..RegisterOptions::default()
     };
-    let r = py.detach(|| register_on(&f, &m, &opts)).map_err(value_error)?;
+    // Progress counts optimizer iterations against their caps: per level the affine
+    // pre-alignment's (without `init`, unless `prealign="none"`) and the spline's.
+    let nl = opts.level_count(&f, &m) as u64;
+    let affine =
+        if opts.init.is_none() && opts.prealign != Prealign::None { opts.affine_iters } else { 0 };
+    let total = nl * (affine + opts.max_iters);
+    let r = watch
+        .run(py, total, |sh| {
+            let done = sh.counter();
+            let tick: trimorph::register::Progress =
+                std::sync::Arc::new(move |_: &str, _: u64, _: f64| {
+                    // One more iteration, never past the caps' sum.
+                    let _ = done.fetch_update(Relaxed, Relaxed, |n| Some((n + 1).min(total)));
+                });
+            let opts = RegisterOptions { progress: Some(tick), cancel: sh.cancel.clone(), ..opts };
+            register_on(&f, &m, &opts)
+        })?
+        .map_err(value_error)?;
     let mut spline = r.spline;
     let frame = ImageFrame::new([f.image.w as f64, f.image.h as f64]).map_err(value_error)?;
     spline.set_frame(Some(frame));

@@ -55,6 +55,13 @@ fits raise ``UnsolvableError`` (a ``TrimorphError``). Inputs that would exceed t
 budget (``set_max_memory``, default half of the memory the process may use) raise
 ``MemoryError`` before anything large is allocated.
 
+Long calls (``Deformation.warp``, ``Deformation.field``, ``fit``, ``register``,
+``trimorph.dask.fit_frames``) take ``progress=callable`` (called as ``progress(done,
+total)`` on the calling thread: rows, iterations or frames) and ``cancel=CancelToken()``.
+Ctrl-C (``KeyboardInterrupt``), an exception raised by ``progress``, or
+``token.cancel()`` from any thread (``trimorph.Cancelled``) stops them between bands of
+rows, iterations or tasks; nothing keeps running after the call returns.
+
 Images larger than memory and long sequences: ``trimorph.dask`` (needs ``dask``); its
 building blocks ``tile_inputs`` and ``warp_tile`` warp one output tile from the input it
 needs, bit-identical to ``Deformation.warp`` on the whole image.
@@ -63,6 +70,8 @@ needs, bit-identical to ``Deformation.warp`` on the whole image.
 import numpy as _np
 
 from ._trimorph import (  # noqa: F401
+    Cancelled,
+    CancelToken,
     Deformation,
     FrameSequence,
     TrimorphError,
@@ -80,6 +89,8 @@ from ._trimorph import (  # noqa: F401
 )
 
 __all__ = [
+    "Cancelled",
+    "CancelToken",
     "Deformation",
     "FrameSequence",
     "TrimorphError",

@@ -28,7 +28,7 @@ from __future__ import annotations
 from os import PathLike
 from typing import Any, Dict, List, Optional, Union
 
-from ._trimorph import FrameSequence
+from ._trimorph import Cancelled, CancelToken, FrameSequence
 
 _Path = Union[str, PathLike]
 
@@ -50,6 +50,8 @@ def fit_frames(
     client: Optional[Any] = None,
     retries: int = 2,
     batch: int = 1,
+    progress: Optional[Any] = None,
+    cancel: Optional[CancelToken] = None,
     **options: Any,
 ) -> List[Dict[str, Any]]:
     """Fits the scene ``model`` to every frame on Dask; returns the per-frame report dicts.
@@ -69,6 +71,12 @@ def fit_frames(
     per-task cost over several small frames; the outputs are the same for any batch.
     Returns one dict per frame in frame order: the frame's report (as in
     ``<name>.report.json``) with ``status`` ("fitted" or "skipped") and ``reason``.
+
+    ``progress(done, total)`` is called on the calling thread with the frames finished as
+    each task ends; ``cancel`` takes a ``trimorph.CancelToken``. A cancelled token (raising
+    ``trimorph.Cancelled``), an exception from ``progress`` or Ctrl-C stops the run between
+    tasks: no task starts after it, the frames already written stay (a rerun resumes them),
+    and pending futures of a ``client`` are cancelled.
     """
     import uuid
 
@@ -81,6 +89,10 @@ def fit_frames(
     n = len(seq)
     parts = [list(range(lo, min(lo + batch, n))) for lo in range(0, n, batch)]
     keys = [f"trimorph-fit-{ks[0]}-{run_id}" for ks in parts]
+    if progress is not None and not callable(progress):
+        raise TypeError("progress must be callable as progress(done, total)")
+    if cancel is not None and cancel.cancelled:
+        raise Cancelled("cancelled before it started")
     if client is not None:
         # Sent once to one worker; others fetch it (and read the inputs once each).
         seq_f = client.scatter(seq, hash=False)
@@ -89,6 +101,8 @@ def fit_frames(
             f = client.submit(_run, seq_f, ks, prev, key=key, retries=retries, pure=False)
             prev = f if seq.tracked else None
             futures.append(f)
+        if progress is not None or cancel is not None:
+            _watch_futures(futures, parts, n, progress, cancel, client)
         done = client.gather(futures)
     else:
         seq_d = dask.delayed(seq, pure=False, traverse=False)
@@ -98,5 +112,57 @@ def fit_frames(
             t = run(seq_d, ks, prev, dask_key_name=key)
             prev = t if seq.tracked else None
             tasks.append(t)
-        done = dask.compute(*tasks)
+        with _Watch(dict(zip(keys, map(len, parts))), n, progress, cancel):
+            done = dask.compute(*tasks)
     return [r for part in done for r in part]
+
+
+def _watch_futures(futures, parts, n, progress, cancel, client) -> None:
+    """Reports finished frames and stops on a cancelled token (distributed scheduler)."""
+    from distributed import as_completed
+
+    sizes = {f.key: len(ks) for f, ks in zip(futures, parts)}
+    frames = 0
+    try:
+        for f in as_completed(futures):
+            if cancel is not None and cancel.cancelled:
+                raise Cancelled("fit_frames was cancelled")
+            frames += sizes[f.key]
+            if progress is not None:
+                progress(frames, n)
+    except BaseException:
+        client.cancel(futures)
+        raise
+
+
+class _Watch:
+    """A Dask local-scheduler callback: the frames finished to ``progress`` after each of
+    our tasks, and ``trimorph.Cancelled`` before the next task once ``cancel`` is set (the
+    local scheduler runs both hooks on the calling thread and stops on the exception)."""
+
+    def __init__(self, sizes: Dict[str, int], n: int, progress, cancel) -> None:
+        import dask.callbacks
+
+        outer = self
+        self.sizes, self.n, self.progress, self.cancel, self.frames = sizes, n, progress, cancel, 0
+
+        class _Callback(dask.callbacks.Callback):
+            def _pretask(self, key, dsk, state):
+                if outer.cancel is not None and outer.cancel.cancelled:
+                    raise Cancelled("fit_frames was cancelled")
+
+            def _posttask(self, key, result, dsk, state, worker_id):
+                k = key if isinstance(key, str) else str(key)
+                if k in outer.sizes:
+                    outer.frames += outer.sizes[k]
+                    if outer.progress is not None:
+                        outer.progress(outer.frames, outer.n)
+
+        self.callback = _Callback()
+
+    def __enter__(self):
+        self.callback.__enter__()
+        return self
+
+    def __exit__(self, *exc):
+        return self.callback.__exit__(*exc)

@@ -2,7 +2,7 @@
 
 from os import PathLike
 from pathlib import Path
-from typing import Any, Dict, List, Literal, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, List, Literal, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -23,6 +23,21 @@ class UnsolvableError(TrimorphError):
 
     kind: str
     """The library's error variant (e.g. "Conflicting", "NotWeaklySolvable")."""
+
+class Cancelled(TrimorphError):
+    """A call stopped because its ``cancel`` token was cancelled."""
+
+class CancelToken:
+    """Cancels long calls from any thread: pass it as ``cancel=`` and call ``cancel()``."""
+
+    def __init__(self) -> None: ...
+    def cancel(self) -> None:
+        """Asks every call holding this token to stop (they raise ``Cancelled``)."""
+    @property
+    def cancelled(self) -> bool:
+        """Whether ``cancel()`` was called."""
+
+_Progress = Callable[[int, int], Any]
 
 class Deformation:
     """A C1 spline deformation phi: R^2 -> R^2 over a triangle mesh, in pixels."""
@@ -67,6 +82,8 @@ class Deformation:
         mode: str = "constant",
         channel_axis: Optional[int] = None,
         stack_axis: Optional[_Axes] = None,
+        progress: Optional[_Progress] = None,
+        cancel: Optional[CancelToken] = None,
     ) -> _Image:
         """O(q) = I(phi^-1(q)), same shape, dtype and axis order; bit-identical to
         `trimorph warp`. `channel_axis` / `stack_axis` name the channels and the axes of
@@ -93,7 +110,11 @@ class Deformation:
         """phi^-1(q) per row of xy ((n, 2)), certified to tolerance px; NaN without preimage.
         `order`: the columns of xy and of the result, "xy" or "rc" (row, col)."""
     def field(
-        self, inverse: bool = False, size: Optional[Tuple[int, int]] = None
+        self,
+        inverse: bool = False,
+        size: Optional[Tuple[int, int]] = None,
+        progress: Optional[_Progress] = None,
+        cancel: Optional[CancelToken] = None,
     ) -> npt.NDArray[np.float32]:
         """(H, W, 2) displacements: phi(p) - p, or phi^-1(q) - q with inverse=True."""
     def edit(
@@ -231,6 +252,8 @@ def fit(
     deformation: Optional[Deformation] = None,
     far_rings: int = 2,
     order: _Order = "xy",
+    progress: Optional[_Progress] = None,
+    cancel: Optional[CancelToken] = None,
 ) -> Deformation:
     """Fits phi with phi(src) ~ dst; the result's `report` holds the fit report. With
     `size`, the mesh is adapted to the landmarks over that frame, with `far_rings`
@@ -257,6 +280,8 @@ def register(
     iterations: int = 30,
     samples: int = 32768,
     order: _Order = "xy",
+    progress: Optional[_Progress] = None,
+    cancel: Optional[CancelToken] = None,
 ) -> Deformation:
     """Registers MOVING to FIXED from the images (`trimorph register`): phi maps MOVING
     pixels to FIXED pixels, exactly C1 and certified fold-free; `report` holds the

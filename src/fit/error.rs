@@ -102,6 +102,9 @@ pub enum FitError {
     /// The optimizer failed.
     #[error("optimizer failed: {0}")]
     Solver(String),
+    /// The caller's [`crate::cancel::Cancel`] token was set ([`super::FitOptions::cancel`]).
+    #[error("the fit was cancelled")]
+    Cancelled,
     /// The exact result is not C1 (a bug if it ever happens).
     #[error(transparent)]
     Spline(#[from] SplineError),

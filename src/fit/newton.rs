@@ -250,6 +250,7 @@ pub struct CertifiedNewton<'a> {
     pairs: Vec<(usize, usize)>,
     require: bool,
     certify: &'a dyn Fn(&[[f64; 2]]) -> bool,
+    cancel: crate::cancel::Cancel,
     ridge_scale: f64,
     settled: f64,
     /// The last step's factor and Hessian values, whose buffers the next step reuses.
@@ -274,6 +275,7 @@ impl<'a> CertifiedNewton<'a> {
             pairs,
             require,
             certify,
+            cancel: crate::cancel::Cancel::never(),
             ridge_scale: 1e-12,
             settled,
             spare: None,
@@ -303,6 +305,9 @@ impl<'a> Solver<FitProblem<'a>, NewtonState> for CertifiedNewton<'a> {
         problem: &mut Problem<FitProblem<'a>>,
         mut state: NewtonState,
     ) -> Result<(NewtonState, Option<KV>), ArgminError> {
+        if self.cancel.is_cancelled() {
+            return Err(FitError::Cancelled.into());
+        }
         let obj = self.obj;
         let nv = obj.param.nv();
         let x = state.take_param().unwrap_or_default();
@@ -376,12 +381,13 @@ const NO_DESCENT: &str = "no descent";
 /// argmin's `Executor`. `certify` receives the control points of a trial iterate and
 /// answers whether `det J > 0` is proven on every triangle; with `require`, trial points it
 /// refuses, or whose sampled `det J` is not above the barrier's floor, are never accepted
-/// (the start must satisfy both).
+/// (the start must satisfy both). A set `cancel` token stops it before the next iteration
+/// with [`FitError::Cancelled`].
 pub fn newton(
     obj: &Objective,
     start: &[f64],
     max_iters: u64,
-    require: bool,
+    (require, cancel): (bool, &crate::cancel::Cancel),
     certify: &dyn Fn(&[[f64; 2]]) -> bool,
 ) -> Result<Outcome, FitError> {
     if max_iters == 0 {
@@ -391,7 +397,8 @@ pub fn newton(
             termination: "iteration cap".into(),
         });
     }
-    let solver = CertifiedNewton::new(obj, require, certify)?;
+    let mut solver = CertifiedNewton::new(obj, require, certify)?;
+    solver.cancel = cancel.clone();
     let res = Executor::new(FitProblem(obj), solver)
         .configure(|state| state.param(start.to_vec()).max_iters(max_iters))
         .timer(false)

@@ -33,6 +33,9 @@ pub enum Termination {
     NoDescent,
     /// Nothing to optimize (no variables, or the start is already optimal).
     Exact,
+    /// The caller's [`crate::cancel::Cancel`] token was set: stopped after an iteration,
+    /// the best point so far kept.
+    Cancelled,
 }
 
 impl Termination {
@@ -43,6 +46,7 @@ impl Termination {
             Termination::MaxIterations => "max_iterations",
             Termination::NoDescent => "no_descent",
             Termination::Exact => "exact",
+            Termination::Cancelled => "cancelled",
         }
     }
 
@@ -171,7 +175,9 @@ impl Gradient for Smooth<'_> {
 /// Called after every iteration with `(iteration, cost)`.
 pub type Progress = Arc<dyn Fn(u64, f64) + Send + Sync>;
 
-struct Observer(Progress, f64);
+/// Reports each iteration to the caller's progress (if any) and stops the run (an error the
+/// `Executor` passes up) once the cancel token is set.
+struct Observer(Option<Progress>, f64, crate::cancel::Cancel);
 
 impl Observe<IterState<Vec<f64>, Vec<f64>, (), (), (), f64>> for Observer {
     fn observe_iter(
@@ -179,18 +185,23 @@ impl Observe<IterState<Vec<f64>, Vec<f64>, (), (), (), f64>> for Observer {
         state: &IterState<Vec<f64>, Vec<f64>, (), (), (), f64>,
         _kv: &KV,
     ) -> Result<(), Error> {
-        (self.0)(state.get_iter(), state.get_cost() / self.1);
+        if let Some(p) = &self.0 {
+            p(state.get_iter(), state.get_cost() / self.1);
+        }
+        self.2.check()?;
         Ok(())
     }
 }
 
 /// Minimizes `eval` from `x0` by L-BFGS under argmin's `Executor` (module docs).
-/// `progress`, when given, observes every iteration.
+/// `progress`, when given, observes every iteration; a set `cancel` token stops the run
+/// after the current iteration ([`Termination::Cancelled`], the best point kept).
 pub fn minimize(
     eval: &Eval<'_>,
     x0: Vec<f64>,
     opts: &MinimizeOptions,
     progress: Option<Progress>,
+    cancel: &crate::cancel::Cancel,
 ) -> Minimum {
     let (f0, g0) = eval(&x0);
     if x0.is_empty() || opts.max_iters == 0 {
@@ -223,8 +234,8 @@ pub fn minimize(
         let mut ex = Executor::new(problem, solver)
             .configure(|state| state.param(x0.clone()).max_iters(opts.max_iters))
             .timer(false);
-        if let Some(p) = progress {
-            ex = ex.add_observer(Observer(p, k), ObserverMode::Always);
+        if progress.is_some() || *cancel != crate::cancel::Cancel::never() {
+            ex = ex.add_observer(Observer(progress, k, cancel.clone()), ObserverMode::Always);
         }
         ex.run()
     });
@@ -244,6 +255,13 @@ pub fn minimize(
             };
             Minimum { x: bx, cost: bf, iterations: state.get_iter(), evaluations, termination }
         }
+        Err(_) if cancel.is_cancelled() => Minimum {
+            x: bx,
+            cost: bf,
+            iterations: 0,
+            evaluations,
+            termination: Termination::Cancelled,
+        },
         // A failed line search: no step length gave a decrease; keep the best point.
         Err(_) => Minimum {
             x: bx,
@@ -274,10 +292,40 @@ mod tests {
             vec![-1.2, 1.0],
             &MinimizeOptions { max_iters: 200, ..Default::default() },
             Some(Arc::new(move |_, _| *s2.lock().unwrap() += 1)),
+            &crate::cancel::Cancel::never(),
         );
         assert!((m.x[0] - 1.0).abs() < 1e-4 && (m.x[1] - 1.0).abs() < 1e-4, "{m:?}");
         assert_eq!(m.termination, Termination::Converged);
         assert_eq!(*seen.lock().unwrap(), m.iterations);
+    }
+
+    #[test]
+    fn a_cancel_token_stops_the_run_after_the_iteration_that_set_it() {
+        let eval = |x: &[f64]| {
+            let (a, b) = (x[0], x[1]);
+            let f = (1.0 - a).powi(2) + 100.0 * (b - a * a).powi(2);
+            let g = vec![-2.0 * (1.0 - a) - 400.0 * a * (b - a * a), 200.0 * (b - a * a)];
+            (f, g)
+        };
+        let cancel = crate::cancel::Cancel::new();
+        let (c2, seen) = (cancel.clone(), Arc::new(Mutex::new(0u64)));
+        let s2 = seen.clone();
+        let m = minimize(
+            &eval,
+            vec![-1.2, 1.0],
+            &MinimizeOptions { max_iters: 200, ..Default::default() },
+            Some(Arc::new(move |it, _| {
+                *s2.lock().unwrap() = it;
+                if it >= 5 {
+                    c2.cancel();
+                }
+            })),
+            &cancel,
+        );
+        assert_eq!(m.termination, Termination::Cancelled);
+        assert_eq!(*seen.lock().unwrap(), 5, "no iteration after the one that cancelled");
+        assert!(m.cost < 24.2, "the best point so far is kept: {}", m.cost);
+        assert_eq!(serde_json::to_string(&m.termination).unwrap(), "\"cancelled\"");
     }
 
     #[test]
@@ -295,6 +343,7 @@ mod tests {
             vec![-1.2, 1.0],
             &MinimizeOptions { max_iters: 3, ..Default::default() },
             None,
+            &crate::cancel::Cancel::never(),
         );
         assert_eq!(m.termination, Termination::MaxIterations);
         assert_eq!(m.iterations, 3);

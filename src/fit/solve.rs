@@ -74,6 +74,9 @@ pub struct FitOptions {
     /// area; [`super::frame`] sets the frame grown by its margin, leaving out the far-field
     /// rings).
     pub bend_area: Option<f64>,
+    /// Stops the fit between Newton iterations when set ([`FitError::Cancelled`]; default:
+    /// never).
+    pub cancel: crate::cancel::Cancel,
 }
 
 /// The bending weight of a fit.
@@ -119,6 +122,7 @@ impl Default for FitOptions {
             pinned: Vec::new(),
             pin_border: false,
             bend_area: None,
+            cancel: crate::cancel::Cancel::never(),
         }
     }
 }
@@ -467,6 +471,7 @@ pub(super) fn fit_with_terms(
     start: Instant,
     terms: Option<TriangleTerms>,
 ) -> Result<Fit, FitError> {
+    opts.cancel.check().map_err(|_| FitError::Cancelled)?;
     // Round the free points finely enough that no control point moves more than
     // 2^-grid_bits px (a near-singular vertex of the mesh amplifies a rounding by up to
     // 10^8: rounded at 2^-20 such a fit folded while its floating-point solution did not).
@@ -681,7 +686,7 @@ fn solve(
     }
     let require = start.is_some();
     let start = start.map_or(x, |(_, v)| v);
-    let out = newton(obj, &start, opts.max_iters, require, &certify)?;
+    let out = newton(obj, &start, opts.max_iters, (require, &opts.cancel), &certify)?;
     Ok(Solved {
         x: out.x,
         method: format!("{method}+newton"),

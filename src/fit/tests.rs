@@ -60,6 +60,16 @@ fn gradient_matches_finite_differences_for_every_loss_and_the_barrier() {
 }
 
 #[test]
+fn a_cancelled_fit_returns_cancelled() {
+    let s = grid_spline();
+    let lms = landmarks(12, 3, smooth_map);
+    let cancel = crate::cancel::Cancel::new();
+    cancel.cancel();
+    let opts = FitOptions { cancel, ..FitOptions::default() };
+    assert!(matches!(fit(&s, &lms, &opts), Err(FitError::Cancelled)));
+}
+
+#[test]
 fn gauss_newton_step_is_the_minimizer_of_the_squares_problem() {
     let s = grid_spline();
     let lms = landmarks(40, 3, smooth_map);

@@ -110,7 +110,7 @@ pub fn prealign(
     moving: &[Level],
     frame: &AffineFrame,
     max_iters: u64,
-    progress: Option<&Progress>,
+    (progress, cancel): (Option<&Progress>, &crate::cancel::Cancel),
 ) -> ([f64; 6], Vec<LevelReport>) {
     let mut th = frame.start(fixed[0].image.w, fixed[0].image.h);
     let mut reports = Vec::new();
@@ -154,7 +154,7 @@ pub fn prealign(
         let first_step = Some(2.0 * (1u64 << l) as f64 / frame.r);
         let opts =
             MinimizeOptions { max_iters, tol_grad: 1e-9, tol_cost: 1e-10, memory: 6, first_step };
-        let m = minimize(&eval, x0, &opts, cb);
+        let m = minimize(&eval, x0, &opts, cb, cancel);
         th = full(&m.x);
         reports.push(LevelReport {
             stage: "affine".into(),

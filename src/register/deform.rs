@@ -144,7 +144,7 @@ pub fn run_level(
     x: Vec<f64>,
     level: u32,
     max_iters: u64,
-    progress: Option<&Progress>,
+    (progress, cancel): (Option<&Progress>, &crate::cancel::Cancel),
 ) -> (Vec<f64>, LevelReport) {
     let t0 = Instant::now();
     let sd: Vec<f64> = jacobi(obj, term, &x).iter().map(|v| v.sqrt()).collect();
@@ -174,7 +174,7 @@ pub fn run_level(
         MinimizeOptions { max_iters, tol_grad: 1e-12, tol_cost: 1e-12, memory: 10, first_step };
     let variables = x.len();
     let z0: Vec<f64> = x.iter().zip(&sd).map(|(a, s)| a * s).collect();
-    let mut m = minimize(&eval, z0, &opts, cb);
+    let mut m = minimize(&eval, z0, &opts, cb, cancel);
     m.x.iter_mut().zip(&sd).for_each(|(a, s)| *a /= s);
     let after = metric_at(&m.x);
     let report = LevelReport {

@@ -5,6 +5,10 @@ use std::path::PathBuf;
 /// Errors of [`super::register`]. Each names the image or the part of the input at fault.
 #[derive(Debug, thiserror::Error)]
 pub enum RegisterError {
+    /// The caller's [`crate::cancel::Cancel`] token was set
+    /// ([`super::RegisterOptions::cancel`]).
+    #[error("the registration was cancelled")]
+    Cancelled,
     /// A float image holds NaN or infinite pixels.
     #[error("{image}: pixel ({x}, {y}) is not a finite number (NaN or infinite); replace such pixels or mask them out before registering")]
     NonFinite {

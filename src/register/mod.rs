@@ -143,11 +143,23 @@ pub struct RegisterOptions {
     pub grid_bits: u32,
     /// Observes every solver iteration.
     pub progress: Option<Progress>,
+    /// Stops the registration after the current iteration when set
+    /// ([`RegisterError::Cancelled`]; default: never).
+    pub cancel: crate::cancel::Cancel,
 }
 
 /// The default bending weight: chosen on the synthetic pairs of `tests/register.rs`
 /// (known smooth warps of real microscopy images with noise).
 pub const DEFAULT_BEND: f64 = 1.0;
+
+impl RegisterOptions {
+    /// The number of pyramid levels a registration of `fixed` and `moving` runs: `levels`,
+    /// else as many as the smaller image's side allows (at most 4), clamped to 1..=8.
+    pub fn level_count(&self, fixed: &Input, moving: &Input) -> u32 {
+        let side = fixed.image.w.min(fixed.image.h).min(moving.image.w).min(moving.image.h);
+        self.levels.unwrap_or_else(|| image::auto_levels(side, 4)).clamp(1, 8)
+    }
+}
 
 impl Default for RegisterOptions {
     fn default() -> Self {
@@ -169,6 +181,7 @@ impl Default for RegisterOptions {
             pinned: Vec::new(),
             grid_bits: 20,
             progress: None,
+            cancel: crate::cancel::Cancel::never(),
         }
     }
 }
@@ -349,8 +362,7 @@ pub fn register(
             l.weight
         )));
     }
-    let side = fixed.image.w.min(fixed.image.h).min(moving.image.w).min(moving.image.h);
-    let nl = opts.levels.unwrap_or_else(|| image::auto_levels(side, 4)).clamp(1, 8);
+    let nl = opts.level_count(fixed, moving);
     let fp = image::pyramid(&fixed.image, fixed.mask.as_ref().map(|m| &m.0), nl);
     let mp = image::pyramid(&moving.image, moving.mask.as_ref().map(|m| &m.0), nl);
     let frame = affine::AffineFrame::new(moving.image.w, moving.image.h);
@@ -367,8 +379,9 @@ pub fn register(
                 &mp,
                 &frame,
                 opts.affine_iters,
-                opts.progress.as_ref(),
+                (opts.progress.as_ref(), &opts.cancel),
             );
+            opts.cancel.check().map_err(|_| RegisterError::Cancelled)?;
             levels.extend(reps);
             let a = frame.matrix(&th);
             let ar = a.map(|row| row.map(|v| grid_rat(v, crate::fit::frame::AFFINE_BITS)));
@@ -466,8 +479,9 @@ pub fn register(
         let scale = 1.0 / term.set.len().max(1) as f64;
         obj.scale_weights(&vec![scale / row_scale; obj.rows().len()]);
         row_scale = scale;
-        let (nx, rep) =
-            deform::run_level(&obj, &term, x, l as u32, opts.max_iters, opts.progress.as_ref());
+        let watch = (opts.progress.as_ref(), &opts.cancel);
+        let (nx, rep) = deform::run_level(&obj, &term, x, l as u32, opts.max_iters, watch);
+        opts.cancel.check().map_err(|_| RegisterError::Cancelled)?;
         x = nx;
         levels.push(rep);
     }

@@ -109,6 +109,17 @@ fn a_known_smooth_warp_of_a_real_image_is_recovered() {
 }
 
 #[test]
+fn a_cancelled_registration_returns_cancelled() {
+    let m = cell_crop(150, 200, 96, 96);
+    let f = warped(&m);
+    let cancel = crate::cancel::Cancel::new();
+    cancel.cancel();
+    let opts = RegisterOptions { spacing: 40.0, cancel, ..RegisterOptions::default() };
+    let r = register(&input(f, "fixed"), &input(m, "moving"), &opts);
+    assert!(matches!(r, Err(RegisterError::Cancelled)), "{:?}", r.err());
+}
+
+#[test]
 fn hard_landmarks_hold_exactly_in_rationals() {
     let m = cell_crop(150, 200, 96, 96);
     let f = warped(&m);

@@ -17,7 +17,7 @@
 //! transform files of [`crate::io::itk`].
 
 use super::inverse::InverseOptions;
-use super::remap::{preimage_grid, RemapOptions};
+use super::remap::{preimage_grid_watched, RemapOptions};
 use crate::spline::jacobian::{certify, CertifyOptions, DetJ};
 use crate::spline::Spline;
 use rayon::prelude::*;
@@ -106,9 +106,24 @@ pub fn forward_field_f64(s: &Spline, w: u32, h: u32) -> Field64 {
 
 /// [`inverse_field`] in `f64`: `v(q) = phi^-1(q) - q` at every pixel centre `q` of a
 /// `w x h` grid (deformed plane), from the same certified preimages as the image warp
-/// ([`preimage_grid`], error bound within `opts.tolerance`).
+/// ([`super::remap::preimage_grid`], error bound within `opts.tolerance`).
 pub fn inverse_field_f64(s: &Spline, w: u32, h: u32, opts: InverseOptions) -> Field64 {
-    let (pre, _) = preimage_grid(s, w, h, RemapOptions { inverse: opts, ..Default::default() });
+    let never = crate::cancel::Cancel::never();
+    inverse_field_watched(s, w, h, opts, &|_| {}, &never).expect("never cancelled")
+}
+
+/// [`inverse_field_f64`] reporting the rows finished to `progress` and stopping with
+/// [`crate::cancel::Cancelled`] once `cancel` is set (between bands of rows).
+pub fn inverse_field_watched(
+    s: &Spline,
+    w: u32,
+    h: u32,
+    opts: InverseOptions,
+    progress: &(dyn Fn(u64) + Sync),
+    cancel: &crate::cancel::Cancel,
+) -> Result<Field64, crate::cancel::Cancelled> {
+    let ro = RemapOptions { inverse: opts, ..Default::default() };
+    let (pre, _) = preimage_grid_watched(s, w, h, ro, progress, cancel)?;
     let data = pre
         .iter()
         .enumerate()
@@ -121,7 +136,7 @@ pub fn inverse_field_f64(s: &Spline, w: u32, h: u32, opts: InverseOptions) -> Fi
             }
         })
         .collect();
-    Field64 { width: w, height: h, data }
+    Ok(Field64 { width: w, height: h, data })
 }
 
 /// `det J` of phi at every pixel of a `w x h` grid (`NaN` outside the mesh) and the fold

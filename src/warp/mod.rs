@@ -96,6 +96,10 @@ pub enum WarpError {
     /// The image has no pixels.
     #[error("the image is empty (0 pixels)")]
     Empty,
+    /// The caller's [`crate::cancel::Cancel`] token was set: the warp stopped between bands
+    /// and its outputs are incomplete.
+    #[error("the warp was cancelled")]
+    Cancelled,
     /// [`warp_map`] was given a map without an inverse ([`Map2::has_inverse`]).
     #[error("the map has no inverse: O(q) = I(m^-1(q)) needs one (use pull_back_map for R(p) = F(m(p)))")]
     NoInverse,
@@ -420,6 +424,24 @@ pub fn warp_samples_sized_into(
     opts: &WarpOptions,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<WarpReport, WarpError> {
+    let never = crate::cancel::Cancel::never();
+    warp_samples_cancellable(s, layout, pages, out_size, outs, opts, progress, &never)
+}
+
+/// [`warp_samples_sized_into`] that stops when `cancel` is set: every worker looks at it
+/// before each band of rows, and the call then returns [`WarpError::Cancelled`] (the
+/// outputs hold the bands finished so far).
+#[allow(clippy::too_many_arguments)]
+pub fn warp_samples_cancellable(
+    s: &Spline,
+    layout: Layout,
+    pages: &[Samples<'_>],
+    out_size: (u32, u32),
+    outs: &mut [SamplesMut<'_>],
+    opts: &WarpOptions,
+    progress: &(dyn Fn(u64) + Sync),
+    cancel: &crate::cancel::Cancel,
+) -> Result<WarpReport, WarpError> {
     let Layout { width: iw, height: ih, channels: nc } = layout;
     let (w, h) = out_size;
     if !(1..=4).contains(&nc) {
@@ -505,6 +527,9 @@ pub fn warp_samples_sized_into(
             let (mut pos, mut scratch) = (vec![[0.0f64; 2]; band_px], BandScratch::default());
             let mut st = RemapStats::default();
             loop {
+                if cancel.is_cancelled() {
+                    break;
+                }
                 let b = next.fetch_add(1, Ordering::Relaxed);
                 let Some(cell) = bands.get(b) else { break };
                 let dsts = std::mem::take(&mut *cell.lock().unwrap_or_else(|e| e.into_inner()));
@@ -531,6 +556,9 @@ pub fn warp_samples_sized_into(
             a.merge(&b);
             a
         });
+    if cancel.is_cancelled() {
+        return Err(WarpError::Cancelled);
+    }
     Ok(stats)
 }
 

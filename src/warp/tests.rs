@@ -37,6 +37,55 @@ fn identity_reproduces_the_image() {
 }
 
 #[test]
+fn a_cancel_token_stops_the_warp_between_bands() {
+    let s = shifted(grid(399.0, 599.0), 3, 2);
+    let img = test_image(400, 600);
+    let layout = Layout { width: 400, height: 600, channels: 1 };
+    let pages = [Samples::U8(img.as_raw())];
+    let mut out = vec![0u8; 400 * 600];
+    let opts = WarpOptions::default();
+    // Set before the call: nothing is warped.
+    let token = crate::cancel::Cancel::new();
+    token.cancel();
+    let mut outs = [SamplesMut::U8(&mut out)];
+    let r =
+        warp_samples_cancellable(&s, layout, &pages, (400, 600), &mut outs, &opts, &|_| {}, &token);
+    assert!(matches!(r, Err(WarpError::Cancelled)), "{r:?}");
+    assert!(out.iter().all(|&v| v == 0));
+    // Set by the first band finished: the bands not yet started are never warped.
+    let token = crate::cancel::Cancel::new();
+    let rows = std::sync::atomic::AtomicU64::new(0);
+    let progress = |n: u64| {
+        rows.fetch_add(n, std::sync::atomic::Ordering::Relaxed);
+        token.cancel();
+    };
+    let mut outs = [SamplesMut::U8(&mut out)];
+    let r = warp_samples_cancellable(
+        &s,
+        layout,
+        &pages,
+        (400, 600),
+        &mut outs,
+        &opts,
+        &progress,
+        &token,
+    );
+    assert!(matches!(r, Err(WarpError::Cancelled)), "{r:?}");
+    let done = rows.into_inner();
+    assert!(done > 0 && done < 600, "{done} of 600 rows warped");
+    // Never set: the same warp completes and equals the plain call.
+    let mut whole = vec![0u8; 400 * 600];
+    let never = crate::cancel::Cancel::never();
+    let mut outs = [SamplesMut::U8(&mut whole)];
+    warp_samples_cancellable(&s, layout, &pages, (400, 600), &mut outs, &opts, &|_| {}, &never)
+        .unwrap();
+    let mut plain = vec![0u8; 400 * 600];
+    warp_samples_into(&s, layout, &pages, &mut [SamplesMut::U8(&mut plain)], &opts, &|_| {})
+        .unwrap();
+    assert_eq!(whole, plain);
+}
+
+#[test]
 fn a_shift_moves_features_by_the_shift() {
     let s = shifted(grid(39.0, 29.0), 3, 2);
     let src = test_image(40, 30);

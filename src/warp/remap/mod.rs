@@ -659,18 +659,41 @@ pub fn preimage_grid(
     h: u32,
     opts: RemapOptions,
 ) -> (Vec<[f64; 2]>, RemapStats) {
+    let never = crate::cancel::Cancel::never();
+    preimage_grid_watched(s, w, h, opts, &|_| {}, &never).expect("never cancelled")
+}
+
+/// [`preimage_grid`] that reports the rows finished to `progress` (from any thread) and
+/// stops, with [`crate::cancel::Cancelled`], once `cancel` is set (looked at before each
+/// band of rows).
+pub fn preimage_grid_watched(
+    s: &Spline,
+    w: u32,
+    h: u32,
+    opts: RemapOptions,
+    progress: &(dyn Fn(u64) + Sync),
+    cancel: &crate::cancel::Cancel,
+) -> Result<(Vec<[f64; 2]>, RemapStats), crate::cancel::Cancelled> {
     let plan = RemapPlan::new(s, w, h, opts);
     let band = plan.band_rows() as usize * w as usize;
     let mut out = vec![[0.0f64; 2]; w as usize * h as usize];
     let stats = out
         .par_chunks_mut(band.max(1))
         .enumerate()
-        .map_init(BandScratch::default, |sc, (b, chunk)| plan.fill_band_with(b, chunk, None, sc))
+        .map_init(BandScratch::default, |sc, (b, chunk)| {
+            if cancel.is_cancelled() {
+                return RemapStats::default();
+            }
+            let st = plan.fill_band_with(b, chunk, None, sc);
+            progress((chunk.len() / (w as usize).max(1)) as u64);
+            st
+        })
         .reduce(RemapStats::default, |mut a, b| {
             a.merge(&b);
             a
         });
-    (out, stats)
+    cancel.check()?;
+    Ok((out, stats))
 }
 
 #[cfg(test)]
