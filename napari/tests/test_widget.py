@@ -176,6 +176,27 @@ def test_register(viewer_factory, qtbot, frames, metric):
     assert widget.frame_layer is fixed
 
 
+def test_cancel_stops_a_registration(viewer_factory, qtbot, frames):
+    """The Cancel button (shown while work runs) stops it: trimorph raises
+    trimorph.Cancelled in the worker, the status says so and no result appears."""
+    f0, f9 = frames
+    viewer = viewer_factory()
+    fixed = viewer.add_image(f9, name="fixed")
+    moving = viewer.add_image(f0, name="moving")
+    widget = TrimorphWidget(viewer)
+    viewer.window.add_dock_widget(widget)
+    widget.fixed_image.value = fixed
+    widget.moving_image.value = moving
+    widget.register_button.clicked.emit()
+    assert widget.busy and not widget.cancel_button.native.isHidden()
+    widget.cancel_button.clicked.emit()
+    qtbot.waitUntil(lambda: not widget.busy, timeout=WAIT_MS)
+    assert widget.status.value == "register cancelled", widget.status.value
+    assert widget.deformation is None
+    assert "moving registered" not in viewer.layers
+    assert widget.cancel_button.native.isHidden()
+
+
 def test_identity_jacobian_layer(viewer_factory, qtbot):
     viewer = viewer_factory()
     img = viewer.add_image(np.zeros((80, 100), np.uint8), name="frame")

@@ -256,9 +256,11 @@ def warp_image_iter(
     interp: str = "bilinear",
     background: float = 0.0,
     mode: str = "constant",
+    cancel: Optional[trimorph.CancelToken] = None,
 ) -> Iterator[Tuple[int, int, Optional[np.ndarray]]]:
     """Warps an Image layer's data plane by plane: yields ``(done, total, None)`` after
-    each plane and finally ``(total, total, result)``.
+    each plane and finally ``(total, total, result)``. A cancelled ``cancel`` token stops
+    the warp within a band of rows (``trimorph.Cancelled``).
 
     A 2-D array, or an RGB(A) ``(..., H, W, C)`` array with ``rgb=True``, is one plane;
     the leading axes of a stack ``(..., H, W)`` are warped plane by plane (trimorph would
@@ -277,7 +279,7 @@ def warp_image_iter(
     out = np.empty((n,) + inner, dtype=dtype)
     for k in range(n):
         plane = np.ascontiguousarray(flat[k], dtype=work)
-        w = d.warp(plane, interp=interp, background=background, mode=mode)
+        w = d.warp(plane, interp=interp, background=background, mode=mode, cancel=cancel)
         if work != dtype:
             if np.issubdtype(dtype, np.integer):
                 info = np.iinfo(dtype)
@@ -295,7 +297,7 @@ def warp_image(d, data, **kwargs) -> np.ndarray:
 
 
 def warp_labels_iter(
-    d: trimorph.Deformation, data
+    d: trimorph.Deformation, data, cancel: Optional[trimorph.CancelToken] = None
 ) -> Iterator[Tuple[int, int, Optional[np.ndarray]]]:
     """Warps a Labels layer's data with nearest-neighbour interpolation: the output holds
     only values of the input (and 0, the background, where phi^-1 leaves the image or
@@ -329,6 +331,7 @@ def warp_labels_iter(
             interp="nearest",
             background=float(zero),
             mode="constant",
+            cancel=cancel,
         )
         out[k] = values[np.asarray(w).astype(np.int64)]
         yield k + 1, n, None

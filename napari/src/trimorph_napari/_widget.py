@@ -150,6 +150,10 @@ class TrimorphWidget(Container):
 
         # Status
         self.progress = ProgressBar(label="", value=0, min=0, max=1, visible=False)
+        # Cancels the running work (fit, register, warp): its trimorph call stops within a
+        # band of rows or an iteration and raises trimorph.Cancelled.
+        self.cancel_button = PushButton(text="Cancel", visible=False)
+        self._token = trimorph.CancelToken()
         self.result = Label(label="result", value="none yet")
         self.status = Label(label="", value="")
         for lab in (self.result, self.status):
@@ -188,11 +192,13 @@ class TrimorphWidget(Container):
                 self.direction,
                 self.export_button,
                 self.progress,
+                self.cancel_button,
                 self.result,
                 self.status,
             ]
         )
 
+        self.cancel_button.changed.connect(self.cancel)
         self.fit_button.changed.connect(self.fit)
         self.register_button.changed.connect(self.register)
         self.warp_button.changed.connect(lambda: self.warp())
@@ -254,6 +260,15 @@ class TrimorphWidget(Container):
         """Whether a worker is running."""
         return bool(self._workers)
 
+    def cancel(self):
+        """Stops the running work: its trimorph call raises ``trimorph.Cancelled``."""
+        self._token.cancel()
+
+    def _new_token(self) -> trimorph.CancelToken:
+        """A fresh token for the next piece of work (the Cancel button cancels it)."""
+        self._token = trimorph.CancelToken()
+        return self._token
+
     def _start(self, gen_or_fn, on_done: Callable[[Any], None], what: str, total: int = 0):
         """Runs ``gen_or_fn`` (a function, or a generator function yielding
         ``(done, total)``) in a thread worker; ``on_done(result)`` runs in the GUI thread."""
@@ -272,6 +287,7 @@ class TrimorphWidget(Container):
         self.progress.min = 0
         self.progress.max = total
         self.progress.value = 0
+        self.cancel_button.visible = True
         if is_gen:
 
             def yielded(v):
@@ -292,6 +308,7 @@ class TrimorphWidget(Container):
                 self._workers.remove(worker)
             if not self._workers:
                 self.progress.visible = False
+                self.cancel_button.visible = False
                 self.progress.max = 1
             if self._refit_pending and not self.busy:
                 self._refit_pending = False
@@ -306,6 +323,10 @@ class TrimorphWidget(Container):
         return worker
 
     def _error(self, e: BaseException, what: str):
+        if isinstance(e, trimorph.Cancelled):
+            self.status.value = f"{what} cancelled"
+            show_info(self.status.value)
+            return
         msg = f"{what} failed: {e}"
         self.status.value = msg
         show_error(msg)
@@ -370,8 +391,10 @@ class TrimorphWidget(Container):
             return None
         hard = bool(self.hard.value)
 
+        token = self._new_token()
+
         def work():
-            return _core.fit_from_pixels(src, dst, size, bend=bend, hard=hard)
+            return _core.fit_from_pixels(src, dst, size, bend=bend, hard=hard, cancel=token)
 
         def done(d):
             meta = _core.metadata(
@@ -445,9 +468,11 @@ class TrimorphWidget(Container):
 
         mdata, mrgb = moving.data, bool(moving.rgb)
 
+        token = self._new_token()
+
         def work():
-            d = trimorph.register(f, m, **kwargs)
-            return d, _core.warp_image(d, mdata, rgb=mrgb)
+            d = trimorph.register(f, m, cancel=token, **kwargs)
+            return d, _core.warp_image(d, mdata, rgb=mrgb, cancel=token)
 
         def done(result):
             d, warped = result
@@ -490,12 +515,14 @@ class TrimorphWidget(Container):
         rgb = bool(getattr(layer, "rgb", False))
         data = layer.data
 
+        token = self._new_token()
+
         def work():
             it = (
-                _core.warp_labels_iter(d, data)
+                _core.warp_labels_iter(d, data, cancel=token)
                 if is_labels
                 else _core.warp_image_iter(
-                    d, data, rgb=rgb, interp=interp, background=bg, mode=mode
+                    d, data, rgb=rgb, interp=interp, background=bg, mode=mode, cancel=token
                 )
             )
             for done, n, res in it:
