@@ -6,7 +6,7 @@
 use super::super::Cli;
 use clap::{CommandFactory, Parser};
 use proptest::prelude::*;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// A command line with file slots `{0}`, `{1}`, ...: each slot's role and whether it is an
 /// output (in the order the command lists them, [`super::files`]). Output folders (a
