@@ -7,13 +7,14 @@ set -u
 cd "$(dirname "$0")"
 secs=$1
 shift
-targets=${*:-"deformation_json solve_json model_obj model_ply landmarks_csv landmarks_bigwarp edit_script ldu_rebuild image_decode_warp editor_api"}
+targets=${*:-"deformation_json solve_json model_obj model_ply landmarks_csv landmarks_bigwarp edit_script ldu_rebuild image_decode_warp editor_api landmarks_points ngff_metadata"}
 for t in $targets; do
     mkdir -p "corpus/$t" "artifacts/$t"
     cp -n seeds/"$t"/* "corpus/$t/" 2>/dev/null
     case $t in
         *json|edit_script) dict=json.dict ;;
         landmarks*) dict=csv.dict ;;
+        ngff_metadata) dict=json.dict ;;
         model_obj) dict=obj.dict ;;
         model_ply) dict=ply.dict ;;
         editor_api) dict=editor.dict ;;

@@ -21,6 +21,8 @@ pub const TARGETS: &[&str] = &[
     "ldu_rebuild",
     "image_decode_warp",
     "editor_api",
+    "landmarks_points",
+    "ngff_metadata",
 ];
 
 /// Runs the target called `name` on `data`.
@@ -36,6 +38,8 @@ pub fn run(name: &str, data: &[u8]) {
         "ldu_rebuild" => ldu_rebuild(data),
         "image_decode_warp" => image_decode_warp(data),
         "editor_api" => editor_api(data),
+        "landmarks_points" => landmarks_points(data),
+        "ngff_metadata" => ngff_metadata(data),
         other => panic!("unknown fuzz target {other}"),
     }
 }
@@ -370,4 +374,70 @@ pub fn editor_api_statuses(data: &[u8]) -> Vec<u16> {
     doc.spline().check_c1().expect("the spline stays C1 exactly");
     let _ = std::fs::remove_dir_all(root);
     statuses
+}
+
+/// Point files (`fit --landmarks-src/--landmarks-dst`, `morph`): the text read as each of
+/// iBUG `.pts`, ITK point set and CSV `x,y`, and as format detection picks it. What is read
+/// is at least one point, every coordinate finite.
+pub fn landmarks_points(data: &[u8]) {
+    use trimorph::fit::landmarks::{parse_points, PointFormat};
+    let Some(t) = text(data) else { return };
+    let detected = PointFormat::detect(None, t);
+    for f in [PointFormat::Pts, PointFormat::Itk, PointFormat::Csv, detected] {
+        if let Ok(pts) = parse_points(t, f) {
+            assert!(!pts.is_empty(), "{f:?}: a point file read without points");
+            assert!(pts.iter().flatten().all(|v| v.is_finite()), "{f:?}: a coordinate not finite");
+        }
+    }
+}
+
+/// An OME-Zarr store's metadata and one chunk, read by `io::ngff::read_image` (the reader
+/// of `warp --image X.zarr`) under a 256 MiB memory budget. The input is split at its first
+/// two zero bytes: the root group's metadata, the array `0`'s metadata, the chunk's bytes.
+/// Its first byte picks Zarr v2 (odd: `.zattrs` with `.zgroup`, `0/.zarray`) or v3 (even:
+/// `zarr.json`, `0/zarr.json`), and (bits 1-2) the dimensions, 2 to 5, of the chunk key
+/// (`0/0.0`, `0/c/0/0`, ...) the chunk is written under.
+/// The store is in a per-process (and per-thread) folder, made afresh for each input. A read
+/// image has at least one page, all of the declared plane size.
+pub fn ngff_metadata(data: &[u8]) {
+    trimorph::memory::set_limit(Some(IMAGE_BUDGET));
+    let Some(dir) = ngff_store(data) else { return };
+    if let Ok(img) = trimorph::io::ngff::read_image(&dir) {
+        assert!(!img.pages.is_empty(), "a read OME-Zarr image has a page");
+        let (w, h) = (img.pages[0].width(), img.pages[0].height());
+        assert!(img.pages.iter().all(|p| (p.width(), p.height()) == (w, h)), "planes differ");
+    }
+}
+
+/// The store of an `ngff_metadata` input (see there), written afresh; `None` for no input.
+pub fn ngff_store(data: &[u8]) -> Option<PathBuf> {
+    let &first = data.first()?;
+    let mut parts = data[1..].splitn(3, |&b| b == 0);
+    let (root, array, chunk) =
+        (parts.next().unwrap_or(&[]), parts.next().unwrap_or(&[]), parts.next().unwrap_or(&[]));
+    let thread = format!("{:?}", std::thread::current().id());
+    let thread: String = thread.chars().filter(char::is_ascii_digit).collect();
+    let dir = std::env::temp_dir()
+        .join(format!("trimorph-fuzz-ngff-{}-{thread}", std::process::id()))
+        .join("img.zarr");
+    let _ = std::fs::remove_dir_all(&dir);
+    let dims = 2 + usize::from((first >> 1) % 4);
+    let zeros = vec!["0"; dims];
+    let key = if first % 2 == 1 {
+        format!("0/{}", zeros.join("."))
+    } else {
+        format!("0/c/{}", zeros.join("/"))
+    };
+    std::fs::create_dir_all(dir.join(&key).parent().expect("a folder")).expect("scratch");
+    let put = |rel: &str, bytes: &[u8]| std::fs::write(dir.join(rel), bytes).expect("write");
+    if first % 2 == 1 {
+        put(".zgroup", br#"{"zarr_format": 2}"#);
+        put(".zattrs", root);
+        put("0/.zarray", array);
+    } else {
+        put("zarr.json", root);
+        put("0/zarr.json", array);
+    }
+    put(&key, chunk);
+    Some(dir)
 }

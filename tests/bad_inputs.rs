@@ -4,15 +4,27 @@
 //! says" cell lists (`FILE` stands for the file's path). Every row of the table must have a
 //! case here and every case a row, so the document cannot drift from the program.
 //!
+//! It also asserts that the command wrote nothing: every file and folder under the fixture's
+//! folder, with its size and modification time, is as it was before the command ran.
+//!
 //! Set `TRIMORPH_PRINT_ERRORS=1` to print every case's stderr.
 
 #[path = "bad_inputs/cases.rs"]
 mod cases;
+#[path = "bad_inputs/cases_54.rs"]
+mod cases_54;
 mod common;
+#[path = "bad_inputs/files.rs"]
+mod files;
 
 use cases::{cases, Fixture};
 use std::collections::BTreeMap;
 use std::path::Path;
+
+/// Cases whose command keeps what it finished before the failure, by design: a frame
+/// sequence (`fit --frames`) keeps the frames fitted before the failing one, so that a
+/// second run resumes there (`src/cli/fit_batch.rs`).
+const KEEPS_DONE_WORK: &[&str] = &["frames_lost"];
 
 /// A row of the table in `docs/errors.md`.
 struct Row {
@@ -48,7 +60,11 @@ fn every_bad_input_gets_a_clear_message_and_a_nonzero_exit() {
     for case in &cases {
         let (args, file) = (case.setup)(&fx, case.id);
         let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let before = listing(&fx.dir);
         let o = common::trimorph(&args);
+        if listing(&fx.dir) != before && !KEEPS_DONE_WORK.contains(&case.id) {
+            failures.push(format!("{}: the folder changed (a failed command wrote)", case.id));
+        }
         let err = String::from_utf8_lossy(&o.stderr).into_owned();
         let code = o.status.code();
         if print {
@@ -65,7 +81,8 @@ fn every_bad_input_gets_a_clear_message_and_a_nonzero_exit() {
         if err.contains("panicked") {
             failures.push(format!("{}: panic: {err}", case.id));
         }
-        if !err.contains(&path) {
+        // An empty path: the message names an option, not a file.
+        if !path.is_empty() && !err.contains(&path) {
             failures.push(format!("{}: stderr does not name {path}: {err}", case.id));
         }
         for f in &row.fragments {
@@ -81,4 +98,22 @@ fn every_bad_input_gets_a_clear_message_and_a_nonzero_exit() {
         }
     }
     assert!(failures.is_empty(), "{} failures:\n{}", failures.len(), failures.join("\n"));
+}
+
+/// Every path under `dir` with its size and modification time (folders too).
+fn listing(dir: &Path) -> Vec<(std::path::PathBuf, u64, Option<std::time::SystemTime>)> {
+    let mut out = Vec::new();
+    let mut todo = vec![dir.to_path_buf()];
+    while let Some(d) = todo.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            let m = std::fs::symlink_metadata(&p).unwrap();
+            if m.is_dir() {
+                todo.push(p.clone());
+            }
+            out.push((p, m.len(), m.modified().ok()));
+        }
+    }
+    out.sort();
+    out
 }

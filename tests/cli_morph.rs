@@ -511,3 +511,54 @@ fn faces_morph_meets_its_landmarks_and_names_the_ones_it_misses() {
     assert_eq!(residuals(&hard), [0.0, 0.0], "{hard}");
     assert!(!hard.contains("warning"), "{hard}");
 }
+
+/// Issue 54: `--gif NEW/x.gif` failed (after the fits) when `NEW` did not exist, though the
+/// morph makes its `-o` folder. The folders of `--gif` and `--apng` are made now, and a
+/// morph that fails removes them again.
+#[test]
+fn gif_and_apng_folders_are_made_and_removed_again_on_failure() {
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b, lms) = crop_inputs(dir.path());
+    let d = |n: &str| dir.path().join(n).display().to_string();
+    let o = trimorph(&[
+        "morph",
+        &a,
+        &b,
+        "--landmarks",
+        &lms,
+        "--frames",
+        "3",
+        "-o",
+        &d("m"),
+        "--gif",
+        &d("new/sub/x.gif"),
+        "--apng",
+        &d("other/x.apng"),
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        dir.path().join("new/sub/x.gif").is_file() && dir.path().join("other/x.apng").is_file()
+    );
+    // The --apng folder cannot be made (a file is in the way) after the --gif folders
+    // were: nothing of them is left.
+    let blocked = format!("{a}/x.apng");
+    let o = trimorph(&[
+        "morph",
+        &a,
+        &b,
+        "--landmarks",
+        &lms,
+        "--frames",
+        "3",
+        "-o",
+        &d("m2"),
+        "--gif",
+        &d("gone/sub/x.gif"),
+        "--apng",
+        &blocked,
+        "--quiet",
+    ]);
+    assert_eq!(o.status.code(), Some(1), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(!dir.path().join("gone").exists() && !dir.path().join("m2").exists());
+}

@@ -205,3 +205,26 @@ fn editor_seeds_reach_the_engine() {
     assert!(files[..9].iter().all(|&s| s == 200), "{files:?}");
     assert_eq!(files[9], 403, "{files:?}");
 }
+
+#[test]
+fn landmarks_points() {
+    replay("landmarks_points");
+}
+
+#[test]
+fn ngff_metadata() {
+    replay("ngff_metadata");
+}
+
+/// The OME-Zarr seeds reach the reader: each is a store that reads as an image (so the
+/// fuzzer starts from inputs that pass the metadata checks).
+#[test]
+fn ngff_seeds_read_as_images() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/seeds/ngff_metadata");
+    for f in std::fs::read_dir(&dir).unwrap() {
+        let f = f.unwrap().path();
+        let store = targets::ngff_store(&std::fs::read(&f).unwrap()).unwrap();
+        let img = trimorph::io::ngff::read_image(&store);
+        assert!(img.is_ok(), "{}: {:?}", f.display(), img.err());
+    }
+}

@@ -99,3 +99,7 @@ pub(super) fn files(cmd: &Command) -> CommandFiles {
 fn o(p: &Path) -> Option<&Path> {
     Some(p)
 }
+
+#[cfg(test)]
+#[path = "files_tests.rs"]
+mod tests;

@@ -5,7 +5,7 @@ use super::common::say;
 use crate::io::model::UpAxis;
 use crate::jobs::model::{self as job, outside_warning, BindOptions};
 use crate::jobs::read_deformation;
-use anyhow::Result;
+use anyhow::{bail, Result};
 use std::path::Path;
 
 /// `--up x|y|z|auto` of the model commands.
@@ -148,6 +148,17 @@ pub fn render_model(
     up: UpAxis,
 ) -> Result<()> {
     let (s, _) = read_deformation(def)?;
+    // Issue 54: this was "the deformation has no z layers", naming no file.
+    if s.z_layers().is_none() {
+        bail!(
+            "{}: the deformation has no z layers (z_range, z0, z1), so it cannot move the 3D \
+             model {}; make a 2.5D deformation for it with `trimorph model bind --model {} \
+             --auto`, or render the deformation without --model",
+            def.display(),
+            model_path.display(),
+            model_path.display()
+        );
+    }
     let model = job::load_model(model_path, up)?;
     let ((w, h), outside) = job::render_model(&s, &model, output, background, view, size)?;
     warn_folds(def)?;

@@ -120,6 +120,21 @@ pub enum FitError {
         /// Source y.
         y: f64,
     },
+    /// A hard landmark whose every control point is pinned, away from its target (issue
+    /// 54: blamed "at most 21 landmarks per triangle").
+    #[error("{landmark} cannot reach its target ({x}, {y}): every control point that moves it is pinned (--pin), and with them in place it maps to ({at_x}, {at_y}); pin fewer control points around it, move its target, or fit without --hard")]
+    PinnedAway {
+        /// `landmark i (name)`.
+        landmark: String,
+        /// Target x.
+        x: f64,
+        /// Target y.
+        y: f64,
+        /// Where the pinned points map the source, x.
+        at_x: f64,
+        /// Where the pinned points map the source, y.
+        at_y: f64,
+    },
     /// More hard constraints than the spline's local freedom.
     #[error("too many constraints for the mesh: {detail}; a degree-{degree} triangle takes at most {per_triangle} landmarks in general position (fewer on one line, at most degree + 1 on a segment); use a finer mesh, fewer landmarks, or the soft fit (without --hard)")]
     TooManyConstraints {
@@ -159,6 +174,11 @@ impl FitError {
     /// more constraints than the spline can hold): the command line exits 2 for these, the
     /// Python bindings raise `UnsolvableError`. Every other error is about the input.
     pub fn is_unsolvable(&self) -> bool {
-        matches!(self, FitError::Conflicting { .. } | FitError::TooManyConstraints { .. })
+        matches!(
+            self,
+            FitError::Conflicting { .. }
+                | FitError::TooManyConstraints { .. }
+                | FitError::PinnedAway { .. }
+        )
     }
 }

@@ -373,6 +373,26 @@ pub fn exact_constraints(
     }
     let is_var: Vec<bool> =
         (0..n).map(|p| !is_pinned[p] && matches!(mds.role(p), Role::Free)).collect();
+    // A landmark that no variable point moves is met already or never (not a matter of
+    // too many constraints: its control points are all pinned).
+    for (k, row) in rows.iter().enumerate().take(checks.len()) {
+        if row.coefs.iter().any(|(p, _)| is_var[*p]) {
+            continue;
+        }
+        let at: Vec<Rat> = (0..2)
+            .map(|c| row.coefs.iter().fold(Rat::zero(), |a, (p, w)| a + w * &values[*p][c]))
+            .collect();
+        if at[..] != row.rhs[..] {
+            let Source::Landmark(i) = sources[k] else { unreachable!("landmarks first") };
+            return Err(FitError::PinnedAway {
+                landmark: landmark_text(lms, i),
+                x: lms[i].dst[0],
+                y: lms[i].dst[1],
+                at_x: rat_to_f64(&at[0]),
+                at_y: rat_to_f64(&at[1]),
+            });
+        }
+    }
     solve_rows(&rows, &mut values, &is_var, opts.grid_bits).map_err(|unmet| {
         let (bad, coupled) = match unmet {
             Unmet::Dependent(b) => (b, false),

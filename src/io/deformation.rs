@@ -197,14 +197,14 @@ fn rows(v: Option<&Value>, path: &str, width: usize) -> Result<Vec<Vec<Rat>>, De
         .map(|(i, r)| {
             let p = || format!("{path}[{i}]");
             let r = r.as_array().ok_or_else(|| key(&p(), "expected an array"))?;
-            if r.len() < width {
-                return Err(key(&p(), format!("expected {width} values")));
+            // Exactly `width`: a third coordinate would be dropped without a word (issue 54).
+            if r.len() != width {
+                return Err(key(
+                    &p(),
+                    format!("expected {width} values (x, y), found {}", r.len()),
+                ));
             }
-            r.iter()
-                .take(width)
-                .enumerate()
-                .map(|(j, x)| num(x, || format!("{}[{j}]", p())))
-                .collect()
+            r.iter().enumerate().map(|(j, x)| num(x, || format!("{}[{j}]", p()))).collect()
         })
         .collect()
 }

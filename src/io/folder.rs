@@ -208,6 +208,52 @@ fn exchange(a: &Path, b: &Path) -> std::io::Result<()> {
     fs::rename(&old, a)
 }
 
+/// Folders made for a command's output files (`mkdir -p` of their parents), removed again,
+/// deepest first and only when still empty, unless [`MadeFolders::keep`] is called: a command
+/// that fails leaves no folder behind (issue 54: `morph --gif NEW/x.gif` failed after the
+/// fits when `NEW` did not exist, though the morph makes its `-o` folder).
+#[derive(Debug, Default)]
+pub struct MadeFolders {
+    made: Vec<PathBuf>,
+    keep: bool,
+}
+
+impl MadeFolders {
+    /// Makes the folder of `file` and the missing folders above it.
+    pub fn parent_of(&mut self, file: &Path) -> Result<(), IoError> {
+        let Some(dir) = file.parent().filter(|d| !d.as_os_str().is_empty()) else {
+            return Ok(());
+        };
+        let mut missing = Vec::new();
+        let mut d = dir;
+        while !d.as_os_str().is_empty() && fs::symlink_metadata(d).is_err() {
+            missing.push(d.to_path_buf());
+            match d.parent() {
+                Some(p) => d = p,
+                None => break,
+            }
+        }
+        let made = fs::create_dir_all(dir);
+        self.made.extend(missing);
+        made.map_err(|source| IoError::Write { path: dir.to_path_buf(), source })
+    }
+
+    /// Keeps the folders made (the command succeeded).
+    pub fn keep(mut self) {
+        self.keep = true;
+    }
+}
+
+impl Drop for MadeFolders {
+    fn drop(&mut self) {
+        if !self.keep {
+            for d in &self.made {
+                let _ = fs::remove_dir(d);
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

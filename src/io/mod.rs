@@ -14,6 +14,7 @@ pub mod colormesh;
 pub mod deformation;
 pub mod folder;
 pub mod frames;
+pub mod image_use;
 pub mod itk;
 pub mod landmarks;
 pub mod model;
@@ -22,6 +23,7 @@ pub mod obj;
 mod pnm;
 pub mod points;
 pub mod raster;
+mod tiff_checks;
 
 use std::fs;
 use std::io::Write;

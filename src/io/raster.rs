@@ -5,16 +5,18 @@
 //! TIFF files hold any number, read and written page by page with the `tiff` crate. Types
 //! kept exactly: 8- and 16-bit gray, gray+alpha, RGB and RGBA, and 32-bit float gray, RGB
 //! and RGBA. Float gray pages are held as RGB float with three equal channels (the `image`
-//! crate has no float gray type) and written back as float gray. Decoding is bounded: a
-//! declared size above [`MAX_PIXELS`] per page is refused before anything is allocated.
+//! crate has no float gray type) and written back as float gray. Decoding is bounded: every
+//! page's header is checked first ([`super::image_use::check_header`]: at most
+//! [`MAX_PIXELS`] per page, the memory budget for what the command keeps, [`ImageUse`]), and
+//! nothing is allocated for a page that fails.
 
+use super::image_use::check_header_against;
+pub use super::image_use::{ImageUse, MAX_PIXELS};
+use super::tiff_checks;
 use super::{write_atomic, IoError};
 use image::{DynamicImage, ImageBuffer, ImageFormat};
 use std::io::Cursor;
 use std::path::{Path, PathBuf};
-
-/// Largest number of pixels per page accepted when decoding (2^30, e.g. 32768 x 32768).
-pub const MAX_PIXELS: u64 = 1 << 30;
 
 /// Errors of image input and output.
 #[derive(Debug, thiserror::Error)]
@@ -53,6 +55,29 @@ pub enum RasterError {
         width: u32,
         /// Declared height.
         height: u32,
+    },
+    /// The image is larger than its use allows ([`ImageUse::max_side`]).
+    #[error("{path}: the image is {width} x {height} pixels; a picture shown under the mesh is at most {max} x {max} pixels (as for `render --background`), so it is not decoded: scale it down")]
+    TooLargeFor {
+        /// The file.
+        path: PathBuf,
+        /// Declared width.
+        width: u32,
+        /// Declared height.
+        height: u32,
+        /// The largest side.
+        max: u32,
+    },
+    /// A page's samples cannot be read as one of the types kept (a gray+alpha TIFF whose
+    /// second sample is not marked as unassociated alpha).
+    #[error("{path}, page {page}: {reason}")]
+    Samples {
+        /// The file.
+        path: PathBuf,
+        /// Page number (0-based).
+        page: usize,
+        /// What the samples are and what to do.
+        reason: String,
     },
     /// Pages differ in size or type.
     #[error("{path}, page {page}: all pages of a stack must have the size and type of page 0")]
@@ -96,8 +121,15 @@ fn is_tiff(path: &Path) -> bool {
     )
 }
 
-/// Reads an image file: every page of a TIFF, the single page of other formats.
+/// Reads an image file: every page of a TIFF, the single page of other formats (decoded
+/// and kept as they are: [`ImageUse::DECODE`]).
 pub fn read_stack(path: &Path) -> Result<Stack, RasterError> {
+    read_stack_as(path, &ImageUse::DECODE)
+}
+
+/// Reads an image file for `usage`: every page's header is checked
+/// ([`super::image_use::check_header`]) before the page is decoded.
+pub fn read_stack_as(path: &Path, usage: &ImageUse) -> Result<Stack, RasterError> {
     use std::io::{Read, Seek};
     let read_err = |source| IoError::Read { path: path.to_path_buf(), source };
     // A TIFF is decoded from the file itself, so its strips go straight from the page cache
@@ -110,10 +142,10 @@ pub fn read_stack(path: &Path) -> Result<Stack, RasterError> {
     if len >= 8 && file.read_exact(&mut magic).is_ok() && has_tiff_magic(&magic) {
         file.rewind().map_err(read_err)?;
         let reader = std::io::BufReader::with_capacity(64 << 10, file);
-        return read_tiff(path, reader, len, crate::memory::limit());
+        return read_tiff(path, reader, len, crate::memory::limit(), usage);
     }
     let bytes = std::fs::read(path).map_err(read_err)?;
-    decode_stack(&bytes, path)
+    decode_stack_as(&bytes, path, usage)
 }
 
 /// Whether `bytes` begin as a classic TIFF (42) or a BigTIFF (43), either byte order.
@@ -125,9 +157,15 @@ fn has_tiff_magic(bytes: &[u8]) -> bool {
 /// from the content, not from `path`, which only names the input in errors): the same
 /// size limits, memory budget and completeness checks.
 pub fn decode_stack(bytes: &[u8], path: &Path) -> Result<Stack, RasterError> {
+    decode_stack_as(bytes, path, &ImageUse::DECODE)
+}
+
+/// [`decode_stack`] for `usage` ([`read_stack_as`]).
+pub fn decode_stack_as(bytes: &[u8], path: &Path, usage: &ImageUse) -> Result<Stack, RasterError> {
     let derr = |reason: String| RasterError::Decode { path: path.to_path_buf(), reason };
+    let budget = crate::memory::limit();
     if has_tiff_magic(bytes) {
-        return read_tiff(path, Cursor::new(bytes), bytes.len() as u64, crate::memory::limit());
+        return read_tiff(path, Cursor::new(bytes), bytes.len() as u64, budget, usage);
     }
     let mut reader = image::ImageReader::new(Cursor::new(bytes))
         .with_guessed_format()
@@ -135,8 +173,10 @@ pub fn decode_stack(bytes: &[u8], path: &Path) -> Result<Stack, RasterError> {
     if reader.format().is_none() {
         return Err(derr("unknown image format (use PNG, TIFF, JPEG or PNM)".into()));
     }
+    // The header alone first: a page too large for the use is refused before a decoder
+    // exists (the budget is checked again below with the decoder's exact sample size).
     let (w, h) = reader.into_dimensions().map_err(|e| derr(e.to_string()))?;
-    check_size(path, 0, w, h)?;
+    check_header_against(budget, path, 0, w, h, Some(0), 0, usage, "")?;
     reader = image::ImageReader::new(Cursor::new(bytes))
         .with_guessed_format()
         .map_err(|e| derr(e.to_string()))?;
@@ -144,13 +184,12 @@ pub fn decode_stack(bytes: &[u8], path: &Path) -> Result<Stack, RasterError> {
     let mut limits = image::Limits::default();
     limits.max_image_width = Some(w);
     limits.max_image_height = Some(h);
-    limits.max_alloc = Some(decoder_limit(crate::memory::limit()));
+    limits.max_alloc = Some(decoder_limit(budget));
     reader.limits(limits);
     let decoder = reader.into_decoder().map_err(|e| derr(e.to_string()))?;
     let need = image::ImageDecoder::total_bytes(&decoder);
-    let color = image::ImageDecoder::color_type(&decoder);
-    crate::memory::check(need, || format!("decoding {w} x {h} {color:?}"))
-        .map_err(|source| RasterError::Memory { path: path.to_path_buf(), source })?;
+    let color = format!("{:?}", image::ImageDecoder::color_type(&decoder));
+    check_header_against(budget, path, 0, w, h, Some(need), 0, usage, &color)?;
     if reader_format_is_jpeg(bytes) && !jpeg_is_complete(bytes) {
         return Err(derr(
             "the JPEG stream ends before its end-of-image marker (the file is truncated)".into(),
@@ -161,18 +200,12 @@ pub fn decode_stack(bytes: &[u8], path: &Path) -> Result<Stack, RasterError> {
     Ok(Stack { pages: vec![img], gray_float: false })
 }
 
-/// Reads one image: the single page of a PNG or JPEG, the first page of a TIFF (with the
-/// limits, the memory budget and the completeness checks of [`read_stack`]).
+/// Reads one image to show as a picture (the editor's frame, [`ImageUse::PICTURE`]): the
+/// single page of a PNG or JPEG, the first page of a TIFF, at most as large as the largest
+/// background `render` draws, with the memory budget and the completeness checks of
+/// [`read_stack`].
 pub fn read_image(path: &Path) -> Result<DynamicImage, RasterError> {
-    Ok(read_stack(path)?.pages.swap_remove(0))
-}
-
-fn check_size(path: &Path, page: usize, width: u32, height: u32) -> Result<(), RasterError> {
-    let n = width as u64 * height as u64;
-    if n == 0 || n > MAX_PIXELS {
-        return Err(RasterError::Size { path: path.to_path_buf(), page, width, height });
-    }
-    Ok(())
+    Ok(read_stack_as(path, &ImageUse::PICTURE)?.pages.swap_remove(0))
 }
 
 fn check_type(path: &Path, page: usize, img: &DynamicImage) -> Result<(), RasterError> {
@@ -210,6 +243,7 @@ fn read_tiff<R: std::io::Read + std::io::Seek>(
     reader: R,
     file_len: u64,
     budget: u64,
+    usage: &ImageUse,
 ) -> Result<Stack, RasterError> {
     use tiff::decoder::{Decoder, DecodingResult, Limits};
     use tiff::ColorType as C;
@@ -235,16 +269,17 @@ fn read_tiff<R: std::io::Read + std::io::Seek>(
     loop {
         let page = pages.len();
         let (w, h) = dec.dimensions().map_err(derr)?;
-        check_size(path, page, w, h)?;
-        let ct = dec.colortype().map_err(derr)?;
+        check_header_against(budget, path, page, w, h, Some(0), held, usage, "")?;
+        let ct = tiff_checks::colortype(&mut dec).map_err(|e| match e {
+            Ok(e) => derr(e),
+            Err(reason) => RasterError::Samples { path: path.to_path_buf(), page, reason },
+        })?;
         // Every page's decoded samples stay: the budget covers the pages so far and this
         // one (float gray is widened to RGB, and briefly held twice).
         let page_bytes = tiff_page_bytes(w, h, ct);
-        held = held.saturating_add(page_bytes);
-        let what = || format!("decoding {} page(s) of {w} x {h} {ct:?}", page + 1);
-        crate::memory::check_against(budget, held, what)
-            .map_err(|source| RasterError::Memory { path: path.to_path_buf(), source })?;
-        check_strips(&mut dec, file_len).map_err(|reason| RasterError::Decode {
+        let color = format!("{ct:?}");
+        held = check_header_against(budget, path, page, w, h, page_bytes, held, usage, &color)?;
+        tiff_checks::check_strips(&mut dec, file_len).map_err(|reason| RasterError::Decode {
             path: path.to_path_buf(),
             reason: format!("page {page}: {reason}"),
         })?;
@@ -306,7 +341,7 @@ fn read_tiff<R: std::io::Read + std::io::Seek>(
             }
         }
         pages.push(img);
-        if !dec.more_images() {
+        if usage.first_page_only || !dec.more_images() {
             break;
         }
         dec.next_image().map_err(derr)?;
@@ -316,9 +351,9 @@ fn read_tiff<R: std::io::Read + std::io::Seek>(
 
 /// Bytes of one decoded TIFF page as it is held ([`Stack`]): samples of the colour type,
 /// with 32-bit float gray widened to RGB (plus the gray buffer while it is widened).
-fn tiff_page_bytes(w: u32, h: u32, ct: tiff::ColorType) -> u64 {
+fn tiff_page_bytes(w: u32, h: u32, ct: tiff::ColorType) -> Option<u64> {
     use tiff::ColorType as C;
-    let px = w as u64 * h as u64;
+    let px = u64::from(w).checked_mul(u64::from(h))?;
     let (channels, bits) = match ct {
         C::Gray(b) => (1, b),
         C::GrayA(b) => (2, b),
@@ -327,38 +362,12 @@ fn tiff_page_bytes(w: u32, h: u32, ct: tiff::ColorType) -> u64 {
         C::CMYK(b) => (4, b),
         _ => (4, 32),
     };
-    let bytes = px.saturating_mul(channels) * (bits as u64).div_ceil(8);
+    let bytes = px.checked_mul(channels)?.checked_mul(u64::from(bits).div_ceil(8))?;
     if matches!(ct, C::Gray(32)) {
-        bytes * 4
+        bytes.checked_mul(4)
     } else {
-        bytes
+        Some(bytes)
     }
-}
-
-/// Checks that the current TIFF page's strips or tiles lie inside the file: a truncated
-/// file is refused instead of decoding to a partly flat page.
-fn check_strips<R: std::io::Read + std::io::Seek>(
-    dec: &mut tiff::decoder::Decoder<R>,
-    file_len: u64,
-) -> Result<(), String> {
-    use tiff::tags::Tag;
-    let pairs = [
-        (Tag::StripOffsets, Tag::StripByteCounts, "strip"),
-        (Tag::TileOffsets, Tag::TileByteCounts, "tile"),
-    ];
-    for (off_tag, len_tag, what) in pairs {
-        let Ok(Some(offsets)) = dec.find_tag_unsigned_vec::<u64>(off_tag) else { continue };
-        let Ok(Some(counts)) = dec.find_tag_unsigned_vec::<u64>(len_tag) else { continue };
-        for (i, (&o, &n)) in offsets.iter().zip(&counts).enumerate() {
-            if o.saturating_add(n) > file_len {
-                return Err(format!(
-                    "{what} {i} ends at byte {} but the file has {file_len} bytes (the file is truncated)",
-                    o.saturating_add(n)
-                ));
-            }
-        }
-    }
-    Ok(())
 }
 
 fn reader_format_is_jpeg(bytes: &[u8]) -> bool {
@@ -654,7 +663,9 @@ mod tests {
         // Found by fuzzing (`image_decode_warp`): 2^28 strip offsets in a 623-byte file made
         // the tiff crate reserve 11 GiB for them (its limit was MAX_PIXELS * 16 bytes).
         let p = Path::new("strips.tif");
-        let from = |b: &[u8], budget| read_tiff(p, Cursor::new(b), b.len() as u64, budget);
+        let from = |b: &[u8], budget| {
+            read_tiff(p, Cursor::new(b), b.len() as u64, budget, &ImageUse::DECODE)
+        };
         let ok = from(&tiff_with_strip_count(1), 64 << 20).unwrap();
         assert_eq!(ok.pages.len(), 2);
         assert_eq!(ok.pages[1].as_bytes(), [77]);

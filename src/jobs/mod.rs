@@ -74,6 +74,18 @@ pub enum JobError {
         /// The point and its position.
         point: String,
     },
+    /// The deformation maps the whole mesh onto a point or a line (issue 54: reported as
+    /// not overlapping the image).
+    #[error(
+        "{}: the deformation maps the whole mesh onto {what} (all its control points lie there), so det J is 0 everywhere and no pixel has a preimage; use a deformation that keeps an area, e.g. make one with `trimorph mesh` or fit again",
+        deformation.display()
+    )]
+    Collapsed {
+        /// The deformation file.
+        deformation: PathBuf,
+        /// "the point (x, y)" or "a line through (x, y) and (x, y)".
+        what: String,
+    },
     /// The deformed mesh misses the image entirely: every output pixel would be background.
     #[error(
         "{}: the deformed mesh does not overlap the {}x{} image {} at all (every output pixel would be background); mesh coordinates are the image's pixels: use the deformation made for this image",

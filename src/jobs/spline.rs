@@ -13,7 +13,7 @@ use crate::edit::Editor;
 use crate::io::deformation::{self, LastEdit};
 use crate::io::points::read_points;
 use crate::io::{read_text, write_atomic};
-use crate::mesh::{AdaptOptions, Mesh, MeshOptions};
+use crate::mesh::{AdaptOptions, Mesh, MeshError, MeshOptions};
 use crate::prism::ZRange;
 use crate::spline::check::absurd_point;
 use crate::spline::jacobian::{certify, CertifyOptions, DetJ};
@@ -109,10 +109,16 @@ pub fn build_mesh(source: &MeshSource, opts: MeshOptions) -> JobResult<Mesh> {
                     if outline_pts.len() > 3 && outline_pts.first() == outline_pts.last() {
                         outline_pts.pop();
                     }
+                    // The outline alone first, so that its faults are reported with its
+                    // own file and point numbers.
+                    let own: Vec<usize> = (0..outline_pts.len()).collect();
+                    Mesh::constrained_delaunay(&outline_pts, &own, opts)
+                        .map_err(|e| JobError::context(format!("outline {}", o.display()), e))?;
                     let first = pts.len();
                     pts.extend(outline_pts.iter().copied());
                     let idx: Vec<usize> = (first..pts.len()).collect();
-                    Mesh::constrained_delaunay(&pts, &idx, opts)
+                    return Mesh::constrained_delaunay(&pts, &idx, opts)
+                        .map_err(|e| outline_error(e, points, o, first));
                 }
             }
             .map_err(|e| {
@@ -127,6 +133,61 @@ pub fn build_mesh(source: &MeshSource, opts: MeshOptions) -> JobResult<Mesh> {
         }),
     }
 }
+
+/// A constrained mesh's error, naming the file each vertex comes from: vertices `0 ..
+/// first` are the rows of `points`, the rest the rows of `outline` (issue 54: an outline's
+/// faults were reported against the `--points` file, with vertex numbers that count both).
+fn outline_error(e: MeshError, points: &Path, outline: &Path, first: usize) -> JobError {
+    let vertex = |v: usize| {
+        if v < first {
+            format!("{} point {v}", points.display())
+        } else {
+            format!("{} point {}", outline.display(), v - first)
+        }
+    };
+    let text = match &e {
+        MeshError::NotFinite { vertex: v } => {
+            format!("{} has a non-finite coordinate; give finite coordinates", vertex(*v))
+        }
+        MeshError::CoordinateOutOfRange { vertex: v, value } => format!(
+            "{}: coordinate {value:e} is too large (|coordinate * grid| must be below 2^40); \
+             rescale the input or use a smaller snapping grid",
+            vertex(*v)
+        ),
+        MeshError::Duplicate { first: a, second: b, x, y } => format!(
+            "{} and {} coincide at ({x}, {y}) after snapping; remove one of them or use a \
+             finer snapping grid",
+            vertex(*a),
+            vertex(*b)
+        ),
+        MeshError::BadOutline(m) => format!(
+            "{m} (points 0 to {} are those of {}, then come the outline's)",
+            first.saturating_sub(1),
+            points.display()
+        ),
+        _ => {
+            let ctx = format!(
+                "cannot build a mesh from {} with the outline {}",
+                points.display(),
+                outline.display()
+            );
+            return JobError::context(ctx, e);
+        }
+    };
+    JobError::context(
+        format!(
+            "cannot build a mesh from {} with the outline {}",
+            points.display(),
+            outline.display()
+        ),
+        OutlineError(text),
+    )
+}
+
+/// A constrained mesh's error with its vertices named by file ([`outline_error`]).
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+struct OutlineError(String);
 
 /// Writes the identity deformation of `degree` over `mesh` to `output` (2.5D with
 /// constant layers `z0 = lo`, `z1 = hi` when `z_range = [lo, hi]` is given). Returns the report

@@ -58,9 +58,21 @@ pub enum ValueError {
     /// A mesh extent that is not positive.
     #[error("width and height must be positive")]
     Extent,
-    /// A grid that is not whole numbers of cells, or has too many cells.
+    /// A grid that is not whole numbers of cells from 1.
     #[error("expected COLSxROWS with whole numbers of cells, e.g. 6x4")]
     Grid,
+    /// A grid of whole numbers with too many cells (issue 54: it was refused as a format
+    /// error).
+    #[error(
+        "a grid of {cols} x {rows} cells is too large (at most {max} cells in all, e.g. 1000x1000); use fewer cells",
+        max = crate::mesh::MAX_GRID_CELLS
+    )]
+    GridTooLarge {
+        /// Columns asked for.
+        cols: f64,
+        /// Rows asked for.
+        rows: f64,
+    },
     /// A canvas side outside the renderer's limits.
     #[error("width and height must be whole numbers from {MIN_SIZE} to {MAX_SIZE}")]
     CanvasSide,
@@ -143,8 +155,11 @@ pub fn check_extent([w, h]: [f64; 2]) -> Result<[f64; 2], ValueError> {
 pub fn parse_grid(text: &str) -> Result<(usize, usize), ValueError> {
     let (c, r) = parse_pair(text, 'x')?;
     let max = crate::mesh::MAX_GRID_CELLS as f64;
-    if c < 1.0 || r < 1.0 || c.fract() != 0.0 || r.fract() != 0.0 || c * r > max {
+    if c < 1.0 || r < 1.0 || c.fract() != 0.0 || r.fract() != 0.0 {
         return Err(ValueError::Grid);
+    }
+    if c * r > max {
+        return Err(ValueError::GridTooLarge { cols: c, rows: r });
     }
     Ok((c as usize, r as usize))
 }
@@ -235,7 +250,10 @@ mod tests {
     #[test]
     fn grids_share_the_builder_s_cell_limit() {
         assert_eq!(parse_grid("1000x1000").unwrap(), (1000, 1000));
-        assert_eq!(parse_grid("1001x1000"), Err(ValueError::Grid));
+        assert_eq!(
+            parse_grid("1001x1000"),
+            Err(ValueError::GridTooLarge { cols: 1001.0, rows: 1000.0 })
+        );
         assert_eq!(parse_grid("0x3"), Err(ValueError::Grid));
         assert_eq!(parse_grid("2.5x3"), Err(ValueError::Grid));
         assert_eq!(

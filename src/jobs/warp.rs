@@ -9,6 +9,7 @@
 
 use super::OptionError;
 use super::{raster_fits, JobError, JobResult};
+use crate::exact::rat_to_f64;
 use crate::io::ngff::{self, NgffImage, SampleType};
 use crate::io::points::{optional_points_csv, read_optional_points};
 use crate::io::raster::Stack;
@@ -32,8 +33,9 @@ pub struct ImageInput {
 }
 
 impl ImageInput {
-    /// Reads `path`: an OME-Zarr image when it is one ([`ngff::is_zarr_path`]), else any
-    /// raster file ([`crate::io::raster::read_stack`]).
+    /// Reads `path` to warp it: an OME-Zarr image when it is one ([`ngff::is_zarr_path`]),
+    /// else any raster file ([`crate::io::raster::read_stack_as`] with
+    /// [`crate::io::raster::ImageUse::WARP`]).
     pub fn read(path: &Path) -> JobResult<ImageInput> {
         let t = Instant::now();
         let (stack, ngff) = if ngff::is_zarr_path(path) {
@@ -41,7 +43,10 @@ impl ImageInput {
             let pages = std::mem::take(&mut img.pages);
             (Stack { pages, gray_float: img.dtype == SampleType::F32 }, Some(img))
         } else {
-            (crate::io::raster::read_stack(path)?, None)
+            // Refused from its header when the warp's input, output and encoding would
+            // not fit the budget (issue 54: a 20000 x 20000 JPEG bomb was decoded first).
+            let usage = crate::io::raster::ImageUse::WARP;
+            (crate::io::raster::read_stack_as(path, &usage)?, None)
         };
         let decode_ms = t.elapsed().as_secs_f64() * 1e3;
         Ok(ImageInput { path: path.to_path_buf(), stack, ngff, decode_ms })
@@ -81,6 +86,9 @@ impl ImageInput {
         opts: &WarpOptions,
         progress: &(dyn Fn(u64) + Sync),
     ) -> JobResult<ImageWarpReport> {
+        if let Some(what) = collapsed_onto(s) {
+            return Err(JobError::Collapsed { deformation: deformation.to_path_buf(), what });
+        }
         let pages = &self.stack.pages;
         let (w, h) = self.size();
         let color = pages.first().map_or(ColorType::L8, |p| p.color());
@@ -377,6 +385,20 @@ pub fn warp_points(
     let missing = res.iter().filter(|r| r.is_none()).count();
     write_atomic(output, optional_points_csv(&res).as_bytes())?;
     Ok(PointsReport { rows: rows.len(), missing, inverse: inverse_map, output: output.into() })
+}
+
+/// What a deformation whose control points all lie on one point or one line maps the
+/// mesh onto (`None` when they span an area), decided exactly.
+pub fn collapsed_onto(s: &Spline) -> Option<String> {
+    let pts = s.points();
+    let show = |p: &[crate::exact::Rat]| format!("({}, {})", rat_to_f64(&p[0]), rat_to_f64(&p[1]));
+    let p0 = pts.first()?;
+    let Some(p1) = pts.iter().find(|p| p[..2] != p0[..2]) else {
+        return Some(format!("the point {}", show(p0)));
+    };
+    let (dx, dy) = (&p1[0] - &p0[0], &p1[1] - &p0[1]);
+    let on_line = |p: &Vec<crate::exact::Rat>| &dx * (&p[1] - &p0[1]) == &dy * (&p[0] - &p0[0]);
+    pts.iter().all(on_line).then(|| format!("a line through {} and {}", show(p0), show(p1)))
 }
 
 /// Converts the first page of `image` into a mesh of colored triangles (two per `step` x

@@ -63,6 +63,21 @@ pub enum PrismError {
         /// Top.
         b: f64,
     },
+    /// The model spans too little across its up axis for the automatic grid (issue 54: a
+    /// model whose vertices all coincide was refused as coinciding grid vertices).
+    #[error("the model spans {width:.3e} x {height:.3e} across its up axis (with the margin), too little for a grid of {cols} x {rows} cells on steps of 1/{grid}: its vertices coincide, or lie on a line seen along the up axis; check the model and --up, or give a reference mesh with --mesh")]
+    Flat {
+        /// Width of the grid's box.
+        width: f64,
+        /// Height of the grid's box.
+        height: f64,
+        /// Cells across.
+        cols: usize,
+        /// Cells down.
+        rows: usize,
+        /// The snapping grid's steps per unit.
+        grid: i64,
+    },
     /// The reference mesh could not be built.
     #[error(transparent)]
     Mesh(#[from] MeshError),
@@ -274,7 +289,13 @@ pub fn auto_mesh_on(
     let m = margin.max(0.0) * size;
     let (x0, y0) = (lo[0] - m, lo[1] - m);
     let (w, h) = (hi[0] - lo[0] + 2.0 * m, hi[1] - lo[1] + 2.0 * m);
-    let mesh = Mesh::grid(cols.max(1), rows.max(1), w, h, opts)?;
+    let (cols, rows) = (cols.max(1), rows.max(1));
+    // Each cell at least two snapping steps wide, so that no two grid vertices snap together.
+    let step = 2.0 / opts.grid.max(1) as f64;
+    if !(w >= cols as f64 * step && h >= rows as f64 * step) {
+        return Err(PrismError::Flat { width: w, height: h, cols, rows, grid: opts.grid });
+    }
+    let mesh = Mesh::grid(cols, rows, w, h, opts)?;
     // Translate the grid to the box (grid vertices start at the origin).
     let verts: Vec<[f64; 2]> = mesh.vertices().iter().map(|v| [v[0] + x0, v[1] + y0]).collect();
     let mesh = Mesh::from_triangles(&verts, mesh.triangles(), opts)?;

@@ -27,7 +27,7 @@
 
 use crate::exact::matrix::rat_to_f64;
 use crate::exact::Rat;
-use crate::io::folder::Staged;
+use crate::io::folder::{MadeFolders, Staged};
 use crate::io::{deformation, temp_name, write_atomic, AtomicFile, IoError};
 use crate::memory::OverBudget;
 use crate::morph::align::{Similarity, SIMILARITY_KEY};
@@ -232,6 +232,11 @@ pub fn write_morph(
     let mut ph = Phases::new();
     let stage = Staged::begin(&o.output, is_output_name)
         .map_err(|source| MorphFilesError::Folder { path: o.output.clone(), source })?;
+    // The folders of --gif and --apng are made as the output folder is.
+    let mut made = MadeFolders::default();
+    for p in [o.gif.as_ref(), o.apng.as_ref()].into_iter().flatten() {
+        made.parent_of(p).map_err(|source| MorphFilesError::Folder { path: p.clone(), source })?;
+    }
     let exact_times = times_between(o.frames, o.range.0, o.range.1)?;
     let times: Vec<f64> = exact_times.iter().map(rat_to_f64).collect();
     let (fw, fh) = (morph.image_a().width(), morph.image_a().height());
@@ -365,6 +370,7 @@ pub fn write_morph(
     } else {
         0.0
     };
+    made.keep();
     Ok(MorphFilesReport {
         uncovered,
         newton_solves,

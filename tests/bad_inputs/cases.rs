@@ -2,6 +2,7 @@
 //! which command reads it.
 
 use super::common::{ok, s, trimorph};
+use super::files::{cmyk_tiff, png_header, tiff_header};
 use std::fs;
 use std::path::{Path, PathBuf};
 
@@ -58,7 +59,7 @@ pub struct Case {
     pub setup: fn(&Fixture, &str) -> (Vec<String>, PathBuf),
 }
 
-fn args(a: &[&str]) -> Vec<String> {
+pub(super) fn args(a: &[&str]) -> Vec<String> {
     a.iter().map(|x| x.to_string()).collect()
 }
 
@@ -69,7 +70,7 @@ fn check_text(fx: &Fixture, id: &str, text: &str) -> (Vec<String>, PathBuf) {
 }
 
 /// `trimorph check FILE` on the valid deformation changed by `f`.
-fn check_doc(
+pub(super) fn check_doc(
     fx: &Fixture,
     id: &str,
     f: impl FnOnce(&mut serde_json::Value),
@@ -91,13 +92,19 @@ fn mesh_obj(fx: &Fixture, id: &str, text: &str) -> (Vec<String>, PathBuf) {
 }
 
 /// `trimorph model bind --model FILE --auto` with `bytes`.
-fn model(fx: &Fixture, id: &str, ext: &str, bytes: &[u8]) -> (Vec<String>, PathBuf) {
+pub(super) fn model(fx: &Fixture, id: &str, ext: &str, bytes: &[u8]) -> (Vec<String>, PathBuf) {
     let p = fx.file(&format!("{id}.{ext}"), bytes);
     (args(&["model", "bind", "--model", s(&p), "--auto", "-o", &fx.out("b.json")]), p)
 }
 
 /// `trimorph fit OK --landmarks FILE` with `text` (and `extra` options).
-fn fit(fx: &Fixture, id: &str, ext: &str, text: &str, extra: &[&str]) -> (Vec<String>, PathBuf) {
+pub(super) fn fit(
+    fx: &Fixture,
+    id: &str,
+    ext: &str,
+    text: &str,
+    extra: &[&str],
+) -> (Vec<String>, PathBuf) {
     let p = fx.file(&format!("{id}.{ext}"), text);
     let mut a = args(&["fit", s(&fx.def), "--landmarks", s(&p), "-o", &fx.out("f.json")]);
     a.extend(args(extra));
@@ -120,7 +127,12 @@ fn fit_pair(fx: &Fixture, id: &str, ext: &str, text: &str) -> (Vec<String>, Path
 }
 
 /// `trimorph warp OK --image FILE -o out.png` with `bytes`.
-fn warp_image(fx: &Fixture, id: &str, ext: &str, bytes: &[u8]) -> (Vec<String>, PathBuf) {
+pub(super) fn warp_image(
+    fx: &Fixture,
+    id: &str,
+    ext: &str,
+    bytes: &[u8],
+) -> (Vec<String>, PathBuf) {
     let p = fx.file(&format!("{id}.{ext}"), bytes);
     (args(&["warp", s(&fx.def), "--image", s(&p), "-o", &fx.out("w.png")]), p)
 }
@@ -142,81 +154,16 @@ fn solve(fx: &Fixture, id: &str, text: &str) -> (Vec<String>, PathBuf) {
     (args(&["solve", s(&p)]), p)
 }
 
-/// A PNG declaring `w x h` 8-bit RGB: signature, IHDR, a tiny IDAT and IEND, all with valid
-/// CRCs, but nowhere near `w x h` pixels of data.
-pub fn png_header(w: u32, h: u32) -> Vec<u8> {
-    let mut ihdr = Vec::new();
-    ihdr.extend_from_slice(&w.to_be_bytes());
-    ihdr.extend_from_slice(&h.to_be_bytes());
-    ihdr.extend_from_slice(&[8, 2, 0, 0, 0]);
-    let mut out = b"\x89PNG\r\n\x1a\n".to_vec();
-    for (kind, data) in
-        [(&b"IHDR"[..], &ihdr[..]), (b"IDAT", &[0x78, 0x9c, 0x03, 0]), (b"IEND", &[])]
-    {
-        out.extend_from_slice(&(data.len() as u32).to_be_bytes());
-        let mut chunk = kind.to_vec();
-        chunk.extend_from_slice(data);
-        out.extend_from_slice(&chunk);
-        out.extend_from_slice(&crc32(&chunk).to_be_bytes());
-    }
-    out
-}
-
-/// A complete 4 x 4 CMYK TIFF (a channel layout trimorph does not read).
-pub fn cmyk_tiff() -> Vec<u8> {
-    use tiff::encoder::{colortype::CMYK8, TiffEncoder};
-    let mut out = std::io::Cursor::new(Vec::new());
-    TiffEncoder::new(&mut out).unwrap().write_image::<CMYK8>(4, 4, &[9u8; 64]).unwrap();
-    out.into_inner()
-}
-
-fn crc32(bytes: &[u8]) -> u32 {
-    let mut c = 0xffff_ffffu32;
-    for &b in bytes {
-        c ^= b as u32;
-        for _ in 0..8 {
-            c = if c & 1 != 0 { 0xedb8_8320 ^ (c >> 1) } else { c >> 1 };
-        }
-    }
-    !c
-}
-
-/// A little-endian TIFF declaring one `w x h` strip image with `spp` 8-bit samples per pixel
-/// (`photometric` 1 = gray, 2 = RGB, 5 = CMYK), its strip pointing past the end.
-pub fn tiff_header(w: u32, h: u32, spp: u16, photometric: u16) -> Vec<u8> {
-    let entries: Vec<(u16, u16, u32)> = vec![
-        (256, 4, w),
-        (257, 4, h),
-        (258, 3, 8),
-        (259, 3, 1),
-        (262, 3, photometric as u32),
-        (273, 4, 4096),
-        (277, 3, spp as u32),
-        (278, 4, h),
-        (279, 4, w.saturating_mul(h).saturating_mul(spp as u32)),
-    ];
-    let mut out = b"II*\0".to_vec();
-    out.extend_from_slice(&8u32.to_le_bytes());
-    out.extend_from_slice(&(entries.len() as u16).to_le_bytes());
-    for (tag, ty, v) in entries {
-        out.extend_from_slice(&tag.to_le_bytes());
-        out.extend_from_slice(&ty.to_le_bytes());
-        out.extend_from_slice(&1u32.to_le_bytes());
-        if ty == 3 {
-            out.extend_from_slice(&(v as u16).to_le_bytes());
-            out.extend_from_slice(&[0, 0]);
-        } else {
-            out.extend_from_slice(&v.to_le_bytes());
-        }
-    }
-    out.extend_from_slice(&0u32.to_le_bytes());
-    out
-}
-
-const LM_HEAD: &str = "name,src_x,src_y,dst_x,dst_y\n";
+pub(super) const LM_HEAD: &str = "name,src_x,src_y,dst_x,dst_y\n";
 
 /// Every case, in the order of the table.
 pub fn cases() -> Vec<Case> {
+    let mut all = earlier_cases();
+    all.extend(super::cases_54::cases());
+    all
+}
+
+fn earlier_cases() -> Vec<Case> {
     vec![
         // Deformation files.
         Case { id: "def_empty", setup: |fx, id| check_text(fx, id, "") },

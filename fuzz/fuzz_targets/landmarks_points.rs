@@ -1,0 +1,10 @@
+#![no_main]
+//! Fuzz target `landmarks_points`; the body is in `fuzz/targets.rs`, shared with
+//! `tests/fuzz_regressions.rs`.
+
+use libfuzzer_sys::fuzz_target;
+
+#[path = "../targets.rs"]
+mod targets;
+
+fuzz_target!(|data: &[u8]| targets::landmarks_points(data));
