@@ -39,19 +39,23 @@
 //! re-certifies only the triangles around the points it moved.
 //!
 //! Errors answer `{"error": message}` with 400 (bad request), 401 (no or wrong session
-//! token), 403 (path outside the folder, foreign `Host` or `Origin`), 404, 408 (request not
-//! sent within the read timeout), 413 (body over [`MAX_BODY`] bytes), 415 (body not
-//! `application/json`), 422 (an edit or file the engine refuses; the document is
-//! unchanged) or 431 (headers too large).
+//! token), 403 (path outside the folder, foreign `Host` or `Origin`), 404, 408 (a body not
+//! complete within the read timeout), 413 (body over [`MAX_BODY`] bytes), 415 (body not
+//! `application/json`) or 422 (an edit or file the engine refuses; the document is
+//! unchanged). A head that HTTP/1.1 cannot parse is answered by hyper itself, 400 (or 431:
+//! headers over [`http::MAX_HEAD`] bytes) without a body.
 //!
 //! # Safety
 //!
 //! The threat model and the checks are in [`http`]: a per-session token on every `/api/`
 //! request (printed in the address, `http://127.0.0.1:P/?token=T`), `Host` and `Origin`
-//! limited to this server, JSON bodies only as `application/json`, a pool of worker threads
-//! with read and write timeouts. Besides, the server binds 127.0.0.1 only, reads at most
-//! [`MAX_BODY`] bytes of a request body, serves only the embedded assets, and confines
-//! every file path to the folder it was started in ([`paths::confine`]).
+//! limited to this server, JSON bodies only as `application/json`, all checked on the head
+//! before any body byte is read. The transport ([`net`]: hyper's HTTP/1.1 on a one-thread
+//! tokio runtime) has header, body and write deadlines and a connection cap that clients
+//! without the token cannot fill; the handlers run one at a time on the thread that owns
+//! the document. Besides, the server binds 127.0.0.1 only, reads at most [`MAX_BODY`]
+//! bytes of a request body, serves only the embedded assets, and confines every file path
+//! to the folder it was started in ([`paths::confine`]).
 
 pub mod doc;
 pub mod http;
@@ -103,12 +107,9 @@ pub enum ServerError {
     /// A request body not sent as `application/json` (415).
     #[error("unsupported media type: {0}")]
     UnsupportedMediaType(String),
-    /// The request did not arrive within the read timeout (408).
+    /// The request's body did not arrive within the read timeout (408).
     #[error("the request did not arrive in time")]
     Timeout,
-    /// Request line and headers over [`http::MAX_HEAD`] bytes (431).
-    #[error("request headers over {} bytes", http::MAX_HEAD)]
-    HeadTooLarge,
     /// Body too large (413).
     #[error("request body over {MAX_BODY} bytes")]
     TooLarge,
@@ -130,7 +131,6 @@ impl ServerError {
             ServerError::Unauthorized(_) => 401,
             ServerError::UnsupportedMediaType(_) => 415,
             ServerError::Timeout => 408,
-            ServerError::HeadTooLarge => 431,
             ServerError::TooLarge => 413,
             ServerError::Unprocessable(_) => 422,
             ServerError::Io(_) => 500,

@@ -242,10 +242,12 @@ struct Connection {
     write_timeout: Duration,
 }
 
-/// hyper's HTTP/1.1 server with the editor's limits: one request per connection.
+/// hyper's HTTP/1.1 server with the editor's limits: one request per connection. A client
+/// may close its sending side once its request is out (half close) and still get the answer.
 fn http1_builder(read_timeout: Duration) -> http1::Builder {
     let mut b = http1::Builder::new();
     b.timer(TokioTimer::new())
+        .half_close(true)
         .header_read_timeout(read_timeout)
         .keep_alive(false)
         .title_case_headers(true)
