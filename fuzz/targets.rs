@@ -325,16 +325,117 @@ fn editor_frame() -> trimorph::io::raster::Stack {
     trimorph::io::raster::decode_stack(&pgm, Path::new("frame.pgm")).expect("a gray frame")
 }
 
-/// Requests to the editor API ([`trimorph::server::handle`]) over a doc with a 24 x 24
-/// frame, rooted in a per-process folder. Each line of the input is one request: its first
-/// byte picks the route ([`EDITOR_ROUTES`]), the rest is the body as raw bytes (for a GET,
-/// the query). A refused request (not 2xx) must leave the doc as it was; at the end the
-/// spline must still be C1 exactly.
+/// The session of `editor_api`'s server: its token, and the port its `Host` names.
+pub const EDITOR_TOKEN: &str = "fuzz-token";
+/// See [`EDITOR_TOKEN`].
+pub const EDITOR_PORT: u16 = 8;
+
+/// How a line's request is sent (the pick byte's group of [`EDITOR_ROUTES`]`.len()` values,
+/// so `a` ... `x` are plain requests).
+const EDITOR_VARIANTS: usize = 8;
+
+/// `b` with every byte outside a URI's query characters percent-encoded.
+fn query_escape(b: &[u8]) -> String {
+    b.iter()
+        .map(|&c| {
+            if c.is_ascii_alphanumeric() || b"-._~=&;,:/?@!$'()*+".contains(&c) {
+                (c as char).to_string()
+            } else {
+                format!("%{c:02X}")
+            }
+        })
+        .collect()
+}
+
+/// The bytes of one request to `path` with `body` (for a GET: the query) sent as `variant`
+/// says, and the status the gate must answer, if it must refuse.
+fn editor_request(variant: usize, method: &str, path: &str, body: &[u8]) -> (Vec<u8>, Option<u16>) {
+    let host = format!("127.0.0.1:{EDITOR_PORT}");
+    let mut target = path.to_string();
+    let mut body = body.to_vec();
+    if method == "GET" {
+        if !body.is_empty() && std::str::from_utf8(&body).is_ok() {
+            target = format!("{path}?{}", query_escape(&body));
+        }
+        body.clear();
+    }
+    let api = path.starts_with("/api/");
+    let mut head = vec![format!("{method} {target} HTTP/1.1"), format!("Host: {host}")];
+    let mut expect = None;
+    match variant {
+        2 => expect = api.then_some(401),
+        3 => {
+            head.push("Origin: http://evil.example".into());
+            expect = Some(403);
+        }
+        5 => {
+            head.push("Host: evil.example".into());
+            expect = Some(400);
+        }
+        _ => {}
+    }
+    if variant != 2 {
+        head.push(format!("X-Trimorph-Token: {EDITOR_TOKEN}"));
+    }
+    if variant == 4 && api && !body.is_empty() {
+        head.push("Content-Type: text/plain".into());
+        expect = expect.or(Some(415));
+    } else {
+        head.push("Content-Type: application/json".into());
+    }
+    let mut payload = Vec::new();
+    if variant == 1 && !body.is_empty() {
+        // Chunked, in pieces of 1, 2, 3, ... bytes.
+        head.push("Transfer-Encoding: chunked".into());
+        let (mut rest, mut n) = (&body[..], 1);
+        while !rest.is_empty() {
+            let (c, r) = rest.split_at(n.min(rest.len()));
+            payload.extend(format!("{:x}\r\n", c.len()).bytes());
+            payload.extend(c);
+            payload.extend(b"\r\n");
+            rest = r;
+            n += 1;
+        }
+        payload.extend(b"0\r\n\r\n");
+    } else {
+        head.push(format!("Content-Length: {}", body.len()));
+        payload = body;
+    }
+    if variant == 7 {
+        head.push("Expect: 100-continue".into());
+    } else {
+        head.push("Connection: close".into());
+    }
+    let mut raw = head.join("\r\n").into_bytes();
+    raw.extend(b"\r\n\r\n");
+    raw.extend(payload);
+    (raw, expect)
+}
+
+/// The status of a raw HTTP answer (the first one after any `100 Continue`); 0 when none.
+fn editor_status(answer: &[u8]) -> u16 {
+    let text = String::from_utf8_lossy(answer);
+    text.match_indices("HTTP/1.1 ")
+        .filter_map(|(i, _)| text[i + 9..].get(..3)?.parse().ok())
+        .find(|&s| s != 100)
+        .unwrap_or(0)
+}
+
+/// Requests to the editor's server (hyper's HTTP/1.1 parser, the gate of
+/// [`trimorph::server::http`] and the handlers, through [`trimorph::server::serve_bytes`], in
+/// memory) over a doc with a 24 x 24 frame, rooted in a per-process folder. Each line of the
+/// input is one request: its first byte picks the route ([`EDITOR_ROUTES`], modulo their
+/// number) and how it is sent (the byte's group: `a`-`x` plain, then chunked, without the
+/// token, a foreign `Origin`, `text/plain`, two `Host` headers, raw, `Expect: 100-continue`);
+/// the rest is the body as raw bytes (for a GET, the query). Raw: the rest of the line is
+/// the connection's bytes, each `|` standing for CRLF. The gate's refusals must be the
+/// expected statuses; a refused request (not 2xx) must leave the doc as it was; at the end
+/// the spline must still be C1 exactly.
 pub fn editor_api(data: &[u8]) {
     editor_api_statuses(data);
 }
 
-/// [`editor_api`], returning the status of each request.
+/// [`editor_api`], returning the status of each request (0: no answer).
 pub fn editor_api_statuses(data: &[u8]) -> Vec<u16> {
     use trimorph::server::doc::Doc;
     let mut statuses = Vec::new();
@@ -347,24 +448,42 @@ pub fn editor_api_statuses(data: &[u8]) -> Vec<u16> {
     let mut doc = Doc::new(editor_spline(), root);
     let frame = editor_frame().pages.swap_remove(0);
     doc.set_frame(PathBuf::from("frame.png"), frame).expect("a gray frame");
+    let guard = trimorph::server::http::Guard::new(EDITOR_TOKEN.into(), EDITOR_PORT);
     for line in data.split(|&b| b == b'\n').take(EDITOR_MAX_REQUESTS) {
         let Some((&pick, body)) = line.split_first() else { continue };
-        let (method, path) = EDITOR_ROUTES[pick.wrapping_sub(b'a') as usize % EDITOR_ROUTES.len()];
-        let url = match (method, std::str::from_utf8(body)) {
-            ("GET", Ok(q)) if !q.is_empty() => format!("{path}?{q}"),
-            _ => path.to_string(),
+        let k = pick.wrapping_sub(b'a') as usize;
+        let (method, path) = EDITOR_ROUTES[k % EDITOR_ROUTES.len()];
+        let variant = k / EDITOR_ROUTES.len() % EDITOR_VARIANTS;
+        let (raw, expect) = if variant == 6 {
+            let mut raw = Vec::with_capacity(body.len() + 8);
+            for &b in body {
+                match b {
+                    b'|' => raw.extend(b"\r\n"),
+                    b => raw.push(b),
+                }
+            }
+            (raw, None)
+        } else {
+            editor_request(variant, method, path, body)
         };
-        let body = if method == "GET" { &[][..] } else { body };
         let before = editor_snapshot(&doc);
-        let reply = trimorph::server::handle(&mut doc, method, &url, body);
-        statuses.push(reply.status);
-        if !(200..300).contains(&reply.status) {
+        let answer = trimorph::server::serve_bytes(&guard, &mut doc, &raw);
+        let status = editor_status(&answer);
+        statuses.push(status);
+        let what = || String::from_utf8_lossy(&raw).into_owned();
+        if variant != 6 {
+            assert!(status != 0, "no answer to {}", what());
+        }
+        if let Some(e) = expect {
+            assert_eq!(status, e, "the gate let through {}", what());
+        }
+        if !(200..300).contains(&status) {
             let after = editor_snapshot(&doc);
             assert!(
                 before == after,
-                "{method} {url} answered {} ({}) but changed the doc:\nbefore {}\nafter  {}\npoints equal: {}",
-                reply.status,
-                String::from_utf8_lossy(&reply.body),
+                "{} answered {status} ({}) but changed the doc:\nbefore {}\nafter  {}\npoints equal: {}",
+                what(),
+                String::from_utf8_lossy(&answer),
                 before.0,
                 after.0,
                 before.1 == after.1

@@ -186,7 +186,8 @@ fn image_seeds_are_the_generated_images() {
 }
 
 /// The `editor_api` seeds reach the engine: the drags and pair edits are accepted, the
-/// refused edits are refused (so the fuzzer starts from both sides of each check).
+/// refused edits are refused, and the gate's refusals happen (so the fuzzer starts from both
+/// sides of each check).
 #[test]
 fn editor_seeds_reach_the_engine() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/seeds/editor_api");
@@ -204,6 +205,10 @@ fn editor_seeds_reach_the_engine() {
     let files = run("files.txt");
     assert!(files[..9].iter().all(|&s| s == 200), "{files:?}");
     assert_eq!(files[9], 403, "{files:?}");
+    // Through the HTTP layer: chunked, no token, a foreign Origin, text/plain, two Host
+    // headers, a raw request, a raw chunk-length overflow cut short, Expect: 100-continue.
+    let gate = run("gate.txt");
+    assert_eq!(gate, [200, 401, 403, 415, 400, 200, 400, 200], "gate.txt");
 }
 
 #[test]

@@ -1,4 +1,5 @@
-//! The editor's HTTP/1.1 transport and the gate every request passes.
+//! The gate every request to the editor passes, in front of the handlers; the transport
+//! (hyper's HTTP/1.1 on a small tokio runtime) is in [`super::net`].
 //!
 //! # Threat model
 //!
@@ -23,81 +24,66 @@
 //!   `HttpOnly`, `SameSite=Strict` and named after the port); answers carry
 //!   `Referrer-Policy: no-referrer`, so the address with the token does not leak in a
 //!   `Referer` header.
-//! * **Stalled or slow clients** (denial of service): requests are served by a pool of
-//!   [`WORKERS`] threads, each request must arrive within the read timeout (else 408) and
-//!   each answer leave within the write timeout; bodies are capped at
-//!   [`super::MAX_BODY`] bytes (413) and headers at [`MAX_HEAD`] bytes (431). One stalled
-//!   client holds one worker for at most the read timeout; the others keep answering.
+//! * **Stalled, slow or many clients** (denial of service). The transport is asynchronous
+//!   (one tokio task per connection, not a thread), so a stalled connection costs a few
+//!   kilobytes and no worker. Heads are parsed by hyper and must be complete within the
+//!   read timeout ([`READ_TIMEOUT`]; else the connection is closed, no answer) and at most
+//!   [`MAX_HEAD`] bytes (hyper answers 431); a body must be complete within the read
+//!   timeout from the end of its head (408) and is read through a hard cap of
+//!   [`super::MAX_BODY`] bytes (413); an answer must make progress within the write
+//!   timeout ([`WRITE_TIMEOUT`]). At most [`super::net::MAX_CONNECTIONS`] connections are
+//!   open at once; when all are taken, the oldest connection whose request has not passed
+//!   the token check (a stalled head, say) is dropped to make room, so clients without the
+//!   token cannot lock out one that has it.
 //!
 //! Out of scope: a local attacker with the user's own account (they can read the
 //! terminal), and TLS (the server binds loopback only; nothing leaves the machine).
 //!
 //! # Checks, in order
 //!
-//! The first five run on the request line and headers, before any byte of the body is
-//! read: a client without the token cannot make the server buffer a body.
+//! All of them run on the request line and headers ([`Gate::admit_head`]), before any byte
+//! of the body is read or buffered: a client without the token cannot make the server
+//! buffer a body, and a declared length over the cap is refused at once.
 //!
 //! | check | applies to | refused with |
 //! |---|---|---|
+//! | a well-formed HTTP/1.x head (hyper), at most [`MAX_HEAD`] bytes | every request | 400 / 431, no body |
+//! | the target in origin form (`/path?query`) | every request | 400 |
 //! | exactly one `Host` header (RFC 9112, 3.2) | every request | 400 |
 //! | `Host` is `127.0.0.1:P` or `localhost:P` | every request | 403 |
 //! | `Origin`, if sent, is `http://127.0.0.1:P` or `http://localhost:P` | every request | 403 |
 //! | `Sec-Fetch-Site`, if sent, is `same-origin` or `none` | `/api/` | 403 |
 //! | `X-Trimorph-Token: T` or cookie `trimorph_token_P=T` | `/api/` | 401 |
-//! | a non-empty body is `Content-Type: application/json` | `/api/` | 415 |
+//! | a body (`Content-Length` > 0 or chunked) is `Content-Type: application/json` | `/api/` | 415 |
+//! | a declared `Content-Length` at most [`super::MAX_BODY`] | every request | 413 |
+//!
+//! Then the body is read (hyper decodes chunked bodies) through
+//! [`http_body_util::Limited`]: 413 as soon as more than [`super::MAX_BODY`] bytes have
+//! arrived, 408 when it is not complete within the read timeout, 400 when it is malformed.
+//! Only then does the handler run ([`super::handle`]), with the whole body.
 //!
 //! Loading the page as `/?token=T` (the address `trimorph editor` prints) sets the cookie,
 //! so the page's images (`<img src=/api/...>`) and reloads without the query work.
 //!
-//! Every connection carries one request (`Connection: close`): a worker is busy only while
-//! a request is read, handled and answered, never with an idle keep-alive connection.
+//! Every connection carries one request (`Connection: close`): a connection is open only
+//! while a request is read, handled and answered, never idle between requests.
 
-use super::ServerError;
-use std::io::{Read, Write};
-use std::net::{Shutdown, TcpStream};
-use std::time::{Duration, Instant};
+use super::{Reply, ServerError};
+use http_body_util::{BodyExt, Full, Limited};
+use hyper::body::{Body, Bytes};
+use hyper::header::{self, HeaderMap, HeaderValue};
+use hyper::{Request, Response, StatusCode};
+use std::future::Future;
+use std::time::Duration;
 
-/// Worker threads serving requests concurrently.
-pub const WORKERS: usize = 4;
 /// Largest accepted request line and headers (bytes).
 pub const MAX_HEAD: usize = 16 << 10;
-/// Default time a client has to send a whole request.
+/// Default time a client has to send a request's head, and then its body.
 pub const READ_TIMEOUT: Duration = Duration::from_secs(5);
-/// Default time an answer may take to leave.
+/// Default time an answer may go without progress while it is written.
 pub const WRITE_TIMEOUT: Duration = Duration::from_secs(10);
 /// The token header.
 pub const TOKEN_HEADER: &str = "x-trimorph-token";
-
-/// A parsed request.
-#[derive(Debug, Default)]
-pub struct Request {
-    /// Upper-case method.
-    pub method: String,
-    /// The target (path and query).
-    pub target: String,
-    /// Headers, names lower-case, in order.
-    pub headers: Vec<(String, String)>,
-    /// The body (chunked bodies decoded).
-    pub body: Vec<u8>,
-}
-
-impl Request {
-    /// The first header called `name` (lower-case).
-    pub fn header(&self, name: &str) -> Option<&str> {
-        self.headers.iter().find(|(k, _)| k == name).map(|(_, v)| v.as_str())
-    }
-
-    /// The value of cookie `name`, if sent.
-    pub fn cookie(&self, name: &str) -> Option<&str> {
-        self.headers
-            .iter()
-            .filter(|(k, _)| k == "cookie")
-            .flat_map(|(_, v)| v.split(';'))
-            .filter_map(|c| c.trim().split_once('='))
-            .find(|(k, _)| *k == name)
-            .map(|(_, v)| v)
-    }
-}
 
 /// The session's secret and the port it is bound to; decides which requests pass.
 #[derive(Clone, Debug)]
@@ -109,6 +95,22 @@ pub struct Guard {
 /// Equality that takes the same time wherever the first difference is.
 fn same_secret(a: &[u8], b: &[u8]) -> bool {
     a.len() == b.len() && a.iter().zip(b).fold(0u8, |acc, (x, y)| acc | (x ^ y)) == 0
+}
+
+/// The first header called `name`, as text (`""` when not valid text).
+fn header<'a>(h: &'a HeaderMap, name: &str) -> Option<&'a str> {
+    h.get(name).map(|v| v.to_str().unwrap_or(""))
+}
+
+/// The value of cookie `name`, if sent (in any `Cookie` header).
+fn cookie<'a>(h: &'a HeaderMap, name: &str) -> Option<&'a str> {
+    h.get_all(header::COOKIE)
+        .iter()
+        .filter_map(|v| v.to_str().ok())
+        .flat_map(|v| v.split(';'))
+        .filter_map(|c| c.trim().split_once('='))
+        .find(|(k, _)| *k == name)
+        .map(|(_, v)| v)
 }
 
 impl Guard {
@@ -130,9 +132,19 @@ impl Guard {
         &self.token
     }
 
+    /// The port the guard admits in `Host` and `Origin`.
+    pub fn port(&self) -> u16 {
+        self.port
+    }
+
     /// The session cookie's name (per port: two editors on one machine do not mix).
     pub fn cookie_name(&self) -> String {
         format!("trimorph_token_{}", self.port)
+    }
+
+    /// The `Set-Cookie` value that hands the token to the page.
+    pub fn set_cookie(&self) -> String {
+        format!("{}={}; Path=/; HttpOnly; SameSite=Strict", self.cookie_name(), self.token)
     }
 
     fn is_local(&self, authority: &str) -> bool {
@@ -140,17 +152,27 @@ impl Guard {
         a == format!("127.0.0.1:{}", self.port) || a == format!("localhost:{}", self.port)
     }
 
-    /// Checks `req` (see the module docs). `Ok(true)`: the page was loaded with the right
+    /// Checks a request's head: its `target` (path and query), its headers, and whether a
+    /// body follows (see the module docs). `Ok(true)`: the page was loaded with the right
     /// token, the answer sets the cookie.
-    pub fn admit(&self, req: &Request) -> Result<bool, ServerError> {
-        let host = req.header("host").unwrap_or("");
+    pub fn admit(
+        &self,
+        target: &str,
+        headers: &HeaderMap,
+        has_body: bool,
+    ) -> Result<bool, ServerError> {
+        // RFC 9112 section 3.2: a request with more than one Host header is answered 400.
+        if headers.get_all(header::HOST).iter().count() > 1 {
+            return Err(ServerError::BadRequest("more than one Host header".into()));
+        }
+        let host = header(headers, "host").unwrap_or("");
         if !self.is_local(host) {
             return Err(ServerError::Forbidden(format!(
                 "Host `{host}` is not this editor (127.0.0.1:{p} or localhost:{p})",
                 p = self.port
             )));
         }
-        if let Some(o) = req.header("origin") {
+        if let Some(o) = header(headers, "origin") {
             let local = o
                 .strip_prefix("http://")
                 .is_some_and(|rest| self.is_local(rest.trim_end_matches('/')));
@@ -158,7 +180,7 @@ impl Guard {
                 return Err(ServerError::Forbidden(format!("requests from `{o}` are refused")));
             }
         }
-        let (path, query) = req.target.split_once('?').unwrap_or((&req.target, ""));
+        let (path, query) = target.split_once('?').unwrap_or((target, ""));
         if !path.starts_with("/api/") {
             let with_token = query.split('&').any(|q| {
                 q.strip_prefix("token=")
@@ -166,13 +188,13 @@ impl Guard {
             });
             return Ok(path == "/" && with_token);
         }
-        if let Some(site) = req.header("sec-fetch-site") {
+        if let Some(site) = header(headers, "sec-fetch-site") {
             if site != "same-origin" && site != "none" {
                 return Err(ServerError::Forbidden(format!("a {site} request is refused")));
             }
         }
         let name = self.cookie_name();
-        let sent = req.header(TOKEN_HEADER).or_else(|| req.cookie(&name));
+        let sent = header(headers, TOKEN_HEADER).or_else(|| cookie(headers, &name));
         if !sent.is_some_and(|t| same_secret(t.as_bytes(), self.token.as_bytes())) {
             return Err(ServerError::Unauthorized(
                 "missing or wrong session token: open the address `trimorph editor` printed \
@@ -180,8 +202,8 @@ impl Guard {
                     .into(),
             ));
         }
-        if !req.body.is_empty() {
-            let ct = req.header("content-type").unwrap_or("");
+        if has_body {
+            let ct = header(headers, "content-type").unwrap_or("");
             let media = ct.split(';').next().unwrap_or("").trim().to_ascii_lowercase();
             if media != "application/json" {
                 return Err(ServerError::UnsupportedMediaType(format!(
@@ -193,290 +215,237 @@ impl Guard {
     }
 }
 
-/// Why no request could be read.
+/// An admitted request with its whole body, for the handler.
 #[derive(Debug)]
-pub enum ReadFail {
-    /// The client closed or sent nothing: no answer.
-    Gone,
-    /// Answer this error, then close.
-    Answer(ServerError),
+pub struct Call {
+    /// The method (`GET`, `POST`, ...).
+    pub method: String,
+    /// The target (path and query).
+    pub target: String,
+    /// The body (chunked bodies decoded).
+    pub body: Vec<u8>,
 }
 
-impl From<ServerError> for ReadFail {
-    fn from(e: ServerError) -> ReadFail {
-        ReadFail::Answer(e)
-    }
+/// What passed the head's checks.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Admitted {
+    /// An `/api/` request with the token.
+    Api,
+    /// The page or an asset; `true`: loaded with the right `?token=`, the answer sets the
+    /// cookie.
+    Page(bool),
 }
 
-/// Buffered reading of one request from a stream, all of it before `deadline`.
-struct Input<'a> {
-    s: &'a TcpStream,
-    buf: Vec<u8>,
-    pos: usize,
-    deadline: Instant,
+/// The checks in front of the handlers: the [`Guard`], the body cap and the body deadline.
+#[derive(Clone, Debug)]
+pub struct Gate {
+    /// Who is admitted.
+    pub guard: Guard,
+    /// Largest body (bytes).
+    pub max_body: usize,
+    /// Time a body has to arrive once its head has.
+    pub body_timeout: Duration,
 }
 
-impl Input<'_> {
-    /// Reads more bytes; false at end of stream.
-    fn fill(&mut self) -> Result<bool, ReadFail> {
-        let left = self.deadline.saturating_duration_since(Instant::now());
-        if left.is_zero() {
-            return Err(ServerError::Timeout.into());
-        }
-        self.s.set_read_timeout(Some(left)).map_err(|e| ServerError::Io(e.to_string()))?;
-        if self.pos > 0 && self.pos == self.buf.len() {
-            self.buf.clear();
-            self.pos = 0;
-        }
-        let mut chunk = [0u8; 16 << 10];
-        match (&*self.s).read(&mut chunk) {
-            Ok(0) => Ok(false),
-            Ok(n) => {
-                self.buf.extend_from_slice(&chunk[..n]);
-                Ok(true)
-            }
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
-                ) =>
-            {
-                Err(ServerError::Timeout.into())
-            }
-            Err(_) => Err(ReadFail::Gone),
-        }
+impl Gate {
+    /// A gate with `guard`, the body capped at [`super::MAX_BODY`] and `body_timeout`.
+    pub fn new(guard: Guard, body_timeout: Duration) -> Gate {
+        Gate { guard, max_body: super::MAX_BODY, body_timeout }
     }
 
-    /// One line without its CRLF (at most `max` bytes).
-    fn line(&mut self, max: usize) -> Result<String, ReadFail> {
-        loop {
-            if let Some(i) = self.buf[self.pos..].windows(2).position(|w| w == b"\r\n") {
-                let l = String::from_utf8_lossy(&self.buf[self.pos..self.pos + i]).into_owned();
-                self.pos += i + 2;
-                return Ok(l);
-            }
-            if self.buf.len() - self.pos > max {
-                return Err(ServerError::HeadTooLarge.into());
-            }
-            if !self.fill()? {
-                return Err(ReadFail::Gone);
-            }
+    /// Every check that needs only the head (see the module docs), in order.
+    pub fn admit_head<B: Body>(&self, req: &Request<B>) -> Result<Admitted, ServerError> {
+        let uri = req.uri();
+        let target = match uri.path_and_query() {
+            Some(pq) if uri.scheme().is_none() && pq.as_str().starts_with('/') => pq.as_str(),
+            _ => return Err(ServerError::BadRequest(format!("request target `{uri}`"))),
+        };
+        let hint = req.body().size_hint();
+        let has_body = hint.exact() != Some(0);
+        let set_cookie = self.guard.admit(target, req.headers(), has_body)?;
+        if hint.lower() > self.max_body as u64 {
+            return Err(ServerError::TooLarge);
         }
+        Ok(if target.starts_with("/api/") { Admitted::Api } else { Admitted::Page(set_cookie) })
     }
 
-    /// `n` bytes into `out`.
-    fn take(&mut self, n: usize, out: &mut Vec<u8>) -> Result<(), ReadFail> {
-        while self.buf.len() - self.pos < n {
-            if !self.fill()? {
-                return Err(ServerError::BadRequest("the body ended early".into()).into());
+    /// Answers `req`: the head's checks ([`Gate::admit_head`]; `admitted` is called once
+    /// they pass, before the body is read), then the body, capped and with a deadline, then
+    /// `dispatch` (the handler).
+    pub async fn answer<B, D, F>(
+        &self,
+        req: Request<B>,
+        admitted: impl FnOnce(Admitted),
+        dispatch: D,
+    ) -> Response<Full<Bytes>>
+    where
+        B: Body,
+        B::Error: Into<Box<dyn std::error::Error + Send + Sync>>,
+        D: FnOnce(Call) -> F,
+        F: Future<Output = Reply>,
+    {
+        let adm = match self.admit_head(&req) {
+            Ok(a) => a,
+            Err(e) => return respond(Reply::error(&e), None),
+        };
+        admitted(adm);
+        let (head, body) = req.into_parts();
+        let collected =
+            tokio::time::timeout(self.body_timeout, Limited::new(body, self.max_body).collect())
+                .await;
+        let body = match collected {
+            Err(_) => return respond(Reply::error(&ServerError::Timeout), None),
+            Ok(Err(e)) if e.is::<http_body_util::LengthLimitError>() => {
+                return respond(Reply::error(&ServerError::TooLarge), None)
             }
-        }
-        out.extend_from_slice(&self.buf[self.pos..self.pos + n]);
-        self.pos += n;
-        Ok(())
-    }
-}
-
-/// Reads one request from `s`, all of it within `timeout`, the body capped at `max_body`.
-/// `admit_head` sees the request line and headers before any byte of the body is read (the
-/// token check: a client without the token cannot make the server buffer a body).
-pub fn read_request(
-    s: &TcpStream,
-    timeout: Duration,
-    max_body: usize,
-    admit_head: &dyn Fn(&Request) -> Result<(), ServerError>,
-) -> Result<Request, ReadFail> {
-    let mut input = Input { s, buf: Vec::new(), pos: 0, deadline: Instant::now() + timeout };
-    let first = match input.line(MAX_HEAD) {
-        Err(ReadFail::Answer(ServerError::Timeout)) if input.buf.is_empty() => {
-            return Err(ReadFail::Gone)
-        }
-        r => r?,
-    };
-    let mut parts = first.split(' ');
-    let (method, target, version) = (parts.next(), parts.next(), parts.next());
-    let (Some(method), Some(target), Some(version)) = (method, target, version) else {
-        return Err(ServerError::BadRequest(format!("request line `{first}`")).into());
-    };
-    if !version.starts_with("HTTP/1.") || !target.starts_with('/') {
-        return Err(ServerError::BadRequest(format!("request line `{first}`")).into());
-    }
-    let mut req = Request {
-        method: method.to_ascii_uppercase(),
-        target: target.to_string(),
-        ..Default::default()
-    };
-    let mut head = first.len();
-    loop {
-        let l = input.line(MAX_HEAD)?;
-        head += l.len() + 2;
-        if head > MAX_HEAD {
-            return Err(ServerError::HeadTooLarge.into());
-        }
-        if l.is_empty() {
-            break;
-        }
-        let (k, v) = l
-            .split_once(':')
-            .ok_or_else(|| ServerError::BadRequest(format!("header line `{l}`")))?;
-        req.headers.push((k.trim().to_ascii_lowercase(), v.trim().to_string()));
-    }
-    // RFC 9112 section 3.2: a request with more than one Host header is answered 400.
-    if req.headers.iter().filter(|(k, _)| k == "host").count() > 1 {
-        return Err(ServerError::BadRequest("more than one Host header".into()).into());
-    }
-    admit_head(&req)?;
-    if req.header("expect").is_some_and(|e| e.eq_ignore_ascii_case("100-continue")) {
-        let _ = (&*s).write_all(b"HTTP/1.1 100 Continue\r\n\r\n");
-    }
-    let chunked =
-        req.header("transfer-encoding").is_some_and(|t| t.to_ascii_lowercase().contains("chunked"));
-    if chunked {
-        let mut body = Vec::new();
-        loop {
-            let l = input.line(64)?;
-            let hex = l.split(';').next().unwrap_or("").trim();
-            let n = usize::from_str_radix(hex, 16)
-                .map_err(|_| ServerError::BadRequest(format!("chunk size `{l}`")))?;
-            if n == 0 {
-                // Trailers, up to the empty line.
-                while !input.line(MAX_HEAD)?.is_empty() {}
-                break;
+            Ok(Err(e)) => {
+                let e = ServerError::BadRequest(format!("the body could not be read: {e}"));
+                return respond(Reply::error(&e), None);
             }
-            // `n` may be anything up to usize::MAX: compare without adding (an overflowing
-            // sum once let a body past the cap).
-            if n > max_body.saturating_sub(body.len()) {
-                return Err(ServerError::TooLarge.into());
-            }
-            input.take(n, &mut body)?;
-            input.line(2)?;
-        }
-        req.body = body;
-    } else if let Some(len) = req.header("content-length") {
-        let n: usize =
-            len.parse().map_err(|_| ServerError::BadRequest(format!("Content-Length `{len}`")))?;
-        if n > max_body {
-            return Err(ServerError::TooLarge.into());
-        }
-        input.take(n, &mut req.body)?;
-    }
-    Ok(req)
-}
-
-/// The reason phrase of a status.
-fn reason(status: u16) -> &'static str {
-    match status {
-        200 => "OK",
-        400 => "Bad Request",
-        401 => "Unauthorized",
-        403 => "Forbidden",
-        404 => "Not Found",
-        408 => "Request Timeout",
-        413 => "Payload Too Large",
-        415 => "Unsupported Media Type",
-        422 => "Unprocessable Entity",
-        431 => "Request Header Fields Too Large",
-        _ => "Internal Server Error",
+            Ok(Ok(b)) => b.to_bytes().to_vec(),
+        };
+        let target = head.uri.path_and_query().map_or("/", |pq| pq.as_str()).to_string();
+        let call = Call { method: head.method.as_str().to_string(), target, body };
+        let reply = dispatch(call).await;
+        let cookie = (adm == Admitted::Page(true)).then(|| self.guard.set_cookie());
+        respond(reply, cookie)
     }
 }
 
-/// Writes an answer and closes the connection (after reading what the client still
-/// sends for a moment, so that the answer is not lost to a connection reset).
-pub fn respond(
-    s: &TcpStream,
-    status: u16,
-    content_type: &str,
-    body: &[u8],
-    set_cookie: Option<&str>,
-    timeout: Duration,
-) {
-    let mut head = format!(
-        "HTTP/1.1 {status} {}\r\nContent-Type: {content_type}\r\nContent-Length: {}\r\n\
-         Cache-Control: no-store\r\nConnection: close\r\nX-Content-Type-Options: nosniff\r\n\
-         Referrer-Policy: no-referrer\r\nX-Frame-Options: DENY\r\n\
-         Content-Security-Policy: default-src 'self'; img-src 'self' blob: data:; frame-ancestors 'none'\r\n",
-        reason(status),
-        body.len()
-    );
-    if let Some(c) = set_cookie {
-        head.push_str(&format!("Set-Cookie: {c}\r\n"));
+/// The HTTP answer of `reply`, with the headers every answer carries.
+pub fn respond(reply: Reply, set_cookie: Option<String>) -> Response<Full<Bytes>> {
+    let status = StatusCode::from_u16(reply.status).unwrap_or(StatusCode::INTERNAL_SERVER_ERROR);
+    let len = reply.body.len();
+    let mut r = Response::new(Full::new(Bytes::from(reply.body)));
+    *r.status_mut() = status;
+    let h = r.headers_mut();
+    let fixed = [
+        (header::CONTENT_TYPE, reply.content_type),
+        (header::CACHE_CONTROL, "no-store"),
+        (header::CONNECTION, "close"),
+        (header::X_CONTENT_TYPE_OPTIONS, "nosniff"),
+        (header::REFERRER_POLICY, "no-referrer"),
+        (header::X_FRAME_OPTIONS, "DENY"),
+        (
+            header::CONTENT_SECURITY_POLICY,
+            "default-src 'self'; img-src 'self' blob: data:; frame-ancestors 'none'",
+        ),
+    ];
+    for (k, v) in fixed {
+        h.insert(k, HeaderValue::from_static(v));
     }
-    head.push_str("\r\n");
-    let _ = s.set_write_timeout(Some(timeout));
-    let mut w = s;
-    let mut msg = head.into_bytes();
-    msg.extend_from_slice(body);
-    if w.write_all(&msg).is_err() {
-        return;
+    h.insert(header::CONTENT_LENGTH, HeaderValue::from(len));
+    if let Some(c) = set_cookie.and_then(|c| HeaderValue::from_str(&c).ok()) {
+        h.insert(header::SET_COOKIE, c);
     }
-    let _ = w.flush();
-    let _ = s.shutdown(Shutdown::Write);
-    // Drain briefly: closing with unread input would reset the connection.
-    let _ = s.set_read_timeout(Some(Duration::from_millis(200)));
-    let mut sink = [0u8; 16 << 10];
-    let mut left = 2 * super::MAX_BODY;
-    let mut r = s;
-    while left > 0 {
-        match r.read(&mut sink) {
-            Ok(0) | Err(_) => break,
-            Ok(n) => left = left.saturating_sub(n),
-        }
-    }
+    r
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    fn req(target: &str, headers: &[(&str, &str)], body: &[u8]) -> Request {
-        Request {
-            method: "POST".into(),
-            target: target.into(),
-            headers: headers.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect(),
-            body: body.to_vec(),
+    fn headers(list: &[(&str, &str)]) -> HeaderMap {
+        let mut h = HeaderMap::new();
+        for (k, v) in list {
+            h.append(
+                header::HeaderName::from_bytes(k.as_bytes()).unwrap(),
+                HeaderValue::from_str(v).unwrap(),
+            );
         }
+        h
     }
 
     #[test]
     fn the_guard_checks_host_origin_token_and_content_type() {
         let g = Guard::new("abc123".into(), 4000);
+        let admit =
+            |target: &str, h: &[(&str, &str)], body: bool| g.admit(target, &headers(h), body);
         let h = ("host", "127.0.0.1:4000");
         let t = (TOKEN_HEADER, "abc123");
         let j = ("content-type", "application/json; charset=utf-8");
-        assert!(matches!(g.admit(&req("/api/state", &[h, t], b"")), Ok(false)));
-        assert!(g.admit(&req("/api/save", &[("host", "LOCALHOST:4000"), t, j], b"{}")).is_ok());
+        assert!(matches!(admit("/api/state", &[h, t], false), Ok(false)));
+        assert!(admit("/api/save", &[("host", "LOCALHOST:4000"), t, j], true).is_ok());
         let cookie = ("cookie", "a=b; trimorph_token_4000=abc123");
-        assert!(g.admit(&req("/api/save", &[h, cookie, j], b"{}")).is_ok());
-        let status = |r: Request| g.admit(&r).err().map(|e| e.status());
-        assert_eq!(status(req("/api/state", &[h], b"")), Some(401));
-        assert_eq!(status(req("/api/state", &[h, (TOKEN_HEADER, "abc12")], b"")), Some(401));
+        assert!(admit("/api/save", &[h, cookie, j], true).is_ok());
+        let status = |r: Result<bool, ServerError>| r.err().map(|e| e.status());
+        assert_eq!(status(admit("/api/state", &[h], false)), Some(401));
+        assert_eq!(status(admit("/api/state", &[h, (TOKEN_HEADER, "abc12")], false)), Some(401));
         assert_eq!(
-            status(req("/api/state", &[h, ("cookie", "trimorph_token_4001=abc123")], b"")),
+            status(admit("/api/state", &[h, ("cookie", "trimorph_token_4001=abc123")], false)),
             Some(401)
         );
         for host in ["evil.example:4000", "127.0.0.1:4001", "127.0.0.1", ""] {
-            assert_eq!(status(req("/api/state", &[("host", host), t], b"")), Some(403), "{host}");
-            assert_eq!(status(req("/", &[("host", host)], b"")), Some(403), "{host}");
+            assert_eq!(status(admit("/api/state", &[("host", host), t], false)), Some(403));
+            assert_eq!(status(admit("/", &[("host", host)], false)), Some(403), "{host}");
         }
+        assert_eq!(status(admit("/api/state", &[t], false)), Some(403), "no Host");
+        assert_eq!(
+            status(admit("/api/state", &[h, ("host", "evil.example"), t], false)),
+            Some(400)
+        );
         for o in ["http://evil.example", "null", "https://127.0.0.1:4000", "http://127.0.0.1:4001"]
         {
-            assert_eq!(status(req("/api/state", &[h, t, ("origin", o)], b"")), Some(403), "{o}");
+            assert_eq!(
+                status(admit("/api/state", &[h, t, ("origin", o)], false)),
+                Some(403),
+                "{o}"
+            );
         }
-        assert!(g
-            .admit(&req("/api/state", &[h, t, ("origin", "http://127.0.0.1:4000")], b""))
-            .is_ok());
+        assert!(admit("/api/state", &[h, t, ("origin", "http://127.0.0.1:4000")], false).is_ok());
         assert_eq!(
-            status(req("/api/state", &[h, t, ("sec-fetch-site", "cross-site")], b"")),
+            status(admit("/api/state", &[h, t, ("sec-fetch-site", "cross-site")], false)),
             Some(403)
         );
         for ct in ["text/plain", "application/x-www-form-urlencoded", "multipart/form-data", ""] {
-            let r = req("/api/save", &[h, t, ("content-type", ct)], b"{\"path\":\"x\"}");
+            let r = admit("/api/save", &[h, t, ("content-type", ct)], true);
             assert_eq!(status(r), Some(415), "{ct}");
         }
         // The page: served to anyone local, the cookie only with the right token.
-        assert!(matches!(g.admit(&req("/?token=abc123", &[h], b"")), Ok(true)));
-        assert!(matches!(g.admit(&req("/?token=abc", &[h], b"")), Ok(false)));
-        assert!(matches!(g.admit(&req("/app.js?token=abc123", &[h], b"")), Ok(false)));
+        assert!(matches!(admit("/?token=abc123", &[h], false), Ok(true)));
+        assert!(matches!(admit("/?token=abc", &[h], false), Ok(false)));
+        assert!(matches!(admit("/app.js?token=abc123", &[h], false), Ok(false)));
+    }
+
+    /// The gate's order on whole requests (without sockets): the head's refusals come before
+    /// the body is touched, a declared length over the cap is 413 at once, and the handler
+    /// sees exactly the admitted requests.
+    #[test]
+    fn the_gate_refuses_on_the_head_and_caps_the_body() {
+        use std::cell::Cell;
+        let gate = Gate::new(Guard::new("t0".into(), 9), Duration::from_secs(1));
+        let rt = tokio::runtime::Builder::new_current_thread().enable_time().build().unwrap();
+        let calls = Cell::new(0);
+        let run = |target: &str, h: &[(&str, &str)], body: &str| -> (u16, Option<Admitted>) {
+            let mut req = Request::new(Full::new(Bytes::from(body.to_string())));
+            *req.uri_mut() = target.parse().unwrap();
+            *req.method_mut() = hyper::Method::POST;
+            *req.headers_mut() = headers(h);
+            let adm = Cell::new(None);
+            let r = rt.block_on(gate.answer(
+                req,
+                |a| adm.set(Some(a)),
+                |c: Call| {
+                    calls.set(calls.get() + 1);
+                    async move { Reply::json(&serde_json::json!({ "len": c.body.len() })) }
+                },
+            ));
+            (r.status().as_u16(), adm.get())
+        };
+        let (h, t, j) =
+            (("host", "127.0.0.1:9"), (TOKEN_HEADER, "t0"), ("content-type", "application/json"));
+        assert_eq!(run("/api/pick", &[h, t, j], "{}"), (200, Some(Admitted::Api)));
+        assert_eq!(run("/api/pick", &[h, j], "{}"), (401, None));
+        assert_eq!(run("http://127.0.0.1:9/api/pick", &[h, t, j], "{}"), (400, None));
+        let big = " ".repeat(gate.max_body + 1);
+        assert_eq!(run("/api/pick", &[h, t, j], &big), (413, None));
+        assert_eq!(run("/?token=t0", &[h], ""), (200, Some(Admitted::Page(true))));
+        assert_eq!(calls.get(), 2, "the handler runs for admitted requests only");
+        let ok = respond(Reply::json(&serde_json::json!({})), Some(gate.guard.set_cookie()));
+        let hv = |k: &str| ok.headers().get(k).unwrap().to_str().unwrap().to_string();
+        assert_eq!(hv("connection"), "close");
+        assert_eq!(hv("referrer-policy"), "no-referrer");
+        assert!(hv("set-cookie").starts_with("trimorph_token_9=t0;"));
     }
 
     #[test]

@@ -39,22 +39,27 @@
 //! re-certifies only the triangles around the points it moved.
 //!
 //! Errors answer `{"error": message}` with 400 (bad request), 401 (no or wrong session
-//! token), 403 (path outside the folder, foreign `Host` or `Origin`), 404, 408 (request not
-//! sent within the read timeout), 413 (body over [`MAX_BODY`] bytes), 415 (body not
-//! `application/json`), 422 (an edit or file the engine refuses; the document is
-//! unchanged) or 431 (headers too large).
+//! token), 403 (path outside the folder, foreign `Host` or `Origin`), 404, 408 (a body not
+//! complete within the read timeout), 413 (body over [`MAX_BODY`] bytes), 415 (body not
+//! `application/json`) or 422 (an edit or file the engine refuses; the document is
+//! unchanged). A head that HTTP/1.1 cannot parse is answered by hyper itself, 400 (or 431:
+//! headers over [`http::MAX_HEAD`] bytes) without a body.
 //!
 //! # Safety
 //!
 //! The threat model and the checks are in [`http`]: a per-session token on every `/api/`
 //! request (printed in the address, `http://127.0.0.1:P/?token=T`), `Host` and `Origin`
-//! limited to this server, JSON bodies only as `application/json`, a pool of worker threads
-//! with read and write timeouts. Besides, the server binds 127.0.0.1 only, reads at most
-//! [`MAX_BODY`] bytes of a request body, serves only the embedded assets, and confines
-//! every file path to the folder it was started in ([`paths::confine`]).
+//! limited to this server, JSON bodies only as `application/json`, all checked on the head
+//! before any body byte is read. The transport ([`net`]: hyper's HTTP/1.1 on a one-thread
+//! tokio runtime) has header, body and write deadlines and a connection cap that clients
+//! without the token cannot fill; the handlers run one at a time on the thread that owns
+//! the document. Besides, the server binds 127.0.0.1 only, reads at most [`MAX_BODY`]
+//! bytes of a request body, serves only the embedded assets, and confines every file path
+//! to the folder it was started in ([`paths::confine`]).
 
 pub mod doc;
 pub mod http;
+pub mod net;
 pub mod paths;
 pub mod start;
 pub mod views;
@@ -70,8 +75,9 @@ use crate::edit::Mode;
 use crate::spline::ControlPoint;
 use doc::{Doc, Op};
 use serde_json::{json, Value};
-use std::net::{SocketAddr, TcpStream};
-use std::time::{Duration, Instant};
+use std::time::Instant;
+
+pub use net::{serve_bytes, Server, ACCEPT_POLL};
 
 /// Largest accepted request body (bytes).
 pub const MAX_BODY: usize = 1 << 20;
@@ -101,12 +107,9 @@ pub enum ServerError {
     /// A request body not sent as `application/json` (415).
     #[error("unsupported media type: {0}")]
     UnsupportedMediaType(String),
-    /// The request did not arrive within the read timeout (408).
+    /// The request's body did not arrive within the read timeout (408).
     #[error("the request did not arrive in time")]
     Timeout,
-    /// Request line and headers over [`http::MAX_HEAD`] bytes (431).
-    #[error("request headers over {} bytes", http::MAX_HEAD)]
-    HeadTooLarge,
     /// Body too large (413).
     #[error("request body over {MAX_BODY} bytes")]
     TooLarge,
@@ -128,7 +131,6 @@ impl ServerError {
             ServerError::Unauthorized(_) => 401,
             ServerError::UnsupportedMediaType(_) => 415,
             ServerError::Timeout => 408,
-            ServerError::HeadTooLarge => 431,
             ServerError::TooLarge => 413,
             ServerError::Unprocessable(_) => 422,
             ServerError::Io(_) => 500,
@@ -428,144 +430,4 @@ fn route(
         }
         _ => Err(ServerError::NotFound(format!("{path}: only the embedded page is served"))),
     }
-}
-
-/// A running editor server.
-pub struct Server {
-    listener: std::net::TcpListener,
-    addr: SocketAddr,
-    guard: http::Guard,
-    read_timeout: Duration,
-    write_timeout: Duration,
-}
-
-impl Server {
-    /// Binds `127.0.0.1:port` (`0`: any free port) with a fresh session token.
-    pub fn bind(port: u16) -> Result<Server, ServerError> {
-        let io = |e: &dyn std::fmt::Display| {
-            ServerError::Io(format!("cannot listen on 127.0.0.1:{port}: {e}"))
-        };
-        let listener = std::net::TcpListener::bind(("127.0.0.1", port)).map_err(|e| io(&e))?;
-        // No Nagle delay: a drag step answers ~100 KB, whose last segment would otherwise
-        // wait for the browser's delayed ACK (~40 ms). Set again on each accepted socket.
-        let sock = socket2::SockRef::from(&listener);
-        sock.set_nodelay(true).map_err(|e| io(&e))?;
-        // `accept` waits at most this long (Linux honours SO_RCVTIMEO on a listener), so
-        // that `run` sees its stop condition.
-        sock.set_read_timeout(Some(ACCEPT_POLL)).map_err(|e| io(&e))?;
-        let addr = listener.local_addr().map_err(|e| io(&e))?;
-        let guard = http::Guard::random(addr.port());
-        Ok(Server {
-            listener,
-            addr,
-            guard,
-            read_timeout: http::READ_TIMEOUT,
-            write_timeout: http::WRITE_TIMEOUT,
-        })
-    }
-
-    /// The bound address (always on 127.0.0.1).
-    pub fn addr(&self) -> SocketAddr {
-        self.addr
-    }
-
-    /// The session token every `/api/` request must carry ([`http`]).
-    pub fn token(&self) -> &str {
-        self.guard.token()
-    }
-
-    /// The page's address with the token (`http://127.0.0.1:P/?token=T`).
-    pub fn url(&self) -> String {
-        format!("http://{}/?token={}", self.addr, self.guard.token())
-    }
-
-    /// Sets the read and write timeouts (defaults [`http::READ_TIMEOUT`],
-    /// [`http::WRITE_TIMEOUT`]).
-    pub fn with_timeouts(mut self, read: Duration, write: Duration) -> Server {
-        self.read_timeout = read;
-        self.write_timeout = write;
-        self
-    }
-
-    /// Serves requests on [`http::WORKERS`] threads until `stop` returns true (checked
-    /// at least every [`ACCEPT_POLL`]). The document is locked only while a request is
-    /// handled, never while one is read or answered.
-    pub fn run(&self, doc: &mut Doc, stop: &dyn Fn() -> bool) {
-        let doc = std::sync::Mutex::new(doc);
-        let (tx, rx) = std::sync::mpsc::sync_channel::<TcpStream>(64);
-        let rx = std::sync::Mutex::new(rx);
-        std::thread::scope(|scope| {
-            for _ in 0..http::WORKERS {
-                scope.spawn(|| loop {
-                    let next = rx.lock().unwrap_or_else(|e| e.into_inner()).recv();
-                    let Ok(stream) = next else { break };
-                    self.serve_one(&doc, &stream);
-                });
-            }
-            while !stop() {
-                match self.listener.accept() {
-                    Ok((s, _)) => {
-                        let _ = s.set_nodelay(true);
-                        if tx.send(s).is_err() {
-                            break;
-                        }
-                    }
-                    Err(e) if is_timeout(&e) => {}
-                    Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
-                    Err(_) => std::thread::sleep(ACCEPT_POLL),
-                }
-            }
-            drop(tx);
-        });
-    }
-
-    fn serve_one(&self, doc: &std::sync::Mutex<&mut Doc>, s: &TcpStream) {
-        let head = |r: &http::Request| self.guard.admit(r).map(|_| ());
-        let req = match http::read_request(s, self.read_timeout, MAX_BODY, &head) {
-            Ok(r) => r,
-            Err(http::ReadFail::Gone) => return,
-            Err(http::ReadFail::Answer(e)) => {
-                let r = Reply::error(&e);
-                http::respond(s, r.status, r.content_type, &r.body, None, self.write_timeout);
-                return;
-            }
-        };
-        let (reply, cookie) = match self.guard.admit(&req) {
-            Err(e) => (Reply::error(&e), None),
-            Ok(set_cookie) => {
-                let reply = {
-                    let mut d = doc.lock().unwrap_or_else(|e| e.into_inner());
-                    let run = std::panic::AssertUnwindSafe(|| {
-                        handle(&mut d, &req.method, &req.target, &req.body)
-                    });
-                    std::panic::catch_unwind(run).unwrap_or_else(|_| {
-                        Reply::error(&ServerError::Io("internal error (a bug): see stderr".into()))
-                    })
-                };
-                let cookie = set_cookie.then(|| {
-                    format!(
-                        "{}={}; Path=/; HttpOnly; SameSite=Strict",
-                        self.guard.cookie_name(),
-                        self.guard.token()
-                    )
-                });
-                (reply, cookie)
-            }
-        };
-        http::respond(
-            s,
-            reply.status,
-            reply.content_type,
-            &reply.body,
-            cookie.as_deref(),
-            self.write_timeout,
-        );
-    }
-}
-
-/// How long `accept` waits before `run` checks its stop condition again.
-pub const ACCEPT_POLL: Duration = Duration::from_millis(100);
-
-fn is_timeout(e: &std::io::Error) -> bool {
-    matches!(e.kind(), std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut)
 }

@@ -3,7 +3,7 @@ use super::*;
 use crate::mesh::{Mesh, MeshOptions};
 use crate::spline::{ControlPoint, Spline};
 use std::io::{Read as _, Write};
-use std::net::TcpStream;
+use std::net::{SocketAddr, TcpStream};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
@@ -207,8 +207,19 @@ pub(super) struct Running {
 
 impl Running {
     pub fn start(root: &std::path::Path, read_timeout: std::time::Duration) -> Running {
-        let server =
-            Server::bind(0).unwrap().with_timeouts(read_timeout, std::time::Duration::from_secs(5));
+        Running::start_with(root, read_timeout, super::net::MAX_CONNECTIONS)
+    }
+
+    /// [`Running::start`] with at most `max_connections` connections at once.
+    pub fn start_with(
+        root: &std::path::Path,
+        read_timeout: std::time::Duration,
+        max_connections: usize,
+    ) -> Running {
+        let server = Server::bind(0)
+            .unwrap()
+            .with_timeouts(read_timeout, std::time::Duration::from_secs(5))
+            .with_max_connections(max_connections);
         let (addr, token) = (server.addr(), server.token().to_string());
         let stop = Arc::new(AtomicBool::new(false));
         let stop2 = stop.clone();
