@@ -406,8 +406,10 @@ fn a_shorter_morph_leaves_no_stale_frames() {
 }
 
 /// Bug (reliability pass): a morph failing after its first files were written left old and
-/// new frames mixed. Here the animation cannot be written (its folder does not exist), after
-/// every frame is done: the earlier output is byte for byte as it was.
+/// new frames mixed. Here the animation cannot be written (its name is taken by a folder,
+/// which the finished animation cannot be renamed over), after every frame is done: the
+/// earlier output is byte for byte as it was. (A missing folder no longer fails: `morph`
+/// makes the folders of `--gif` and `--apng`, issue 54.)
 #[test]
 fn a_morph_that_fails_midway_leaves_the_old_folder_unchanged() {
     let dir = tempfile::tempdir().unwrap();
@@ -415,12 +417,15 @@ fn a_morph_that_fails_midway_leaves_the_old_folder_unchanged() {
     let out = dir.path().join("out");
     ok(&morph(&inputs, &out, "4", &["--no-align"]));
     let before = snapshot(&out);
-    let gif = dir.path().join("missing").join("m.gif");
+    let gif = dir.path().join("m.gif");
+    fs::create_dir(&gif).unwrap();
+    fs::write(gif.join("mine.txt"), "mine").unwrap();
     let o = morph(&inputs, &out, "3", &["--gif", s(&gif)]);
     assert_eq!(o.status.code(), Some(1), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(String::from_utf8_lossy(&o.stderr).contains("m.gif"));
     assert!(snapshot(&out) == before, "the failed morph changed its earlier output");
-    assert_eq!(names(dir.path()), ["a.png", "b.png", "l.csv", "out"], "no stage left");
+    assert_eq!(names(dir.path()), ["a.png", "b.png", "l.csv", "m.gif", "out"], "no stage left");
+    assert_eq!(fs::read_to_string(gif.join("mine.txt")).unwrap(), "mine");
 }
 
 /// Bug (reliability pass): `demo -o D` deleted `D/fit/out` recursively, with whatever the
