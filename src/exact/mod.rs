@@ -13,6 +13,7 @@
 //! * [`lowest`]: lowest terms of many values over one denominator, with a few gcds and
 //!   products instead of one gcd per value.
 
+#[cfg(feature = "study")]
 pub mod bitgrowth;
 pub mod crt;
 pub mod dixon;

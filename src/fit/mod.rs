@@ -21,6 +21,7 @@
 pub mod affine;
 pub mod basis;
 mod error;
+#[cfg(feature = "kornia")]
 pub mod features;
 pub mod frame;
 pub mod hard;
