@@ -3,7 +3,7 @@
 //! allocated. The `ulimit -v` tests run the binary in a child shell whose address space is
 //! capped at 2 GiB: without the budget these inputs abort the process (or are killed).
 
-mod common;
+use crate::common;
 
 use common::{ok, s, trimorph};
 use std::fs;

@@ -8,7 +8,7 @@
 //! Landmarks pair `psi(x)` in MOVING with `x` in FIXED; the error of a map is its mean
 //! distance to the held-out landmarks' targets.
 
-mod common;
+use crate::common;
 use common::tps::Tps;
 use trimorph::fit::landmarks::Landmark;
 use trimorph::register::image::Channel;

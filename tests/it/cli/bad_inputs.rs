@@ -13,7 +13,7 @@
 mod cases;
 #[path = "bad_inputs/cases_54.rs"]
 mod cases_54;
-mod common;
+use crate::common;
 #[path = "bad_inputs/files.rs"]
 mod files;
 

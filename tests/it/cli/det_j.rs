@@ -1,7 +1,7 @@
 //! The det J certificate from outside: `check`, `field --jacobian` and `edit` report the
 //! same sampled minimum and certified lower bound, and `edit` warns about folds.
 
-mod common;
+use crate::common;
 use common::*;
 
 use serde_json::{json, Value};

@@ -2,7 +2,7 @@
 //! token and serves the API to requests that carry it;
 //! bad inputs exit 1 with a message naming the file.
 
-mod common;
+use crate::common;
 use common::{edit_script, trimorph};
 use std::io::{BufRead, BufReader, Read, Write};
 use std::net::TcpStream;

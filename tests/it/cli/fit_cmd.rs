@@ -2,8 +2,7 @@
 //! (here); frame sequences (tracking, resumability, shards: [`sequences`]); landmark point
 //! files ([`point_files`]).
 
-#[path = "../common/mod.rs"]
-mod common;
+use crate::common;
 mod point_files;
 mod sequences;
 use common::{ok, s, trimorph};

@@ -1,7 +1,7 @@
 //! `trimorph match` from outside: landmarks between an image and a shifted copy, in every
 //! format, and clean failures on bad input.
 
-mod common;
+use crate::common;
 use common::*;
 use image::GrayImage;
 use trimorph::fit::landmarks::{parse, LandmarkFormat};

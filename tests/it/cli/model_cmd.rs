@@ -1,6 +1,6 @@
 //! 2.5D from outside: `trimorph model bind / worm`, `edit` in z modes, `warp --model`.
 
-mod common;
+use crate::common;
 use common::*;
 use std::path::Path;
 

@@ -6,7 +6,7 @@
 //! Tolerance as in `tests/golden.rs`: every channel within `common::GOLDEN_MAX_DIFF` (2) levels, at most
 //! `common::GOLDEN_MAX_OFF` (64) pixels differing at all.
 
-mod common;
+use crate::common;
 use common::trimorph;
 
 use image::DynamicImage;

@@ -2,7 +2,7 @@
 //! another of its outputs, is refused before anything runs, with exit 1, a message naming
 //! both files, and every file left byte for byte as it was.
 
-mod common;
+use crate::common;
 use common::{ok, s, trimorph};
 use std::fs;
 use std::path::{Path, PathBuf};

@@ -1,7 +1,7 @@
 //! Adversarial command lines that used to panic, abort on a failed allocation or hang: each
 //! must now exit 1 with a message naming the problem, and never print "panicked".
 
-mod common;
+use crate::common;
 
 use common::{ok, s, trimorph};
 use std::fs;

@@ -3,7 +3,7 @@
 //! it stopped, ends with the same results as an uninterrupted run, and removes the temporary
 //! files the killed runs left.
 
-mod common;
+use crate::common;
 use common::{ok, s, trimorph};
 use std::collections::BTreeMap;
 use std::fs;

@@ -3,7 +3,7 @@
 //! overlay), `warp` of MOVING reproducing `--warped`, exit codes, and nothing written on bad
 //! input.
 
-mod common;
+use crate::common;
 use common::{ok, s, trimorph};
 use image::{DynamicImage, GenericImageView, ImageBuffer, Luma};
 use std::fs;

@@ -1,6 +1,6 @@
 //! `trimorph solve`, `demo` and `bench bitgrowth` from outside, through the binary.
 
-mod common;
+use crate::common;
 use common::*;
 
 use num_bigint::BigInt;

@@ -1,6 +1,6 @@
 //! `trimorph mesh`, `edit` and `check` from outside, through the binary.
 
-mod common;
+use crate::common;
 use common::*;
 
 use serde_json::{json, Value};

@@ -1,6 +1,6 @@
 //! `trimorph warp` from outside: images keep size, type and bit depth; points go both ways.
 
-mod common;
+use crate::common;
 use common::*;
 
 #[test]

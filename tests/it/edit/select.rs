@@ -3,7 +3,7 @@
 //! the determining-set path (`edit::global`), with `--unbounded` the modular path of ECLES,
 //! and the result is exactly C1.
 
-mod common;
+use crate::common;
 
 use common::{edit_script, ok, s, trimorph};
 use std::path::{Path, PathBuf};

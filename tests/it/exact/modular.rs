@@ -1,7 +1,7 @@
 //! The modular exact path against the fraction-free reference (issue 24), through the
 //! library's `Problem` API and the `trimorph solve` binary.
 
-mod common;
+use crate::common;
 use common::*;
 
 use proptest::prelude::*;

@@ -4,7 +4,7 @@
 //!
 //! Print the figures with `cargo test --release --test fit_real -- --nocapture`.
 
-mod common;
+use crate::common;
 
 use common::tps::Tps;
 use trimorph::fit::frame::{fit_frame, FrameFitOptions};

@@ -4,7 +4,7 @@
 //! solves in variable space, the bending weight chosen by GCV with a randomized trace
 //! (`bend_criterion: randomized_gcv` in the report).
 
-mod common;
+use crate::common;
 use common::{ok, s, trimorph};
 use rand::rngs::SmallRng;
 use rand::{Rng, SeedableRng};

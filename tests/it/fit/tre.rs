@@ -9,7 +9,7 @@
 
 #![allow(clippy::needless_range_loop)]
 
-mod common;
+use crate::common;
 
 use common::tps::Tps;
 use trimorph::fit::landmarks::Landmark;

@@ -1,7 +1,7 @@
 //! BigWarp 3D landmark tables through `trimorph fit` (issue 20, item 4): constant z is
 //! dropped with a warning, varying z is refused naming the file and line.
 
-mod common;
+use crate::common;
 use common::{ok, s, trimorph};
 
 const TABLE_3D: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/bigwarp_3d.csv");

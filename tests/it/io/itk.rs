@@ -1,7 +1,7 @@
 //! `trimorph field DEF -o F.h5`: the ITK HDF5 displacement-field transform, read back and
 //! compared with the library's point maps at pixel centres (issue 20, item 2).
 
-mod common;
+use crate::common;
 use common::{ok, s, trimorph};
 use std::path::{Path, PathBuf};
 use trimorph::io::itk::{read_h5, TRANSFORM_TYPE};

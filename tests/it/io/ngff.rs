@@ -1,7 +1,7 @@
 //! OME-Zarr from outside: `trimorph field -o F.zarr` read back with zarrs, and
 //! `trimorph warp --image X.zarr` against warping each plane as a TIFF.
 
-mod common;
+use crate::common;
 use common::*;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, OnceLock};

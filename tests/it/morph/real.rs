@@ -3,7 +3,7 @@
 //! certified fold-free frames, the exact C1 blend, the output type, and smoothness against
 //! the classic Delaunay morph (`tests/common/delaunay.rs`).
 
-mod common;
+use crate::common;
 
 use common::delaunay::{crease, morph_frame, Grey};
 use image::DynamicImage;

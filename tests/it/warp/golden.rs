@@ -10,7 +10,7 @@
 //! (the outputs are deterministic, but float rounding may differ across CPUs and compilers),
 //! and at most `common::GOLDEN_MAX_OFF` (64) pixels differing at all.
 
-mod common;
+use crate::common;
 
 use image::DynamicImage;
 use std::path::{Path, PathBuf};

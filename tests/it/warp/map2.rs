@@ -1,7 +1,7 @@
 //! The `Map2` trait from outside: a thin-plate spline baseline and an affine map go through
 //! the same generic resampling as the spline (`warp::pull_back_map`, `warp::warp_map`).
 
-mod common;
+use crate::common;
 use common::tps::Tps;
 use std::path::Path;
 use trimorph::fit::landmarks::Landmark;

@@ -2,7 +2,7 @@
 //! and landmarks on the frame's outer edge.
 
 use crate::common::{ok, s, trimorph};
-use crate::smooth;
+use super::smooth;
 use std::fs;
 use std::path::Path;
 

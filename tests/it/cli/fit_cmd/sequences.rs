@@ -2,7 +2,7 @@
 //! frames, 2D sequences without a scene.
 
 use crate::common::{ok, s, trimorph};
-use crate::reference;
+use super::reference;
 use std::fs;
 use std::path::Path;
 
