@@ -16,15 +16,15 @@
 #[cfg(feature = "study")]
 pub mod bitgrowth;
 pub mod crt;
-pub mod dixon;
-pub mod gcd;
+pub(crate) mod dixon;
+pub(crate) mod gcd;
 pub mod int;
 pub mod ldu;
 pub mod lowest;
 pub mod lsq;
 pub mod matrix;
 pub mod modp;
-pub mod modular;
+pub(crate) mod modular;
 pub mod radix;
 #[cfg(test)]
 pub(crate) mod reference;
