@@ -578,7 +578,11 @@ pub fn read_image(path: &Path) -> Result<NgffImage, NgffError> {
 /// [`write_image`] in a build without the `zarr` feature: always
 /// [`NgffError::Unsupported`].
 #[cfg(not(feature = "zarr"))]
-pub fn write_image(path: &Path, _like: &NgffImage, _pages: &[DynamicImage]) -> Result<(), NgffError> {
+pub fn write_image(
+    path: &Path,
+    _like: &NgffImage,
+    _pages: &[DynamicImage],
+) -> Result<(), NgffError> {
     Err(NgffError::Unsupported { store: path.to_path_buf() })
 }
 

@@ -1,8 +1,8 @@
 //! Landmark point files through `trimorph fit`: pairs of `.pts`, ITK and CSV `x,y` files,
 //! and landmarks on the frame's outer edge.
 
-use crate::common::{ok, s, trimorph};
 use super::smooth;
+use crate::common::{ok, s, trimorph};
 use std::fs;
 use std::path::Path;
 

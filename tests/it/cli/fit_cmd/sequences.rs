@@ -1,8 +1,8 @@
 //! `trimorph fit --frames` through the binary: tracking, resumability, shards, registered
 //! frames, 2D sequences without a scene.
 
-use crate::common::{ok, s, trimorph};
 use super::reference;
+use crate::common::{ok, s, trimorph};
 use std::fs;
 use std::path::Path;
 
