@@ -4,8 +4,8 @@
 //! mesh polylines and control points, and the JSON answer; also in z1 mode, whose answer
 //! adds the z values and the model in 3D; and a drag step with the live warp on (the update
 //! plus the coarse inverse map `GET /api/warp`). The browser adds the HTTP round trip and the
-//! redraw (measured by `tests/editor_e2e.rs`). Also the landmark pairs' residual list and a
-//! pair move with 100 pairs.
+//! redraw (measured by `tests/it/server/editor_e2e.rs`). Also the landmark pairs' residual
+//! list and a pair move with 100 pairs.
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use serde_json::json;

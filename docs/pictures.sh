@@ -11,11 +11,11 @@
 #
 # Not made here (each has its own command):
 # - morph_real_contact.png, morph_delaunay_contact.png: the morph of the real pair and the
-#   classic Delaunay baseline, by `TRIMORPH_DOC_IMAGES=1 cargo test --test morph_real`
+#   classic Delaunay baseline, by `TRIMORPH_DOC_IMAGES=1 cargo test --test it morph::real`
 #   (the test also checks that they are current);
-# - editor*.png: browser screenshots of the editor, by `TRIMORPH_E2E=1 cargo test --test
-#   editor_e2e` (written to target/e2e/; Chromium's rendering is not byte-stable, so they
-#   are copied by hand).
+# - editor*.png: browser screenshots of the editor, by `TRIMORPH_E2E=1 cargo test --test it
+#   server::editor_e2e` (written to target/e2e/; Chromium's rendering is not byte-stable, so
+#   they are copied by hand).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 if [ "${1:-}" = "--update" ]; then OUT=docs/img; else OUT=${1:?usage: docs/pictures.sh OUT_DIR | --update}; fi

@@ -34,8 +34,32 @@
 //! * [`morph`]: image morphing through two fitted deformations blended exactly;
 //! * [`jobs`]: file jobs, the library calls behind the subcommands (read, compute, write
 //!   atomically, report; no printing);
-//! * [`server`]: the interactive editor (local HTTP server and embedded page);
-//! * [`cli`]: the `trimorph` command line.
+//! * `server`: the interactive editor (local HTTP server and embedded page; feature
+//!   `server`);
+//! * `cli`: the `trimorph` command line (feature `cli`; not API: only the binary, the
+//!   `cli_docs` example and the tests use it).
+//!
+//! # Cargo features
+//!
+//! The default features build the whole command-line tool. Without them
+//! (`cargo build --lib --no-default-features`) the crate is the core library: exact
+//! algebra, ECLES, mesh, spline, edit, warp, prism, fit, register, morph, render and image
+//! I/O, with none of the dependencies below.
+//!
+//! * `cli`: the `trimorph` binary and the `cli` module (clap, indicatif, anyhow); turns on
+//!   every other feature, as every subcommand is built.
+//! * `server`: the interactive editor's HTTP server, the `server` module (hyper, tokio;
+//!   getrandom for the session token).
+//! * `hdf5`: ITK `.h5` transforms in [`io::itk`] (hdf5-pure). Without it the HDF5 reader and
+//!   writer return [`io::itk::ItkError::Hdf5`] naming the missing feature.
+//! * `zarr`: OME-Zarr images and displacement stores in [`io::ngff`] (zarrs). Without it
+//!   its readers and writers return `NgffError::Unsupported`.
+//! * `kornia`: kornia's image processing: ORB feature matching (`fit::features`) and the
+//!   Lucas-Kanade tracker of [`fit::track`]. Without it `fit::features` is absent and
+//!   [`fit::track::track_points`] returns `TrackError::Unavailable`, so a tracked frame
+//!   sequence fails with that message (sequences with given targets work).
+//! * `study`: the bit-size study of the exact LDU factors (`exact::bitgrowth`,
+//!   `jobs::bitgrowth`, `trimorph bench bitgrowth`).
 //!
 //! "The thesis" in these docs is *Mathematical and computational methods for modeling and
 //! editing deformations* (2017); "the ECLeS paper" is its 2015 conference version.
@@ -47,6 +71,8 @@
 pub mod alloc;
 pub mod bundled;
 pub mod cancel;
+#[cfg(feature = "cli")]
+#[doc(hidden)]
 pub mod cli;
 pub mod ecles;
 pub mod edit;
@@ -65,6 +91,7 @@ pub mod prism;
 pub mod register;
 pub mod render;
 pub mod rng;
+#[cfg(feature = "server")]
 pub mod server;
 pub mod sparse;
 pub mod spline;

@@ -3,8 +3,8 @@ bundled data with the binary under test, and each must equal the committed one w
 `PIXEL_TOLERANCE` (the pictures are deterministic: tiny-skia rendering, fixed seeds).
 
 Pictures that the script does not make have their own check: the morph contact sheets of
-`tests/morph_real.rs` (`doc_images_of_the_real_pair`), and the editor's browser screenshots
-of `tests/editor_e2e.rs` (Chromium's rendering is not byte-stable, so they are only
+`tests/it/morph/real.rs` (`doc_images_of_the_real_pair`), and the editor's browser screenshots
+of `tests/it/server/editor_e2e.rs` (Chromium's rendering is not byte-stable, so they are only
 checked to exist and to be referenced)."""
 
 import os
@@ -25,12 +25,12 @@ PIXEL_SHARE = 0.001
 
 #: docs/img pictures made elsewhere, and the test that makes or checks them.
 ELSEWHERE = {
-    "morph_real_contact.png": "tests/morph_real.rs",
-    "morph_delaunay_contact.png": "tests/morph_real.rs",
-    "editor.png": "tests/editor_e2e.rs",
-    "editor_warp.png": "tests/editor_e2e.rs",
-    "editor_z1.png": "tests/editor_e2e.rs",
-    "editor_landmarks.png": "tests/editor_e2e.rs",
+    "morph_real_contact.png": "tests/it/morph/real.rs",
+    "morph_delaunay_contact.png": "tests/it/morph/real.rs",
+    "editor.png": "tests/it/server/editor_e2e.rs",
+    "editor_warp.png": "tests/it/server/editor_e2e.rs",
+    "editor_z1.png": "tests/it/server/editor_e2e.rs",
+    "editor_landmarks.png": "tests/it/server/editor_e2e.rs",
     "napari.png": "napari/examples/screenshot.py",
 }
 

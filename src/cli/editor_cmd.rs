@@ -12,7 +12,7 @@ pub fn run(start: &StartOptions, port: u16) -> Result<()> {
     let mut doc = initial_doc(start, &root)?;
     let server = Server::bind(port)?;
     // Printing must not fail the server: whoever started it may close our stdout once it
-    // has read the address (tests/cli_editor.rs does).
+    // has read the address (tests/it/cli/editor_cmd.rs does).
     let mut out = std::io::stdout();
     let _ = writeln!(out, "trimorph editor at {} (files: {})", server.url(), root.display());
     let _ = writeln!(

@@ -24,13 +24,13 @@ mod warp_cmd;
 
 use clap::{Parser, Subcommand};
 use common::{exit_code, parse_memory, usage_exit};
-pub use common::{Exit, EXIT_INPUT, EXIT_UNSOLVABLE};
+pub(crate) use common::{Exit, EXIT_INPUT, EXIT_UNSOLVABLE};
 use std::path::PathBuf;
 
 /// Smooth (C1), exactly constrained, editable deformations.
 #[derive(Parser, Debug)]
 #[command(name = "trimorph", version, about, long_about = None)]
-pub struct Cli {
+pub(crate) struct Cli {
     /// Memory budget for large buffers, e.g. 4G or 512M (default: half of the memory this
     /// process may use; also TRIMORPH_MAX_MEMORY). Inputs that need more are refused.
     #[arg(long, global = true, value_name = "SIZE", value_parser = parse_memory)]

@@ -5,7 +5,7 @@
 //! as `model-bind.md`; a command with subcommands gets a page linking its children) and an
 //! `index.md` listing every command. Each page holds the command's `--help` text exactly as
 //! the binary prints it. `cargo run --example cli_docs` writes the pages into `docs/cli/`;
-//! the test `tests/cli_docs.rs` checks that the committed pages are current and that their
+//! the test `tests/it/cli/reference.rs` checks that the committed pages are current and that their
 //! help text equals the binary's `--help` output.
 //!
 //! ```

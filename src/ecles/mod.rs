@@ -45,8 +45,8 @@
 
 mod affine;
 mod input;
-pub mod modular;
-pub mod output;
+pub(crate) mod modular;
+pub(crate) mod output;
 pub mod problem;
 mod session;
 

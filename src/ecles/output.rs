@@ -2,7 +2,6 @@
 //! in blocks of rows formatted in parallel.
 
 use super::problem::Solution;
-use super::EclesError;
 use crate::exact::matrix::{rat_to_f64, rat_to_string, Rat};
 use crate::exact::Int;
 use num_traits::One;
@@ -140,7 +139,8 @@ where
 }
 
 /// The JSON error object for an ECLES error: `{"error": kind, "condition": ..., "message": ...}`.
-pub(crate) fn error_json(e: &EclesError) -> Value {
+#[cfg(feature = "cli")]
+pub(crate) fn error_json(e: &super::EclesError) -> Value {
     match e {
         EclesError::NotWeaklySolvable { constraint, column } => json!({
             "error": "not_solvable", "condition": "weak_solvability",

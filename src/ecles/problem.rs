@@ -37,6 +37,7 @@ use crate::exact::Int;
 use num_traits::{Signed, Zero};
 use rayon::prelude::*;
 
+#[cfg(feature = "cli")]
 pub(crate) use super::output::error_json;
 
 /// Smallest `|E| x |D|` (relevant constraints times derived parameters) for which `"auto"`

@@ -13,17 +13,18 @@
 //! * [`lowest`]: lowest terms of many values over one denominator, with a few gcds and
 //!   products instead of one gcd per value.
 
+#[cfg(feature = "study")]
 pub mod bitgrowth;
 pub mod crt;
-pub mod dixon;
-pub mod gcd;
+pub(crate) mod dixon;
+pub(crate) mod gcd;
 pub mod int;
 pub mod ldu;
 pub mod lowest;
 pub mod lsq;
 pub mod matrix;
 pub mod modp;
-pub mod modular;
+pub(crate) mod modular;
 pub mod radix;
 #[cfg(test)]
 pub(crate) mod reference;

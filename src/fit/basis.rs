@@ -73,6 +73,7 @@ pub fn value_row(s: &Spline, t: usize, b: [f64; 3]) -> Row {
 
 /// The rows of `d phi / dx` and `d phi / dy` at barycentric `b` in triangle `t`, as local
 /// weights over the patch's points (file order of the patch).
+#[cfg(test)]
 pub fn derivative_rows(s: &Spline, t: usize, b: [f64; 3]) -> [Vec<f64>; 2] {
     DerivativeStencil::new(s.degree(), &[b]).rows(frame(s, t).gradients()).remove(0)
 }
@@ -214,6 +215,7 @@ impl Bending {
 }
 
 /// The bending matrix `K_T` of triangle `t` ([`Bending::matrix`]).
+#[cfg(test)]
 pub fn bending_matrix(s: &Spline, t: usize) -> Vec<f64> {
     Bending::new(s.degree()).matrix(s, t)
 }

@@ -64,6 +64,7 @@ use crate::exact::{exact_decimal, rat_to_f64, Int, Rat};
 use crate::spline::layout::{local_index, multi_indices};
 use crate::spline::mds::{Mds, Role};
 use crate::spline::Spline;
+#[cfg(test)]
 use num_integer::Integer;
 use num_traits::{One, Signed, Zero};
 use std::collections::HashMap;
@@ -73,6 +74,7 @@ use std::time::Instant;
 type WeightRow = Vec<(usize, Rat)>;
 
 /// An integer constraint row over control points and its integer-scaled target.
+#[cfg(test)]
 pub type ExactRow = (Vec<(usize, Int)>, [Rat; 2]);
 
 /// The exact source and target of a landmark, as written in its file (see the module docs).
@@ -151,6 +153,7 @@ pub fn bernstein_row(s: &Spline, t: usize, b: &[Rat; 3]) -> Vec<(usize, Rat)> {
 /// The exact constraint row of one landmark: integer coefficients over control points and
 /// the integer-scaled target (the row (1) times the common denominator of its weights).
 /// `None` when the source lies outside the mesh.
+#[cfg(test)]
 pub fn landmark_row(s: &Spline, l: &Landmark) -> Option<ExactRow> {
     let (src, dst) = exact_landmark(l);
     let (t, b) = locate_exact(s, &src)?;

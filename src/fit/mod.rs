@@ -20,22 +20,23 @@
 //! Points are pixel coordinates throughout: pixel `(i, j)` is centred at `(i, j)`, `x` to
 //! the right, `y` downwards.
 
-pub mod affine;
-pub mod basis;
+pub(crate) mod affine;
+pub(crate) mod basis;
 mod entry;
 mod error;
+#[cfg(feature = "kornia")]
 pub mod features;
 pub mod frame;
-pub mod hard;
-pub mod hard_solve;
+pub(crate) mod hard;
+pub(crate) mod hard_solve;
 #[cfg(test)]
 mod hard_tests;
 pub mod landmarks;
-pub mod newton;
+pub(crate) mod newton;
 pub mod objective;
-pub mod optim;
+pub(crate) mod optim;
 pub mod options;
-pub mod param;
+pub(crate) mod param;
 pub mod report;
 pub mod sequence;
 pub mod smooth;

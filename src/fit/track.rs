@@ -21,9 +21,14 @@
 //! tracked point is outside `next`, or when tracking it back from `next` to `prev` lands
 //! more than [`TrackOptions::fb_threshold`] pixels from where it started (the
 //! forward-backward check of Kalal et al. 2010).
+//!
+//! Built without the `kornia` Cargo feature, [`track_points`] always returns
+//! [`TrackError::Unavailable`] (so a tracked frame sequence fails with that message).
 
 use image::GrayImage;
+#[cfg(feature = "kornia")]
 use kornia_image::{Image, ImageSize};
+#[cfg(feature = "kornia")]
 use kornia_imgproc::optical_flow_pyr_lk::{
     calc_optical_flow_pyr_lk, BorderMode, PyrLKError, PyrLKParams, TermCriteria,
 };
@@ -60,11 +65,17 @@ pub enum TrackError {
         threshold: f64,
     },
     /// kornia's tracker failed.
+    #[cfg(feature = "kornia")]
     #[error("Lucas-Kanade tracking failed: {0}")]
     Lk(#[from] PyrLKError),
     /// A frame could not be handed to kornia.
+    #[cfg(feature = "kornia")]
     #[error("frame conversion failed: {0}")]
     Image(#[from] kornia_image::ImageError),
+    /// This build has no tracker (built without the `kornia` feature).
+    #[cfg(not(feature = "kornia"))]
+    #[error("point tracking is not available: this build of trimorph has no kornia (Cargo feature `kornia`)")]
+    Unavailable,
 }
 
 /// Settings of [`track_points`].
@@ -92,6 +103,7 @@ impl Default for TrackOptions {
 }
 
 /// The frame as a kornia `f32` image with values in `[0, 1]`.
+#[cfg(feature = "kornia")]
 fn to_f32(img: &GrayImage) -> Result<Image<f32, 1>, kornia_image::ImageError> {
     let size = ImageSize { width: img.width() as usize, height: img.height() as usize };
     let data: Vec<f32> = img.as_raw().iter().map(|&v| v as f32 / 255.0).collect();
@@ -101,6 +113,7 @@ fn to_f32(img: &GrayImage) -> Result<Image<f32, 1>, kornia_image::ImageError> {
 /// Tracks `pts` from `prev` to `next` (see the module documentation). `init`, when given,
 /// holds one starting guess in `next` per point (for example a predicted position).
 /// Returns the position in `next` of each point, `None` where it was lost.
+#[cfg(feature = "kornia")]
 pub fn track_points(
     prev: &GrayImage,
     next: &GrayImage,
@@ -173,7 +186,20 @@ pub fn track_points(
     Ok(out)
 }
 
-#[cfg(test)]
+/// [`track_points`] in a build without the `kornia` feature: always
+/// [`TrackError::Unavailable`].
+#[cfg(not(feature = "kornia"))]
+pub fn track_points(
+    _prev: &GrayImage,
+    _next: &GrayImage,
+    _pts: &[[f64; 2]],
+    _init: Option<&[[f64; 2]]>,
+    _opts: &TrackOptions,
+) -> Result<Vec<Option<[f64; 2]>>, TrackError> {
+    Err(TrackError::Unavailable)
+}
+
+#[cfg(all(test, feature = "kornia"))]
 mod tests {
     use super::*;
 

@@ -1,5 +1,9 @@
 //! ITK HDF5 transform files holding a `DisplacementFieldTransform_double_2_2`.
 //!
+//! Built without the `hdf5` Cargo feature, the HDF5 encoding and decoding ([`to_h5_bytes`],
+//! [`from_h5_bytes`], so [`write_h5`] and [`read_h5`]) return [`ItkError::Hdf5`] naming the
+//! missing feature; the field itself ([`displacement_transform`]) is computed as usual.
+//!
 //! **Which way the file runs.** ITK's `DisplacementFieldTransform` maps a point `x` to
 //! `T(x) = x + d(x)`, where `d` is the stored displacement interpolated linearly between
 //! grid points. ITK's resampling (`itk::ResampleImageFilter`, SimpleITK's
@@ -68,10 +72,15 @@ pub const MAX_PIXELS: u64 = crate::io::MAX_RASTER_PIXELS;
 pub const EXTENSIONS: [&str; 8] = ["hdf", "h4", "hdf4", "h5", "hdf5", "he4", "he5", "hd5"];
 
 /// The dataset names of ITK's HDF5 transform files.
+#[cfg(feature = "hdf5")]
 const GROUP: &str = "TransformGroup";
+#[cfg(feature = "hdf5")]
 const FIXED: &str = "TranformFixedParameters";
+#[cfg(feature = "hdf5")]
 const PARAMS: &str = "TranformParameters";
+#[cfg(feature = "hdf5")]
 const FIXED_NEW: &str = "TransformFixedParameters";
+#[cfg(feature = "hdf5")]
 const PARAMS_NEW: &str = "TransformParameters";
 
 /// Errors of ITK transform files, with the path.
@@ -198,6 +207,7 @@ pub fn is_h5_path(path: &Path) -> bool {
 }
 
 /// The file's bytes (`path` only names it in errors).
+#[cfg(feature = "hdf5")]
 pub fn to_h5_bytes(f: &ItkDisplacementField, path: &Path) -> Result<Vec<u8>, ItkError> {
     let n = f.size[0] as usize * f.size[1] as usize;
     if f.data.len() != n {
@@ -233,6 +243,7 @@ pub fn to_h5_bytes(f: &ItkDisplacementField, path: &Path) -> Result<Vec<u8>, Itk
 /// A one-element variable-length ASCII string dataset, the type ITK reads strings as
 /// (`H5::StrType(C_S1, H5T_VARIABLE)`; HDF5 does not convert UTF-8 to ASCII, so a UTF-8
 /// string fails to read in ITK).
+#[cfg(feature = "hdf5")]
 fn ascii_vlen(d: &mut hdf5_pure::DatasetBuilder, value: &str) {
     d.with_vlen_strings(&[value]).with_dtype(hdf5_pure::Datatype::VariableLength {
         is_string: true,
@@ -261,6 +272,7 @@ pub fn read_h5(path: &Path) -> Result<ItkDisplacementField, ItkError> {
 }
 
 /// [`read_h5`] from the file's bytes (`path` only names it in errors).
+#[cfg(feature = "hdf5")]
 pub fn from_h5_bytes(bytes: Vec<u8>, path: &Path) -> Result<ItkDisplacementField, ItkError> {
     let hdf =
         |e: hdf5_pure::Error| ItkError::Hdf5 { path: path.to_path_buf(), message: e.to_string() };
@@ -325,7 +337,29 @@ pub fn from_h5_bytes(bytes: Vec<u8>, path: &Path) -> Result<ItkDisplacementField
     })
 }
 
-#[cfg(test)]
+/// Built without the `hdf5` feature: [`ItkError::Hdf5`] naming the missing feature.
+#[cfg(not(feature = "hdf5"))]
+fn no_hdf5(path: &Path) -> ItkError {
+    ItkError::Hdf5 {
+        path: path.to_path_buf(),
+        message: "this build of trimorph has no HDF5 support (Cargo feature `hdf5`)".into(),
+    }
+}
+
+/// The file's bytes: always [`ItkError::Hdf5`] in a build without the `hdf5` feature.
+#[cfg(not(feature = "hdf5"))]
+pub fn to_h5_bytes(_f: &ItkDisplacementField, path: &Path) -> Result<Vec<u8>, ItkError> {
+    Err(no_hdf5(path))
+}
+
+/// [`read_h5`] from the file's bytes: always [`ItkError::Hdf5`] in a build without the
+/// `hdf5` feature.
+#[cfg(not(feature = "hdf5"))]
+pub fn from_h5_bytes(_bytes: Vec<u8>, path: &Path) -> Result<ItkDisplacementField, ItkError> {
+    Err(no_hdf5(path))
+}
+
+#[cfg(all(test, feature = "hdf5"))]
 mod tests {
     use super::*;
 

@@ -12,7 +12,7 @@ pub const MAX_RASTER_PIXELS: u64 = 100_000_000;
 pub mod clash;
 pub mod colormesh;
 pub mod deformation;
-pub mod folder;
+pub(crate) mod folder;
 pub mod frames;
 pub mod image_use;
 pub mod itk;
@@ -475,7 +475,7 @@ mod tests {
         assert_eq!(fs::read_dir(dir.path()).unwrap().count(), 1);
     }
 
-    /// Leftovers of a killed run (`tests/nothing_lost.rs` kills batches with SIGKILL) were
+    /// Leftovers of a killed run (`tests/it/cli/nothing_lost.rs` kills batches with SIGKILL) were
     /// never removed; now the next write into the folder removes those of dead processes.
     #[test]
     fn stale_temps_of_dead_writers_are_removed() {

@@ -23,6 +23,7 @@
 //! Layer: above [`crate::render`] and [`crate::io`], below [`crate::server`] and the
 //! command line.
 
+#[cfg(feature = "study")]
 pub mod bitgrowth;
 pub mod demo;
 pub mod field;

@@ -68,7 +68,7 @@ pub struct AdaptOptions {
 /// around every skinny triangle of the landmarks' Delaunay triangulation, which costs
 /// variables without helping the fit. Measured on 500 random landmarks over a 511 x 511 frame
 /// (the `fit_frame` bench): 2,126 triangles and 25,582 variables at 20 degrees, 1,642 and
-/// 19,774 at 15 (about a quarter less time); the held-out TRE of `tests/fit_real.rs` (two
+/// 19,774 at 15 (about a quarter less time); the held-out TRE of `tests/it/fit/real.rs` (two
 /// fields, 30 and 60 landmarks, with and without noise) moved by at most 0.3 %, as often
 /// down as up (at 12 and 10 degrees as well).
 pub const DEFAULT_MIN_ANGLE: f64 = 15.0;

@@ -1,4 +1,4 @@
-//! Unit tests of the mesh module internals (the public API is tested in `tests/mesh.rs`).
+//! Unit tests of the mesh module internals (the public API is tested in `tests/it/mesh.rs`).
 
 use super::validate::{on_segment, orient, segments_intersect, snap_points};
 use super::*;

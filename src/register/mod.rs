@@ -29,11 +29,11 @@
 //!
 //! Metrics: [`metric`]. Positions are pixels: pixel `(i, j)` centred at `(i, j)`.
 
-pub mod affine;
-pub mod deform;
+pub(crate) mod affine;
+pub(crate) mod deform;
 mod error;
 pub mod image;
-pub mod metric;
+pub(crate) mod metric;
 pub mod samples;
 #[cfg(test)]
 mod tests;
@@ -148,7 +148,7 @@ pub struct RegisterOptions {
     pub cancel: crate::cancel::Cancel,
 }
 
-/// The default bending weight: chosen on the synthetic pairs of `tests/register.rs`
+/// The default bending weight: chosen on the synthetic pairs of `tests/it/register.rs`
 /// (known smooth warps of real microscopy images with noise).
 pub const DEFAULT_BEND: f64 = 1.0;
 
@@ -287,7 +287,7 @@ pub struct Registration {
 }
 
 /// The default landmark weight: one landmark counts as this many image samples (per squared
-/// pixel; `tests/register_real.rs`).
+/// pixel; `tests/it/register.rs`).
 pub const DEFAULT_LANDMARK_WEIGHT: f64 = 1.0;
 
 /// The share of MOVING's samples that must land on FIXED after the pre-alignment.

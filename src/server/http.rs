@@ -121,9 +121,8 @@ impl Guard {
 
     /// A guard with a fresh 128-bit token from the operating system's generator.
     pub fn random(port: u16) -> Guard {
-        use rand::RngCore;
         let mut b = [0u8; 16];
-        rand::rngs::OsRng.fill_bytes(&mut b);
+        getrandom::fill(&mut b).expect("the operating system's random generator failed");
         Guard::new(b.iter().map(|x| format!("{x:02x}")).collect(), port)
     }
 

@@ -25,11 +25,11 @@
 mod affine;
 pub mod c1;
 pub mod check;
-pub mod eval;
+pub(crate) mod eval;
 pub mod frame;
 mod intform;
 pub mod jacobian;
-pub mod layout;
+pub(crate) mod layout;
 pub mod mds;
 mod rref;
 pub mod trace;

@@ -31,7 +31,7 @@ pub mod edge;
 pub mod field;
 pub mod inverse;
 pub mod map2;
-pub mod pullback;
+pub(crate) mod pullback;
 pub mod remap;
 pub mod sample;
 mod sample_simd;

@@ -16,7 +16,9 @@
 //! **Types.** [`pull_back`] keeps the frame's type and channels: 8- and 16-bit gray,
 //! gray+alpha, RGB, RGBA and 32-bit float RGB(A), like [`super::warp_pages`].
 
-use super::sample::{fill_pixels, Source, Texel};
+#[cfg(test)]
+use super::sample::fill_pixels;
+use super::sample::{Source, Texel};
 use super::{fill, rebuild, source, Buf, EdgeMode, Interp, Src, WarpError};
 use crate::spline::Spline;
 use image::DynamicImage;
@@ -89,6 +91,7 @@ pub fn pull_back(
 
 /// The 8-bit gray frame `frame` (`fw x fh`, row-major) pulled back onto a `w x h` reference
 /// grid through `phi`, with bilinear sampling and `background` outside (as [`pull_back`]).
+#[cfg(test)]
 pub fn pull_back_gray8(
     s: &Spline,
     frame: &[u8],

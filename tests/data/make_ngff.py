@@ -1,5 +1,5 @@
 """Writes tests/data/ngff_tcyx_u16_v2_blosc.zarr: a tiny OME-Zarr 0.4 image (Zarr v2,
-blosc-lz4 with byte shuffle, as ome-zarr-py writes by default) for tests/ngff.rs.
+blosc-lz4 with byte shuffle, as ome-zarr-py writes by default) for tests/it/io/ngff.rs.
 
 Axes (t, c, y, x) = (2, 2, 48, 64), uint16, chunks (1, 1, 32, 32), two levels (the second a
 2x decimation, which trimorph does not read). Plane (t, c) is the crop x 200..264,

@@ -1,7 +1,10 @@
 //! OME-Zarr (OME-NGFF) input and output: images and displacement-field transforms.
 //!
 //! Every byte of Zarr goes through the `zarrs` crate (Zarr v2 and v3, codecs blosc, zstd,
-//! gzip, crc32c and sharding); this module only reads and writes the NGFF metadata.
+//! gzip, crc32c and sharding); this module only reads and writes the NGFF metadata. Built
+//! without the `zarr` Cargo feature, [`read_image`], [`write_image`] and
+//! [`write_displacements`] return [`NgffError::Unsupported`] (and [`is_zarr_path`] still
+//! recognises a store, so such a path is never mistaken for another format).
 //!
 //! # Images ([`read_image`], [`write_image`])
 //!
@@ -40,16 +43,24 @@
 //! never holds a half-written store. A target that exists but is not a Zarr store (no
 //! `zarr.json`, `.zgroup`, `.zattrs` or `.zarray`) is never replaced.
 
+#[cfg(feature = "zarr")]
 pub mod field;
 
+#[cfg(feature = "zarr")]
 pub use field::{write_displacements, NGFF_VERSION};
 
 use super::IoError;
-use image::{DynamicImage, ImageBuffer};
+use image::DynamicImage;
+#[cfg(feature = "zarr")]
+use image::ImageBuffer;
 use std::path::{Path, PathBuf};
+#[cfg(feature = "zarr")]
 use std::sync::Arc;
+#[cfg(feature = "zarr")]
 use zarrs::array::{Array, ArrayMetadataOptions};
+#[cfg(feature = "zarr")]
 use zarrs::filesystem::FilesystemStore;
+#[cfg(feature = "zarr")]
 use zarrs::group::{Group, GroupMetadataOptions};
 
 /// Errors of OME-Zarr input and output; each names the store and the element involved.
@@ -114,6 +125,13 @@ pub enum NgffError {
         /// What went wrong.
         reason: String,
     },
+    /// This build has no OME-Zarr support (built without the `zarr` feature).
+    #[cfg(not(feature = "zarr"))]
+    #[error("{store}: this build of trimorph has no OME-Zarr support (Cargo feature `zarr`)")]
+    Unsupported {
+        /// The store.
+        store: PathBuf,
+    },
 }
 
 /// Sample type of an OME-Zarr image.
@@ -166,7 +184,9 @@ pub struct NgffImage {
     pub dtype: SampleType,
     /// One page per plane, in C order of the leading axes (see the module docs).
     pub pages: Vec<DynamicImage>,
+    #[cfg(feature = "zarr")]
     group_meta: zarrs::metadata::GroupMetadata,
+    #[cfg(feature = "zarr")]
     array_meta: zarrs::metadata::ArrayMetadata,
 }
 
@@ -193,6 +213,7 @@ pub fn is_zarr_path(path: &Path) -> bool {
         || path.is_dir()
 }
 
+#[cfg(feature = "zarr")]
 fn open_store(path: &Path) -> Result<Arc<FilesystemStore>, NgffError> {
     let not = |reason: String| NgffError::NotAStore { store: path.to_path_buf(), reason };
     if !path.is_dir() {
@@ -211,6 +232,7 @@ fn open_store(path: &Path) -> Result<Arc<FilesystemStore>, NgffError> {
     FilesystemStore::new(path).map(Arc::new).map_err(|e| not(e.to_string()))
 }
 
+#[cfg(feature = "zarr")]
 /// The axes of `multiscales[0]`: `axes` (0.4, 0.5; names alone in 0.3) or the last of the
 /// 0.6 proposal's `coordinateSystems`.
 fn parse_axes(store: &Path, ms: &serde_json::Value) -> Result<Vec<Axis>, NgffError> {
@@ -278,11 +300,13 @@ fn parse_axes(store: &Path, ms: &serde_json::Value) -> Result<Vec<Axis>, NgffErr
     Ok(axes)
 }
 
+#[cfg(feature = "zarr")]
 /// The `multiscales` list of a group's attributes (under `ome` for NGFF 0.5 and later).
 fn multiscales(attrs: &serde_json::Map<String, serde_json::Value>) -> Option<&serde_json::Value> {
     attrs.get("ome").and_then(|o| o.get("multiscales")).or_else(|| attrs.get("multiscales"))
 }
 
+#[cfg(feature = "zarr")]
 /// Reads the full-resolution level of an OME-Zarr image (see the module docs).
 pub fn read_image(path: &Path) -> Result<NgffImage, NgffError> {
     let store = open_store(path)?;
@@ -425,6 +449,7 @@ pub fn read_image(path: &Path) -> Result<NgffImage, NgffError> {
     })
 }
 
+#[cfg(feature = "zarr")]
 /// Writes `pages` (one per plane, [`NgffImage::planes`] of them, of `like`'s size and page
 /// type) as an OME-Zarr image with `like`'s Zarr version, array metadata and group
 /// attributes, level 0 only (see the module docs). Atomic. `like.pages` is not used, so
@@ -485,6 +510,7 @@ pub fn write_image(path: &Path, like: &NgffImage, pages: &[DynamicImage]) -> Res
     })
 }
 
+#[cfg(feature = "zarr")]
 /// Writes every Zarr v3 codec (and the chunk grid, chunk key encoding and storage
 /// transformers) of `meta` in the object form `{"name": ...}`, also inside a codec's
 /// configuration (a sharding codec's `codecs` and `index_codecs`).
@@ -526,6 +552,7 @@ fn codecs_as_objects(meta: &mut zarrs::metadata::ArrayMetadata) {
     }
 }
 
+#[cfg(feature = "zarr")]
 /// Keeps only `datasets[0]` in every `multiscales` entry.
 fn keep_level0(attrs: &mut serde_json::Map<String, serde_json::Value>) {
     let ms = match attrs.get_mut("ome").and_then(|o| o.get_mut("multiscales")) {
@@ -539,6 +566,36 @@ fn keep_level0(attrs: &mut serde_json::Map<String, serde_json::Value>) {
             }
         }
     }
+}
+
+/// [`read_image`] in a build without the `zarr` feature: always
+/// [`NgffError::Unsupported`].
+#[cfg(not(feature = "zarr"))]
+pub fn read_image(path: &Path) -> Result<NgffImage, NgffError> {
+    Err(NgffError::Unsupported { store: path.to_path_buf() })
+}
+
+/// [`write_image`] in a build without the `zarr` feature: always
+/// [`NgffError::Unsupported`].
+#[cfg(not(feature = "zarr"))]
+pub fn write_image(
+    path: &Path,
+    _like: &NgffImage,
+    _pages: &[DynamicImage],
+) -> Result<(), NgffError> {
+    Err(NgffError::Unsupported { store: path.to_path_buf() })
+}
+
+/// `field::write_displacements` in a build without the `zarr` feature: always
+/// [`NgffError::Unsupported`].
+#[cfg(not(feature = "zarr"))]
+pub fn write_displacements(
+    path: &Path,
+    _forward: Option<&crate::warp::field::Field64>,
+    _inverse: Option<&crate::warp::field::Field64>,
+    _physical: &crate::spline::Physical,
+) -> Result<(), NgffError> {
+    Err(NgffError::Unsupported { store: path.to_path_buf() })
 }
 
 /// Runs `fill` on a fresh temporary directory beside `path`, then renames it to `path`
@@ -600,5 +657,5 @@ pub fn write_store_atomic(
     Ok(())
 }
 
-#[cfg(test)]
+#[cfg(all(test, feature = "zarr"))]
 mod tests;

@@ -1,0 +1,3 @@
+//! `trimorph::edit`: select-all edits ([`select`]).
+
+mod select;

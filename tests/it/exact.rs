@@ -1,0 +1,3 @@
+//! `trimorph::exact`: the modular solve paths ([`modular`]).
+
+mod modular;

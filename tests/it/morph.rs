@@ -1,0 +1,4 @@
+//! `trimorph::morph`: the face pair ([`faces`]) and the real microscopy pair ([`real`]).
+
+mod faces;
+mod real;
