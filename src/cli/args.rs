@@ -284,6 +284,14 @@ pub struct EditorCli {
     /// Background image: the microscope frame to match.
     #[arg(long)]
     pub image: Option<PathBuf>,
+    /// Two images side by side, BigWarp-style: the moving image (the deformation maps its
+    /// pixels onto the fixed image's; shown un-warped on the left). The same as --image.
+    #[arg(long, conflicts_with = "image")]
+    pub moving: Option<PathBuf>,
+    /// The fixed image (right panel, with the warped moving image over it); landmark
+    /// pairs are clicked in each panel.
+    #[arg(long)]
+    pub fixed: Option<PathBuf>,
     /// Port on 127.0.0.1 (0: any free port).
     #[arg(long, default_value_t = 8080)]
     pub port: u16,
@@ -433,7 +441,8 @@ impl EditorCli {
         let start = crate::server::start::StartOptions {
             deformation: self.deformation.clone(),
             model: self.model.clone(),
-            image: self.image.clone(),
+            image: self.image.clone().or_else(|| self.moving.clone()),
+            fixed: self.fixed.clone(),
         };
         editor_cmd::run(&start, self.port)
     }
