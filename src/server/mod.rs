@@ -18,7 +18,7 @@
 //! | `GET /api/warp[?step=8]` | | the live warp's coarse inverse map ([`views::inverse_grid`]) |
 //! | `GET /api/warp?forward=1[&step=8]` | | the live warp's coarse forward map ([`views::forward_grid`]) |
 //! | `POST /api/pick` | `{x, y, max_dist?}` | `{index, point}` (nearest control point) |
-//! | `POST /api/select` | `{anchors, radius?, mode?}` (`radius` null: all) | selection |
+//! | `POST /api/select[?warp=8]` | `{anchors, radius?, mode?}` (`radius` null: all) | selection (with `warp`, xy mode and a frame: the live warp's basis for a translation, [`views::translate_grid`]) |
 //! | `POST /api/update[?warp=8]` | `{op: translate, v}` (or `by`) / `{op: rotate, center, angle}` / `{op: scale, center, factor}`: a [`crate::edit::script::Motion`] | geometry (with `warp`: the forward map, [`views::forward_grid`], when a frame is loaded) |
 //! | `POST /api/clear` | | state |
 //! | `POST /api/undo`, `/api/redo` | | geometry and `undid` / `redid`: what the step was (a step is a drag, a load over the same mesh, a re-fit or a pair change: [`doc::history`]) |
@@ -218,7 +218,9 @@ fn step_query(query: &str, k: &str) -> Result<Option<u32>, ServerError> {
         .split('&')
         .find_map(|q| q.strip_prefix(k).and_then(|r| r.strip_prefix('=')))
         .map(|v| v.parse::<u32>().ok().filter(|&n| n > 0))
-        .map(|v| v.ok_or_else(|| ServerError::BadRequest(format!("`{k}` must be a positive integer"))))
+        .map(|v| {
+            v.ok_or_else(|| ServerError::BadRequest(format!("`{k}` must be a positive integer")))
+        })
         .transpose()
 }
 
@@ -359,8 +361,18 @@ fn route(
                 Some(m) => m.parse().map_err(ServerError::BadRequest)?,
                 None => Mode::Xy,
             };
+            let warp = step_query(query, "warp")?;
             let sel = doc.select(&anchors, radius, mode)?;
-            Ok(with_geometry(doc, sel))
+            let mut answer = with_geometry(doc, sel);
+            if let (Some(step), Answer::Text(text)) = (warp, &mut answer) {
+                if let Some(grid) = views::translate_grid(doc, step) {
+                    text.pop();
+                    text.push_str(",\"warp\":");
+                    text.push_str(&grid);
+                    text.push('}');
+                }
+            }
+            Ok(answer)
         }
         ("POST", "/api/update") => {
             let b = parse()?;

@@ -44,7 +44,10 @@ fn the_fixed_image_is_served_listed_kept_in_scenes_and_never_overwritten() {
     assert_eq!(s, 200, "{v}");
     let text = std::fs::read_to_string(dir.path().join("s.json")).unwrap();
     let scene: Value = serde_json::from_str(&text).unwrap();
-    assert_eq!((scene["image"].as_str(), scene["fixed"].as_str()), (Some("moving.png"), Some("fixed.png")));
+    assert_eq!(
+        (scene["image"].as_str(), scene["fixed"].as_str()),
+        (Some("moving.png"), Some("fixed.png"))
+    );
     let mut e = doc(dir.path());
     assert_eq!(super::handle(&mut e, "GET", "/api/fixed.png", b"").status, 404);
     let (s, v) = call(&mut e, "POST", "/api/load", json!({"path": "s.json"}));
@@ -56,7 +59,8 @@ fn the_fixed_image_is_served_listed_kept_in_scenes_and_never_overwritten() {
     assert_eq!(started.fixed().map(|f| f.image.height()), Some(90));
     // Exports never replace an input, the fixed image included.
     let before = std::fs::read(dir.path().join("fixed.png")).unwrap();
-    let (s, v) = call(&mut d, "POST", "/api/export", json!({"kind": "warped", "path": "fixed.png"}));
+    let (s, v) =
+        call(&mut d, "POST", "/api/export", json!({"kind": "warped", "path": "fixed.png"}));
     assert_eq!(s, 403, "{v}");
     assert_eq!(std::fs::read(dir.path().join("fixed.png")).unwrap(), before);
 }
@@ -65,18 +69,25 @@ fn the_fixed_image_is_served_listed_kept_in_scenes_and_never_overwritten() {
 fn inactive_pairs_stay_listed_but_are_not_fitted_nor_counted() {
     let dir = tempfile::tempdir().unwrap();
     let mut d = doc(dir.path());
-    for (s, t) in [([20.0, 20.0], [22.0, 21.0]), ([80.0, 80.0], [82.0, 81.0]), ([50.0, 50.0], [70.0, 50.0])] {
+    for (s, t) in
+        [([20.0, 20.0], [22.0, 21.0]), ([80.0, 80.0], [82.0, 81.0]), ([50.0, 50.0], [70.0, 50.0])]
+    {
         assert_eq!(call(&mut d, "POST", "/api/landmarks/add", json!({"src": s, "dst": t})).0, 200);
     }
     let (_, all) = call(&mut d, "GET", "/api/landmarks", Value::Null);
-    let (st, v) = call(&mut d, "POST", "/api/landmarks/active", json!({"index": 2, "active": false}));
+    let (st, v) =
+        call(&mut d, "POST", "/api/landmarks/active", json!({"index": 2, "active": false}));
     assert_eq!(st, 200, "{v}");
     assert_eq!(v["pairs"][2]["active"], false);
     assert_eq!(v["pairs"].as_array().unwrap().len(), 3, "an inactive pair stays in the table");
-    assert!(v["max"].as_f64().unwrap() < all["max"].as_f64().unwrap(), "the 20 px outlier no longer counts");
+    assert!(
+        v["max"].as_f64().unwrap() < all["max"].as_f64().unwrap(),
+        "the 20 px outlier no longer counts"
+    );
     assert_eq!(v["undo"], 4, "switching a pair off is one undo step");
     // Switching it off again changes nothing and records nothing.
-    let (_, again) = call(&mut d, "POST", "/api/landmarks/active", json!({"index": 2, "active": false}));
+    let (_, again) =
+        call(&mut d, "POST", "/api/landmarks/active", json!({"index": 2, "active": false}));
     assert_eq!(again["undo"], 4);
     let (st, r) = call(&mut d, "POST", "/api/refit", json!({"hard": true}));
     assert_eq!(st, 200, "{r}");
@@ -182,7 +193,8 @@ fn the_forward_map_is_phi_at_the_nodes_and_rides_on_drag_steps() {
     assert_eq!(h["map"], g["map"]);
     assert_eq!(call(&mut doc(dir.path()), "GET", "/api/warp?forward=1", Value::Null).0, 404);
     // Without the query the answer is as before; a bad step is refused before the edit.
-    let (_, plain) = call(&mut d, "POST", "/api/update", json!({"op": "translate", "v": [1.0, 0.0]}));
+    let (_, plain) =
+        call(&mut d, "POST", "/api/update", json!({"op": "translate", "v": [1.0, 0.0]}));
     assert!(plain.get("warp").is_none());
     let before = d.spline().points().to_vec();
     let (st, _) =
@@ -244,7 +256,8 @@ fn fitted_file(root: &Path) -> Vec<Landmark> {
 fn a_three_pair_correction_over_a_fit_keeps_distant_points() {
     let dir = tempfile::tempdir().unwrap();
     let lms = fitted_file(dir.path());
-    let opts = StartOptions { deformation: Some(dir.path().join("fit.json")), ..Default::default() };
+    let opts =
+        StartOptions { deformation: Some(dir.path().join("fit.json")), ..Default::default() };
     let start = |with_fit: bool| -> (Doc, crate::spline::Spline) {
         let mut d = initial_doc(&opts, dir.path()).unwrap();
         assert_eq!(d.pairs().len(), lms.len(), "the fit's landmarks come in as pairs");
@@ -256,7 +269,12 @@ fn a_three_pair_correction_over_a_fit_keeps_distant_points() {
         // Three corrections near (15, 15): 3 px right of where the fit sends them.
         for src in [[12.0, 12.0], [20.0, 14.0], [14.0, 22.0]] {
             let q = fitted.eval(src, None).unwrap();
-            let (st, v) = call(&mut d, "POST", "/api/landmarks/add", json!({"src": src, "dst": [q[0] + 3.0, q[1]]}));
+            let (st, v) = call(
+                &mut d,
+                "POST",
+                "/api/landmarks/add",
+                json!({"src": src, "dst": [q[0] + 3.0, q[1]]}),
+            );
             assert_eq!(st, 200, "{v}");
         }
         let (st, v) = call(&mut d, "POST", "/api/refit", json!({}));
@@ -316,9 +334,11 @@ fn the_new_paths_are_behind_the_gate() {
         } else {
             format!("Content-Type: application/json\r\nContent-Length: {}\r\n", b.len())
         };
-        let no_token = format!("{method} {path} HTTP/1.1\r\nHost: {a}\r\n{ct}Connection: close\r\n\r\n");
+        let no_token =
+            format!("{method} {path} HTTP/1.1\r\nHost: {a}\r\n{ct}Connection: close\r\n\r\n");
         assert_eq!(http(a, &no_token, b).0, 401, "{method} {path} without the token");
-        let foreign = srv.head(method, path, &ct).replace(&format!("Host: {a}"), "Host: evil.example");
+        let foreign =
+            srv.head(method, path, &ct).replace(&format!("Host: {a}"), "Host: evil.example");
         assert_eq!(http(a, &foreign, b).0, 403, "{method} {path} with a foreign Host");
         let origin = srv.head(method, path, &format!("{ct}Origin: http://evil.example\r\n"));
         assert_eq!(http(a, &origin, b).0, 403, "{method} {path} with a foreign Origin");
@@ -331,4 +351,49 @@ fn the_new_paths_are_behind_the_gate() {
         let st = http(a, &srv.head(method, path, &ct), b).0;
         assert!(matches!(st, 404 | 422), "{method} {path}: {st}");
     }
+}
+
+/// The live warp's basis on a select answer: `map + v_x gx + v_y gy` is the forward map
+/// the exact update for `v` answers, and asking for it leaves the spline as it was.
+#[test]
+fn the_translate_basis_predicts_the_exact_forward_map() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut d = two_images(dir.path());
+    let m = d.spline().mesh();
+    let c = (0..m.num_vertices()).find(|&v| m.vertex(v) == [50.0, 50.0]).unwrap();
+    let before = d.spline().points().to_vec();
+    let (st, s) = call(&mut d, "POST", "/api/select?warp=8", json!({"anchors": [c], "radius": 2}));
+    assert_eq!(st, 200, "{s}");
+    assert_eq!(d.spline().points(), &before[..], "the probes leave the spline as it was");
+    let basis = &s["warp"];
+    let nums = |k: &str| -> Vec<f64> {
+        basis[k].as_array().unwrap().iter().map(|x| x.as_f64().unwrap_or(f64::NAN)).collect()
+    };
+    let (p0, gx, gy) = (nums("map"), nums("gx"), nums("gy"));
+    assert!(gx.iter().any(|&g| g > 0.1), "the nodes near the anchor follow it");
+    for v in [[6.0, -4.0], [-2.5, 7.25]] {
+        let (st, u) =
+            call(&mut d, "POST", "/api/update?warp=8", json!({"op": "translate", "v": v}));
+        assert_eq!(st, 200, "{u}");
+        let exact: Vec<f64> =
+            u["warp"]["map"].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect();
+        for k in 0..exact.len() {
+            let want = p0[k] + v[0] * gx[k] + v[1] * gy[k];
+            assert!((want - exact[k]).abs() < 4e-3, "node value {k}: {want} vs {}", exact[k]);
+        }
+    }
+    // After a drag step the probes re-apply it: the spline stays where the step put it.
+    let moved = d.spline().points().to_vec();
+    let (st, again) =
+        call(&mut d, "POST", "/api/select?warp=8", json!({"anchors": [c], "radius": 2}));
+    assert_eq!(st, 200, "{again}");
+    assert_eq!(d.spline().points(), &moved[..]);
+    // No basis without the query, nor in a z mode or without a frame.
+    let (_, plain) = call(&mut d, "POST", "/api/select", json!({"anchors": [c], "radius": 2}));
+    assert!(plain.get("warp").is_none());
+    let mut bare = doc(dir.path());
+    let (st, v) =
+        call(&mut bare, "POST", "/api/select?warp=8", json!({"anchors": [c], "radius": 2}));
+    assert_eq!(st, 200, "{v}");
+    assert!(v.get("warp").is_none());
 }

@@ -350,19 +350,8 @@ impl WarpNodes {
 /// apart). Evaluating `phi` at the located nodes costs a few hundred microseconds, so the
 /// map rides on every drag step's answer (`POST /api/update?warp=8`).
 pub fn forward_grid(doc: &Doc, step: u32) -> Option<String> {
-    let f = doc.frame()?;
-    let (w, h) = (f.image.width().max(1), f.image.height().max(1));
-    let nodes = doc.forward_nodes(w, h, step.clamp(1, 64));
-    let target = doc.fixed().map_or((w, h), |x| (x.image.width(), x.image.height()));
-    let cache = doc.spline().eval_cache();
-    let mut out = JsonObject::new();
-    out.value("forward", &json!(true));
-    out.value("step", &json!(nodes.key.2));
-    out.value("width", &json!(w));
-    out.value("height", &json!(h));
-    out.value("nx", &json!(nodes.nx));
-    out.value("ny", &json!(nodes.ny));
-    out.value("target", &json!([target.0, target.1]));
+    let mut out = grid_header(doc, step)?;
+    let (nodes, cache) = (doc.forward_nodes_of_frame(step)?, doc.spline().eval_cache());
     out.numbers(
         "map",
         nodes.at.iter().flat_map(|n| match n {
@@ -371,4 +360,38 @@ pub fn forward_grid(doc: &Doc, step: u32) -> Option<String> {
         }),
     );
     Some(out.finish())
+}
+
+/// [`forward_grid`] for a translation of the current xy selection, as a basis
+/// ([`Doc::translate_basis`]): `map` is phi at the nodes for the selection-time positions,
+/// and `gx`, `gy` its change per pixel of the drag's `v_x`, `v_y` (`null`s outside the
+/// mesh), so the page draws the warped frame of a drag step `v` from
+/// `map + v_x gx + v_y gy` at once, before the exact update answers (the answer's mesh and
+/// points follow). `None` without a frame or an xy selection.
+pub fn translate_grid(doc: &mut Doc, step: u32) -> Option<String> {
+    let mut out = grid_header(doc, step)?;
+    let nodes = doc.forward_nodes_of_frame(step)?;
+    let (w, h, step) = nodes.key;
+    let [p0, gx, gy] = doc.translate_basis(w, h, step)?;
+    out.numbers("map", p0.iter().flatten().copied());
+    out.numbers("gx", gx.iter().flatten().copied());
+    out.numbers("gy", gy.iter().flatten().copied());
+    Some(out.finish())
+}
+
+/// The keys of a forward grid but its numbers.
+fn grid_header(doc: &Doc, step: u32) -> Option<JsonObject> {
+    let f = doc.frame()?;
+    let (w, h) = (f.image.width().max(1), f.image.height().max(1));
+    let nodes = doc.forward_nodes(w, h, step.clamp(1, 64));
+    let target = doc.fixed().map_or((w, h), |x| (x.image.width(), x.image.height()));
+    let mut out = JsonObject::new();
+    out.value("forward", &json!(true));
+    out.value("step", &json!(nodes.key.2));
+    out.value("width", &json!(w));
+    out.value("height", &json!(h));
+    out.value("nx", &json!(nodes.nx));
+    out.value("ny", &json!(nodes.ny));
+    out.value("target", &json!([target.0, target.1]));
+    Some(out)
 }

@@ -92,9 +92,30 @@ function opBody(d, X, Y) {
 // Drag steps: at most one request in flight; the newest position waits in `pending` (older
 // ones are dropped). A step of a drag is sent only once the drag's selection answered
 // (`d.ready`), and never after it failed. `t` is the pointer event's time.
-function sendUpdate(d, body) {
-  T.pending = { d, body, t: performance.now() };
+function sendUpdate(d, body, t) {
+  T.pending = { d, body, t };
   if (!T.busy) pump();
+}
+
+// A translate drag in xy mode with the live warp on asks its selection for the warp's
+// basis (`POST /api/select?warp=8`): phi at the grid nodes is `map + v_x gx + v_y gy` for
+// the drag `v` (exactly the engine's affine map of the selection), so the warped frame of
+// each pointer position is drawn at once, without waiting for the exact update; the
+// update's answer brings the mesh and the points, and the drag's end the exact map.
+function wantsBasis(d) {
+  return d.mode === 'xy' && d.op === 'translate' && T.layers.warp && T.state && T.state.frame;
+}
+
+// Draws the warped frame of drag `d` at translation `v` from its basis; `t` is the
+// pointer event's time.
+function predictWarp(d, v, t) {
+  const b = d.basis;
+  if (!b) return;
+  const m = b.map, gx = b.gx, gy = b.gy, out = new Array(m.length);
+  for (let k = 0; k < m.length; k++) out[k] = m[k] === null ? null : m[k] + v[0] * gx[k] + v[1] * gy[k];
+  applyWarp({ ...b, map: out });
+  draw();
+  T.warpLatency.push(performance.now() - t);
 }
 
 // Each step's answer carries the forward map of the live warp (`?warp=8`, xy drags with a
@@ -108,7 +129,7 @@ async function pump() {
     const t0 = performance.now();
     try {
       if (!(await d.ready)) continue;
-      const live = T.layers.warp && T.state && T.state.frame && d.mode === 'xy';
+      const live = T.layers.warp && T.state && T.state.frame && d.mode === 'xy' && !d.basis;
       const r = await api('POST', '/api/update' + (live ? '?warp=8' : ''), body);
       const t1 = performance.now();
       applyGeo(r);
@@ -181,8 +202,13 @@ canvas.addEventListener('mousedown', (e) => {
   T.drag = d;
   T.selecting = true;
   d.ready = updatesDone()
-    .then(() => api('POST', '/api/select', { anchors, radius: radius(), mode: d.mode }))
-    .then((r) => { applyGeo(r); draw(); return true; })
+    .then(() => api('POST', '/api/select' + (wantsBasis(d) ? '?warp=8' : ''), { anchors, radius: radius(), mode: d.mode }))
+    .then((r) => {
+      applyGeo(r);
+      if (r.warp && r.warp.gx) d.basis = r.warp;
+      if (d.basis && d.lastV) predictWarp(d, d.lastV, performance.now()); else draw();
+      return true;
+    })
     .catch((err) => { message(String(err.message || err), true); if (T.drag === d) T.drag = null; return false; })
     .finally(() => { T.selecting = false; });
   draw();
@@ -205,7 +231,7 @@ function endDrag(e) {
   if (d.moved && e) {
     // The last step is the release point itself.
     const [X, Y] = pointer(e);
-    sendUpdate(d, opBody(d, X, Y));
+    sendUpdate(d, opBody(d, X, Y), e.timeStamp);
   }
   draw();
   run(async () => {
@@ -238,7 +264,12 @@ window.addEventListener('mousemove', (e) => {
   }
   if (X === d.X0 && Y === d.Y0 && !d.moved) return;
   d.moved = true;
-  sendUpdate(d, opBody(d, X, Y));
+  const body = opBody(d, X, Y);
+  sendUpdate(d, body, e.timeStamp);
+  if (d.op === 'translate' && d.mode === 'xy') {
+    d.lastV = body.v;
+    predictWarp(d, body.v, e.timeStamp);
+  }
 });
 
 window.addEventListener('mouseup', (e) => { if (e.button === 0 || e.button === 1) endDrag(e); });

@@ -7,11 +7,12 @@
 // triangles whose corners are phi(node), textured from the nodes, so inside a triangle
 // phi^-1 is the affine interpolant of its corners; the frame is sampled bilinearly (pixel
 // centres at integers). Rasterized here, only where the map changed (a local drag redraws
-// a small rectangle), with no second request: the warped frame of a drag step is drawn with
-// that step's geometry.
+// a small rectangle). A translate drag draws its warped frame at the pointer event itself,
+// from its selection's basis (`predictWarp` in app.js); other drags with each step's
+// answer.
 //
-// Before (one request more per step, phi^-1 solved by Newton at every node on the server,
-// then interpolated per pixel): 35-43 ms from the pointer to the warped frame on screen.
+// Before (a second request per step, phi^-1 solved by Newton at every node on the server,
+// then interpolated per pixel) the warped frame came 35-70 ms after the pointer.
 'use strict';
 
 function overlay() { return $('overlay').value; }
