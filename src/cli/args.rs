@@ -275,8 +275,9 @@ pub struct MorphCli {
 /// The command line of `trimorph editor`.
 #[derive(clap::Args, Debug)]
 pub struct EditorCli {
-    /// Deformation or scene to edit (format v1; a scene's "model" and "image" keys are
-    /// loaded too). Default: an identity over --image, or the bundled scene.
+    /// Deformation or scene to edit (format v1; a scene's "model", "image" and "fixed" keys
+    /// are loaded too, and the "landmarks" of a scene or of a `fit` / `register` output come
+    /// in as pairs). Default: an identity over --image, or the bundled scene.
     pub deformation: Option<PathBuf>,
     /// 3D model (OBJ, OFF, PLY) bound to the prism layer.
     #[arg(long)]
