@@ -140,5 +140,7 @@ fn editor_two_images_in_headless_chromium() {
     assert!(shots.join("editor_two_colors.png").exists());
     assert!(v["far_moved_max_px"].as_f64().unwrap() <= 3.0, "{line}");
     assert!(v["live_warp_latency_ms"]["n"].as_u64().unwrap() >= 30, "{line}");
-    assert!(work.path().join("two_scene.json").exists() && work.path().join("corrected.json").exists());
+    assert!(
+        work.path().join("two_scene.json").exists() && work.path().join("corrected.json").exists()
+    );
 }

@@ -186,10 +186,7 @@ pub fn landmarks_value(lms: &[crate::fit::landmarks::Landmark]) -> Value {
 
 /// [`to_string`] with the landmarks the spline was fitted to under [`LANDMARKS_KEY`]
 /// (none: no key, the plain file).
-pub fn to_string_with_landmarks(
-    s: &Spline,
-    lms: &[crate::fit::landmarks::Landmark],
-) -> String {
+pub fn to_string_with_landmarks(s: &Spline, lms: &[crate::fit::landmarks::Landmark]) -> String {
     let mut v = to_json_with(s, None, &[]);
     if !lms.is_empty() {
         v[LANDMARKS_KEY] = landmarks_value(lms);

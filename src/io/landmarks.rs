@@ -227,7 +227,9 @@ pub fn write_landmarks_flagged(
 ) -> Result<(), LandmarkIoError> {
     let fmt = |source| LandmarkIoError::Format { path: path.to_path_buf(), source };
     let text = match format {
-        LandmarkFormat::BigWarp => landmarks::to_bigwarp_flagged(lms, active, false).map_err(fmt)?,
+        LandmarkFormat::BigWarp => {
+            landmarks::to_bigwarp_flagged(lms, active, false).map_err(fmt)?
+        }
         _ => {
             let on: Vec<Landmark> = lms
                 .iter()
@@ -282,7 +284,10 @@ mod tests {
             let back = read_landmarks_flagged(&p).unwrap();
             let want = if f == LandmarkFormat::BigWarp { 2 } else { 1 };
             assert_eq!(back.len(), want, "{file}");
-            assert_eq!((back[0].0.src, back[0].0.dst, back[0].1), (sample()[0].src, sample()[0].dst, true));
+            assert_eq!(
+                (back[0].0.src, back[0].0.dst, back[0].1),
+                (sample()[0].src, sample()[0].dst, true)
+            );
             if f == LandmarkFormat::BigWarp {
                 assert_eq!((back[1].0.src, back[1].1), (sample()[1].src, false), "{file}");
                 assert_eq!(read_landmarks(&p).unwrap().len(), 1, "fit reads the active row only");
