@@ -24,8 +24,8 @@ use rand::{Rng, SeedableRng};
 use std::hint::black_box;
 use trimorph::fit::landmarks::Landmark;
 use trimorph::fit::objective::Loss;
-use trimorph::fit::solve::{fit, FitOptions};
 use trimorph::fit::track::{track_points, TrackOptions};
+use trimorph::fit::{fit, FitOptions};
 use trimorph::mesh::{Mesh, MeshOptions};
 use trimorph::spline::Spline;
 
@@ -169,9 +169,8 @@ fn bench_hard(c: &mut Criterion) {
         Spline::identity(Mesh::delaunay(&pts, MeshOptions { grid: 10000 }).unwrap(), 5).unwrap();
     let hard = FitOptions { hard: true, ..FitOptions::default() };
     for (name, s) in [("hard_100_grid", &grid), ("hard_100_delaunay", &delaunay)] {
-        let size = |f: &trimorph::fit::solve::Fit| {
-            trimorph::io::deformation::to_string(&f.spline, None).len()
-        };
+        let size =
+            |f: &trimorph::fit::Fit| trimorph::io::deformation::to_string(&f.spline, None).len();
         let h = fit(s, &lms, &hard).unwrap();
         let soft = fit(s, &lms, &FitOptions::default()).unwrap();
         eprintln!(

@@ -12,16 +12,16 @@
 //! `frames` (all frames), `png`, `gif`, `apng`, `sheet` (encodings of all frames), and `whole`
 //! (everything the command does except reading and writing files), `files` (everything the
 //! command does except reading its inputs: the fits and
-//! [`trimorph::render::morph_files::write_morph`], files written and synced).
+//! [`trimorph::jobs::morph::write_morph`], files written and synced).
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use image::DynamicImage;
 use std::path::Path;
 use trimorph::fit::landmarks::Landmark;
 use trimorph::io::landmarks::read_landmarks;
+use trimorph::jobs::morph::{write_morph, MorphFileOptions};
 use trimorph::morph::output::{apng_bytes, contact_sheet, gif_bytes, png_bytes};
 use trimorph::morph::{frame_times, frame_times_exact, Morph, MorphOptions};
-use trimorph::render::morph_files::{write_morph, MorphFileOptions};
 use trimorph::warp::remap::{CurvatureBounds, RemapPlan};
 
 fn root() -> &'static Path {

@@ -7,7 +7,7 @@
 use trimorph::edit::script::Script;
 use trimorph::edit::Editor;
 use trimorph::fit::landmarks::Landmark;
-use trimorph::fit::solve::{fit, FitOptions};
+use trimorph::fit::{fit, FitOptions};
 use trimorph::mesh::{Mesh, MeshOptions};
 use trimorph::spline::Spline;
 use trimorph::warp::inverse::InverseOptions;
@@ -22,11 +22,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mesh = Mesh::grid(6, 6, f64::from(w), f64::from(h), MeshOptions::default())?;
     let identity = Spline::identity(mesh, 5)?;
 
-    // An edit script, as JSON (from Python: a list of dicts turned into a serde_json::Value).
-    let script = Script::from_value(&serde_json::json!([
-        {"anchors": {"near": [[275, 330]]}, "neighborhood": 3, "op": "translate", "by": [-20, 15]},
-        {"op": "constrain", "pin": [0]}
-    ]))?;
+    // An edit script, as JSON text (the format of `trimorph edit`).
+    let script = Script::from_json_str(
+        r#"[
+            {"anchors": {"near": [[275, 330]]}, "neighborhood": 3, "op": "translate", "by": [-20, 15]},
+            {"op": "constrain", "pin": [0]}
+        ]"#,
+    )?;
     let mut ed = Editor::new(identity);
     let done = script.run(&mut ed)?;
     println!("{} operations: {:?}", done.len(), done);

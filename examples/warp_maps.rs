@@ -10,7 +10,7 @@
 //! Run with `cargo run --release --example warp_maps`; the files are deterministic.
 
 use trimorph::fit::landmarks::Landmark;
-use trimorph::fit::solve::{fit, Bend, FitOptions};
+use trimorph::fit::{fit, Bend, FitOptions};
 use trimorph::mesh::{Mesh, MeshOptions};
 use trimorph::spline::Spline;
 

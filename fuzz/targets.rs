@@ -65,7 +65,7 @@ pub fn solve_json(data: &[u8]) {
     let Some(t) = text(data) else { return };
     if let Ok(p) = trimorph::ecles::problem::Problem::from_json(t) {
         if let Ok(sol) = p.solve() {
-            let _ = sol.to_json();
+            let _ = sol.to_json_text();
         }
     }
 }

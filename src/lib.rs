@@ -3,7 +3,8 @@
 //! Smooth (C1), local, exactly constrained and hand-editable deformations for image
 //! registration and morphing.
 //!
-//! Modules follow the data flow; lower modules never import higher ones:
+//! Modules follow the data flow; lower modules never import higher ones (the floors are in
+//! `docs/architecture.md`, checked by a test):
 //!
 //! * [`alloc`]: a global allocator asking for huge pages on large buffers (used by the
 //!   binary; imports nothing of the crate);
@@ -24,12 +25,13 @@
 //! * [`warp`]: points and images through a deformation (forward and inverse);
 //! * [`prism`]: 2.5D deformations of 3D models in a layer of prisms (PrisMystic);
 //! * [`bundled`]: the data compiled in (microscope image, time-lapse, the bundled scene);
-//! * [`fit`]: deformations fitted to matched landmarks (argmin over ECLES);
+//! * [`fit`]: deformations fitted to matched landmarks (squares or robust losses, the fold
+//!   barrier's Newton method on argmin, exact landmarks through ECLES);
 //! * [`register`]: registration from the images themselves (intensity metrics, argmin's
 //!   L-BFGS, landmarks and exact constraints in the same solve);
+//! * [`io`]: every file format, read with limits and written atomically;
+//! * [`render`]: pictures only (plots, deformations, models, colored meshes, overlays);
 //! * [`morph`]: image morphing through two fitted deformations blended exactly;
-//! * [`render`]: pictures (plots, deformations);
-//! * [`io`]: atomic file output;
 //! * [`jobs`]: file jobs, the library calls behind the subcommands (read, compute, write
 //!   atomically, report; no printing);
 //! * [`server`]: the interactive editor (local HTTP server and embedded page);
@@ -54,6 +56,8 @@ pub mod geom;
 pub mod io;
 pub mod jobs;
 pub mod json;
+#[cfg(test)]
+mod layers;
 pub mod memory;
 pub mod mesh;
 pub mod morph;

@@ -13,7 +13,7 @@ mod common;
 
 use common::tps::Tps;
 use trimorph::fit::landmarks::Landmark;
-use trimorph::fit::solve::{fit, residuals, Bend, FitOptions};
+use trimorph::fit::{fit, residuals, Bend, FitOptions};
 use trimorph::mesh::{Mesh, MeshOptions};
 use trimorph::spline::Spline;
 

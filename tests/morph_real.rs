@@ -244,8 +244,8 @@ fn doc_images_of_the_real_pair() {
 fn write_morph_writes_the_folder_all_or_nothing_and_the_deformations_read_back() {
     use std::sync::atomic::{AtomicUsize, Ordering};
     use trimorph::io::deformation;
+    use trimorph::jobs::morph::{write_morph, MorphFileOptions, MorphFilesError};
     use trimorph::morph::align::{Similarity, SIMILARITY_KEY};
-    use trimorph::render::morph_files::{write_morph, MorphFileOptions, MorphFilesError};
     let (a, b, lms) = pair();
     let edge = MorphOptions { mode: trimorph::warp::EdgeMode::Edge, ..MorphOptions::default() };
     let m = Morph::new(&a, &b, &lms, &edge).unwrap();
@@ -283,7 +283,7 @@ fn write_morph_writes_the_folder_all_or_nothing_and_the_deformations_read_back()
     let text = std::fs::read_to_string(out.join("phi_ab.json")).unwrap();
     let (ab, _) = deformation::from_str(&text).unwrap();
     let doc: serde_json::Value = serde_json::from_str(&text).unwrap();
-    let sim = Similarity::from_json(&doc[SIMILARITY_KEY]).unwrap();
+    let sim: Similarity = serde_json::from_value(doc[SIMILARITY_KEY].clone()).unwrap();
     let (ba, _) =
         deformation::from_str(&std::fs::read_to_string(out.join("phi_ba.json")).unwrap()).unwrap();
     let again = Morph::from_deformations_with(&a, &b, ab, Some(ba), Some(sim), &edge).unwrap();

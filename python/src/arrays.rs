@@ -432,9 +432,9 @@ pub fn read_image<'py>(py: Python<'py>, path: std::path::PathBuf) -> PyResult<Bo
     }
     let stack = py.detach(|| trimorph::io::raster::read_stack(&path)).map_err(|e| match e {
         trimorph::io::raster::RasterError::Io(io) => crate::errors::io_error(&io),
-        e @ trimorph::io::raster::RasterError::Memory { .. } => {
-            pyo3::exceptions::PyMemoryError::new_err(e.to_string())
-        }
+        e @ trimorph::io::raster::RasterError::Header(
+            trimorph::io::raster::HeaderError::Memory { .. },
+        ) => pyo3::exceptions::PyMemoryError::new_err(e.to_string()),
         other => value_error(other),
     })?;
     let arrays: Vec<Bound<'py, PyAny>> = stack

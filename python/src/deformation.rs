@@ -242,7 +242,7 @@ impl Deformation {
         // The fit report described the map before the edit.
         self.kept.remove("report");
         let v = serde_json::to_value(&reports).map_err(value_error)?;
-        crate::fitting::to_dict(py, &v)
+        crate::values::to_dict(py, &v)
     }
 
     /// The report of `trimorph check` as a dict: exact C1, the certified det J bounds, folds
@@ -257,7 +257,7 @@ impl Deformation {
         let v = py.detach(|| {
             trimorph::spline::check::check_report_with(&self.spline, samples, residuals)
         });
-        crate::fitting::to_dict(py, &v)
+        crate::values::to_dict(py, &serde_json::to_value(&v).map_err(value_error)?)
     }
 
     /// Writes the deformation file (atomically: a temporary file renamed into place).
@@ -314,7 +314,7 @@ impl Deformation {
     ) -> PyResult<Deformation> {
         let size = frame_size(size)?;
         let sources = points_in(py, src, "src", PointOrder::parse(order)?)?;
-        let lms = crate::fitting::landmarks_of(&sources, &sources, None, None)?;
+        let lms = crate::values::landmarks_of(&sources, &sources, None, None)?;
         let grid = snap.unwrap_or_else(|| trimorph::fit::frame::source_grid(&lms));
         let ao =
             AdaptOptions { margin, max_edge, min_angle, grid, extra_points: Vec::new(), far_rings };
@@ -567,7 +567,7 @@ impl Deformation {
     /// file (key `"report"`), so it survives `save` / `load`, `copy` and pickling.
     #[getter]
     fn report(&self, py: Python<'_>) -> PyResult<Option<Py<PyAny>>> {
-        self.kept.get("report").map(|v| crate::fitting::to_dict(py, v)).transpose()
+        self.kept.get("report").map(|v| crate::values::to_dict(py, v)).transpose()
     }
 
     /// The image frame the deformation was made for, as a dict (`size` = `(w, h)` pixels;
@@ -580,7 +580,7 @@ impl Deformation {
             .frame()
             .map(|f| {
                 let v = serde_json::to_value(f).map_err(value_error)?;
-                crate::fitting::to_dict(py, &v)
+                crate::values::to_dict(py, &v)
             })
             .transpose()
     }

@@ -8,50 +8,16 @@
 use crate::arrays::{image_to_numpy, numpy_to_image, points_in, PointOrder};
 use crate::deformation::Deformation;
 use crate::errors::{unsolvable, value_error, variant_name};
+use crate::values::landmarks_of;
 use crate::watch::{CancelToken, Shared, Watch};
 use pyo3::prelude::*;
 use pyo3::types::PyList;
 use trimorph::fit::frame::{fit_frame, FrameFitOptions};
-use trimorph::fit::landmarks::Landmark;
 use trimorph::fit::objective::{Barrier, Loss};
-use trimorph::fit::solve::{fit as fit_on, with_holdout, Bend, BendError, FitError, FitOptions};
+use trimorph::fit::{fit as fit_on, with_holdout, Bend, BendError, FitError, FitOptions};
 use trimorph::mesh::AdaptOptions;
 use trimorph::morph::{times_between, Morph, MorphError, MorphOptions, Schedule};
 use trimorph::warp::Interp;
-
-/// Landmarks from parallel point lists, optional weights and names.
-pub fn landmarks_of(
-    src: &[[f64; 2]],
-    dst: &[[f64; 2]],
-    weights: Option<Vec<f64>>,
-    names: Option<Vec<String>>,
-) -> PyResult<Vec<Landmark>> {
-    if src.len() != dst.len() {
-        return Err(value_error(format!(
-            "src has {} points but dst has {}; give one target per source",
-            src.len(),
-            dst.len()
-        )));
-    }
-    let n = src.len();
-    let weights = weights.unwrap_or_else(|| vec![1.0; n]);
-    if weights.len() != n {
-        return Err(value_error(format!("weights has {} values for {n} landmarks", weights.len())));
-    }
-    if let Some(names) = &names {
-        if names.len() != n {
-            return Err(value_error(format!("names has {} values for {n} landmarks", names.len())));
-        }
-    }
-    Ok((0..n)
-        .map(|i| Landmark {
-            name: names.as_ref().map(|v| v[i].clone()),
-            src: src[i],
-            dst: dst[i],
-            weight: weights[i],
-        })
-        .collect())
-}
 
 /// A fit error as the right Python exception.
 pub fn fit_exc(py: Python<'_>, e: FitError) -> PyErr {
@@ -63,13 +29,6 @@ pub fn fit_exc(py: Python<'_>, e: FitError) -> PyErr {
             other => value_error(other),
         }
     }
-}
-
-/// A Python dict from a serializable value (through `json.loads`, so numbers keep their
-/// JSON meaning).
-pub fn to_dict(py: Python<'_>, v: &serde_json::Value) -> PyResult<Py<PyAny>> {
-    let text = serde_json::to_string(v).map_err(value_error)?;
-    Ok(py.import("json")?.call_method1("loads", (text,))?.unbind())
 }
 
 /// The library's fit options from the keywords of `fit` (and of `FrameSequence`): `loss`
@@ -123,9 +82,12 @@ pub fn fit_options(
 /// Releases the GIL. `progress(done, total)` is called with `(1, 1)` when the fit is done;
 /// `cancel` takes a `trimorph.CancelToken`. Ctrl-C, an exception from `progress`, or a
 /// cancelled token (`trimorph.Cancelled`) stops the fit between Newton iterations.
-// The signature spells the default as a literal so that `inspect.signature` shows it (a
-// path shows as `...`); this keeps it the library's.
+// The signatures spell the defaults as literals so that `inspect.signature` shows them (a
+// path shows as `...`); these keep them the library's (`fit::options`, the one source).
 const _: () = assert!(trimorph::fit::frame::FAR_RINGS == 2);
+const _: () = assert!(trimorph::fit::options::DEFAULT_LOSS_SCALE == 2.0);
+const _: () = assert!(trimorph::fit::options::DEFAULT_MIN_DET == 0.1);
+const _: () = assert!(trimorph::fit::options::DEFAULT_MAX_ITERS == 200);
 
 #[pyfunction]
 #[pyo3(signature = (src, dst, size = None, weights = None, names = None, loss = "squares",
@@ -276,7 +238,16 @@ pub fn morph<'py>(
         ..MorphOptions::default()
     };
     // The morph's own default weight (interpolation) unless `bend` is given.
-    let fit = fit_options("squares", 2.0, bend, hard, true, 0.1, 200, None)?;
+    let fit = fit_options(
+        "squares",
+        trimorph::fit::options::DEFAULT_LOSS_SCALE,
+        bend,
+        hard,
+        true,
+        trimorph::fit::options::DEFAULT_MIN_DET,
+        trimorph::fit::options::DEFAULT_MAX_ITERS,
+        None,
+    )?;
     let opts = MorphOptions {
         fit: FitOptions {
             bend: if bend.is_some() { fit.bend } else { opts.fit.bend },

@@ -23,6 +23,7 @@ mod memory;
 mod registration;
 mod sequence;
 mod tiles;
+mod values;
 mod watch;
 
 /// The extension's own large buffers (warp outputs, maps) on transparent huge pages, as in

@@ -3,7 +3,7 @@
 use crate::arrays::{numpy_to_image, points_in, PointOrder};
 use crate::deformation::Deformation;
 use crate::errors::value_error;
-use crate::fitting::landmarks_of;
+use crate::values::landmarks_of;
 use crate::watch::{CancelToken, Watch};
 use pyo3::prelude::*;
 use std::path::PathBuf;

@@ -3,9 +3,9 @@
 //!
 //! `FrameSequence(model, frames, landmarks, out_dir, **options)` reads what
 //! `trimorph fit --model MODEL --frames FRAMES --landmarks LANDMARKS -o OUT_DIR` reads
-//! ([`trimorph::render::sequence::SequenceInputs`]), and `run_frame(k)` is
+//! ([`trimorph::jobs::sequence::SequenceInputs`]), and `run_frame(k)` is
 //! [`trimorph::fit::sequence::Sequence::run_frame`] on the command line's file store
-//! ([`trimorph::render::sequence::FrameFiles`]): it writes exactly the files `fit --frames`
+//! ([`trimorph::jobs::sequence::FrameFiles`]): it writes exactly the files `fit --frames`
 //! writes for frame `k` (each atomically, the report last), or skips the frame when its
 //! stored report's resume key is current. The fit of frame `k` changes the scene `phi` so
 //! that the landmark sources (reference pixels) land on their targets (frame pixels); see
@@ -17,17 +17,17 @@
 //! can be sent to other processes.
 
 use crate::errors::{io_error, unsolvable, value_error, variant_name};
-use crate::fitting::{fit_options, to_dict};
+use crate::fitting::fit_options;
+use crate::values::to_dict;
 use pyo3::exceptions::{PyIndexError, PyOSError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
 use std::path::{Path, PathBuf};
+use trimorph::fit::sequence::{choose_anchor, AnchorChoiceError, AnchorKind};
 use trimorph::fit::sequence::{Action, SequenceError};
-use trimorph::fit::solve::FitOptions;
+use trimorph::fit::FitOptions;
+use trimorph::jobs::sequence::{SceneSource, SequenceInputs, SequenceInputsError};
 use trimorph::mesh::AdaptOptions;
-use trimorph::render::sequence::{
-    choose_anchor, AnchorChoiceError, AnchorKind, SceneSource, SequenceInputs, SequenceInputsError,
-};
 
 /// A sequence's input error as a Python exception: unreadable files `OSError`, the rest
 /// `ValueError` (the library's message names the file and the element).

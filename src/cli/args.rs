@@ -2,8 +2,8 @@
 //! command module. The subcommand's help text is the doc comment of its `Command` variant.
 
 use super::common::text;
-use super::{editor_cmd, model_cmd, morph_cmd, spline_cmds, warp_cmd};
-use crate::fit::solve::Bend;
+use super::model_cmd;
+use crate::fit::Bend;
 use crate::jobs::model::AutoGrid;
 use crate::jobs::values::{
     parse_canvas_size, parse_extent, parse_grid, parse_origin, parse_raster_size, parse_spacing,
@@ -118,7 +118,7 @@ pub struct RenderCli {
     #[command(flatten)]
     pub up: model_cmd::UpArgs,
     #[command(flatten)]
-    pub marks: spline_cmds::RenderMarks,
+    pub marks: RenderMarks,
 }
 
 /// The command line of `trimorph warp`.
@@ -373,96 +373,25 @@ pub struct BindCli {
     pub extra: model_cmd::BindExtra,
 }
 
-impl MeshCli {
-    /// Runs `trimorph mesh`.
-    pub fn run(&self) -> anyhow::Result<()> {
-        spline_cmds::mesh(self)
-    }
+/// Landmark options of `trimorph render`.
+#[derive(clap::Args, Clone, Debug, Default)]
+pub struct RenderMarks {
+    /// Landmarks to draw (CSV, BigWarp CSV or JSON, as `fit` reads them): each source as an
+    /// orange cross, phi(source) as a green dot, the target as a magenta ring, and a line
+    /// from phi(source) to the target (the residual).
+    #[arg(long)]
+    pub landmarks: Option<std::path::PathBuf>,
 }
 
-impl EditCli {
-    /// Runs `trimorph edit`.
-    pub fn run(&self) -> anyhow::Result<()> {
-        let bounded = if self.unbounded { None } else { Some(self.bounded_bits) };
-        spline_cmds::edit(&self.deformation, &self.script, &self.output, bounded)
-    }
-}
-
-impl RenderCli {
-    /// Runs `trimorph render` (through a 2.5D deformation with --model).
-    pub fn run(&self) -> anyhow::Result<()> {
-        let bg = self.background.as_deref();
-        let (def, out, size) = (&self.deformation, &self.output, self.size);
-        match &self.model {
-            Some(m) => self.marks.refuse_with_model().and_then(|()| {
-                let up = self.up.resolve(m)?;
-                model_cmd::render_model(def, m, out, bg, self.view.into(), size, up)
-            }),
-            None => spline_cmds::render(def, out, bg, self.show, size, &self.marks),
+impl RenderMarks {
+    /// `--landmarks` draws on the deformation's picture, not on a model's.
+    pub fn refuse_with_model(&self) -> anyhow::Result<()> {
+        if let Some(l) = &self.landmarks {
+            anyhow::bail!(
+                "{}: --landmarks draws on a deformation's picture; omit --model",
+                l.display()
+            );
         }
-    }
-}
-
-impl BindCli {
-    /// Runs `trimorph model bind`.
-    pub fn run(self) -> anyhow::Result<()> {
-        let up = self.extra.up.resolve(&self.model)?;
-        model_cmd::bind_cmd(&crate::jobs::model::BindOptions {
-            model: self.model,
-            mesh: self.mesh,
-            auto: self.auto,
-            grid: self.grid,
-            margin: self.margin,
-            range: self.range,
-            degree: self.degree,
-            output: self.output,
-            up,
-            snap: self.extra.snap,
-        })
-    }
-}
-
-impl WarpCli {
-    /// Runs `trimorph warp`.
-    pub fn run(&self) -> anyhow::Result<()> {
-        warp_cmd::run(self)
-    }
-}
-
-impl MorphCli {
-    /// Runs `trimorph morph`.
-    pub fn run(&self) -> anyhow::Result<()> {
-        morph_cmd::run(self)
-    }
-}
-
-impl EditorCli {
-    /// Runs `trimorph editor`.
-    pub fn run(&self) -> anyhow::Result<()> {
-        let start = crate::server::start::StartOptions {
-            deformation: self.deformation.clone(),
-            model: self.model.clone(),
-            image: self.image.clone().or_else(|| self.moving.clone()),
-            fixed: self.fixed.clone(),
-        };
-        editor_cmd::run(&start, self.port)
-    }
-}
-
-impl FieldCli {
-    /// Runs `trimorph field`.
-    pub fn run(&self) -> anyhow::Result<()> {
-        let opts = crate::jobs::field::FieldOptions {
-            output: self.output.clone(),
-            inverse: self.inverse,
-            both: self.both,
-            jacobian: self.jacobian.clone(),
-            placement: crate::jobs::field::PlacementParts {
-                spacing: self.spacing,
-                origin: self.origin,
-                unit: self.unit.clone(),
-            },
-        };
-        warp_cmd::field(&self.deformation, &opts, self.size)
+        Ok(())
     }
 }

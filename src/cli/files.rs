@@ -59,7 +59,7 @@ pub(super) fn files(cmd: &Command) -> CommandFiles {
             for name in ["phi_ab.json", "phi_ba.json", "contact-sheet.png"] {
                 f = f.output("--output", Some(&a.output.join(name)));
             }
-            for k in 0..a.frames.min(crate::render::morph_files::MAX_FRAMES) {
+            for k in 0..a.frames.min(crate::jobs::morph::MAX_FRAMES) {
                 let name = crate::morph::output::frame_name(k, a.frames);
                 f = f.output("--output", Some(&a.output.join(name)));
             }

@@ -3,13 +3,13 @@
 //! here, dispatched by `cli::run` to [`super::fit_cmd`] and [`super::fit_batch`].
 
 use super::common::{choice, text};
-use super::{fit_batch, fit_cmd};
 use crate::fit::objective::{Barrier, Loss, LossKind};
-use crate::fit::solve::{Bend, FitOptions};
+use crate::fit::options::{DEFAULT_LOSS_SCALE, DEFAULT_MAX_ITERS, DEFAULT_MIN_DET};
+use crate::fit::sequence::AnchorKind;
+use crate::fit::{Bend, FitOptions};
 use crate::io::landmarks::LandmarkSource;
 use crate::jobs::fit::Pin;
 use crate::jobs::values::{parse_frame_size, parse_shard};
-use crate::render::sequence::AnchorKind;
 use anyhow::anyhow;
 use std::path::PathBuf;
 
@@ -43,7 +43,7 @@ pub struct FitCli {
     #[arg(long, default_value = "squares", value_parser = choice::<LossKind>(&LossKind::NAMES))]
     pub loss: LossKind,
     /// Scale of the huber / cauchy loss (pixels).
-    #[arg(long, default_value_t = 2.0)]
+    #[arg(long, default_value_t = DEFAULT_LOSS_SCALE)]
     pub loss_scale: f64,
     /// Weight of the bending (thin-plate) energy: `auto` (chosen by leave-one-out
     /// cross-validation on the landmarks) or a scale-free number (lambda = bend * sum of
@@ -71,14 +71,14 @@ pub struct FitCli {
     #[arg(long, value_name = "LIST", value_parser = text(str::parse::<Pin>))]
     pub pin: Option<Pin>,
     /// Floor that the fold barrier keeps det J above.
-    #[arg(long, default_value_t = 0.1)]
+    #[arg(long, default_value_t = DEFAULT_MIN_DET)]
     pub min_det: f64,
     /// Turn the fold barrier off.
     #[arg(long)]
     pub no_barrier: bool,
     /// Iteration cap of the fit's Newton method (with the fold barrier; each accepted step is
     /// certified fold-free).
-    #[arg(long, default_value_t = 200)]
+    #[arg(long, default_value_t = DEFAULT_MAX_ITERS)]
     pub max_iters: u64,
     /// Scene (deformation, usually from `model bind`) for a frame sequence.
     #[arg(long)]
@@ -142,26 +142,6 @@ impl FitCli {
             _ => {
                 Err(anyhow!("give --landmarks FILE, or --landmarks-src FILE --landmarks-dst FILE"))
             }
-        }
-    }
-
-    /// Runs `trimorph fit`: one fit ([`fit_cmd::run_single`]) or a sequence
-    /// ([`fit_batch::run`]), by which of DEF, --size and --model/--frames are given.
-    pub fn run(self) -> anyhow::Result<()> {
-        use crate::render::sequence::SceneSource;
-        match (&self.deformation, &self.model, &self.frames, self.size) {
-            (d, None, None, size) if d.is_some() != size.is_some() => fit_cmd::run_single(&self),
-            // A sequence: a 2.5D scene, any 2D deformation, or a 2D scene over the frame.
-            (None, Some(scene), Some(frames), None) | (Some(scene), None, Some(frames), None) => {
-                fit_batch::run(&self, SceneSource::File(scene.clone()), frames)
-            }
-            (None, None, Some(frames), Some(size)) => {
-                let adapt = self.adapt_options();
-                fit_batch::run(&self, SceneSource::Landmarks { size, adapt, degree: 5 }, frames)
-            }
-            _ => Err(anyhow::anyhow!(
-                "give DEF.json (one fit), or --size W,H instead of DEF (one fit over a mesh adapted to the landmarks); for a sequence, --frames with one of --model SCENE.json, DEF.json or --size W,H"
-            )),
         }
     }
 

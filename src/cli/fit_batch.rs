@@ -31,8 +31,9 @@
 use super::common::{progress_bar, say};
 use super::fit_args::FitCli;
 use super::fit_cmd::fit_error;
+use crate::fit::sequence::choose_anchor;
 use crate::jobs::fit::{SequenceJob, SequenceJobError};
-use crate::render::sequence::{choose_anchor, SceneSource};
+use crate::jobs::sequence::SceneSource;
 use anyhow::Result;
 use std::path::Path;
 

@@ -6,7 +6,7 @@
 use super::common::{error_text, say};
 use super::fit_args::FitCli;
 use super::{Exit, EXIT_UNSOLVABLE};
-use crate::fit::solve::FitError;
+use crate::fit::FitError;
 use crate::jobs::fit::{FitJob, FitJobError, FitStart};
 use anyhow::{anyhow, Result};
 

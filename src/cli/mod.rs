@@ -7,6 +7,7 @@ mod args;
 mod bench;
 mod common;
 mod demo;
+mod dispatch;
 mod editor_cmd;
 mod files;
 mod fit_args;

@@ -4,14 +4,14 @@
 
 use super::args::MorphCli;
 use super::common::progress_bar;
-use crate::fit::solve::FitOptions;
+use crate::fit::FitOptions;
 use crate::io::landmarks::LandmarkSource;
 use crate::io::raster::read_stack;
 use crate::io::{deformation, read_text};
+use crate::jobs::morph::{check_frames, write_morph, MorphFileOptions};
 use crate::morph::align::{Similarity, SIMILARITY_KEY};
 use crate::morph::fits::{MISS_TOLERANCE, PIN_PREFIX};
 use crate::morph::{Morph, MorphOptions};
-use crate::render::morph_files::{check_frames, write_morph, MorphFileOptions};
 use crate::spline::Spline;
 use crate::timing::Phases;
 use anyhow::{anyhow, bail, Context, Result};
@@ -25,7 +25,7 @@ fn first_page(path: &Path, which: &str) -> Result<DynamicImage> {
 }
 
 /// Largest `--cells`: finer meshes exceed the fit's size limit
-/// ([`crate::fit::solve::MAX_FIT_VARIABLES`]).
+/// ([`crate::fit::options::MAX_FIT_VARIABLES`]).
 const MAX_CELLS: usize = 48;
 
 /// Runs the command.

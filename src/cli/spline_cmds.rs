@@ -2,7 +2,7 @@
 //! [`crate::jobs::spline`] and [`crate::spline::check`]; this layer parses the options and
 //! prints.
 
-use super::args::MeshCli;
+use super::args::{MeshCli, RenderMarks};
 use super::common::say;
 use super::{Exit, EXIT_INPUT, EXIT_UNSOLVABLE};
 use crate::io::deformation;
@@ -15,7 +15,6 @@ use crate::jobs::values::{check_extent, check_frame_size};
 use crate::mesh::{AdaptOptions, MeshOptions};
 use crate::render::deformation::{Layers, RenderOptions};
 use anyhow::{anyhow, bail, Context, Result};
-use serde_json::json;
 use std::io::Write;
 use std::path::Path;
 
@@ -83,7 +82,7 @@ pub fn edit(def: &Path, script: &Path, output: &Path, bounded: Option<u32>) -> R
     Ok(())
 }
 
-use crate::spline::check::{check_report_with, non_finite_point, summary_line};
+use crate::spline::check::{check_report_with, non_finite_point};
 
 /// Report options of `trimorph check`.
 #[derive(clap::Args, Clone, Copy, Debug, Default)]
@@ -114,8 +113,8 @@ pub fn check(def: &Path, samples: usize, opts: CheckOptions) -> Result<()> {
     }
     let rep = check_report_with(&s, samples, opts.residuals);
     writeln!(std::io::stdout(), "{}", serde_json::to_string_pretty(&rep)?)?;
-    eprintln!("{}: {}", def.display(), summary_line(&rep));
-    if rep["c1_holds"] != json!(true) {
+    eprintln!("{}: {}", def.display(), rep.summary_line());
+    if !rep.c1_holds {
         return Err(Exit {
             code: EXIT_INPUT,
             message: format!("{}: C1 conditions do not hold", def.display()),
@@ -124,26 +123,6 @@ pub fn check(def: &Path, samples: usize, opts: CheckOptions) -> Result<()> {
         .into());
     }
     Ok(())
-}
-
-/// Landmark options of `trimorph render`.
-#[derive(clap::Args, Clone, Debug, Default)]
-pub struct RenderMarks {
-    /// Landmarks to draw (CSV, BigWarp CSV or JSON, as `fit` reads them): each source as an
-    /// orange cross, phi(source) as a green dot, the target as a magenta ring, and a line
-    /// from phi(source) to the target (the residual).
-    #[arg(long)]
-    pub landmarks: Option<std::path::PathBuf>,
-}
-
-impl RenderMarks {
-    /// `--landmarks` draws on the deformation's picture, not on a model's.
-    pub fn refuse_with_model(&self) -> Result<()> {
-        if let Some(l) = &self.landmarks {
-            bail!("{}: --landmarks draws on a deformation's picture; omit --model", l.display());
-        }
-        Ok(())
-    }
 }
 
 /// `trimorph render DEF -o OUT.png [--background IMG] [--show LAYERS] [--size W,H]

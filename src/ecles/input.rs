@@ -17,7 +17,7 @@
 //! valid JSON is always reported as such ([`ProblemError::Json`]), even when a wrong value
 //! comes before the syntax error.
 
-use super::problem::{key_err, Problem, ProblemError};
+use super::EclesError;
 use crate::exact::matrix::{parse_rat, Rat};
 use crate::exact::Int;
 use crate::json::{Keys, DUPLICATE, NUMBER_TOKEN};
@@ -26,6 +26,30 @@ use serde::de::{self, DeserializeSeed, MapAccess, SeqAccess, Visitor};
 use std::cell::RefCell;
 use std::collections::HashSet;
 use std::fmt;
+
+/// Errors reading a problem.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum ProblemError {
+    /// Not valid JSON.
+    #[error("not valid JSON: {0}")]
+    Json(String),
+    /// A key is missing or holds a value of the wrong kind.
+    #[error("{path}: {message}")]
+    Key {
+        /// Where, e.g. `P[3][1]` or `anchors."7"`.
+        path: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// The edit itself is malformed (indices, sizes, weights).
+    #[error("{0}")]
+    Edit(#[from] EclesError),
+}
+
+/// A [`ProblemError::Key`] at `path`.
+pub(super) fn key_err(path: impl Into<String>, message: impl Into<String>) -> ProblemError {
+    ProblemError::Key { path: path.into(), message: message.into() }
+}
 
 /// Where a value sits in the document, as a chain of segments on the stack; formatted
 /// (`R.rows[3][1][0]`, `anchors."7"`) only for an error message.
@@ -667,41 +691,14 @@ impl<'de> Shape<'de> for OptRows {
     }
 }
 
-/// Reads a problem from a `serde_json` deserializer (text or reader) in one pass.
-fn read<'de, R: serde_json::de::Read<'de>>(
+/// Reads a problem's raw parts from a `serde_json` deserializer (text or reader) in one
+/// pass ([`Problem::from_json`](super::problem::Problem::from_json) checks and builds it).
+pub(super) fn read<'de, R: serde_json::de::Read<'de>>(
     mut de: serde_json::Deserializer<R>,
-) -> Result<Problem, ProblemError> {
+) -> Result<Raw, ProblemError> {
     let ctx = Ctx::default();
     let raw = node(&ctx, Top).deserialize(&mut de).and_then(|raw| de.end().map(|()| raw));
-    match raw {
-        Ok(raw) => Problem::from_raw(raw),
-        Err(e) => Err(ctx.error.into_inner().unwrap_or_else(|| ProblemError::Json(e.to_string()))),
-    }
-}
-
-impl Problem {
-    /// Parses a problem from JSON text, in one streaming pass (module docs). Text that is not
-    /// valid JSON (a syntax error, a key given twice) is a [`ProblemError::Json`] even when
-    /// the pass met a wrong value first: on an error, the text is scanned once more for
-    /// that.
-    pub fn from_json(text: &str) -> Result<Problem, ProblemError> {
-        read(serde_json::Deserializer::from_str(text)).map_err(|e| match e {
-            ProblemError::Json(_) => e,
-            _ => match crate::json::check_syntax(text) {
-                Err(j) => ProblemError::Json(j.to_string()),
-                Ok(()) => e,
-            },
-        })
-    }
-
-    /// Parses a problem from a reader (a file, a pipe; buffered here), in one streaming pass
-    /// without holding the text: the same problem as [`Problem::from_json`] on the text
-    /// read. Errors are those met first in reading order (a wrong value before a later
-    /// syntax error is reported as the wrong value).
-    pub fn from_reader<R: std::io::Read>(r: R) -> Result<Problem, ProblemError> {
-        let r = std::io::BufReader::with_capacity(1 << 16, r);
-        read(serde_json::Deserializer::from_reader(r))
-    }
+    raw.map_err(|e| ctx.error.into_inner().unwrap_or_else(|| ProblemError::Json(e.to_string())))
 }
 
 #[cfg(test)]

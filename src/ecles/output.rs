@@ -8,9 +8,16 @@ use crate::exact::Int;
 use num_traits::One;
 use serde_json::{json, Value};
 
+impl serde::Serialize for Solution {
+    /// The output JSON object of `trimorph solve` ([`Solution::to_json`]'s).
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        self.to_json().serialize(s)
+    }
+}
+
 impl Solution {
     /// The output JSON object of `trimorph solve`.
-    pub fn to_json(&self) -> Value {
+    pub(crate) fn to_json(&self) -> Value {
         json!({
             "P": self.p.iter().map(|r| r.iter().map(rat_to_string).collect::<Vec<_>>()).collect::<Vec<_>>(),
             "P_float": self.p.iter().map(|r| r.iter().map(rat_to_f64).collect::<Vec<_>>()).collect::<Vec<_>>(),
@@ -133,7 +140,7 @@ where
 }
 
 /// The JSON error object for an ECLES error: `{"error": kind, "condition": ..., "message": ...}`.
-pub fn error_json(e: &EclesError) -> Value {
+pub(crate) fn error_json(e: &EclesError) -> Value {
     match e {
         EclesError::NotWeaklySolvable { constraint, column } => json!({
             "error": "not_solvable", "condition": "weak_solvability",

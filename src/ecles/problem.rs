@@ -28,7 +28,8 @@
 //! (each redundant constraint depends on the relevant ones before it; see
 //! [`super::modular`]).
 
-use super::input::{Raw, RawR, PATHS};
+pub use super::input::ProblemError;
+use super::input::{key_err, read, Raw, RawR, PATHS};
 use super::{ConstraintSystem, EclesError, InitOptions};
 use crate::exact::ldu::Simplification;
 use crate::exact::matrix::{Rat, ScaledVec, SparseIntMatrix};
@@ -36,7 +37,7 @@ use crate::exact::Int;
 use num_traits::{Signed, Zero};
 use rayon::prelude::*;
 
-pub use super::output::error_json;
+pub(crate) use super::output::error_json;
 
 /// Smallest `|E| x |D|` (relevant constraints times derived parameters) for which `"auto"`
 /// runs the modular path: below it the fraction-free LDU is as fast and needs no primes.
@@ -53,25 +54,6 @@ pub enum SolvePath {
     Modular,
     /// The fraction-free LDU (the reference).
     FractionFree,
-}
-
-/// Errors reading a problem.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-pub enum ProblemError {
-    /// Not valid JSON.
-    #[error("not valid JSON: {0}")]
-    Json(String),
-    /// A key is missing or holds a value of the wrong kind.
-    #[error("{path}: {message}")]
-    Key {
-        /// Where, e.g. `P[3][1]` or `anchors."7"`.
-        path: String,
-        /// What is wrong.
-        message: String,
-    },
-    /// The edit itself is malformed (indices, sizes, weights).
-    #[error("{0}")]
-    Edit(#[from] EclesError),
 }
 
 /// A parsed editing problem.
@@ -116,11 +98,6 @@ pub struct Solution {
     pub all_constraints_hold: bool,
     /// The solver that ran: `"fraction_free"` or `"modular"`.
     pub path: &'static str,
-}
-
-/// A [`ProblemError::Key`] at `path`.
-pub(super) fn key_err(path: impl Into<String>, message: impl Into<String>) -> ProblemError {
-    ProblemError::Key { path: path.into(), message: message.into() }
 }
 
 /// Largest bit size of a weight's numerator and denominator (weights from about 1e-38 to
@@ -416,6 +393,33 @@ fn index_key(k: &str, name: &str, n: usize) -> Result<usize, ProblemError> {
         ));
     }
     Ok(i)
+}
+
+impl Problem {
+    /// Parses a problem from JSON text, in one streaming pass (module docs). Text that is not
+    /// valid JSON (a syntax error, a key given twice) is a [`ProblemError::Json`] even when
+    /// the pass met a wrong value first: on an error, the text is scanned once more for
+    /// that.
+    pub fn from_json(text: &str) -> Result<Problem, ProblemError> {
+        read(serde_json::Deserializer::from_str(text)).and_then(Problem::from_raw).map_err(|e| {
+            match e {
+                ProblemError::Json(_) => e,
+                _ => match crate::json::check_syntax(text) {
+                    Err(j) => ProblemError::Json(j.to_string()),
+                    Ok(()) => e,
+                },
+            }
+        })
+    }
+
+    /// Parses a problem from a reader (a file, a pipe; buffered here), in one streaming pass
+    /// without holding the text: the same problem as [`Problem::from_json`] on the text
+    /// read. Errors are those met first in reading order (a wrong value before a later
+    /// syntax error is reported as the wrong value).
+    pub fn from_reader<R: std::io::Read>(r: R) -> Result<Problem, ProblemError> {
+        let r = std::io::BufReader::with_capacity(1 << 16, r);
+        read(serde_json::Deserializer::from_reader(r)).and_then(Problem::from_raw)
+    }
 }
 
 #[cfg(test)]

@@ -129,7 +129,7 @@ impl Extra {
     }
 
     /// JSON form, as saved in deformation files (`"constraints"`).
-    pub fn to_json(&self) -> Value {
+    pub(crate) fn to_json(&self) -> Value {
         use crate::exact::rat_to_string as s;
         match self {
             Extra::Pin { point, at } => json!({"pin": point, "at": [s(&at[0]), s(&at[1])]}),
@@ -143,7 +143,7 @@ impl Extra {
 
     /// Reads the JSON form; constants absent from the JSON are taken from `points`. The
     /// constraint must hold for `points`.
-    pub fn from_json(v: &Value, points: &[Vec<Rat>]) -> Result<Extra, ExtraError> {
+    pub(crate) fn from_json(v: &Value, points: &[Vec<Rat>]) -> Result<Extra, ExtraError> {
         let bad = |m: &str| ExtraError::Malformed(format!("constraint {v}: {m}"));
         let idx =
             |x: &Value| x.as_u64().map(|u| u as usize).ok_or_else(|| bad("expected point indices"));

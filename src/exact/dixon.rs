@@ -37,8 +37,7 @@
 
 use super::int::{Int, IntView};
 use super::matrix::{ScaledVec, SparseIntMatrix};
-use super::modp::{primes, LuModP, Zp};
-use super::modular::{rows_mod, SolveStats};
+use super::modp::{primes, rows_mod, LuModP, SolveStats, Zp};
 use num_bigint::BigInt;
 use num_integer::Integer;
 use num_traits::{One, Zero};

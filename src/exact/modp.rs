@@ -29,6 +29,7 @@
 //! trapezoidal: the rows `row_order[..rank]` are independent modulo `p` (hence independent
 //! over the rationals), the rows `row_order[rank..]` reduce to zero modulo `p`.
 
+use super::matrix::SparseIntMatrix;
 use std::sync::{Mutex, OnceLock};
 
 /// Largest prime we use is below this bound.
@@ -585,6 +586,31 @@ impl Work {
         fresh.extend_from_slice(out);
         self.rows[t] = fresh;
     }
+}
+
+/// Rows of `a` modulo `zp` (Montgomery form).
+pub fn rows_mod(zp: &Zp, a: &SparseIntMatrix) -> Vec<ModRow> {
+    (0..a.rows())
+        .map(|i| {
+            a.row(i)
+                .iter()
+                .filter_map(|(c, v)| {
+                    let m = zp.from_int(v);
+                    (m != 0).then_some((*c as u32, m))
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// Statistics of a modular solve (the multi-modular one of [`super::modular`] and Dixon's
+/// lifting in [`super::dixon`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SolveStats {
+    /// Primes combined.
+    pub primes: usize,
+    /// Candidates rejected by the exact verification.
+    pub rejected: usize,
 }
 
 #[cfg(test)]

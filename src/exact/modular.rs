@@ -49,7 +49,7 @@
 use super::crt::CrtVec;
 use super::int::Int;
 use super::matrix::{ScaledVec, SparseIntMatrix};
-use super::modp::{primes, LuModP, ModRow, Zp};
+use super::modp::{primes, rows_mod, LuModP, SolveStats, Zp};
 use num_traits::{One, Zero};
 use rayon::prelude::*;
 
@@ -73,33 +73,9 @@ pub enum ModularError {
     RankNotCertified,
 }
 
-/// Rows of `a` modulo `zp` (Montgomery form).
-pub fn rows_mod(zp: &Zp, a: &SparseIntMatrix) -> Vec<ModRow> {
-    (0..a.rows())
-        .map(|i| {
-            a.row(i)
-                .iter()
-                .filter_map(|(c, v)| {
-                    let m = zp.from_int(v);
-                    (m != 0).then_some((*c as u32, m))
-                })
-                .collect()
-        })
-        .collect()
-}
-
 /// A hook that may alter a reconstructed candidate before verification (tests use it to
 /// inject a wrong reconstruction).
 pub type Tamper<'a> = &'a (dyn Fn(&mut [ScaledVec]) + Sync);
-
-/// Statistics of a modular solve.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct SolveStats {
-    /// Primes combined.
-    pub primes: usize,
-    /// Candidates rejected by the exact verification.
-    pub rejected: usize,
-}
 
 /// Solves `A X = B` exactly for nonsingular square `a` and the columns `b` (see the module
 /// docs). Returns one [`ScaledVec`] per column.

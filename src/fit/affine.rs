@@ -8,8 +8,8 @@
 //! them. Such pairs are what a fit with the fold barrier cannot follow; [`crossing_pairs`]
 //! names them.
 
+use super::error::FitError;
 use super::landmarks::Landmark;
-use super::solve::FitError;
 
 /// The weighted least-squares affine map of the landmarks, or why there is none (fewer than
 /// three, or all sources on one line).

@@ -1,7 +1,7 @@
 //! [`FitError`]: why a fit failed, one variant per rule, each carrying the offending values.
 
 use super::objective::Barrier;
-use super::solve::MAX_FIT_VARIABLES;
+use super::options::MAX_FIT_VARIABLES;
 use crate::mesh::MeshError;
 use crate::spline::mds::MdsError;
 use crate::spline::{ControlPoint, SplineError};
@@ -43,7 +43,7 @@ pub enum FitError {
          at least 3 landmarks not on one line, or a positive bending weight"
     )]
     Singular(usize),
-    /// A bending weight ([`super::solve::Bend::Weight`]) that is not a finite number `>= 0`.
+    /// A bending weight ([`super::options::Bend::Weight`]) that is not a finite number `>= 0`.
     #[error("invalid fit option: bending weight {weight} must be finite and >= 0")]
     BendWeight {
         /// The weight given.
@@ -65,12 +65,12 @@ pub enum FitError {
     /// A `det J` sample level of 0, or a rounding grid of 0 or more than 60 bits.
     #[error("invalid fit option: det level and grid bits must be positive (grid bits at most 60)")]
     Sampling {
-        /// [`FitOptions::det_level`](super::solve::FitOptions::det_level) given.
+        /// [`FitOptions::det_level`](super::options::FitOptions::det_level) given.
         det_level: usize,
-        /// [`FitOptions::grid_bits`](super::solve::FitOptions::grid_bits) given.
+        /// [`FitOptions::grid_bits`](super::options::FitOptions::grid_bits) given.
         grid_bits: u32,
     },
-    /// A pinned control point ([`FitOptions::pinned`](super::solve::FitOptions::pinned)) that the spline does not have.
+    /// A pinned control point ([`FitOptions::pinned`](super::options::FitOptions::pinned)) that the spline does not have.
     #[error(
         "invalid fit option: pinned control point {point} does not exist (the spline has \
          {points})"

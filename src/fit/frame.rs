@@ -36,9 +36,13 @@
 //! the report's `covers_frame` says whether it was proven.
 
 pub use super::affine::affine_fit;
+use super::entry::fit_with_terms;
+use super::error::FitError;
 use super::landmarks::Landmark;
 use super::objective::TriangleTerms;
-use super::solve::{fit_with_terms, validate, Fit, FitError, FitOptions};
+use super::options::FitOptions;
+use super::report::Fit;
+use super::solve::validate;
 use crate::mesh::{default_margin, AdaptOptions, Mesh, MeshError};
 use crate::spline::mds::{Mds, MdsError};
 use crate::spline::Spline;

@@ -54,9 +54,12 @@
 //! polynomial has coefficients (`(d+1)(d+2)/2`), or rows that stay dependent after the
 //! grown reduction, give [`FitError::TooManyConstraints`], naming the landmarks involved.
 
+use super::error::FitError;
 use super::hard_solve::{solve_rows, Row, Unmet, MAX_GROUP};
 use super::landmarks::Landmark;
-use super::solve::{fit_soft, report, Bend, Fit, FitError, FitOptions};
+use super::options::{Bend, FitOptions};
+use super::report::{ExactStep, Fit, FitMethod};
+use super::solve::fit_soft;
 use crate::exact::{exact_decimal, rat_to_f64, Int, Rat};
 use crate::spline::layout::{local_index, multi_indices};
 use crate::spline::mds::{Mds, Role};
@@ -258,11 +261,12 @@ pub(super) fn fit_hard(
     };
     let soft = fit_soft(s, mds, lms, &soft_opts, start)?;
     let spline = exact_constraints(s, mds, &soft.spline, lms, opts)?;
-    let mut rep = report(
+    let exact = if opts.hard { ExactStep::Hard } else { ExactStep::Pinned };
+    let mut rep = super::report::build(
         &spline,
         lms,
         opts,
-        format!("{}+{}", soft.report.method, if opts.hard { "hard" } else { "pinned" }),
+        FitMethod { exact: Some(exact), ..soft.report.method },
         soft.report.variables / 2,
         soft.report.iterations,
         soft.report.cost_initial,
@@ -274,7 +278,7 @@ pub(super) fn fit_hard(
     rep.gcv_rms = soft.report.gcv_rms;
     rep.loo_rms = soft.report.loo_rms;
     rep.bend_criterion = soft.report.bend_criterion;
-    rep.termination = soft.report.termination.clone();
+    rep.termination = soft.report.termination;
     rep.conflicts = soft.report.conflicts.clone();
     rep.time_ms = start.elapsed().as_secs_f64() * 1e3;
     Ok(Fit { spline, report: rep })

@@ -4,7 +4,8 @@
 
 use super::hard::{bernstein_row, exact_landmark, locate_exact};
 use super::landmarks::Landmark;
-use super::solve::{fit, FitError, FitOptions};
+use super::report::ExactStep;
+use super::{fit, FitError, FitOptions};
 use crate::exact::{parse_rat, Rat};
 use crate::mesh::{Mesh, MeshOptions};
 use crate::spline::{ControlPoint, Spline};
@@ -61,7 +62,7 @@ fn hard_fit_meets_four_decimal_landmarks_exactly_on_a_grid_mesh() {
     let lms = landmarks4(100, 21, 3.0, 508.0);
     let hard = fit(&s, &lms, &FitOptions { hard: true, ..FitOptions::default() }).unwrap();
     assert_exact(&hard.spline, &lms);
-    assert!(hard.report.method.ends_with("+hard"));
+    assert_eq!(hard.report.method.exact, Some(ExactStep::Hard));
     assert!(hard.report.fit.max < 1e-9, "{:?}", hard.report.fit);
     // The output keeps the soft fit's size order (the old grid-rounded ECLES solve wrote
     // 27 MB for 97 landmarks).

@@ -6,7 +6,9 @@
 //! * [`track`]: pyramidal Lucas-Kanade tracking of points between frames;
 //! * [`sequence`]: one scene fitted to every frame of a sequence (tracked or given targets,
 //!   anchoring, held-out landmarks, warm starts, resume keys, shards);
-//! * [`solve`]: the fit itself (objective in [`objective`], bending energy and basis rows in
+//! * [`fit()`]: the fit itself, one entry point with its [`FitOptions`] ([`options`]),
+//!   returning a [`Fit`] with its typed [`FitReport`] ([`report`]); the soft fit in [`solve`]
+//!   (objective in [`objective`], bending energy and basis rows in
 //!   [`basis`], the MDS parameterization in [`param`], the squares fit in landmark space and
 //!   the automatic smoothing weight in [`smooth`] (in variable space for many landmarks,
 //!   [`smooth_sparse`]), Newton's method with the fold barrier in
@@ -20,6 +22,7 @@
 
 pub mod affine;
 pub mod basis;
+mod entry;
 mod error;
 pub mod features;
 pub mod frame;
@@ -31,6 +34,7 @@ pub mod landmarks;
 pub mod newton;
 pub mod objective;
 pub mod optim;
+pub mod options;
 pub mod param;
 pub mod report;
 pub mod sequence;
@@ -41,3 +45,8 @@ pub use crate::sparse;
 #[cfg(test)]
 mod tests;
 pub mod track;
+
+pub use entry::{fit, fit_with};
+pub use error::FitError;
+pub use options::{Bend, BendError, FitOptions};
+pub use report::{residuals, with_holdout, Fit, FitReport, HoldoutReport, Residual, Stats};

@@ -27,8 +27,9 @@
 //! converge linearly and slowly: on 80 landmarks under a 2.5 rad swirl, 200 iterations
 //! (10 s) ended at the cap with the fit long settled; the bound stops them after 70.)
 
+use super::error::FitError;
 use super::objective::{det_gradient, sample_jacobian, Objective, TriangleBlock as TriInfo};
-use super::solve::FitError;
+use super::report::FitTermination;
 use super::sparse::Pattern;
 use argmin::core::{
     CostFunction, Error as ArgminError, Executor, Gradient, IterState, Problem, Solver, State,
@@ -52,8 +53,8 @@ pub struct Outcome {
     pub x: Vec<f64>,
     /// Newton iterations.
     pub iterations: u64,
-    /// `converged`, `no descent` (no step length decreases F) or `iteration cap`.
-    pub termination: String,
+    /// `Converged`, `NoDescent` (no step length decreases F) or `IterationCap`.
+    pub termination: FitTermination,
 }
 
 /// The Hessian's structure and the fixed parts of its values.
@@ -375,7 +376,7 @@ impl<'a> Solver<FitProblem<'a>, NewtonState> for CertifiedNewton<'a> {
 }
 
 /// The termination of a Newton run that found no step length decreasing the cost.
-const NO_DESCENT: &str = "no descent";
+const NO_DESCENT: &str = FitTermination::NoDescent.name();
 
 /// Runs Newton's method from `start` (see the module docs) as [`CertifiedNewton`] under
 /// argmin's `Executor`. `certify` receives the control points of a trial iterate and
@@ -394,7 +395,7 @@ pub fn newton(
         return Ok(Outcome {
             x: start.to_vec(),
             iterations: 0,
-            termination: "iteration cap".into(),
+            termination: FitTermination::IterationCap,
         });
     }
     let mut solver = CertifiedNewton::new(obj, require, certify)?;
@@ -409,9 +410,9 @@ pub fn newton(
         })?;
     let state = res.state();
     let termination = match state.get_termination_reason() {
-        Some(TerminationReason::SolverConverged) => "converged".to_string(),
-        Some(TerminationReason::SolverExit(why)) => why.clone(),
-        _ => "iteration cap".to_string(),
+        Some(TerminationReason::SolverConverged) => FitTermination::Converged,
+        Some(TerminationReason::SolverExit(why)) if why == NO_DESCENT => FitTermination::NoDescent,
+        _ => FitTermination::IterationCap,
     };
     let x = state.get_param().cloned().unwrap_or_else(|| start.to_vec());
     Ok(Outcome { x, iterations: state.get_iter(), termination })

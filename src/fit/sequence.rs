@@ -5,7 +5,7 @@
 //!
 //! The scene is a deformation `phi` of the reference domain (usually a 2.5D PrisMystic
 //! scene, 2017 thesis Part III, ch. 15-19: `psi = (phi, alpha0 sigma0 + alpha1 sigma1)`);
-//! each frame's fit ([`crate::fit::solve::fit`]) changes `phi` so that landmark sources in
+//! each frame's fit ([`crate::fit::fit`]) changes `phi` so that landmark sources in
 //! the reference land on their targets in that frame. Tracking is not in the thesis: it is
 //! pyramidal Lucas-Kanade ([`crate::fit::track`]).
 //!
@@ -58,12 +58,15 @@ mod summary;
 #[cfg(test)]
 mod tests;
 
-pub use anchor::{drift, follow, track_targets, Anchor, Drift, Positions, Tracking};
+pub use anchor::{
+    choose_anchor, drift, follow, track_targets, Anchor, AnchorChoiceError, AnchorKind, Drift,
+    Positions, Tracking, UnknownAnchor,
+};
 pub use key::ResumeKey;
 
 use super::landmarks::{holdout, Landmark};
-use super::solve::{fit, with_holdout, FitError, FitOptions, FitReport};
 use super::track::{TrackError, TrackOptions};
+use super::{fit, with_holdout, FitError, FitOptions, FitReport};
 use crate::spline::Spline;
 use image::{DynamicImage, GrayImage};
 use rayon::prelude::*;
@@ -758,7 +761,7 @@ impl Ctx<'_, '_> {
             key,
         };
         self.store.save(&result, frame).map_err(|e| seq.store_err(k, e))?;
-        let errors = |s: &super::solve::Stats| Errors { count: s.count, rms: s.rms, max: s.max };
+        let errors = |s: &super::Stats| Errors { count: s.count, rms: s.rms, max: s.max };
         let out = FrameOutcome {
             index: k,
             name: frame.name.clone(),

@@ -10,7 +10,7 @@
 //!   sum_i w_i (a_i^T x + r_i - t_i)^2 + lambda E(x),      lambda = bend * sum_i w_i * |Omega|
 //! ```
 //!
-//! `|Omega|` is the mesh's area, or [`super::solve::FitOptions::bend_area`] when set (the
+//! `|Omega|` is the mesh's area, or [`super::options::FitOptions::bend_area`] when set (the
 //! frame fit sets the frame grown by its margin, so far-field rings do not change what a
 //! weight means). Both terms then scale as length^2 (the thin-plate energy is
 //! dimensionless), so `bend` means the same for a 100 px and a 10,000 px image, and for 10 or
@@ -53,8 +53,8 @@
 //! keeps it definite: the affine part is then effectively unpenalized (`M` gets very large
 //! eigenvalues there), and the warm start's cost still bounds the result's.
 
+use super::error::FitError;
 use super::objective::{BendingValues, Objective};
-use super::solve::FitError;
 use super::sparse::{Factor, Pattern};
 use faer::{Mat, Side};
 

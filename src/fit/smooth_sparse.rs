@@ -43,9 +43,9 @@
 //! grid of step [`COARSE_STEP`], then golden-section search in the two steps around the
 //! best grid point, to a width of [`FINE_WIDTH`].
 
+use super::error::FitError;
 use super::objective::Objective;
 use super::smooth::{bending_structure, Choice};
-use super::solve::FitError;
 use super::sparse::{Factor, Pattern};
 use crate::memory;
 use rayon::prelude::*;
@@ -343,7 +343,7 @@ mod tests {
     use super::*;
     use crate::fit::landmarks::Landmark;
     use crate::fit::smooth::Smoother;
-    use crate::fit::solve::{objective, FitOptions};
+    use crate::fit::{solve::objective, FitOptions};
     use crate::mesh::{Mesh, MeshOptions};
     use crate::spline::Spline;
     use rand::rngs::SmallRng;

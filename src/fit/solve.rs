@@ -1,4 +1,5 @@
-//! The fit: options, the solver runs, exact certification and the report.
+//! The soft fit: the objective's variables, the solver runs and the exact result. The entry
+//! point, [`super::fit`], runs it, or the exact fit of [`super::hard`] which starts from it.
 //!
 //! 1. The landmarks' source points are located in the mesh (each gives a fixed row over the
 //!    control points); the variables are the free points of the spline's minimal determining
@@ -20,242 +21,20 @@
 //!    exactly ([`crate::spline::Spline::from_points`]). The saved deformation is therefore C1
 //!    exactly, and can be edited further by hand.
 
+use super::error::FitError;
 use super::landmarks::Landmark;
 use super::newton::newton;
-use super::objective::{data_row, Barrier, Loss, Objective, TriangleTerms};
+use super::objective::{data_row, Loss, Objective, TriangleTerms};
+use super::options::{Bend, FitOptions, MAX_FIT_VARIABLES, MAX_LANDMARK_VALUE};
 use super::param::Param;
-use super::smooth::{Smoother, DEFAULT_BEND};
+use super::report::{bend_weight, label, Fit, FitMethod, FitTermination, Solver};
+use super::smooth::Smoother;
 use super::smooth_sparse::{SparseSmoother, LANDMARK_SPACE_MAX};
 use crate::edit::select::{neighborhood, Neighborhood, SelectIndex};
 use crate::spline::jacobian::CertifyOptions;
 use crate::spline::mds::Mds;
-use crate::spline::{ControlPoint, Spline};
-use serde::Serialize;
+use crate::spline::Spline;
 use std::time::Instant;
-
-pub use super::error::FitError;
-
-/// Options of [`fit`].
-#[derive(Clone, Debug, PartialEq)]
-pub struct FitOptions {
-    /// Data loss (default squares).
-    pub loss: Loss,
-    /// The scale-free bending weight (default [`Bend::Auto`]; see [`super::smooth`]).
-    pub bend: Bend,
-    /// Fold barrier; `None` turns it off (default floor 0.1, threshold 0.3, weight 1).
-    pub barrier: Option<Barrier>,
-    /// Variables: free points within this many control-net steps of the landmarks'
-    /// triangles (`None`: every free point; default).
-    pub radius: Option<usize>,
-    /// Iteration cap of the barrier's Newton method (default 200).
-    pub max_iters: u64,
-    /// Landmarks become hard constraints `phi(s_i) = t_i` ([`super::hard`]).
-    pub hard: bool,
-    /// Rounding to exact values moves no control point by more than `2^-grid_bits` px
-    /// (default 20): the free points are rounded to multiples of `2^-grid_bits`, or of a
-    /// finer power of two where the mesh amplifies a rounding
-    /// ([`crate::spline::mds::rounding_bits`]; the report's `rounding_bits`).
-    pub grid_bits: u32,
-    /// Barycentric sample level of `det J` in the barrier (default
-    /// [`crate::spline::jacobian::SAMPLE_LEVEL`], 8: 45 samples per triangle, the sample set
-    /// every command reports).
-    pub det_level: usize,
-    /// Control points pinned at their values in the input spline (e.g. points corrected
-    /// by hand in the editor). They are held exactly: the soft fit does not vary them and
-    /// an ECLES update ([`super::hard`]) makes the result exactly C1 with every pinned point
-    /// at its input value (default: none).
-    pub pinned: Vec<ControlPoint>,
-    /// Hold the spline's border fixed: no free point that a control point of a border edge
-    /// depends on varies, so `phi` on the border stays as in the warm start (default false;
-    /// the landmark-adapted fit sets it, see [`super::frame`]).
-    pub pin_border: bool,
-    /// The area `|Omega|` (square pixels) in `lambda = bend * sum w * |Omega|`, so that a
-    /// weight means the same whatever lies far outside the landmarks (`None`: the mesh's
-    /// area; [`super::frame`] sets the frame grown by its margin, leaving out the far-field
-    /// rings).
-    pub bend_area: Option<f64>,
-    /// Stops the fit between Newton iterations when set ([`FitError::Cancelled`]; default:
-    /// never).
-    pub cancel: crate::cancel::Cancel,
-}
-
-/// The bending weight of a fit.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Bend {
-    /// Chosen by leave-one-out cross-validation on the landmarks ([`super::smooth`]).
-    Auto,
-    /// This scale-free weight (`lambda = bend * sum w * |Omega|`).
-    Weight(f64),
-}
-
-impl std::str::FromStr for Bend {
-    type Err = BendError;
-    /// `auto` or a finite weight `>= 0` (surrounding spaces ignored).
-    fn from_str(t: &str) -> Result<Bend, BendError> {
-        match t.trim() {
-            "auto" => Ok(Bend::Auto),
-            t => match t.parse::<f64>() {
-                Ok(w) if w.is_finite() && w >= 0.0 => Ok(Bend::Weight(w)),
-                _ => Err(BendError(t.to_string())),
-            },
-        }
-    }
-}
-
-/// A bending weight that is neither `auto` nor a finite number `>= 0` (the text given,
-/// trimmed).
-#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
-#[error("`{0}` is neither `auto` nor a finite number >= 0")]
-pub struct BendError(pub String);
-
-impl Default for FitOptions {
-    fn default() -> Self {
-        FitOptions {
-            loss: Loss::Squares,
-            bend: Bend::Auto,
-            barrier: Some(Barrier { floor: 0.1, tau: 0.3, mu: 1.0 }),
-            radius: None,
-            max_iters: 200,
-            hard: false,
-            grid_bits: 20,
-            det_level: crate::spline::jacobian::SAMPLE_LEVEL,
-            pinned: Vec::new(),
-            pin_border: false,
-            bend_area: None,
-            cancel: crate::cancel::Cancel::never(),
-        }
-    }
-}
-
-/// One landmark's result.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct Residual {
-    /// Name.
-    pub name: Option<String>,
-    /// Source point.
-    pub src: [f64; 2],
-    /// Target point.
-    pub dst: [f64; 2],
-    /// `phi(src)`.
-    pub mapped: [f64; 2],
-    /// `|phi(src) - dst|` (pixels).
-    pub residual: f64,
-}
-
-/// Residual statistics of a set of landmarks.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct Stats {
-    /// Number of landmarks.
-    pub count: usize,
-    /// Root mean square residual.
-    pub rms: f64,
-    /// Mean residual.
-    pub mean: f64,
-    /// Largest residual.
-    pub max: f64,
-}
-
-impl Stats {
-    /// Statistics of residuals.
-    pub fn of(r: &[Residual]) -> Stats {
-        let n = r.len().max(1) as f64;
-        Stats {
-            count: r.len(),
-            rms: (r.iter().map(|x| x.residual * x.residual).sum::<f64>() / n).sqrt(),
-            mean: r.iter().map(|x| x.residual).sum::<f64>() / n,
-            max: r.iter().map(|x| x.residual).fold(0.0, f64::max),
-        }
-    }
-}
-
-/// What a fit did.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct FitReport {
-    /// `gauss-newton` or `irls` (robust losses), `+newton` when the barrier acted, `+hard`
-    /// or `+pinned` after the exact step.
-    pub method: String,
-    /// Loss name.
-    pub loss: String,
-    /// The scale-free bending weight used.
-    pub bend: f64,
-    /// Whether it was chosen by cross-validation (`--bend auto`).
-    pub bend_auto: bool,
-    /// The GCV estimate of the landmarks' prediction error at that weight (pixels; auto only).
-    pub gcv_rms: Option<f64>,
-    /// Leave-one-out error of the landmarks' squares fit at that weight, the score the
-    /// weight minimizes (pixels; auto only).
-    pub loo_rms: Option<f64>,
-    /// The score the automatic weight minimized: `leave_one_out` (exact, in landmark space,
-    /// up to [`LANDMARK_SPACE_MAX`] landmarks) or `randomized_gcv` (more landmarks,
-    /// [`super::smooth_sparse`]); auto only.
-    pub bend_criterion: Option<super::smooth::BendCriterion>,
-    /// Why the solver stopped: `exact` (the squares minimizer, no barrier needed),
-    /// `converged`, `no descent` or `iteration cap` (Newton with the barrier).
-    pub termination: String,
-    /// Number of variables (2 per free point that moves).
-    pub variables: usize,
-    /// Solver iterations (Gauss-Newton counts 1).
-    pub iterations: u64,
-    /// Objective before and after.
-    pub cost_initial: f64,
-    /// Objective at the result.
-    pub cost_final: f64,
-    /// Per-landmark residuals of the fitted landmarks.
-    pub residuals: Vec<Residual>,
-    /// Their statistics.
-    pub fit: Stats,
-    /// Held-out landmarks (target registration error), when any.
-    pub holdout: Option<HoldoutReport>,
-    /// Smallest sampled `det J` of the result.
-    pub min_det_j: f64,
-    /// Whether some sample has `det J <= 0` (a fold).
-    pub folds: bool,
-    /// `det J > 0` is proven on every triangle (certificate, not samples).
-    pub fold_free: bool,
-    /// A certified lower bound of `det J` over the whole mesh.
-    pub det_j_lower_bound: f64,
-    /// Nearby landmark pairs whose order the targets reverse against the landmarks' affine
-    /// map (names, or `#index`, [`super::affine::crossing_pairs`]): swapped or crossing
-    /// landmarks, which a fold-free fit follows only by a strong twist, if at all. Listed
-    /// for every fit; a strong local rotation (over 90 degrees against the affine map) lists
-    /// pairs too, though it needs no fold.
-    pub conflicts: Vec<[String; 2]>,
-    /// The result satisfies every C1 condition exactly (checked in rational arithmetic).
-    pub exact_c1: bool,
-    /// The free points were rounded to multiples of `2^-rounding_bits`: at least
-    /// [`FitOptions::grid_bits`], finer where the mesh's determining set amplifies a
-    /// rounding ([`crate::spline::mds::rounding_bits`]).
-    pub rounding_bits: u32,
-    /// Wall time of the fit (milliseconds).
-    pub time_ms: f64,
-}
-
-/// Residuals of landmarks kept out of the fit.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct HoldoutReport {
-    /// Per landmark.
-    pub residuals: Vec<Residual>,
-    /// Statistics (the TRE).
-    pub tre: Stats,
-}
-
-/// A fitted deformation and its report.
-#[derive(Clone, Debug)]
-pub struct Fit {
-    /// The result (C1 exactly).
-    pub spline: Spline,
-    /// The report.
-    pub report: FitReport,
-}
-
-fn label(l: &Landmark) -> String {
-    l.name.clone().unwrap_or_else(|| "-".into())
-}
-
-/// Largest accepted landmark coordinate and weight magnitude: beyond it the fit's exact and
-/// floating-point arithmetic stops being meaningful (and a hard fit would grow huge
-/// rationals).
-pub const MAX_LANDMARK_VALUE: f64 = 1e9;
 
 /// Checks landmark values (finite, at most [`MAX_LANDMARK_VALUE`] in magnitude, weight > 0).
 pub fn validate(lms: &[Landmark]) -> Result<(), FitError> {
@@ -275,28 +54,6 @@ pub fn validate(lms: &[Landmark]) -> Result<(), FitError> {
         }
     }
     Ok(())
-}
-
-/// `phi(src)` against `dst` for each landmark.
-pub fn residuals(s: &Spline, lms: &[Landmark]) -> Result<Vec<Residual>, FitError> {
-    lms.iter()
-        .enumerate()
-        .map(|(index, l)| {
-            let m = s.eval(l.src, None).ok_or(FitError::OutsideMesh {
-                index,
-                name: label(l),
-                x: l.src[0],
-                y: l.src[1],
-            })?;
-            Ok(Residual {
-                name: l.name.clone(),
-                src: l.src,
-                dst: l.dst,
-                mapped: m,
-                residual: (m[0] - l.dst[0]).hypot(m[1] - l.dst[1]),
-            })
-        })
-        .collect()
 }
 
 fn check_options(o: &FitOptions) -> Result<(), FitError> {
@@ -443,50 +200,6 @@ fn border_closed(s: &Spline, mds: &Mds, mut is_var: Vec<bool>) -> Param {
     }
 }
 
-/// Fits `s` to the landmarks (see the module docs). `s` is the warm start; it is not changed.
-pub fn fit(s: &Spline, lms: &[Landmark], opts: &FitOptions) -> Result<Fit, FitError> {
-    let start = Instant::now();
-    fit_with(s, &Mds::new(s)?, lms, opts, start)
-}
-
-/// [`fit`] with the spline's determining set already built (it is the costly exact part of
-/// a small fit); `start` is when the caller's timing began.
-pub fn fit_with(
-    s: &Spline,
-    mds: &Mds,
-    lms: &[Landmark],
-    opts: &FitOptions,
-    start: Instant,
-) -> Result<Fit, FitError> {
-    fit_with_terms(s, mds, lms, opts, start, None)
-}
-
-/// [`fit_with`] with the triangles' terms possibly prebuilt (for `s` at `opts.det_level`;
-/// used by the soft fit only).
-pub(super) fn fit_with_terms(
-    s: &Spline,
-    mds: &Mds,
-    lms: &[Landmark],
-    opts: &FitOptions,
-    start: Instant,
-    terms: Option<TriangleTerms>,
-) -> Result<Fit, FitError> {
-    opts.cancel.check().map_err(|_| FitError::Cancelled)?;
-    // Round the free points finely enough that no control point moves more than
-    // 2^-grid_bits px (a near-singular vertex of the mesh amplifies a rounding by up to
-    // 10^8: rounded at 2^-20 such a fit folded while its floating-point solution did not).
-    let opts = &FitOptions {
-        grid_bits: crate::spline::mds::rounding_bits(mds.amplification(), opts.grid_bits),
-        ..opts.clone()
-    };
-    if opts.hard || !opts.pinned.is_empty() {
-        return super::hard::fit_hard(s, mds, lms, opts, start);
-    }
-    // The exact evaluation plan of the determining set is needed only at the end (the
-    // fitted points in rationals): built on another thread while the fit solves.
-    rayon::join(|| fit_soft_terms(s, mds, lms, opts, start, terms), || mds.prepare()).0
-}
-
 /// The soft fit (no landmark rows, no ECLES step; pinned free points do not vary).
 pub(super) fn fit_soft(
     s: &Spline,
@@ -499,7 +212,7 @@ pub(super) fn fit_soft(
 }
 
 /// [`fit_soft`] with the triangles' terms possibly prebuilt.
-fn fit_soft_terms(
+pub(super) fn fit_soft_terms(
     s: &Spline,
     mds: &Mds,
     lms: &[Landmark],
@@ -515,11 +228,11 @@ fn fit_soft_terms(
     let out = if nv == 0 {
         Solved {
             x: x0.clone(),
-            method: "none".into(),
+            method: FitMethod::new(Solver::None),
             iterations: 0,
             bend: bend_weight(opts.bend),
             choice: None,
-            termination: "exact".into(),
+            termination: FitTermination::Exact,
         }
     } else {
         solve(&mut obj, s, &x0, opts)?
@@ -533,7 +246,7 @@ fn fit_soft_terms(
     let fitted = fitted?;
     trace.mark("exact points + C1 check | costs");
     crate::alloc::drop_in_background(obj);
-    let mut rep = report(
+    let mut rep = super::report::build(
         &fitted,
         lms,
         opts,
@@ -556,18 +269,6 @@ fn fit_soft_terms(
         .map(|(i, j)| [i, j].map(|k| lms[k].name.clone().unwrap_or_else(|| format!("#{k}"))))
         .collect();
     Ok(Fit { spline: fitted, report: rep })
-}
-
-/// The most variable control points a soft fit takes (a bound on its memory: the landmark
-/// space solver stores `nv x k` numbers, the Newton step a sparse factor).
-pub const MAX_FIT_VARIABLES: usize = 32_768;
-
-/// The weight of a fixed [`Bend`], or the default where cross-validation cannot choose.
-fn bend_weight(b: Bend) -> f64 {
-    match b {
-        Bend::Weight(w) => w,
-        Bend::Auto => DEFAULT_BEND,
-    }
 }
 
 /// The squares fit of [`solve`]: in landmark space (few landmarks, exact leave-one-out) or
@@ -603,11 +304,11 @@ impl Smoothers {
 /// What [`solve`] found.
 struct Solved {
     x: Vec<f64>,
-    method: String,
+    method: FitMethod,
     iterations: u64,
     bend: f64,
     choice: Option<super::smooth::Choice>,
-    termination: String,
+    termination: FitTermination,
 }
 
 /// Iterations of reweighted squares for the robust losses.
@@ -643,10 +344,10 @@ fn solve(
     let mut x = sm.solve(bend, None)?;
     trace.mark("squares solve");
     let mut iterations = 1u64;
-    let mut method = "gauss-newton".to_string();
+    let mut method = FitMethod::new(Solver::GaussNewton);
     if opts.loss != Loss::Squares {
         // IRLS: data weight w_i psi(r_i) / 2 (psi = rho'(r) / r), from the squares fit.
-        method = "irls".into();
+        method.solver = Solver::Irls;
         for _ in 0..IRLS_ITERATIONS {
             let scale: Vec<f64> =
                 obj.residual_lengths(&x).iter().map(|&r| 0.5 * obj.loss.eval(r).1).collect();
@@ -660,10 +361,24 @@ fn solve(
         }
     }
     let Some(barrier) = opts.barrier else {
-        return Ok(Solved { x, method, iterations, bend, choice, termination: "exact".into() });
+        return Ok(Solved {
+            x,
+            method,
+            iterations,
+            bend,
+            choice,
+            termination: FitTermination::Exact,
+        });
     };
     if obj.eval(&x, None).min_det >= barrier.tau {
-        return Ok(Solved { x, method, iterations, bend, choice, termination: "exact".into() });
+        return Ok(Solved {
+            x,
+            method,
+            iterations,
+            bend,
+            choice,
+            termination: FitTermination::Exact,
+        });
     }
     // Newton with the barrier from the best start that is certified fold-free and above the
     // barrier's floor: the squares minimizer or the warm start, whichever costs less.
@@ -689,7 +404,7 @@ fn solve(
     let out = newton(obj, &start, opts.max_iters, (require, &opts.cancel), &certify)?;
     Ok(Solved {
         x: out.x,
-        method: format!("{method}+newton"),
+        method: FitMethod { newton: true, ..method },
         iterations: iterations + out.iterations,
         bend,
         choice,
@@ -704,64 +419,4 @@ pub const CERT_MARGIN: f64 = 0.1;
 /// Whether `det J > margin` is proven on every triangle for control points `p` (`f64`).
 fn certified(s: &Spline, p: &[[f64; 2]], margin: f64) -> bool {
     crate::spline::jacobian::certify_points_above(s, p, margin, &CertifyOptions::default())
-}
-
-#[allow(clippy::too_many_arguments)]
-pub(super) fn report(
-    fitted: &Spline,
-    lms: &[Landmark],
-    opts: &FitOptions,
-    method: String,
-    nv: usize,
-    iterations: u64,
-    cost_initial: f64,
-    cost_final: f64,
-    start: Instant,
-) -> Result<FitReport, FitError> {
-    let res = residuals(fitted, lms)?;
-    // The certificate also gives the common sampled minimum of every command (the level-8
-    // lattice, `spline::jacobian::SAMPLE_LEVEL`).
-    let cert = crate::spline::jacobian::certify(fitted, &CertifyOptions::default());
-    let min_det = cert.sampled_min;
-    Ok(FitReport {
-        method,
-        loss: opts.loss.name().into(),
-        bend: bend_weight(opts.bend),
-        bend_auto: false,
-        gcv_rms: None,
-        loo_rms: None,
-        bend_criterion: None,
-        termination: "exact".into(),
-        variables: 2 * nv,
-        iterations,
-        cost_initial,
-        cost_final,
-        fit: Stats::of(&res),
-        residuals: res,
-        holdout: None,
-        min_det_j: min_det,
-        folds: min_det <= 0.0,
-        fold_free: cert.fold_free,
-        det_j_lower_bound: cert.lower_bound,
-        conflicts: Vec::new(),
-        // Every caller built `fitted` with `with_points` / `with_determined_points` /
-        // `from_points`, which check each C1 condition exactly and fail otherwise (a second
-        // check would only repeat it).
-        exact_c1: true,
-        rounding_bits: opts.grid_bits,
-        time_ms: start.elapsed().as_secs_f64() * 1e3,
-    })
-}
-
-/// Adds the held-out landmarks' residuals (the TRE) to a report.
-pub fn with_holdout(
-    mut report: FitReport,
-    s: &Spline,
-    held: &[Landmark],
-) -> Result<FitReport, FitError> {
-    if !held.is_empty() {
-        let r = residuals(s, held)?;
-        report.holdout = Some(HoldoutReport { tre: Stats::of(&r), residuals: r });
-    }
-    Ok(report)
 }

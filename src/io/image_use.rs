@@ -17,11 +17,52 @@
 //! warp found that the input, the output and its encoding exceeded the budget; now the
 //! header alone is enough to refuse it.
 
-use super::raster::RasterError;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// Largest number of pixels per page accepted when decoding (2^30, e.g. 32768 x 32768).
 pub const MAX_PIXELS: u64 = 1 << 30;
+
+/// The largest side (pixels) of a picture trimorph draws: a rendered deformation, a plot,
+/// a background under a mesh (`render --size`, `render --background`, the editor's frame).
+/// Defined here, below the renderer, because readers hold images to it too.
+pub const MAX_DRAWN_SIDE: u32 = 16384;
+
+/// Why an image is refused on its header, before any decoding ([`check_header`]).
+#[derive(Debug, thiserror::Error)]
+pub enum HeaderError {
+    /// A page is larger than [`MAX_PIXELS`] or empty.
+    #[error("{path}, page {page}: the image declares {width} x {height} pixels, outside 1 .. 2^30 pixels, so it is not decoded; crop or split it into smaller images")]
+    Size {
+        /// The file.
+        path: PathBuf,
+        /// Page number (0-based).
+        page: usize,
+        /// Declared width.
+        width: u32,
+        /// Declared height.
+        height: u32,
+    },
+    /// The image is larger than its use allows ([`ImageUse::max_side`]).
+    #[error("{path}: the image is {width} x {height} pixels; a picture shown under the mesh is at most {max} x {max} pixels (as for `render --background`), so it is not decoded: scale it down")]
+    TooLargeFor {
+        /// The file.
+        path: PathBuf,
+        /// Declared width.
+        width: u32,
+        /// Declared height.
+        height: u32,
+        /// The largest side.
+        max: u32,
+    },
+    /// Decoding would exceed the process's memory budget ([`crate::memory`]).
+    #[error("{path}: {source}")]
+    Memory {
+        /// The file.
+        path: PathBuf,
+        /// The budget check that failed.
+        source: crate::memory::OverBudget,
+    },
+}
 
 /// How a command uses an image it reads: what the header check allows ([`check_header`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -29,7 +70,7 @@ pub struct ImageUse {
     /// Bytes the command holds per decoded byte while it runs (at least 1).
     pub copies: u64,
     /// The largest width and height (`None`: only [`MAX_PIXELS`] per page); refused as a
-    /// picture too large to show ([`RasterError::TooLargeFor`]).
+    /// picture too large to show ([`HeaderError::TooLargeFor`]).
     pub max_side: Option<u32>,
     /// Only the first page is read (the others of a TIFF are not looked at).
     pub first_page_only: bool,
@@ -49,11 +90,11 @@ impl ImageUse {
         what: "for warping (input, output and its encoding)",
     };
     /// A picture shown under the mesh (the editor's frame): the first page, at most the
-    /// largest background `render` draws ([`crate::render::deformation::MAX_SIZE`] per
-    /// side), held decoded and as the PNG sent to the page.
+    /// largest picture trimorph draws ([`MAX_DRAWN_SIDE`] per side), held decoded and as
+    /// the PNG sent to the page.
     pub const PICTURE: ImageUse = ImageUse {
         copies: 2,
-        max_side: Some(crate::render::deformation::MAX_SIZE),
+        max_side: Some(MAX_DRAWN_SIDE),
         first_page_only: true,
         what: "as a picture (decoded and as PNG)",
     };
@@ -83,7 +124,7 @@ pub fn check_header(
     held: u64,
     usage: &ImageUse,
     color: &str,
-) -> Result<u64, RasterError> {
+) -> Result<u64, HeaderError> {
     let budget = crate::memory::limit();
     check_header_against(budget, path, page, width, height, bytes, held, usage, color)
 }
@@ -100,13 +141,13 @@ pub(crate) fn check_header_against(
     held: u64,
     usage: &ImageUse,
     color: &str,
-) -> Result<u64, RasterError> {
+) -> Result<u64, HeaderError> {
     let pixels = u64::from(width).checked_mul(u64::from(height));
     if pixels.is_none_or(|n| n == 0 || n > MAX_PIXELS) {
-        return Err(RasterError::Size { path: path.to_path_buf(), page, width, height });
+        return Err(HeaderError::Size { path: path.to_path_buf(), page, width, height });
     }
     if let Some(max) = usage.max_side.filter(|&m| width > m || height > m) {
-        return Err(RasterError::TooLargeFor { path: path.to_path_buf(), width, height, max });
+        return Err(HeaderError::TooLargeFor { path: path.to_path_buf(), width, height, max });
     }
     let total = bytes.and_then(|b| b.checked_add(held));
     let need = total.and_then(|t| t.checked_mul(usage.copies.max(1))).unwrap_or(u64::MAX);
@@ -115,7 +156,7 @@ pub(crate) fn check_header_against(
         let what = if usage.what.is_empty() { String::new() } else { format!(" {}", usage.what) };
         format!("decoding {pages}{width} x {height} {color}{what}")
     })
-    .map_err(|source| RasterError::Memory { path: path.to_path_buf(), source })?;
+    .map_err(|source| HeaderError::Memory { path: path.to_path_buf(), source })?;
     Ok(total.unwrap_or(u64::MAX))
 }
 
@@ -144,16 +185,16 @@ mod tests {
     fn overflowing_sizes_are_refused() {
         let p = Path::new("x.tif");
         let e = check_header(p, 0, u32::MAX, u32::MAX, None, 0, &ImageUse::DECODE, "L8");
-        assert!(matches!(e, Err(RasterError::Size { .. })), "{e:?}");
+        assert!(matches!(e, Err(HeaderError::Size { .. })), "{e:?}");
         let e = check_header(p, 3, 8, 8, None, u64::MAX, &ImageUse::WARP, "L8");
-        assert!(matches!(e, Err(RasterError::Memory { .. })), "{e:?}");
+        assert!(matches!(e, Err(HeaderError::Memory { .. })), "{e:?}");
     }
 
     /// Issue 54: the editor took a 30000 x 30000 PNG that `render --background` refuses.
     #[test]
     fn a_picture_is_held_to_the_largest_background() {
         let p = Path::new("bomb.png");
-        let side = crate::render::deformation::MAX_SIZE;
+        let side = MAX_DRAWN_SIDE;
         let e = check_header(p, 0, side + 1, 8, Some(1), 0, &ImageUse::PICTURE, "L8")
             .unwrap_err()
             .to_string();

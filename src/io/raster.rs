@@ -11,7 +11,7 @@
 //! nothing is allocated for a page that fails.
 
 use super::image_use::check_header_against;
-pub use super::image_use::{ImageUse, MAX_PIXELS};
+pub use super::image_use::{HeaderError, ImageUse, MAX_PIXELS};
 use super::tiff_checks;
 use super::{write_atomic, IoError};
 use image::{DynamicImage, ImageBuffer, ImageFormat};
@@ -44,30 +44,10 @@ pub enum RasterError {
         /// The type found.
         kind: String,
     },
-    /// A page is larger than [`MAX_PIXELS`] or empty.
-    #[error("{path}, page {page}: the image declares {width} x {height} pixels, outside 1 .. 2^30 pixels, so it is not decoded; crop or split it into smaller images")]
-    Size {
-        /// The file.
-        path: PathBuf,
-        /// Page number (0-based).
-        page: usize,
-        /// Declared width.
-        width: u32,
-        /// Declared height.
-        height: u32,
-    },
-    /// The image is larger than its use allows ([`ImageUse::max_side`]).
-    #[error("{path}: the image is {width} x {height} pixels; a picture shown under the mesh is at most {max} x {max} pixels (as for `render --background`), so it is not decoded: scale it down")]
-    TooLargeFor {
-        /// The file.
-        path: PathBuf,
-        /// Declared width.
-        width: u32,
-        /// Declared height.
-        height: u32,
-        /// The largest side.
-        max: u32,
-    },
+    /// The header check refused the image before decoding ([`HeaderError`]: too many
+    /// pixels, too large for its use, or over the memory budget).
+    #[error(transparent)]
+    Header(#[from] HeaderError),
     /// A page's samples cannot be read as one of the types kept (a gray+alpha TIFF whose
     /// second sample is not marked as unassociated alpha).
     #[error("{path}, page {page}: {reason}")]
@@ -86,14 +66,6 @@ pub enum RasterError {
         path: PathBuf,
         /// Page number (0-based).
         page: usize,
-    },
-    /// Decoding would exceed the process's memory budget ([`crate::memory`]).
-    #[error("{path}: {source}")]
-    Memory {
-        /// The file.
-        path: PathBuf,
-        /// The budget check that failed.
-        source: crate::memory::OverBudget,
     },
     /// The output cannot hold what is being written.
     #[error("{path}: {reason}")]

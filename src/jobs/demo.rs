@@ -19,8 +19,7 @@ use super::spline::{build_mesh, edit_file, render_file, write_identity, EditLog,
 use super::warp::{colormesh, ImageInput, MeshInput};
 use super::{read_deformation, JobError, JobResult};
 use crate::ecles::problem::Problem;
-use crate::fit::objective::{Barrier, Loss};
-use crate::fit::solve::{Bend, FitOptions};
+use crate::fit::{Bend, FitOptions};
 use crate::io::model::{save_model, UpAxis};
 use crate::io::{deformation, write_atomic};
 use crate::mesh::MeshOptions;
@@ -34,7 +33,7 @@ use std::path::Path;
 
 /// The demo's edit script over the 6x6 grid of the 550 x 660 cell image (also written
 /// next to its outputs): a translation, a rotation and a scaling of local anchors.
-pub fn demo_script() -> serde_json::Value {
+pub(crate) fn demo_script() -> serde_json::Value {
     // Grid vertices are at multiples of (550/6, 660/6) = (91.67, 110).
     let (gx, gy) = (550.0 / 6.0, 110.0);
     let disk = |cx: f64, cy: f64| {
@@ -178,10 +177,7 @@ fn spline_part(dir: &Path, log: &mut Log) -> JobResult<()> {
     log.out(m.save(&warped_mesh, None, None)?)?;
     log.out(format_args!(
         "check: {} C1 conditions, nonzero residuals: {}, min det J = {:.3}, folds: {}",
-        rep["c1_conditions"],
-        rep["c1_nonzero_residuals"],
-        rep["min_jacobian_det"].as_f64().unwrap_or(f64::NAN),
-        rep["folds"]
+        rep.c1_conditions, rep.c1_nonzero_residuals, rep.min_jacobian_det, rep.folds
     ))?;
     let (i, e, sc, im) = (id.display(), edited.display(), script.display(), img.display());
     log.out(format_args!(
@@ -318,16 +314,9 @@ fn fit_part(dir: &Path, log: &mut Log) -> JobResult<()> {
         model.triangles.len(),
         s.mesh().num_triangles()
     ))?;
-    let fit = FitOptions {
-        loss: Loss::Squares,
-        bend: Bend::Weight(1e-6),
-        // 0.1 is a valid floor: always `Some`.
-        barrier: Barrier::with_floor(0.1).ok(),
-        radius: None,
-        max_iters: 200,
-        hard: false,
-        ..FitOptions::default()
-    };
+    // The fit's defaults (squares, the default barrier and iteration cap), with a fixed
+    // bending weight.
+    let fit = FitOptions { bend: Bend::Weight(1e-6), ..FitOptions::default() };
     let job = SequenceJob {
         scene: scene.clone().into(),
         model: None,

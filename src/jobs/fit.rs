@@ -3,9 +3,9 @@
 //! * [`FitJob`]: one deformation fitted to a landmark file, from a deformation (warm start)
 //!   or over a mesh adapted to the landmarks in a frame, written with its report;
 //! * [`SequenceJob`]: a scene fitted to every frame of a sequence (`--model SCENE --frames
-//!   DIR`): the inputs read by [`crate::render::sequence::SequenceInputs`], the fits run by
+//!   DIR`): the inputs read by [`crate::jobs::sequence::SequenceInputs`], the fits run by
 //!   [`crate::fit::sequence::Sequence`] (resumable, sharded), every frame's files written
-//!   into one folder ([`crate::render::sequence::FrameFiles`]) and the summary lines
+//!   into one folder ([`crate::jobs::sequence::FrameFiles`]) and the summary lines
 //!   returned.
 
 use super::OptionError;
@@ -13,11 +13,11 @@ use super::{BoxError, JobError};
 use crate::fit::frame::{fit_frame, FrameFitOptions, FrameReport};
 use crate::fit::landmarks::{holdout, Landmark};
 use crate::fit::sequence::{Anchor, Event, Frame, SequenceError};
-use crate::fit::solve::{fit, with_holdout, FitError, FitOptions, FitReport};
+use crate::fit::{fit, with_holdout, FitError, FitOptions, FitReport};
 use crate::io::landmarks::LandmarkSource;
 use crate::io::{deformation, read_text, write_atomic};
+use crate::jobs::sequence::{SceneSource, SequenceInputs, SequenceInputsError};
 use crate::mesh::AdaptOptions;
-use crate::render::sequence::{SceneSource, SequenceInputs, SequenceInputsError};
 use crate::spline::check::absurd_point;
 use crate::spline::{ControlPoint, Spline};
 use std::path::{Path, PathBuf};

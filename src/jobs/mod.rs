@@ -12,6 +12,9 @@
 //! * [`spline`]: reference meshes, edit scripts, the C1 check and pictures of a
 //!   deformation;
 //! * [`fit`]: fits to landmark files, one deformation or a scene over a frame sequence;
+//! * [`sequence`]: a sequence fit's inputs and its frame store (every frame's files, all
+//!   or nothing);
+//! * [`morph`]: a morph's files in one folder, written all or nothing;
 //! * [`bitgrowth`]: the bit-size study of the exact factoring (CSV and plots);
 //! * [`demo`]: the demonstration on bundled data, written into one folder;
 //! * [`values`]: the text forms of option values (sizes, grids, shards, time ranges) and
@@ -25,8 +28,10 @@ pub mod demo;
 pub mod field;
 pub mod fit;
 pub mod model;
+pub mod morph;
 pub mod options;
 pub mod register;
+pub mod sequence;
 pub mod spline;
 pub mod values;
 pub mod warp;
@@ -107,9 +112,9 @@ pub enum JobError {
     TooLarge {
         /// The deformation file.
         deformation: PathBuf,
-        /// The fit's refusal ([`FitError::TooLarge`](crate::fit::solve::FitError::TooLarge)).
+        /// The fit's refusal ([`FitError::TooLarge`](crate::fit::FitError::TooLarge)).
         #[source]
-        source: crate::fit::solve::FitError,
+        source: crate::fit::FitError,
     },
     /// A scene file's up axis is not `x`, `y` or `z`.
     #[error("{}: {reason}", scene.display())]

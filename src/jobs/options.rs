@@ -2,7 +2,7 @@
 //! that a library user can tell them apart; each text names the option the way the command
 //! line spells it (the Python keywords have the same names).
 
-use crate::fit::solve::FitError;
+use crate::fit::FitError;
 use std::path::PathBuf;
 
 /// A bad option value or a bad combination of options (inside [`super::JobError::Option`]).

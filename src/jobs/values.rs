@@ -7,7 +7,7 @@
 //! is [`MIN_FRAME_SIDE`]..=[`MAX_FRAME_SIDE`] whole pixels, a grid has at most
 //! [`crate::mesh::MAX_GRID_CELLS`] cells, a canvas side is
 //! [`MIN_SIZE`](crate::render::deformation::MIN_SIZE)..=[`MAX_SIZE`](crate::render::deformation::MAX_SIZE),
-//! times lie within [`MAX_TIME`](crate::render::morph_files::MAX_TIME) of 0, and a raster's
+//! times lie within [`MAX_TIME`](crate::jobs::morph::MAX_TIME) of 0, and a raster's
 //! area is checked by the job ([`super::raster_fits`]).
 //!
 //! ```
@@ -18,8 +18,8 @@
 //! assert!(parse_frame_size("0,480").is_err());
 //! ```
 
+use crate::jobs::morph::{check_range, MAX_TIME};
 use crate::render::deformation::{MAX_SIZE, MIN_SIZE};
-use crate::render::morph_files::{check_range, MAX_TIME};
 
 /// Smallest side of a frame ([`parse_frame_size`]): one whole pixel.
 pub const MIN_FRAME_SIDE: f64 = 1.0;

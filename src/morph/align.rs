@@ -123,7 +123,7 @@ impl Similarity {
 
     /// The similarity as stored under [`SIMILARITY_KEY`]: `{"maps": ..., "a", "b", "tx",
     /// "ty": exact rationals as strings, "rms": the landmarks' residual rms in pixels}`.
-    pub fn to_json(&self) -> serde_json::Value {
+    pub(crate) fn to_json(&self) -> serde_json::Value {
         let [a, b, tx, ty] = self.exact.clone().map(|r| rat_to_string(&r));
         serde_json::json!({
             "maps": "B's pixels -> A's pixels: S(p) = [[a, -b], [b, a]] p + (tx, ty)",
@@ -136,7 +136,7 @@ impl Similarity {
     }
 
     /// The similarity of [`Similarity::to_json`]'s object, exactly.
-    pub fn from_json(v: &serde_json::Value) -> Result<Similarity, AlignError> {
+    pub(crate) fn from_json(v: &serde_json::Value) -> Result<Similarity, AlignError> {
         let coef = |k: &str| -> Result<Rat, AlignError> {
             let t = v.get(k).and_then(|x| x.as_str()).ok_or_else(|| {
                 AlignError::Stored(format!("\"{k}\": expected an exact number as a string"))
@@ -258,6 +258,21 @@ pub fn umeyama(x: &[[f64; 2]], y: &[[f64; 2]], w: &[f64]) -> Result<Similarity, 
         .sum();
     s.rms = (ss / sw).sqrt();
     Ok(s)
+}
+
+impl serde::Serialize for Similarity {
+    /// The object stored under [`SIMILARITY_KEY`] (exact coefficients as strings).
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        self.to_json().serialize(s)
+    }
+}
+
+impl<'de> serde::Deserialize<'de> for Similarity {
+    /// The object stored under [`SIMILARITY_KEY`], exactly.
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let v = serde_json::Value::deserialize(d)?;
+        Similarity::from_json(&v).map_err(serde::de::Error::custom)
+    }
 }
 
 #[cfg(test)]

@@ -29,12 +29,12 @@
 //! `phi_ba`: the border of every frame stays where it is in `A` (and in `B` after the
 //! alignment), and only what the landmarks move moves.
 //!
-//! **Folds.** Both fits run with the fold barrier ([`crate::fit::solve::FitOptions`]),
+//! **Folds.** Both fits run with the fold barrier ([`crate::fit::FitOptions`]),
 //! whose every accepted step is certified `det J > 0`. Landmarks that force a fold (pairs
 //! that cross, [`crate::fit::affine::crossing_pairs`]) are then not followed exactly: the
 //! morph is made, fold-free, and [`MapSummary::conflicts`] names the pairs (the CLI warns
 //! with their names and the residuals). A result that is *not* certified (possible only with
-//! the barrier off, [`crate::fit::solve::FitOptions::barrier`] `None`) is refused
+//! the barrier off, [`crate::fit::FitOptions::barrier`] `None`) is refused
 //! ([`super::MorphError::Folds`]), naming the crossing pairs, because a folded map shows
 //! creases and torn strips in the middle frames.
 
@@ -43,7 +43,7 @@ use super::MorphError;
 use crate::fit::affine::{affine_fit, crossing_pairs};
 use crate::fit::frame::{covers_frame, fit_frame, FrameFitOptions, FrameReport};
 use crate::fit::landmarks::Landmark;
-use crate::fit::solve::{FitError, FitReport};
+use crate::fit::{FitError, FitReport};
 use crate::mesh::{default_margin, AdaptOptions};
 use crate::spline::Spline;
 use serde::Serialize;
@@ -166,7 +166,7 @@ impl MapFit {
 }
 
 /// The landmarks missed by more than [`MISS_TOLERANCE`], largest first.
-fn misses(res: &[crate::fit::solve::Residual]) -> Vec<(String, f64)> {
+fn misses(res: &[crate::fit::Residual]) -> Vec<(String, f64)> {
     let mut v: Vec<(String, f64)> = res
         .iter()
         .enumerate()

@@ -61,7 +61,7 @@ use crate::exact::matrix::{rat_to_f64, Rat};
 use crate::exact::Int;
 use crate::fit::frame::FrameFitOptions;
 use crate::fit::landmarks::Landmark;
-use crate::fit::solve::{fit, FitError, FitOptions};
+use crate::fit::{fit, FitError, FitOptions};
 use crate::mesh::{AdaptOptions, Mesh, MeshError, MeshOptions};
 use crate::render::colormesh::rasterize;
 use crate::spline::{Spline, SplineError};
@@ -255,7 +255,7 @@ impl Default for MorphOptions {
             // A fixed weight (not GCV): where the barrier does not act the fits are linear
             // in the targets (module docs). Interpolation: both maps meet their landmarks.
             fit: FitOptions {
-                bend: crate::fit::solve::Bend::Weight(crate::fit::smooth::INTERPOLATING_BEND),
+                bend: crate::fit::Bend::Weight(crate::fit::smooth::INTERPOLATING_BEND),
                 ..FitOptions::default()
             },
             interp: Interp::Bilinear,

@@ -83,7 +83,7 @@ pub enum RegisterError {
     Mds(#[from] crate::spline::mds::MdsError),
     /// The landmarks or the exact constraints failed.
     #[error(transparent)]
-    Fit(#[from] crate::fit::solve::FitError),
+    Fit(#[from] crate::fit::FitError),
     /// The optimizer failed.
     #[error("the optimizer failed: {0}")]
     Optimizer(String),

@@ -46,7 +46,7 @@ use crate::fit::landmarks::Landmark;
 use crate::fit::objective::{data_row, Barrier, Loss, Objective};
 use crate::fit::optim::Termination;
 use crate::fit::param::{grid_rat, Param};
-use crate::fit::solve::{residuals, FitOptions, Residual, Stats};
+use crate::fit::{residuals, FitOptions, Residual, Stats};
 use crate::mesh::{Mesh, MeshOptions};
 use crate::spline::jacobian::CertifyOptions;
 use crate::spline::mds::Mds;
@@ -170,7 +170,7 @@ impl Default for RegisterOptions {
             spacing: 48.0,
             degree: 5,
             bend: DEFAULT_BEND,
-            floor: 0.1,
+            floor: crate::fit::options::DEFAULT_MIN_DET,
             max_iters: 30,
             affine_iters: 60,
             samples: SampleOptions::default(),
@@ -421,7 +421,7 @@ pub fn register(
         }
     }
     // With landmarks, the spline stage starts from the landmark fit (bending and landmarks
-    // only, solved directly, [`crate::fit::solve::fit_with`]): where the image term sees
+    // only, solved directly, [`crate::fit::fit_with`]): where the image term sees
     // nothing (flat or masked parts) L-BFGS would take many iterations to carry the
     // landmarks' pull there, and the fit puts it there at once.
     // The fit's weights are those of the finest level: there the registration's objective
@@ -434,11 +434,11 @@ pub fn register(
         let lambda = opts.bend * n0 / (area * opts.landmark_weight);
         let fo = FitOptions {
             pinned: opts.pinned.clone(),
-            bend: crate::fit::solve::Bend::Weight(lambda / (sum_w * area)),
+            bend: crate::fit::Bend::Weight(lambda / (sum_w * area)),
             bend_area: Some(area),
             ..FitOptions::default()
         };
-        crate::fit::solve::fit_with(&s0, &mds, &opts.landmarks, &fo, Instant::now())?.spline
+        crate::fit::fit_with(&s0, &mds, &opts.landmarks, &fo, Instant::now())?.spline
     } else {
         s0.clone()
     };

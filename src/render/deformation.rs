@@ -41,7 +41,7 @@ use crate::spline::{ControlPoint, Spline};
 /// Smallest accepted output width or height in pixels.
 pub const MIN_SIZE: u32 = 16;
 /// Largest accepted output width or height in pixels.
-pub const MAX_SIZE: u32 = 16384;
+pub const MAX_SIZE: u32 = crate::io::image_use::MAX_DRAWN_SIDE;
 /// Fraction of the output size left empty on each side when fitting (no background).
 const MARGIN: f64 = 0.05;
 
@@ -192,7 +192,9 @@ pub enum RenderError {
     #[error("unknown layer '{0}'; choose from mesh, net, constraints, points, reference, all")]
     UnknownLayer(String),
     /// The output size is outside [`MIN_SIZE`]..=[`MAX_SIZE`].
-    #[error("invalid picture size {width}x{height} (each side must be 16 to 16384 pixels)")]
+    #[error(
+        "invalid picture size {width}x{height} (each side must be {MIN_SIZE} to {MAX_SIZE} pixels)"
+    )]
     Size {
         /// Requested width.
         width: u32,

@@ -1,12 +1,11 @@
-//! Rendering: pictures (plots, deformations, models, colored meshes) and the files of the
-//! jobs that write many of them (a sequence fit, a morph).
+//! Rendering: pictures (plots, deformations, models, colored meshes, overlays), the text
+//! font and the triangle rasterizer they share. Only drawing: the files of the jobs that
+//! write many pictures (a sequence fit, a morph) are in [`crate::jobs`].
 pub mod colorbar;
 pub mod colormesh;
 pub mod deformation;
 pub mod font;
 pub mod model;
-pub mod morph_files;
 pub mod overlay;
 pub mod plot;
 pub mod registration;
-pub mod sequence;

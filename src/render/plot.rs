@@ -6,7 +6,7 @@
 //! anti-aliased polyline with markers, and a legend in the plot corner that
 //! hides the least data. Points with a non-finite coordinate (or `y <= 0` on
 //! a log axis) are skipped and break the line; degenerate ranges are widened.
-//! Text uses the built-in bitmap font of [`super::font`].
+//! Text uses the bundled outline font of [`super::font`] (DejaVu Sans, anti-aliased).
 //!
 //! ```no_run
 //! use trimorph::render::plot::{LinePlot, Series, PALETTE};
@@ -183,7 +183,7 @@ impl LinePlot {
     /// Smallest accepted image width or height in pixels.
     pub const MIN_SIZE: u32 = 64;
     /// Largest accepted image width or height in pixels.
-    pub const MAX_SIZE: u32 = 16384;
+    pub const MAX_SIZE: u32 = crate::io::image_use::MAX_DRAWN_SIDE;
 
     /// Creates an empty 800x600 plot with the given title and axis labels.
     pub fn new(title: &str, x_label: &str, y_label: &str) -> Self {

@@ -21,7 +21,7 @@ use crate::edit::script::{Motion, Translate};
 use crate::edit::select::Neighborhood;
 use crate::edit::{EditError, Editor, LastEdit, Mode};
 use crate::fit::landmarks::Landmark;
-use crate::fit::solve::{fit, FitOptions};
+use crate::fit::{fit, FitOptions};
 use crate::io::landmarks::read_landmarks;
 use crate::io::model::{load_model_up, save_model, UpAxis};
 use crate::io::{deformation, read_text, write_atomic};

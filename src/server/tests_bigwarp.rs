@@ -6,7 +6,7 @@ use super::doc::pairs::Pair;
 use super::doc::Doc;
 use super::tests::{call, doc, http, Running};
 use crate::fit::landmarks::Landmark;
-use crate::fit::solve::{fit, FitOptions};
+use crate::fit::{fit, FitOptions};
 use crate::server::start::{initial_doc, StartOptions};
 use serde_json::{json, Value};
 use std::path::Path;

@@ -7,7 +7,7 @@ use super::jacobian::{certify, CertifyOptions, DetJ, SAMPLE_LEVEL};
 use super::Spline;
 use crate::exact::{rat_to_string, Rat};
 use num_traits::Zero;
-use serde_json::{json, Value};
+use serde::Serialize;
 
 /// The first control point with a coordinate that is not a finite `f64` (an exact value
 /// beyond the `f64` range): `(point, axis, value)`.
@@ -41,16 +41,78 @@ pub fn det_j_line(c: &DetJ) -> String {
     )
 }
 
+/// The `trimorph check` report of a spline (written as JSON by `trimorph check`, returned
+/// as a dict by Python's `Deformation.check`).
+///
+/// The fields are declared in the alphabetical order of their keys, the order in which the
+/// report has always been written (a contract: a test checks it).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct CheckReport {
+    /// The number of C1 conditions (thesis eqs. 12.6-12.7, two per interior edge and
+    /// degree step).
+    pub c1_conditions: usize,
+    /// Every condition's residual is exactly zero: `phi` is C1.
+    pub c1_holds: bool,
+    /// The largest absolute residual, an exact rational written `p/q`.
+    pub c1_max_abs_residual: String,
+    /// The number of conditions with a nonzero residual.
+    pub c1_nonzero_residuals: usize,
+    /// One `[x, y]` pair of exact residuals per condition (only when asked for: long on
+    /// large meshes).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub c1_residuals: Option<Vec<[String; 2]>>,
+    /// The number of control points.
+    pub control_points: usize,
+    /// The spline's degree.
+    pub degree: usize,
+    /// A certified lower bound of `det J` over the whole mesh.
+    pub det_j_lower_bound: f64,
+    /// `det J > 0` is proven on every triangle.
+    pub fold_free: bool,
+    /// The number of scanned samples with `det J <= 0`.
+    pub fold_samples: usize,
+    /// Triangles where the certificate found `det J <= 0`.
+    pub folding_triangles: Vec<usize>,
+    /// Some scanned sample folds, or the certificate found a folding triangle.
+    pub folds: bool,
+    /// The mesh's interior edges.
+    pub interior_edges: usize,
+    /// The number of scanned samples (`(k + 1)(k + 2) / 2` per triangle).
+    pub jacobian_samples: usize,
+    /// The sampled minimum of `det J` (the certificate's level-8 lattice, as every command
+    /// reports it).
+    pub min_jacobian_det: f64,
+    /// Where that minimum lies.
+    pub min_jacobian_det_at: Option<SampleAt>,
+    /// The mesh's triangles.
+    pub triangles: usize,
+    /// Triangles the certificate could not decide.
+    pub undecided_triangles: Vec<usize>,
+    /// The mesh's vertices.
+    pub vertices: usize,
+    /// The spline carries z layers (a 2.5D prism deformation).
+    pub z_layers: bool,
+}
+
+/// A sample of the `det J` scan: its triangle and barycentric point.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct SampleAt {
+    /// The barycentric point.
+    pub point: [f64; 2],
+    /// The triangle.
+    pub triangle: usize,
+}
+
 /// The `trimorph check` report of a spline, with the per-condition `c1_residuals` list (one
 /// `[x, y]` pair of exact residuals per C1 condition; long on large meshes).
-pub fn check_report(s: &Spline, samples_per_side: usize) -> Value {
+pub fn check_report(s: &Spline, samples_per_side: usize) -> CheckReport {
     check_report_with(s, samples_per_side, true)
 }
 
 /// The `trimorph check` report of a spline; the `c1_residuals` list only when `residuals`
 /// (every other key is always there: `c1_nonzero_residuals` and `c1_max_abs_residual`
 /// summarise the list).
-pub fn check_report_with(s: &Spline, samples_per_side: usize, residuals: bool) -> Value {
+pub fn check_report_with(s: &Spline, samples_per_side: usize, residuals: bool) -> CheckReport {
     let res = s.c1_residuals();
     let nonzero = res.iter().filter(|r| !r[0].is_zero() || !r[1].is_zero()).count();
     let max_res = res
@@ -79,68 +141,63 @@ pub fn check_report_with(s: &Spline, samples_per_side: usize, residuals: bool) -
         }
     }
     let cert = certify(s, &CertifyOptions::default());
-    let worst = cert.worst.map(|(t, p)| json!({"triangle": t, "point": p}));
-    let mut rep = json!({
-        "degree": s.degree(),
-        "vertices": m.num_vertices(),
-        "triangles": m.num_triangles(),
-        "interior_edges": m.num_interior_edges(),
-        "control_points": s.num_points(),
-        "c1_conditions": s.quads().len(),
-        "c1_nonzero_residuals": nonzero,
-        "c1_max_abs_residual": rat_to_string(&max_res),
-        "c1_holds": nonzero == 0,
-        "jacobian_samples": samples,
-        "min_jacobian_det": cert.sampled_min,
-        "min_jacobian_det_at": worst,
-        "fold_samples": folds,
-        "folds": folds > 0 || !cert.folding.is_empty(),
-        "det_j_lower_bound": cert.lower_bound,
-        "fold_free": cert.fold_free,
-        "folding_triangles": cert.folding,
-        "undecided_triangles": cert.undecided,
-        "z_layers": s.z_layers().is_some(),
-    });
-    if residuals {
-        let list: Vec<[String; 2]> =
-            res.iter().map(|r| [rat_to_string(&r[0]), rat_to_string(&r[1])]).collect();
-        rep["c1_residuals"] = json!(list);
+    CheckReport {
+        c1_conditions: s.quads().len(),
+        c1_holds: nonzero == 0,
+        c1_max_abs_residual: rat_to_string(&max_res),
+        c1_nonzero_residuals: nonzero,
+        c1_residuals: residuals
+            .then(|| res.iter().map(|r| [rat_to_string(&r[0]), rat_to_string(&r[1])]).collect()),
+        control_points: s.num_points(),
+        degree: s.degree(),
+        det_j_lower_bound: cert.lower_bound,
+        fold_free: cert.fold_free,
+        fold_samples: folds,
+        folds: folds > 0 || !cert.folding.is_empty(),
+        folding_triangles: cert.folding,
+        interior_edges: m.num_interior_edges(),
+        jacobian_samples: samples,
+        min_jacobian_det: cert.sampled_min,
+        min_jacobian_det_at: cert.worst.map(|(triangle, point)| SampleAt { point, triangle }),
+        triangles: m.num_triangles(),
+        undecided_triangles: cert.undecided,
+        vertices: m.num_vertices(),
+        z_layers: s.z_layers().is_some(),
     }
-    rep
 }
 
-/// The one-line human summary of a [`check_report`]: whether C1 holds (with the count of
-/// conditions that fail, and the largest residual), whether phi is certified fold-free, the
-/// sampled minimum of det J and the certified lower bound.
-pub fn summary_line(rep: &Value) -> String {
-    let n = |k: &str| rep[k].as_u64().unwrap_or(0);
-    let f = |k: &str| rep[k].as_f64().map_or("?".to_string(), |v| format!("{v:.6}"));
-    let c1 = if rep["c1_holds"] == json!(true) {
-        format!("C1 holds ({} of {} conditions exactly 0)", n("c1_conditions"), n("c1_conditions"))
-    } else {
+impl CheckReport {
+    /// The one-line human summary: whether C1 holds (with the count of conditions that
+    /// fail, and the largest residual), whether phi is certified fold-free, the sampled
+    /// minimum of det J and the certified lower bound.
+    pub fn summary_line(&self) -> String {
+        let n = self.c1_conditions;
+        let c1 = if self.c1_holds {
+            format!("C1 holds ({n} of {n} conditions exactly 0)")
+        } else {
+            format!(
+                "C1 FAILS ({} of {n} conditions nonzero, max |residual| {})",
+                self.c1_nonzero_residuals, self.c1_max_abs_residual
+            )
+        };
+        let folds = if self.fold_free {
+            "certified fold-free".to_string()
+        } else {
+            format!(
+                "NOT certified fold-free ({} folding, {} undecided triangles)",
+                self.folding_triangles.len(),
+                self.undecided_triangles.len()
+            )
+        };
+        // Written as before, through JSON numbers: a non-finite value shows as `?`.
+        let f = |v: f64| if v.is_finite() { format!("{v:.6}") } else { "?".to_string() };
         format!(
-            "C1 FAILS ({} of {} conditions nonzero, max |residual| {})",
-            n("c1_nonzero_residuals"),
-            n("c1_conditions"),
-            rep["c1_max_abs_residual"].as_str().unwrap_or("?")
+            "{c1}; {folds}; det J: sampled min {}, certified lower bound {} ({} triangles)",
+            f(self.min_jacobian_det),
+            f(self.det_j_lower_bound),
+            self.triangles
         )
-    };
-    let count = |k: &str| rep[k].as_array().map_or(0, Vec::len);
-    let folds = if rep["fold_free"] == json!(true) {
-        "certified fold-free".to_string()
-    } else {
-        format!(
-            "NOT certified fold-free ({} folding, {} undecided triangles)",
-            count("folding_triangles"),
-            count("undecided_triangles")
-        )
-    };
-    format!(
-        "{c1}; {folds}; det J: sampled min {}, certified lower bound {} ({} triangles)",
-        f("min_jacobian_det"),
-        f("det_j_lower_bound"),
-        n("triangles")
-    )
+    }
 }
 
 /// Largest accepted absolute coordinate (mesh units = pixels) of an edit's arguments, of a
@@ -187,18 +244,17 @@ mod tests {
     fn residual_list_only_on_request_and_other_keys_equal() {
         let s = grid();
         let (short, full) = (check_report_with(&s, 4, false), check_report(&s, 4));
-        assert!(short.get("c1_residuals").is_none(), "{short}");
-        let list = full["c1_residuals"].as_array().unwrap();
-        assert_eq!(list.len() as u64, full["c1_conditions"].as_u64().unwrap());
-        let mut rest = full.clone();
-        rest.as_object_mut().unwrap().remove("c1_residuals");
-        assert_eq!(rest, short);
+        let text = serde_json::to_value(&short).unwrap();
+        assert!(text.get("c1_residuals").is_none(), "{text}");
+        let list = full.c1_residuals.as_ref().unwrap();
+        assert_eq!(list.len(), full.c1_conditions);
+        assert_eq!(CheckReport { c1_residuals: None, ..full }, short);
     }
 
     #[test]
     fn summary_of_a_c1_identity_and_of_a_broken_spline() {
         let s = grid();
-        let line = summary_line(&check_report_with(&s, 4, false));
+        let line = check_report_with(&s, 4, false).summary_line();
         assert!(line.starts_with("C1 holds (40 of 40 conditions"), "{line}");
         assert!(line.contains("; certified fold-free;"), "{line}");
         assert!(line.contains("sampled min 1.000000, certified lower bound"), "{line}");
@@ -208,9 +264,28 @@ mod tests {
         pts[p][0] = &pts[p][0] + rat_int(3);
         let bad = Spline::from_points_unchecked(s.mesh().clone(), 5, pts, None).unwrap();
         let rep = check_report_with(&bad, 4, false);
-        let line = summary_line(&rep);
-        let n = rep["c1_nonzero_residuals"].as_u64().unwrap();
+        let line = rep.summary_line();
+        let n = rep.c1_nonzero_residuals;
         assert!(n > 0);
         assert!(line.starts_with(&format!("C1 FAILS ({n} of 40 conditions nonzero")), "{line}");
+    }
+
+    /// The report is written with its keys in alphabetical order, as it was when it was
+    /// built as a JSON map: the fields must stay declared in that order.
+    #[test]
+    fn keys_are_written_in_alphabetical_order() {
+        let rep = check_report(&grid(), 2);
+        let text = serde_json::to_string(&rep).unwrap();
+        let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+        let keys: Vec<&String> = v.as_object().unwrap().keys().collect();
+        assert_eq!(keys.len(), 20, "{keys:?}");
+        // The document's own order (serde_json's map sorts, so read the text itself).
+        let mut at: Vec<(usize, &String)> =
+            keys.iter().map(|k| (text.find(&format!("\"{k}\":")).unwrap(), *k)).collect();
+        at.sort();
+        let written: Vec<&String> = at.into_iter().map(|(_, k)| k).collect();
+        let mut sorted = written.clone();
+        sorted.sort();
+        assert_eq!(written, sorted);
     }
 }

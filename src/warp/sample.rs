@@ -30,8 +30,8 @@
 //! pixels) to 5-14x (8- and 16-bit gray) in the criterion benches (README).
 
 use super::{
-    sample_simd, sample_simd_color, sample_simd_color16, sample_simd_cubic, sample_simd_cubic_wide,
-    sample_simd_float, sample_simd_nearest, Interp,
+    sample_simd, sample_simd512, sample_simd_color, sample_simd_color16, sample_simd_cubic,
+    sample_simd_cubic_wide, sample_simd_float, sample_simd_nearest, Interp,
 };
 
 /// A channel value: `u8`, `u16` or `f32`.
@@ -319,7 +319,7 @@ pub fn fill_pixels<T: Texel, const NC: usize>(
             if NC == 1 {
                 if let (Some(d8), Some(o8)) = (T::as_bytes(d), T::as_bytes_mut(out)) {
                     let one = scalar_gray(&pixel, T::as_bytes);
-                    if sample_simd::bilinear_gray8(d8, w, h, pos, o8, one) {
+                    if sample_simd512::bilinear_gray8(d8, w, h, pos, o8, one) {
                         return;
                     }
                 }

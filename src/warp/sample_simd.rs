@@ -1,7 +1,7 @@
 //! Bilinear resampling of 8- and 16-bit gray images, eight pixels at a time (x86_64 AVX2).
 //! Where the CPU has AVX-512 with VBMI, 8-bit gray runs sixteen at a time
-//! ([`super::sample_simd512`], same arithmetic, bit-identical), handing the groups it
-//! cannot take to the AVX2 kernel here.
+//! ([`super::sample_simd512`], same arithmetic, bit-identical, which also chooses between
+//! the two), handing the groups it cannot take to the AVX2 kernel here.
 //!
 //! The 16-bit path ([`bilinear_gray16`]) is the same arithmetic with 16-bit taps and the
 //! clamp at 65535; its tap layout is in its docs. Gray + alpha and colour images:
@@ -78,30 +78,11 @@ pub(super) fn avx2_fits(len: usize, w: usize, h: usize, nc: usize) -> bool {
 }
 
 /// Fills `out[i]` for every position `pos[i]` (`i < min(pos.len(), out.len())`) of a
-/// `w x h` gray image `data` by bilinear interpolation, with `scalar(p)` giving the value of
-/// the pixels the vector path does not take. Returns `false` (and writes nothing) when the
-/// vector path is not available: not x86_64, no AVX2, or an image too large for 32-bit
-/// offsets.
-pub(super) fn bilinear_gray8(
-    data: &[u8],
-    w: usize,
-    h: usize,
-    pos: &[[f64; 2]],
-    out: &mut [u8],
-    scalar: impl Fn(&[f64; 2]) -> u8,
-) -> bool {
-    #[cfg(target_arch = "x86_64")]
-    if super::sample_simd512::avx512_fits(data.len(), w, h) {
-        // SAFETY: AVX2 and AVX-512 F, BW, DQ, VL, VBMI are available and `data` holds at
-        // least `w h < 2^31` bytes (`avx512_fits`), as the AVX-512 kernel requires.
-        unsafe { super::sample_simd512::avx512::bilinear_gray8(data, w, h, pos, out, &scalar) };
-        return true;
-    }
-    bilinear_gray8_avx2(data, w, h, pos, out, scalar)
-}
-
-/// [`bilinear_gray8`] without the AVX-512 kernel: the AVX2 kernel alone (eight pixels at a
-/// time), or `false` where there is none.
+/// `w x h` gray image `data` by bilinear interpolation, eight pixels at a time (the AVX2
+/// kernel), with `scalar(p)` giving the value of the pixels the vector path does not take.
+/// Returns `false` (and writes nothing) when the vector path is not available: not x86_64,
+/// no AVX2, or an image too large for 32-bit offsets. The entry point that also takes the
+/// AVX-512 kernel is [`super::sample_simd512::bilinear_gray8`].
 pub(super) fn bilinear_gray8_avx2(
     data: &[u8],
     w: usize,
@@ -154,7 +135,7 @@ pub(super) fn bilinear_gray16(
 pub(super) mod avx2 {
     use std::arch::x86_64::*;
 
-    /// See [`super::bilinear_gray8`].
+    /// See [`super::bilinear_gray8_avx2`].
     ///
     /// # Safety
     ///
@@ -477,14 +458,12 @@ mod tests {
     use crate::warp::simd_harness::{self as harness, bit_identity_proptest, family};
     use crate::warp::Interp::Bilinear;
 
-    family!(Gray8, u8, bilinear_gray8, gray);
-    // The AVX2 kernel alone (`Gray8` runs the AVX-512 one where the CPU has it).
+    // The AVX2 kernel alone (the AVX-512 one and the choice between them: `sample_simd512`).
     family!(Gray8Avx2, u8, bilinear_gray8_avx2, gray);
     family!(Gray16, u16, bilinear_gray16, gray);
 
     #[test]
     fn vector_path_matches_the_scalar_path_bit_for_bit() {
-        harness::sweep::<u8, Gray8>(Bilinear, &[1], 5, 2000);
         harness::sweep::<u8, Gray8Avx2>(Bilinear, &[1], 5, 2000);
     }
 
@@ -498,7 +477,6 @@ mod tests {
     /// image's last bytes.
     #[test]
     fn row_windows_match_the_scalar_path() {
-        harness::smooth_rows::<u8, Gray8>(Bilinear, &[1], 41);
         harness::smooth_rows::<u8, Gray8Avx2>(Bilinear, &[1], 41);
         harness::smooth_rows::<u16, Gray16>(Bilinear, &[1], 43);
     }
@@ -506,7 +484,6 @@ mod tests {
     /// Signed zeros, ties, the border, infinities and `NaN` in either coordinate.
     #[test]
     fn special_positions_match_the_scalar_path() {
-        harness::special::<u8, Gray8>(Bilinear, &[1], 6);
         harness::special::<u8, Gray8Avx2>(Bilinear, &[1], 6);
         harness::special::<u16, Gray16>(Bilinear, &[1], 17);
     }
@@ -514,14 +491,12 @@ mod tests {
     /// The last bytes (samples) read are the image's last (module docs).
     #[test]
     fn loads_at_the_bottom_right_cell_stay_inside_the_image() {
-        harness::bottom_right::<u8, Gray8>(Bilinear, &[1]);
         harness::bottom_right::<u8, Gray8Avx2>(Bilinear, &[1]);
         harness::bottom_right::<u16, Gray16>(Bilinear, &[1]);
     }
 
     #[test]
     fn interior_groups_take_the_vector_path() {
-        harness::assert_vectorized::<u8, Gray8>(Bilinear, &[1]);
         harness::assert_vectorized::<u8, Gray8Avx2>(Bilinear, &[1]);
         harness::assert_vectorized::<u16, Gray16>(Bilinear, &[1]);
     }
@@ -542,14 +517,5 @@ mod tests {
         Bilinear,
         [1],
         "Random 8-bit images and random positions, the AVX2 kernel alone."
-    );
-
-    bit_identity_proptest!(
-        gray8_bit_identical_on_random_images,
-        u8,
-        Gray8,
-        Bilinear,
-        [1],
-        "Random 8-bit images (extreme values included) and random positions."
     );
 }

@@ -1,5 +1,6 @@
 //! Bilinear resampling of 8-bit gray images sixteen pixels at a time (x86_64 AVX-512 with
-//! VBMI), the wider form of [`super::sample_simd::bilinear_gray8`].
+//! VBMI), the wider form of [`super::sample_simd::bilinear_gray8_avx2`], and
+//! [`bilinear_gray8`], which runs it where the CPU allows and the AVX2 kernel elsewhere.
 //!
 //! **Arithmetic.** The same as the AVX2 kernel's and the scalar path's (see
 //! [`super::sample_simd`]): floors in `f64` (`vrndscalepd` towards minus infinity, plus
@@ -26,6 +27,30 @@
 //! gathers the words at bytes `k = y0 w + x0` and `k + w - 2`, as the AVX2 kernel does
 //! (inside the image by the bounds in [`super::sample_simd`]'s docs, with `w h < 2^31`).
 
+/// Fills `out[i]` for every position `pos[i]` (`i < min(pos.len(), out.len())`) of a
+/// `w x h` gray image `data` by bilinear interpolation, with `scalar(p)` giving the value of
+/// the pixels the vector path does not take: sixteen at a time where the CPU has AVX-512
+/// ([`avx512_fits`]), else eight ([`super::sample_simd::bilinear_gray8_avx2`]). Returns `false` (and writes nothing) when the
+/// vector path is not available: not x86_64, no AVX2, or an image too large for 32-bit
+/// offsets.
+pub(super) fn bilinear_gray8(
+    data: &[u8],
+    w: usize,
+    h: usize,
+    pos: &[[f64; 2]],
+    out: &mut [u8],
+    scalar: impl Fn(&[f64; 2]) -> u8,
+) -> bool {
+    #[cfg(target_arch = "x86_64")]
+    if avx512_fits(data.len(), w, h) {
+        // SAFETY: AVX2 and AVX-512 F, BW, DQ, VL, VBMI are available and `data` holds at
+        // least `w h < 2^31` bytes (`avx512_fits`), as the AVX-512 kernel requires.
+        unsafe { avx512::bilinear_gray8(data, w, h, pos, out, &scalar) };
+        return true;
+    }
+    super::sample_simd::bilinear_gray8_avx2(data, w, h, pos, out, scalar)
+}
+
 /// Whether the AVX-512 kernel may run: the CPU has AVX-512 F, BW, DQ, VL and VBMI (detected
 /// at run time) besides what [`super::sample_simd::avx2_fits`] requires.
 #[cfg(target_arch = "x86_64")]
@@ -42,7 +67,7 @@ pub(super) fn avx512_fits(len: usize, w: usize, h: usize) -> bool {
 pub(super) mod avx512 {
     use std::arch::x86_64::*;
 
-    /// [`crate::warp::sample_simd::bilinear_gray8`] sixteen pixels at a time (module docs);
+    /// [`crate::warp::sample_simd::bilinear_gray8_avx2`] sixteen pixels at a time (module docs);
     /// groups it cannot take, and the tail, go to the AVX2 kernel.
     ///
     /// # Safety
@@ -187,4 +212,52 @@ pub(super) mod avx512 {
         let t2 = _mm512_permutexvar_epi8(idx, row(2));
         Some((_mm512_mask_blend_epi32(lower, t0, t1), _mm512_mask_blend_epi32(lower, t1, t2)))
     }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::warp::simd_harness::{self as harness, bit_identity_proptest, family};
+    use crate::warp::Interp::Bilinear;
+
+    // The AVX-512 kernel where the CPU has it, else the AVX2 one (whose own tests are in
+    // `sample_simd`).
+    family!(Gray8, u8, bilinear_gray8, gray);
+
+    #[test]
+    fn vector_path_matches_the_scalar_path_bit_for_bit() {
+        harness::sweep::<u8, Gray8>(Bilinear, &[1], 5, 2000);
+    }
+
+    /// Rows of a smooth map, where the kernels load row windows instead of gathering.
+    #[test]
+    fn row_windows_match_the_scalar_path() {
+        harness::smooth_rows::<u8, Gray8>(Bilinear, &[1], 41);
+    }
+
+    /// Signed zeros, ties, the border, infinities and `NaN` in either coordinate.
+    #[test]
+    fn special_positions_match_the_scalar_path() {
+        harness::special::<u8, Gray8>(Bilinear, &[1], 6);
+    }
+
+    /// The last bytes read are the image's last (module docs).
+    #[test]
+    fn loads_at_the_bottom_right_cell_stay_inside_the_image() {
+        harness::bottom_right::<u8, Gray8>(Bilinear, &[1]);
+    }
+
+    #[test]
+    fn interior_groups_take_the_vector_path() {
+        harness::assert_vectorized::<u8, Gray8>(Bilinear, &[1]);
+    }
+
+    bit_identity_proptest!(
+        gray8_bit_identical_on_random_images,
+        u8,
+        Gray8,
+        Bilinear,
+        [1],
+        "Random 8-bit images (extreme values included) and random positions."
+    );
 }

@@ -170,7 +170,7 @@ fn op_name(v: &Value) -> Option<&str> {
 
 impl<N: Coordinate> Motion<N> {
     /// Reads a motion from a JSON object (`op` and its arguments; other keys are ignored).
-    pub fn from_value(v: &Value) -> Result<Motion<N>, FieldError> {
+    pub(crate) fn from_value(v: &Value) -> Result<Motion<N>, FieldError> {
         match op_name(v) {
             Some("translate") => read(v, "translate").map(Motion::Translate),
             Some("rotate") => read(v, "rotate").map(Motion::Rotate),
@@ -315,12 +315,12 @@ impl Op {
     }
 
     /// Reads one operation from a JSON object.
-    pub fn from_value(v: &Value) -> Result<Op, FieldError> {
+    pub(crate) fn from_value(v: &Value) -> Result<Op, FieldError> {
         Op::read(v).map_err(|(_, e)| e)
     }
 
     /// The JSON form (read back by [`Op::from_value`] as the same operation).
-    pub fn to_value(&self) -> Value {
+    pub(crate) fn to_value(&self) -> Value {
         let (first, second) = match self {
             Op::Move { target, motion } => {
                 (serde_json::to_value(target), serde_json::to_value(motion))
@@ -500,7 +500,7 @@ pub struct Script {
 
 impl Script {
     /// Reads a script from a JSON array of operation objects.
-    pub fn from_value(v: &Value) -> Result<Script, ScriptError> {
+    pub(crate) fn from_value(v: &Value) -> Result<Script, ScriptError> {
         let list = v.as_array().ok_or(ScriptError::NotArray)?;
         let ops = list
             .iter()
@@ -517,11 +517,6 @@ impl Script {
         let v: Value = crate::json::parse(text)
             .map_err(|e| ScriptError::Json { line: e.line(), message: e.to_string() })?;
         Script::from_value(&v)
-    }
-
-    /// The JSON form (an array of operation objects).
-    pub fn to_value(&self) -> Value {
-        Value::Array(self.ops.iter().map(Op::to_value).collect())
     }
 
     /// Runs the script on `ed` ([`run_script`] without a progress callback).

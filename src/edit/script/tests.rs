@@ -331,6 +331,6 @@ proptest! {
         let s = Script { ops };
         let text = serde_json::to_string(&s).unwrap();
         prop_assert_eq!(Script::from_json_str(&text).unwrap(), s.clone());
-        prop_assert_eq!(Script::from_value(&s.to_value()).unwrap(), s);
+        prop_assert_eq!(Script::from_value(&serde_json::to_value(&s).unwrap()).unwrap(), s);
     }
 }

@@ -256,7 +256,7 @@ fn block(
 mod tests {
     use super::*;
     use crate::fit::landmarks::Landmark;
-    use crate::fit::solve::{objective, FitOptions};
+    use crate::fit::{solve::objective, FitOptions};
     use crate::mesh::{Mesh, MeshOptions};
     use crate::spline::Spline;
     use rand::rngs::SmallRng;

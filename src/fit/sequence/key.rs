@@ -101,14 +101,14 @@ impl ResumeKey {
     }
 
     /// As a JSON object of strings.
-    pub fn to_json(&self) -> serde_json::Value {
+    pub(crate) fn to_json(&self) -> serde_json::Value {
         serde_json::Value::Object(
             self.0.iter().map(|(k, v)| (k.clone(), serde_json::Value::from(v.as_str()))).collect(),
         )
     }
 
     /// From a JSON object of strings (`None` for anything else).
-    pub fn from_json(v: &serde_json::Value) -> Option<ResumeKey> {
+    pub(crate) fn from_json(v: &serde_json::Value) -> Option<ResumeKey> {
         let m = v.as_object()?;
         let mut out = BTreeMap::new();
         for (k, v) in m {

@@ -7,7 +7,7 @@ use serde_json::{json, Value};
 
 impl SequenceSummary {
     /// The summary as JSON; `anchor` is the tracking's anchor (`None`: not tracked).
-    pub fn to_json(&self, anchor: Option<Anchor>) -> Value {
+    pub(crate) fn to_json(&self, anchor: Option<Anchor>) -> Value {
         let errors =
             |e: Option<Errors>| e.map(|e| json!({"count": e.count, "rms": e.rms, "max": e.max}));
         let frames: Vec<Value> = self
@@ -38,7 +38,7 @@ impl SequenceSummary {
 
 impl SequenceSummary {
     /// One line per frame of the run: skipped (done before), or fitted (with the reason
-    /// when it is not new) with its fit summary ([`crate::fit::solve::FitReport::summary_line`])
+    /// when it is not new) with its fit summary ([`crate::fit::FitReport::summary_line`])
     /// and drift.
     pub fn frame_lines(&self) -> Vec<String> {
         self.frames

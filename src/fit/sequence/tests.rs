@@ -170,8 +170,7 @@ fn resume_skips_current_frames_and_refits_changed_or_incomplete_ones() {
     let (s, fr) = (scene(), frames(3));
     let store = Memory::default();
     let run = |bend: f64| {
-        let fit =
-            FitOptions { bend: crate::fit::solve::Bend::Weight(bend), ..FitOptions::default() };
+        let fit = FitOptions { bend: crate::fit::Bend::Weight(bend), ..FitOptions::default() };
         let o = SequenceOptions { fit, ..Default::default() };
         Sequence::new(&s, &fr, tracked(Anchor::Chain), o).unwrap().run(&store, &|_| {}).unwrap()
     };
@@ -202,7 +201,7 @@ fn resume_skips_current_frames_and_refits_changed_or_incomplete_ones() {
     assert_eq!(*store.saves.lock().unwrap(), 3 + 3 + 1 + 1);
     // Shards: the second half warm-starts from the stored frame before it.
     let o = SequenceOptions {
-        fit: FitOptions { bend: crate::fit::solve::Bend::Weight(0.02), ..FitOptions::default() },
+        fit: FitOptions { bend: crate::fit::Bend::Weight(0.02), ..FitOptions::default() },
         shard: Some((1, 2)),
         ..Default::default()
     };

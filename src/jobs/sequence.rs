@@ -19,8 +19,8 @@ use crate::fit::sequence::{
     check_names, content_hash, Anchor, Frame, FrameResult, Sequence, SequenceError,
     SequenceOptions, Store, StoreError, Stored, Targets,
 };
-use crate::fit::solve::FitOptions;
 use crate::fit::track::TrackOptions;
+use crate::fit::FitOptions;
 use crate::io::deformation::DeformationError;
 use crate::io::frames::{read_frames, read_targets, scene_model, FramesError, InputsError};
 use crate::io::model::{save_model, ModelIoError, UpAxis};
@@ -148,86 +148,6 @@ impl Store for FrameFiles<'_> {
 
     fn save(&self, result: &FrameResult, frame: &Frame) -> Result<(), StoreError> {
         self.write(result, frame).map_err(Into::into)
-    }
-}
-
-/// Why `track`, `anchor` and `key_every` do not choose a way of tracking (the messages name
-/// the command-line options; the Python keywords have the same names).
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-pub enum AnchorChoiceError {
-    /// An anchor or a key frame spacing without tracking.
-    #[error("--anchor and --key-every choose how --track follows the landmarks; add --track")]
-    NoTrack,
-    /// Key frames every 0 frames.
-    #[error("--key-every must be at least 1")]
-    KeyEveryZero,
-    /// Key frames without a spacing.
-    #[error("--anchor keyframes needs --key-every N (a key frame every N frames)")]
-    NoKeyEvery,
-    /// A spacing with another anchor.
-    #[error("--key-every goes with --anchor keyframes")]
-    KeyEveryWithout,
-    /// An unknown anchor name (from [`AnchorKind`]'s `from_str`).
-    #[error("--anchor: {0}")]
-    Unknown(#[from] UnknownAnchor),
-}
-
-/// Which frame each frame is tracked from, without the key frame spacing: what `--anchor`
-/// and the Python `anchor=` keyword name (`chain`, `first` or `keyframes`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum AnchorKind {
-    /// [`Anchor::Chain`]: the previous frame (the default).
-    Chain,
-    /// [`Anchor::First`]: the first frame.
-    First,
-    /// [`Anchor::KeyFrames`]: key frames every `key_every` frames.
-    KeyFrames,
-}
-
-impl AnchorKind {
-    /// The names `from_str` accepts, in the order of the variants.
-    pub const NAMES: [&'static str; 3] = ["chain", "first", "keyframes"];
-}
-
-impl std::str::FromStr for AnchorKind {
-    type Err = UnknownAnchor;
-    /// `chain`, `first` or `keyframes`, exactly.
-    fn from_str(name: &str) -> Result<AnchorKind, UnknownAnchor> {
-        match name {
-            "chain" => Ok(AnchorKind::Chain),
-            "first" => Ok(AnchorKind::First),
-            "keyframes" => Ok(AnchorKind::KeyFrames),
-            other => Err(UnknownAnchor(other.to_string())),
-        }
-    }
-}
-
-/// An anchor name that is none of [`AnchorKind::NAMES`] (the text given).
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("unknown anchor `{0}` (use chain, first or keyframes)")]
-pub struct UnknownAnchor(pub String);
-
-/// How a sequence is tracked: `None` without `track`; with it, `anchor` (`chain`, the default,
-/// `first` or `keyframes`, which needs `key_every >= 1`).
-pub fn choose_anchor(
-    track: bool,
-    anchor: Option<AnchorKind>,
-    key_every: Option<usize>,
-) -> Result<Option<Anchor>, AnchorChoiceError> {
-    if !track {
-        return if anchor.is_some() || key_every.is_some() {
-            Err(AnchorChoiceError::NoTrack)
-        } else {
-            Ok(None)
-        };
-    }
-    match (anchor.unwrap_or(AnchorKind::Chain), key_every) {
-        (AnchorKind::Chain, None) => Ok(Some(Anchor::Chain)),
-        (AnchorKind::First, None) => Ok(Some(Anchor::First)),
-        (AnchorKind::KeyFrames, Some(n)) if n >= 1 => Ok(Some(Anchor::KeyFrames(n))),
-        (AnchorKind::KeyFrames, Some(_)) => Err(AnchorChoiceError::KeyEveryZero),
-        (AnchorKind::KeyFrames, None) => Err(AnchorChoiceError::NoKeyEvery),
-        (AnchorKind::Chain | AnchorKind::First, Some(_)) => Err(AnchorChoiceError::KeyEveryWithout),
     }
 }
 
@@ -488,30 +408,6 @@ mod tests {
     use crate::fit::sequence::{Action, Sequence, SequenceOptions, Targets};
     use crate::mesh::{Mesh, MeshOptions};
     use crate::spline::Spline;
-
-    #[test]
-    fn anchors_are_chosen_as_the_command_line_spells_them() {
-        let kind = |name: &str| Some(name.parse::<AnchorKind>().unwrap());
-        assert_eq!(choose_anchor(false, None, None), Ok(None));
-        assert_eq!(choose_anchor(true, None, None), Ok(Some(Anchor::Chain)));
-        assert_eq!(choose_anchor(true, kind("first"), None), Ok(Some(Anchor::First)));
-        assert_eq!(choose_anchor(true, kind("keyframes"), Some(3)), Ok(Some(Anchor::KeyFrames(3))));
-        assert_eq!(choose_anchor(false, kind("first"), None), Err(AnchorChoiceError::NoTrack));
-        assert_eq!(
-            choose_anchor(true, kind("keyframes"), Some(0)),
-            Err(AnchorChoiceError::KeyEveryZero)
-        );
-        assert_eq!(
-            choose_anchor(true, kind("keyframes"), None),
-            Err(AnchorChoiceError::NoKeyEvery)
-        );
-        assert_eq!(choose_anchor(true, None, Some(2)), Err(AnchorChoiceError::KeyEveryWithout));
-        let e = AnchorChoiceError::from("middle".parse::<AnchorKind>().unwrap_err());
-        assert_eq!(
-            e.to_string(),
-            "--anchor: unknown anchor `middle` (use chain, first or keyframes)"
-        );
-    }
 
     #[test]
     fn inputs_name_the_bad_scene_and_refuse_a_nan_background() {
