@@ -275,8 +275,9 @@ pub struct MorphCli {
 /// The command line of `trimorph editor`.
 #[derive(clap::Args, Debug)]
 pub struct EditorCli {
-    /// Deformation or scene to edit (format v1; a scene's "model" and "image" keys are
-    /// loaded too). Default: an identity over --image, or the bundled scene.
+    /// Deformation or scene to edit (format v1; a scene's "model", "image" and "fixed" keys
+    /// are loaded too, and the "landmarks" of a scene or of a `fit` / `register` output come
+    /// in as pairs). Default: an identity over --image, or the bundled scene.
     pub deformation: Option<PathBuf>,
     /// 3D model (OBJ, OFF, PLY) bound to the prism layer.
     #[arg(long)]
@@ -284,6 +285,14 @@ pub struct EditorCli {
     /// Background image: the microscope frame to match.
     #[arg(long)]
     pub image: Option<PathBuf>,
+    /// Two images side by side, BigWarp-style: the moving image (the deformation maps its
+    /// pixels onto the fixed image's; shown un-warped on the left). The same as --image.
+    #[arg(long, conflicts_with = "image")]
+    pub moving: Option<PathBuf>,
+    /// The fixed image (right panel, with the warped moving image over it); landmark
+    /// pairs are clicked in each panel.
+    #[arg(long)]
+    pub fixed: Option<PathBuf>,
     /// Port on 127.0.0.1 (0: any free port).
     #[arg(long, default_value_t = 8080)]
     pub port: u16,

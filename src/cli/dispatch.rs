@@ -75,7 +75,8 @@ impl EditorCli {
         let start = crate::server::start::StartOptions {
             deformation: self.deformation.clone(),
             model: self.model.clone(),
-            image: self.image.clone(),
+            image: self.image.clone().or_else(|| self.moving.clone()),
+            fixed: self.fixed.clone(),
         };
         editor_cmd::run(&start, self.port)
     }

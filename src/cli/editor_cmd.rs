@@ -1,5 +1,5 @@
-//! `trimorph editor [DEF.json] [--model M.obj] [--image FRAME] [--port 8080]`: the local web
-//! editor ([`crate::server`]), starting from [`crate::server::start::initial_doc`].
+//! `trimorph editor [DEF.json] [--model M.obj] [--image FRAME | --moving M --fixed F]
+//! [--port 8080]`: the local web editor ([`crate::server`]), starting from [`crate::server::start::initial_doc`].
 
 use crate::server::start::{initial_doc, StartOptions};
 use crate::server::Server;

@@ -47,7 +47,8 @@ use crate::rng::SplitMix64;
 mod bigwarp;
 pub mod point_files;
 pub use bigwarp::{
-    parse_bigwarp, parse_bigwarp_noted, parse_bigwarp_with_notes, to_bigwarp, ConstantZ,
+    parse_bigwarp, parse_bigwarp_flagged, parse_bigwarp_noted, parse_bigwarp_with_notes,
+    to_bigwarp, to_bigwarp_flagged, ConstantZ,
 };
 pub use point_files::{parse_points, PointFormat};
 use serde::{Deserialize, Serialize};

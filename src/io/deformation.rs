@@ -5,7 +5,11 @@
 //! by trimorph: `grid` (the vertex snapping denominator), `last_edit` (anchors and derived
 //! points of the last edit, for rendering) and `frame` (the image frame the deformation was
 //! made for, [`crate::spline::frame`]: `{"size": [w, h]}` in pixels, with `"spacing"`,
-//! `"origin"` and `"unit"` when known).
+//! `"origin"` and `"unit"` when known). A deformation written by `trimorph fit` or
+//! `trimorph register` also carries the landmarks it was fitted to, under
+//! [`LANDMARKS_KEY`] (`"landmarks"`, the list of [`crate::fit::landmarks`]' JSON format:
+//! `{"name", "src", "dst", "weight"}`), so that the editor's re-fit keeps them and adds
+//! the corrections made there; files without the key read as before.
 //!
 //! Reading accepts files from other tools: the control-point numbering is taken from
 //! `patches` (points at one nominal position must be one point), and without an exact block
@@ -165,6 +169,29 @@ pub fn pinned_from_str(text: &str) -> Result<Vec<ControlPoint>, DeformationError
             .collect(),
         Some(_) => Err(key("pinned", "expected an array of control point indices")),
     }
+}
+
+/// The key under which a deformation carries the landmarks it was fitted to.
+pub const LANDMARKS_KEY: &str = "landmarks";
+
+/// Landmarks as the JSON landmark format's list (`[]` when they cannot be written: a
+/// non-finite value, which fitted landmarks never have).
+pub fn landmarks_value(lms: &[crate::fit::landmarks::Landmark]) -> Value {
+    let text = crate::fit::landmarks::to_json(lms).unwrap_or_else(|_| "{}".into());
+    serde_json::from_str::<Value>(&text)
+        .ok()
+        .and_then(|v| v.get("landmarks").cloned())
+        .unwrap_or_else(|| json!([]))
+}
+
+/// [`to_string`] with the landmarks the spline was fitted to under [`LANDMARKS_KEY`]
+/// (none: no key, the plain file).
+pub fn to_string_with_landmarks(s: &Spline, lms: &[crate::fit::landmarks::Landmark]) -> String {
+    let mut v = to_json_with(s, None, &[]);
+    if !lms.is_empty() {
+        v[LANDMARKS_KEY] = landmarks_value(lms);
+    }
+    super::json_rows(&v)
 }
 
 /// The file text of a spline: one key per line, one row per line for arrays of rows.

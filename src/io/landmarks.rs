@@ -179,6 +179,12 @@ pub fn read_landmarks_with_notes(
     }
     let (lms, notes) = landmarks::parse_with_notes(&text, format)
         .map_err(|source| LandmarkIoError::Format { path: path.to_path_buf(), source })?;
+    unique_names(path, &lms)?;
+    Ok((lms, notes))
+}
+
+/// Refuses two landmarks with the same name.
+fn unique_names(path: &Path, lms: &[Landmark]) -> Result<(), LandmarkIoError> {
     let mut seen = std::collections::HashMap::new();
     for (i, l) in lms.iter().enumerate() {
         if let Some(name) = &l.name {
@@ -192,7 +198,50 @@ pub fn read_landmarks_with_notes(
             }
         }
     }
-    Ok((lms, notes))
+    Ok(())
+}
+
+/// [`read_landmarks`] keeping a BigWarp table's inactive rows: every landmark with its
+/// active flag ([`landmarks::parse_bigwarp_flagged`]); CSV and JSON landmarks are all
+/// active.
+pub fn read_landmarks_flagged(path: &Path) -> Result<Vec<(Landmark, bool)>, LandmarkIoError> {
+    let text = read_text(path)?;
+    if detect_format(path, &text) != LandmarkFormat::BigWarp {
+        return Ok(read_landmarks(path)?.into_iter().map(|l| (l, true)).collect());
+    }
+    let rows = landmarks::parse_bigwarp_flagged(&text, false)
+        .map_err(|source| LandmarkIoError::Format { path: path.to_path_buf(), source })?;
+    let lms: Vec<Landmark> = rows.iter().map(|(l, _)| l.clone()).collect();
+    unique_names(path, &lms)?;
+    Ok(rows)
+}
+
+/// Writes landmarks with active flags (`active[i]` for `lms[i]`): a BigWarp table keeps
+/// every row with its flag ([`landmarks::to_bigwarp_flagged`]); CSV and JSON, which have
+/// no flag, get the active landmarks only (what a fit of that file uses). Atomic.
+pub fn write_landmarks_flagged(
+    path: &Path,
+    lms: &[Landmark],
+    active: &[bool],
+    format: LandmarkFormat,
+) -> Result<(), LandmarkIoError> {
+    let fmt = |source| LandmarkIoError::Format { path: path.to_path_buf(), source };
+    let text = match format {
+        LandmarkFormat::BigWarp => {
+            landmarks::to_bigwarp_flagged(lms, active, false).map_err(fmt)?
+        }
+        _ => {
+            let on: Vec<Landmark> = lms
+                .iter()
+                .enumerate()
+                .filter(|(i, _)| active.get(*i).copied().unwrap_or(true))
+                .map(|(_, l)| l.clone())
+                .collect();
+            landmarks::to_string(&on, format).map_err(fmt)?
+        }
+    };
+    write_atomic(path, text.as_bytes())?;
+    Ok(())
 }
 
 /// Writes landmarks to `path` in `format`, atomically (nothing is written when a landmark
@@ -217,6 +266,33 @@ mod tests {
             Landmark { name: Some("a".into()), src: [1.5, 2.0], dst: [3.0, 4.25], weight: 2.0 },
             Landmark { name: None, src: [0.1, 0.2], dst: [0.3, 0.4], weight: 1.0 },
         ]
+    }
+
+    /// The editor's flags: BigWarp keeps an inactive row with its flag; CSV and JSON,
+    /// without a flag column, get the active rows only.
+    #[test]
+    fn flagged_files_keep_flags_in_bigwarp_and_active_rows_elsewhere() {
+        let dir = tempfile::tempdir().unwrap();
+        let flags = [true, false];
+        for (file, f) in [
+            ("l.csv", LandmarkFormat::Csv),
+            ("bw.csv", LandmarkFormat::BigWarp),
+            ("l.json", LandmarkFormat::Json),
+        ] {
+            let p = dir.path().join(file);
+            write_landmarks_flagged(&p, &sample(), &flags, f).unwrap();
+            let back = read_landmarks_flagged(&p).unwrap();
+            let want = if f == LandmarkFormat::BigWarp { 2 } else { 1 };
+            assert_eq!(back.len(), want, "{file}");
+            assert_eq!(
+                (back[0].0.src, back[0].0.dst, back[0].1),
+                (sample()[0].src, sample()[0].dst, true)
+            );
+            if f == LandmarkFormat::BigWarp {
+                assert_eq!((back[1].0.src, back[1].1), (sample()[1].src, false), "{file}");
+                assert_eq!(read_landmarks(&p).unwrap().len(), 1, "fit reads the active row only");
+            }
+        }
     }
 
     #[test]

@@ -346,7 +346,7 @@ impl FitJob {
                 let fopts = FrameFitOptions { mesh: adapt.clone(), degree: 5, fit: opts };
                 let r = fit_frame(&fitted, *size, &fopts).map_err(in_landmarks)?;
                 let rep = with_holdout(r.fit.report, &r.fit.spline, &held).map_err(in_landmarks)?;
-                return self.write(&r.fit.spline, rep, Some(r.frame));
+                return self.write(&r.fit.spline, &fitted, rep, Some(r.frame));
             }
         };
         let text = read_text(def).map_err(JobError::from)?;
@@ -378,7 +378,7 @@ impl FitJob {
         };
         let f = fit(&s, &fitted, &opts).map_err(in_file)?;
         let rep = with_holdout(f.report, &f.spline, &held).map_err(in_file)?;
-        self.write(&f.spline, rep, None)
+        self.write(&f.spline, &fitted, rep, None)
     }
 
     /// The landmarks, split into fitted and held-out ones.
@@ -407,14 +407,17 @@ impl FitJob {
         holdout(&lms, k, self.seed).map_err(|e| JobError::context(e.to_string(), e))
     }
 
+    /// Writes the deformation, carrying the landmarks it was fitted to (`fitted`, under
+    /// [`deformation::LANDMARKS_KEY`]: the editor's re-fit keeps them), and the report.
     fn write(
         &self,
         s: &Spline,
+        fitted: &[Landmark],
         report: FitReport,
         frame: Option<FrameReport>,
     ) -> Result<FitOutcome, FitJobError> {
-        write_atomic(&self.output, deformation::to_string(s, None).as_bytes())
-            .map_err(JobError::from)?;
+        let text = deformation::to_string_with_landmarks(s, fitted);
+        write_atomic(&self.output, text.as_bytes()).map_err(JobError::from)?;
         if let Some(path) = &self.report {
             let mut v = serde_json::to_value(&report).map_err(JobError::from)?;
             if let Some(f) = &frame {

@@ -93,7 +93,8 @@ pub fn run(files: &RegisterFiles, mut opts: RegisterOptions) -> JobResult<Regist
             .map_err(|e| JobError::context(files.fixed.display().to_string(), e))?,
     ));
     // Everything to write, computed first.
-    let def_text = deformation::to_string(&spline, None);
+    // The landmarks it was registered with ride along (the editor's re-fit keeps them).
+    let def_text = deformation::to_string_with_landmarks(&spline, &opts.landmarks);
     let need_warp = files.warped.is_some() || files.overlay.is_some();
     let warped = if need_warp {
         let (pages, _) = warp_pages_sized(

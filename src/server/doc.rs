@@ -9,6 +9,7 @@
 //! y down, pixel centres at integers), as everywhere in trimorph; the frame is drawn in the
 //! same coordinates, so `phi` maps the reference onto the frame.
 
+mod fixed;
 pub mod history;
 pub mod pairs;
 
@@ -77,6 +78,17 @@ pub struct Frame {
     pub png: Vec<u8>,
 }
 
+impl Frame {
+    /// A frame from its file's image (encoded once as PNG for the page).
+    pub fn new(path: PathBuf, image: DynamicImage) -> Result<Frame, ServerError> {
+        let mut png = Vec::new();
+        image
+            .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+            .map_err(|e| ServerError::Unprocessable(format!("image {}: {e}", path.display())))?;
+        Ok(Frame { path, image, png })
+    }
+}
+
 /// A drag operation, relative to the positions at selection time: the edit-script
 /// vocabulary ([`crate::edit::script::Motion`]) with finite `f64` numbers, each made exact
 /// as it is (the page sends binary doubles).
@@ -91,7 +103,13 @@ pub struct Doc {
     redo: Vec<Step>,
     pinned: BTreeSet<ControlPoint>,
     /// Landmark pairs placed, moved or imported in the page ([`pairs`]).
-    landmarks: Vec<Landmark>,
+    landmarks: Vec<pairs::Pair>,
+    /// The fixed image of a two-image session (`--moving M --fixed F`), if any: the frame
+    /// is then the moving image, and the page shows the two side by side.
+    fixed: Option<Frame>,
+    /// Where the live warp's forward-map nodes lie in the reference mesh, per node grid
+    /// ([`views::forward_grid`](super::views::forward_grid)); located once per grid.
+    warp_nodes: std::cell::RefCell<Option<std::sync::Arc<super::views::WarpNodes>>>,
     before_drag: Option<Spline>,
     /// The last drag step of the selection that succeeded (re-applied to take back a
     /// step whose result is refused).
@@ -163,6 +181,8 @@ impl Doc {
             redo: Vec::new(),
             pinned: BTreeSet::new(),
             landmarks: Vec::new(),
+            fixed: None,
+            warp_nodes: Default::default(),
             before_drag: None,
             last_op: None,
             root: root.to_path_buf(),
@@ -192,13 +212,9 @@ impl Doc {
         Ok(())
     }
 
-    /// Sets the background frame.
+    /// Sets the background frame (the moving image of a two-image session).
     pub fn set_frame(&mut self, path: PathBuf, image: DynamicImage) -> Result<(), ServerError> {
-        let mut png = Vec::new();
-        image
-            .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
-            .map_err(|e| ServerError::Unprocessable(format!("frame {}: {e}", path.display())))?;
-        self.frame = Some(Frame { path, image, png });
+        self.frame = Some(Frame::new(path, image)?);
         Ok(())
     }
 
@@ -258,8 +274,14 @@ impl Doc {
                 json!({"path": f.path.display().to_string(),
                        "width": f.image.width(), "height": f.image.height()})
             }),
+            "fixed": self.fixed.as_ref().map(|f| {
+                json!({"path": f.path.display().to_string(),
+                       "width": f.image.width(), "height": f.image.height()})
+            }),
             "undo": self.undo.len(),
             "redo": self.redo.len(),
+            "undo_next": self.history_labels().0,
+            "redo_next": self.history_labels().1,
             "pinned": self.pinned.iter().collect::<Vec<_>>(),
             "selection": sel.map(|s| json!({
                 "anchors": s.anchors, "derived": s.derived, "strong": s.strong,
@@ -331,7 +353,8 @@ impl Doc {
         }
         self.last_update_ms = t0.elapsed().as_secs_f64() * 1e3;
         if let Some(before) = self.before_drag.take() {
-            self.push_undo(before);
+            let what = self.drag_label(op);
+            self.push_undo(before, what);
         }
         if let Some(sel) = self.editor.selection() {
             self.pinned.extend(sel.anchors.iter().copied());
@@ -370,8 +393,9 @@ impl Doc {
     }
 
     /// The deformation file's JSON (format v1), with the corrected points (`"pinned"`),
-    /// and for a scene saved as `rel` the model and frame (`"model"`, `"image"`, paths
-    /// relative to the scene file's folder) and the landmark pairs (`"landmarks"`, [`pairs`]).
+    /// and for a scene saved as `rel` the model, frame and fixed image (`"model"`,
+    /// `"image"`, `"fixed"`, paths relative to the scene file's folder) and the landmark
+    /// pairs (`"landmarks"`, [`pairs`]).
     /// Also returns the copies a scene needs
     /// (relative path, the frame's PNG bytes or `None` for the model): a model or frame with no file inside that folder (bundled,
     /// or elsewhere) is written beside the scene as `STEM.model.obj` / `STEM.frame.png`.
@@ -409,14 +433,16 @@ impl Doc {
             v["model"] = json!(key);
             m.up.record_in(&mut v);
         }
-        if let Some(f) = &self.frame {
-            let key = inside(&f.path).unwrap_or_else(|| {
-                let name = format!("{stem}.frame.png");
-                let c = folder_rel.join(&name).to_string_lossy().into_owned();
-                copies.push((c, Some(f.png.clone())));
-                name
-            });
-            v["image"] = json!(key);
+        for (key, suffix, f) in [("image", "frame", &self.frame), ("fixed", "fixed", &self.fixed)] {
+            if let Some(f) = f {
+                let k = inside(&f.path).unwrap_or_else(|| {
+                    let name = format!("{stem}.{suffix}.png");
+                    let c = folder_rel.join(&name).to_string_lossy().into_owned();
+                    copies.push((c, Some(f.png.clone())));
+                    name
+                });
+                v[key] = json!(k);
+            }
         }
         (v, copies)
     }
@@ -431,9 +457,10 @@ impl Doc {
             let p = if p.is_absolute() { p.to_path_buf() } else { self.root.join(p) };
             p.canonicalize().is_ok_and(|c| c == path)
         };
-        let input = match (&self.frame, &self.model) {
-            (Some(f), _) if same(&f.path) => Some("image"),
-            (_, Some(m)) if same(&m.path) => Some("model"),
+        let input = match (&self.frame, &self.model, &self.fixed) {
+            (Some(f), _, _) if same(&f.path) => Some("image"),
+            (_, Some(m), _) if same(&m.path) => Some("model"),
+            (_, _, Some(f)) if same(&f.path) => Some("fixed image"),
             _ => None,
         };
         match input {
@@ -497,7 +524,7 @@ impl Doc {
 
     /// Loads a deformation or scene from `rel` inside the root. Over the same mesh it
     /// replaces the spline as one undoable step; otherwise it starts a new document (and
-    /// rebinds the model). A scene's `"model"` and `"image"` keys load those files too, and
+    /// rebinds the model). A scene's `"model"`, `"image"` and `"fixed"` keys load those files too, and
     /// its `"landmarks"` replace the pairs (a file without that key keeps them).
     pub fn load(&mut self, rel: &str) -> Result<(), ServerError> {
         let path = confine(&self.root, rel, false)?;
@@ -527,14 +554,14 @@ impl Doc {
             }
             None => None,
         };
-        let frame = match key("image") {
-            Some(i) => {
-                let p = confine(&self.root, &i, false)?;
-                let img = crate::io::raster::read_image(&p).map_err(|e| bad(e.to_string()))?;
-                Some((PathBuf::from(i), img))
-            }
-            None => None,
+        let read = |k: &str| -> Result<Option<Frame>, ServerError> {
+            let Some(i) = key(k) else { return Ok(None) };
+            let p = confine(&self.root, &i, false)?;
+            let img = crate::io::raster::read_image(&p).map_err(|e| bad(e.to_string()))?;
+            Frame::new(PathBuf::from(i), img).map(Some)
         };
+        let frame = read("image")?;
+        let fixed = read("fixed")?;
         let same = crate::edit::same_layout(self.spline(), &s);
         let model =
             model.or_else(|| self.model.as_ref().map(|m| (m.path.clone(), m.model.clone(), m.up)));
@@ -552,7 +579,7 @@ impl Doc {
             self.editor.replace_spline(s).map_err(edit_err)?;
             // A scene's pairs replace the current ones in the same step.
             let pairs = lms.as_ref().map(|_| self.landmarks.clone());
-            self.push_step(Step { spline: Some(cur), pairs });
+            self.push_step(Step { spline: Some(cur), pairs, what: format!("loading {rel}") });
             self.model = bound;
             self.cert.refresh_all(self.editor.spline());
         } else {
@@ -561,11 +588,15 @@ impl Doc {
                 next.set_model_up(p, m, up)?;
             }
             next.frame = self.frame.take();
+            next.fixed = self.fixed.take();
             next.landmarks = std::mem::take(&mut self.landmarks);
             *self = next;
         }
-        if let Some((p, img)) = frame {
-            self.set_frame(p, img)?;
+        if let Some(f) = frame {
+            self.frame = Some(f);
+        }
+        if let Some(f) = fixed {
+            self.fixed = Some(f);
         }
         self.add_pinned(&pinned);
         if let Some(l) = lms {
@@ -623,12 +654,17 @@ impl Doc {
         let path = confine(&self.root, rel, false)?;
         let lms =
             read_landmarks(&path).map_err(|e| ServerError::Unprocessable(format!("{rel}: {e}")))?;
-        self.refit_with(&lms, hard)
+        self.refit_with(&lms, hard, format!("re-fit to {rel}"))
     }
 
     /// Re-runs the fit from the current state to `lms` with the corrected points pinned
-    /// (see [`Doc::refit`]).
-    pub fn refit_with(&mut self, lms: &[Landmark], hard: bool) -> Result<Value, ServerError> {
+    /// (see [`Doc::refit`]); `what` names the step in the undo history.
+    pub fn refit_with(
+        &mut self,
+        lms: &[Landmark],
+        hard: bool,
+        what: String,
+    ) -> Result<Value, ServerError> {
         let opts = FitOptions {
             pinned: self.pinned.iter().copied().collect(),
             hard,
@@ -638,7 +674,7 @@ impl Doc {
             .map_err(|e| ServerError::Unprocessable(format!("fit: {e}")))?;
         let cur = self.editor.spline().clone();
         self.editor.replace_spline(f.spline).map_err(edit_err)?;
-        self.push_undo(cur);
+        self.push_undo(cur, what);
         self.before_drag = None;
         self.cert.refresh_all(self.editor.spline());
         Ok(json!({

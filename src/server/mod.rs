@@ -12,14 +12,16 @@
 //! |---|---|---|
 //! | `GET /api/state` | | [`Doc::state`] |
 //! | `GET /api/geometry[?full=1]` | | [`views::geometry`] |
-//! | `GET /api/image.png` | | the frame |
+//! | `GET /api/image.png` | | the frame (the moving image) |
+//! | `GET /api/fixed.png` | | the fixed image of a two-image session ([`doc::Doc::fixed`]) |
 //! | `GET /api/jacobian.png` | | det J overlay ([`views::jacobian_png`]) |
 //! | `GET /api/warp[?step=8]` | | the live warp's coarse inverse map ([`views::inverse_grid`]) |
+//! | `GET /api/warp?forward=1[&step=8]` | | the live warp's coarse forward map ([`views::forward_grid`]) |
 //! | `POST /api/pick` | `{x, y, max_dist?}` | `{index, point}` (nearest control point) |
-//! | `POST /api/select` | `{anchors, radius?, mode?}` (`radius` null: all) | selection |
-//! | `POST /api/update` | `{op: translate, v}` (or `by`) / `{op: rotate, center, angle}` / `{op: scale, center, factor}`: a [`crate::edit::script::Motion`] | geometry |
+//! | `POST /api/select[?warp=8]` | `{anchors, radius?, mode?}` (`radius` null: all) | selection (with `warp`, xy mode and a frame: the live warp's basis for a translation, [`views::translate_grid`]) |
+//! | `POST /api/update[?warp=8]` | `{op: translate, v}` (or `by`) / `{op: rotate, center, angle}` / `{op: scale, center, factor}`: a [`crate::edit::script::Motion`] | geometry (with `warp`: the forward map, [`views::forward_grid`], when a frame is loaded) |
 //! | `POST /api/clear` | | state |
-//! | `POST /api/undo`, `/api/redo` | | geometry (a step is a drag, a load over the same mesh, a re-fit or a pair change: [`doc::history`]) |
+//! | `POST /api/undo`, `/api/redo` | | geometry and `undid` / `redid`: what the step was (a step is a drag, a load over the same mesh, a re-fit or a pair change: [`doc::history`]) |
 //! | `POST /api/save` | `{path, scene?}` | `{saved, written}` (`written`: a scene's copies of its model and frame) |
 //! | `POST /api/stat` | `{path}` | `{exists, same_layout, scene_copies}` (asked before a save or load) |
 //! | `POST /api/load` | `{path}` | state |
@@ -29,6 +31,7 @@
 //! | `POST /api/landmarks/add` | `{src, dst, name?}` | the pairs, `index` of the new one |
 //! | `POST /api/landmarks/move` | `{index, src?, dst?}` | the pairs |
 //! | `POST /api/landmarks/delete` | `{index}` | the pairs |
+//! | `POST /api/landmarks/active` | `{index, active}` | the pairs (an inactive pair is kept but not fitted) |
 //! | `POST /api/landmarks/import` | `{path}` (CSV, BigWarp CSV or JSON) | the pairs |
 //! | `POST /api/landmarks/export` | `{path, format: csv / bigwarp / json}` | `{saved}` |
 //!
@@ -67,6 +70,8 @@ pub mod views;
 #[cfg(test)]
 mod tests;
 #[cfg(test)]
+mod tests_bigwarp;
+#[cfg(test)]
 mod tests_http;
 #[cfg(test)]
 mod tests_pairs;
@@ -82,9 +87,14 @@ pub use net::{serve_bytes, Server, ACCEPT_POLL};
 /// Largest accepted request body (bytes).
 pub const MAX_BODY: usize = 1 << 20;
 
-/// The embedded page.
-const ASSETS: [(&str, &str, &str); 3] = [
+/// The embedded page (the script is five classic scripts sharing one global scope, loaded
+/// in this order by `index.html`).
+const ASSETS: [(&str, &str, &str); 7] = [
     ("/", "text/html; charset=utf-8", include_str!("assets/index.html")),
+    ("/core.js", "text/javascript; charset=utf-8", include_str!("assets/core.js")),
+    ("/draw.js", "text/javascript; charset=utf-8", include_str!("assets/draw.js")),
+    ("/warp.js", "text/javascript; charset=utf-8", include_str!("assets/warp.js")),
+    ("/pairs.js", "text/javascript; charset=utf-8", include_str!("assets/pairs.js")),
     ("/app.js", "text/javascript; charset=utf-8", include_str!("assets/app.js")),
     ("/style.css", "text/css; charset=utf-8", include_str!("assets/style.css")),
 ];
@@ -202,6 +212,18 @@ fn text<'a>(b: &'a Value, k: &str) -> Result<&'a str, ServerError> {
     field(b, k)?.as_str().ok_or_else(|| ServerError::BadRequest(format!("`{k}` must be a string")))
 }
 
+/// The positive integer `k=N` of a query (`None` when absent).
+fn step_query(query: &str, k: &str) -> Result<Option<u32>, ServerError> {
+    query
+        .split('&')
+        .find_map(|q| q.strip_prefix(k).and_then(|r| r.strip_prefix('=')))
+        .map(|v| v.parse::<u32>().ok().filter(|&n| n > 0))
+        .map(|v| {
+            v.ok_or_else(|| ServerError::BadRequest(format!("`{k}` must be a positive integer")))
+        })
+        .transpose()
+}
+
 /// Handles one request against the document (the HTTP-free core, used by tests too).
 pub fn handle(doc: &mut Doc, method: &str, url: &str, body: &[u8]) -> Reply {
     let t0 = Instant::now();
@@ -275,7 +297,12 @@ fn route(
             Some(f) => Ok(Png(f.png.clone())),
             None => Err(ServerError::NotFound("no image is loaded".into())),
         },
+        ("GET", "/api/fixed.png") => match doc.fixed() {
+            Some(f) => Ok(Png(f.png.clone())),
+            None => Err(ServerError::NotFound("no fixed image is loaded".into())),
+        },
         ("GET", "/api/warp") => {
+            let forward = query.split('&').any(|q| q == "forward=1");
             let step = query
                 .split('&')
                 .find_map(|q| q.strip_prefix("step="))
@@ -283,7 +310,8 @@ fn route(
                 .transpose()
                 .map_err(|_| ServerError::BadRequest("`step` must be a positive integer".into()))?
                 .unwrap_or(views::WARP_STEP);
-            views::inverse_grid(doc, step)
+            let grid = if forward { views::forward_grid } else { views::inverse_grid };
+            grid(doc, step)
                 .map(Answer::Text)
                 .ok_or_else(|| ServerError::NotFound("no image is loaded".into()))
         }
@@ -333,26 +361,47 @@ fn route(
                 Some(m) => m.parse().map_err(ServerError::BadRequest)?,
                 None => Mode::Xy,
             };
+            let warp = step_query(query, "warp")?;
             let sel = doc.select(&anchors, radius, mode)?;
-            Ok(with_geometry(doc, sel))
+            let mut answer = with_geometry(doc, sel);
+            if let (Some(step), Answer::Text(text)) = (warp, &mut answer) {
+                if let Some(grid) = views::translate_grid(doc, step) {
+                    text.pop();
+                    text.push_str(",\"warp\":");
+                    text.push_str(&grid);
+                    text.push('}');
+                }
+            }
+            Ok(answer)
         }
         ("POST", "/api/update") => {
             let b = parse()?;
             let op = Op::from_value(&b).map_err(|e| ServerError::BadRequest(e.to_string()))?;
+            let warp = step_query(query, "warp")?;
             doc.update(&op)?;
-            Ok(with_geometry(doc, json!({ "update_ms": doc.last_update_ms })))
+            let mut answer = with_geometry(doc, json!({ "update_ms": doc.last_update_ms }));
+            if let (Some(step), Answer::Text(text)) = (warp, &mut answer) {
+                if let Some(grid) = views::forward_grid(doc, step) {
+                    // Before the closing brace of the geometry object.
+                    text.pop();
+                    text.push_str(",\"warp\":");
+                    text.push_str(&grid);
+                    text.push('}');
+                }
+            }
+            Ok(answer)
         }
         ("POST", "/api/clear") => {
             doc.clear_selection();
             Ok(Json(doc.state()))
         }
         ("POST", "/api/undo") => {
-            doc.undo()?;
-            Ok(with_geometry(doc, json!({})))
+            let what = doc.undo()?;
+            Ok(with_geometry(doc, json!({ "undid": what })))
         }
         ("POST", "/api/redo") => {
-            doc.redo()?;
-            Ok(with_geometry(doc, json!({})))
+            let what = doc.redo()?;
+            Ok(with_geometry(doc, json!({ "redid": what })))
         }
         ("POST", "/api/save") => {
             let b = parse()?;
@@ -412,6 +461,14 @@ fn route(
         ("POST", "/api/landmarks/delete") => {
             let b = parse()?;
             doc.delete_pair(index(&b)?)?;
+            Ok(Json(doc.pairs_json()))
+        }
+        ("POST", "/api/landmarks/active") => {
+            let b = parse()?;
+            let active = field(&b, "active")?
+                .as_bool()
+                .ok_or_else(|| ServerError::BadRequest("`active` must be true or false".into()))?;
+            doc.set_active(index(&b)?, active)?;
             Ok(Json(doc.pairs_json()))
         }
         ("POST", "/api/landmarks/import") => {

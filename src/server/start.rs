@@ -1,6 +1,9 @@
 //! The document `trimorph editor` starts with ([`initial_doc`]): a deformation or scene file
-//! (with the model, frame and landmark pairs its keys name), an identity over a frame
-//! (2.5D when a model is given), or, with nothing given, the bundled worm scene.
+//! (with the model, frame, fixed image and landmark pairs its keys name; a deformation
+//! written by `trimorph fit` or `register` carries its landmarks), an identity over a frame
+//! (2.5D when a model is given), or, with nothing given, the bundled worm scene. With a
+//! fixed image (`--moving M --fixed F`) the page shows the two images side by side
+//! ([`super::doc`]'s two-image session).
 
 use super::doc::Doc;
 use super::ServerError;
@@ -21,8 +24,11 @@ pub struct StartOptions {
     pub deformation: Option<PathBuf>,
     /// A 3D model (OBJ, OFF, PLY) bound to the prism layer.
     pub model: Option<PathBuf>,
-    /// The background image (the microscope frame to match).
+    /// The background image (the microscope frame to match); the moving image of a
+    /// two-image session.
     pub image: Option<PathBuf>,
+    /// The fixed image of a two-image session (BigWarp's workflow).
+    pub fixed: Option<PathBuf>,
 }
 
 /// Why the starting document could not be made.
@@ -61,6 +67,7 @@ pub fn initial_doc(a: &StartOptions, root: &Path) -> Result<Doc, StartError> {
     crate::io::remove_stale_temps(root, crate::io::STALE_AFTER);
     let mut model_path = a.model.clone();
     let mut image_path = a.image.clone();
+    let mut fixed_path = a.fixed.clone();
     let mut pinned = Vec::new();
     let mut pairs = None;
     let mut up = UpAxis::Z;
@@ -79,10 +86,11 @@ pub fn initial_doc(a: &StartOptions, root: &Path) -> Result<Doc, StartError> {
                     .map_err(|reason| JobError::SceneUp { scene: d.clone(), reason })?;
             }
             image_path = image_path.or_else(|| key("image"));
+            fixed_path = fixed_path.or_else(|| key("fixed"));
             pairs = super::doc::pairs::pairs_from_scene(&v, &d.display().to_string())?;
             s
         }
-        None if model_path.is_none() && image_path.is_none() => {
+        None if model_path.is_none() && image_path.is_none() && fixed_path.is_none() => {
             let (s, model, frame) = crate::bundled::scene()?;
             let mut doc = Doc::new(s, root);
             doc.set_model(PathBuf::from("bundled:worm.obj"), model)?;
@@ -127,6 +135,10 @@ pub fn initial_doc(a: &StartOptions, root: &Path) -> Result<Doc, StartError> {
     if let Some(p) = image_path {
         let img = read_image(&p)?;
         doc.set_frame(p, img)?;
+    }
+    if let Some(p) = fixed_path {
+        let img = read_image(&p)?;
+        doc.set_fixed(p, img)?;
     }
     Ok(doc)
 }

@@ -75,6 +75,12 @@ impl JsonObject {
         }
     }
 
+    /// Appends `"k": text`, `text` being JSON already (a nested object).
+    pub fn raw(&mut self, k: &str, text: &str) {
+        self.key(k);
+        self.buf.push_str(text);
+    }
+
     /// Appends `"k": value`.
     pub fn value(&mut self, k: &str, v: &Value) {
         self.key(k);
@@ -298,4 +304,94 @@ pub fn inverse_grid(doc: &Doc, step: u32) -> Option<String> {
     out.value("ny", &json!(ny));
     out.numbers("map", rows.iter().flatten().flat_map(|p| *p));
     Some(out.finish())
+}
+
+/// Where the nodes of the live warp's forward grid lie in the reference mesh: node
+/// `(i, j)` is `p = (min(i * step, w - 1), min(j * step, h - 1))` of the `w x h` moving
+/// frame, row by row; `None` where it is outside the mesh. The mesh never changes within a
+/// document, so a grid is located once ([`Doc::forward_nodes`]).
+pub struct WarpNodes {
+    /// `(w, h, step)` the nodes were located for.
+    pub key: (u32, u32, u32),
+    /// Nodes per row and per column.
+    pub nx: u32,
+    /// Rows of nodes.
+    pub ny: u32,
+    /// Per node: (triangle, barycentrics), or `None` outside the mesh.
+    pub at: Vec<Option<(usize, [f64; 3])>>,
+}
+
+impl WarpNodes {
+    /// Locates the nodes of a `w x h` frame with spacing `step` in `mesh`.
+    pub fn locate(mesh: &crate::mesh::Mesh, w: u32, h: u32, step: u32) -> WarpNodes {
+        let nodes = |n: u32| (n.saturating_sub(1)).div_ceil(step) + 1;
+        let (nx, ny) = (nodes(w), nodes(h));
+        let at = |i: u32, n: u32| f64::from((i * step).min(n - 1));
+        let mut hint = None;
+        let mut out = Vec::with_capacity((nx * ny) as usize);
+        for j in 0..ny {
+            for i in 0..nx {
+                let found = mesh.locate([at(i, w), at(j, h)], hint);
+                hint = found.map(|f| f.0).or(hint);
+                out.push(found);
+            }
+        }
+        WarpNodes { key: (w, h, step), nx, ny, at: out }
+    }
+}
+
+/// The live warp's coarse forward map: `phi` at the nodes `p_ij` of the moving frame
+/// ([`WarpNodes`]), as `{forward: true, step, width, height, nx, ny, target: [W, H], map:
+/// [x, y, ...]}` (row by row, `null, null` outside the mesh; `target`: the size of the
+/// image the warp is drawn over, the fixed image's or else the frame's). The page draws
+/// the warped frame `O(q) = I(phi^-1(q))` without inverting anything: each grid cell is
+/// two triangles with corners `phi(p)` textured from `p`, so inside a triangle `phi^-1` is
+/// the affine interpolant of the corners' (piecewise-linear `phi` between nodes 8 px
+/// apart). Evaluating `phi` at the located nodes costs a few hundred microseconds, so the
+/// map rides on every drag step's answer (`POST /api/update?warp=8`).
+pub fn forward_grid(doc: &Doc, step: u32) -> Option<String> {
+    let mut out = grid_header(doc, step)?;
+    let (nodes, cache) = (doc.forward_nodes_of_frame(step)?, doc.spline().eval_cache());
+    out.numbers(
+        "map",
+        nodes.at.iter().flat_map(|n| match n {
+            Some((t, b)) => cache.value(*t, *b),
+            None => [f64::NAN, f64::NAN],
+        }),
+    );
+    Some(out.finish())
+}
+
+/// [`forward_grid`] for a translation of the current xy selection, as a basis
+/// ([`Doc::translate_basis`]): `map` is phi at the nodes for the selection-time positions,
+/// and `gx`, `gy` its change per pixel of the drag's `v_x`, `v_y` (`null`s outside the
+/// mesh), so the page draws the warped frame of a drag step `v` from
+/// `map + v_x gx + v_y gy` at once, before the exact update answers (the answer's mesh and
+/// points follow). `None` without a frame or an xy selection.
+pub fn translate_grid(doc: &mut Doc, step: u32) -> Option<String> {
+    let mut out = grid_header(doc, step)?;
+    let nodes = doc.forward_nodes_of_frame(step)?;
+    let (w, h, step) = nodes.key;
+    let [p0, gx, gy] = doc.translate_basis(w, h, step)?;
+    out.numbers("map", p0.iter().flatten().copied());
+    out.numbers("gx", gx.iter().flatten().copied());
+    out.numbers("gy", gy.iter().flatten().copied());
+    Some(out.finish())
+}
+
+/// The keys of a forward grid but its numbers.
+fn grid_header(doc: &Doc, step: u32) -> Option<JsonObject> {
+    let f = doc.frame()?;
+    let (w, h) = (f.image.width().max(1), f.image.height().max(1));
+    let nodes = doc.forward_nodes(w, h, step.clamp(1, 64));
+    let target = doc.fixed().map_or((w, h), |x| (x.image.width(), x.image.height()));
+    let mut out = JsonObject::new();
+    out.value("forward", &json!(true));
+    out.value("step", &json!(nodes.key.2));
+    out.value("width", &json!(w));
+    out.value("height", &json!(h));
+    out.value("nx", &json!(nodes.nx));
+    out.value("ny", &json!(nodes.ny));
+    out.value("target", &json!([target.0, target.1]));
+    Some(out)
 }

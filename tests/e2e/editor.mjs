@@ -202,6 +202,23 @@ try {
   const undone = await api('GET', '/api/geometry');
   if (undone.points[idx][0] !== p0[0] || undone.points[idx][1] !== p0[1]) fail('undo did not restore the anchor');
 
+  // Live warp latency: the same point dragged again, step by step; each step waits until
+  // the warped frame of that pointer position is drawn. The page measures from the
+  // pointer event to the end of that redraw (`warpLatency`, ms).
+  const nLat = await page.evaluate(() => window.trimorph.warpLatency.length);
+  await page.mouse.move(X, Y);
+  await page.mouse.down();
+  for (let k = 1; k <= 30; k++) {
+    const n = await page.evaluate(() => window.trimorph.warpLatency.length);
+    await page.mouse.move(X + k, Y + Math.round(k / 2));
+    await page.waitForFunction((n) => window.trimorph.warpLatency.length > n, n, { timeout: 20000 });
+  }
+  await page.mouse.up();
+  await page.evaluate(() => window.trimorph.idle());
+  const warpLatency = (await page.evaluate(() => window.trimorph.warpLatency)).slice(nLat + 3);
+  await page.keyboard.press('Control+z');
+  await page.waitForFunction(() => window.trimorph.state && window.trimorph.state.undo === 0, null, { timeout: 10000 });
+
   // z1 mode: key 4, click the same point, drag up: the top surface sigma1 rises there and
   // the oblique 3D view is shown.
   const nxy = await page.evaluate(() => window.trimorph.timings.length);
@@ -295,7 +312,7 @@ try {
   await page.waitForFunction(() => /^re-fit/.test(document.getElementById('msg').textContent), null, { timeout: 60000 });
   lms = await api('GET', '/api/landmarks');
   if (!(lms.rms < 0.5 * rmsBefore)) fail(`the re-fit left rms ${lms.rms} px (before ${rmsBefore})`);
-  const shown = await page.evaluate(() => [...document.querySelectorAll('#pairtable tbody tr')].map((r) => r.cells[2].textContent));
+  const shown = await page.evaluate(() => [...document.querySelectorAll('#pairtable tbody tr')].map((r) => r.cells[r.cells.length - 1].textContent));
   if (JSON.stringify(shown) !== JSON.stringify(lms.pairs.map((p) => p.residual.toFixed(3)))) fail(`the table shows ${shown}, the server ${JSON.stringify(lms.pairs.map((p) => p.residual))}`);
   if ((await api('GET', '/api/state')).undo !== undoFit + 1) fail('a re-fit is one undo step');
   await page.screenshot({ path: shot.replace(/\.png$/, '_landmarks.png') });
@@ -342,6 +359,7 @@ try {
     xy_step_ms: stats(t.slice(0, nxy)), z1_step_ms: stats(t.slice(nxy)),
     xy_median_parts_ms: parts(ph.slice(0, nxy)), z1_median_parts_ms: parts(ph.slice(nxy)),
     exact_update_ms_last: state.last_update_ms, landmarks,
+    live_warp_latency_ms: stats(warpLatency),
   };
   console.log(JSON.stringify(summary));
 } finally {

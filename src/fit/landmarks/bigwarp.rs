@@ -47,7 +47,29 @@ pub fn parse_bigwarp_with_notes(
     text: &str,
     swap: bool,
 ) -> Result<(Vec<Landmark>, ReadNotes), LandmarkError> {
-    let mut out = Vec::new();
+    let (rows, notes) = parse_rows(text, swap, false)?;
+    Ok((rows.into_iter().map(|(l, _)| l).collect(), notes))
+}
+
+/// A BigWarp table with every placed row and its active flag (`true`/`false`), for a
+/// reader that keeps inactive rows (the editor's landmark table); rows whose point is
+/// unset are still skipped. Moving -> `src` unless `swap`. A 3D table's z must be
+/// constant over the active rows (inactive rows are not fitted).
+pub fn parse_bigwarp_flagged(
+    text: &str,
+    swap: bool,
+) -> Result<Vec<(Landmark, bool)>, LandmarkError> {
+    parse_rows(text, swap, true).map(|(rows, _)| rows)
+}
+
+/// The rows of a table (inactive ones too with `keep_inactive`) and the notes (about the
+/// active rows).
+fn parse_rows(
+    text: &str,
+    swap: bool,
+    keep_inactive: bool,
+) -> Result<(Vec<(Landmark, bool)>, ReadNotes), LandmarkError> {
+    let mut out: Vec<(Landmark, bool)> = Vec::new();
     let mut notes = Vec::new();
     // Fields per row (6 or 8, from the first row) and, for 3D, the first row's z and line.
     let mut width: Option<(usize, usize)> = None;
@@ -73,11 +95,12 @@ pub fn parse_bigwarp_with_notes(
             }
             Some(_) => {}
         }
-        match f[1].trim() {
-            "true" => {}
+        let active = match f[1].trim() {
+            "true" => true,
+            "false" if keep_inactive => false,
             "false" => continue,
             other => return Err(err(format!("active flag {other:?} is not true/false"))),
-        }
+        };
         let dims = (f.len() - 2) / 2;
         let mut all = [0.0; 6];
         for c in 0..2 * dims {
@@ -93,7 +116,7 @@ pub fn parse_bigwarp_with_notes(
         }
         // Field indices (0-based, after name and flag) of moving x, y and fixed x, y.
         let xy: [usize; 4] = if dims == 3 { [0, 1, 3, 4] } else { [0, 1, 2, 3] };
-        if dims == 3 {
+        if dims == 3 && active {
             let z = [all[2], all[5]];
             match z0 {
                 None => z0 = Some((z, line)),
@@ -118,16 +141,27 @@ pub fn parse_bigwarp_with_notes(
             let field = COORDS[if swap { (c + 2) % 4 } else { c }];
             notes.extend(approximation(out.len(), &name, field, f[xy[c] + 2].trim(), v[c]));
         }
-        out.push(Landmark { name, src, dst, weight: 1.0 });
+        out.push((Landmark { name, src, dst, weight: 1.0 }, active));
     }
     notes.sort_by_key(|n| (n.index, COORDS.iter().position(|&c| c == n.field)));
-    let constant_z = z0.map(|(z, _)| ConstantZ { moving: z[0], fixed: z[1], rows: out.len() });
+    let rows = out.iter().filter(|(_, a)| *a).count();
+    let constant_z = z0.map(|(z, _)| ConstantZ { moving: z[0], fixed: z[1], rows });
     Ok((out, ReadNotes { approximations: notes, constant_z }))
 }
 
 /// Writes a BigWarp landmark table (all rows active): `src` -> moving, `dst` -> fixed, or
 /// the reverse when `swap`. Unnamed landmarks are called `Pt-<index>`; weights are lost.
 pub fn to_bigwarp(lms: &[Landmark], swap: bool) -> Result<String, LandmarkError> {
+    to_bigwarp_flagged(lms, &vec![true; lms.len()], swap)
+}
+
+/// [`to_bigwarp`] with each row's active flag (`active[i]` for `lms[i]`; a missing flag is
+/// `true`), as BigWarp writes a table with rows switched off.
+pub fn to_bigwarp_flagged(
+    lms: &[Landmark],
+    active: &[bool],
+    swap: bool,
+) -> Result<String, LandmarkError> {
     validate(lms)?;
     let q = |s: &str| format!("\"{}\"", s.replace('"', "\"\""));
     let mut s = String::new();
@@ -136,7 +170,8 @@ pub fn to_bigwarp(lms: &[Landmark], swap: bool) -> Result<String, LandmarkError>
         let (m, f) = if swap { (l.dst, l.src) } else { (l.src, l.dst) };
         let nums: Vec<String> =
             [m[0], m[1], f[0], f[1]].iter().map(|v| q(&v.to_string())).collect();
-        s.push_str(&format!("{},\"true\",{}\n", q(&name), nums.join(",")));
+        let flag = active.get(i).copied().unwrap_or(true);
+        s.push_str(&format!("{},\"{flag}\",{}\n", q(&name), nums.join(",")));
     }
     Ok(s)
 }
@@ -168,6 +203,33 @@ mod tests {
         assert!(parse_bigwarp("\"a\",\"true\",\"1\",\"2\",\"3\"\n", false).is_err());
         let e = parse_bigwarp("\"a\",\"true\",\"1\",\"2\",\"3\",\"4\",\"5\"\n", false);
         assert!(e.unwrap_err().to_string().contains("found 7"));
+    }
+
+    /// The editor's table keeps switched-off rows: the flagged reader returns them with
+    /// their flag, and the flagged writer writes the flags back (a round trip).
+    #[test]
+    fn bigwarp_flags_round_trip_through_the_flagged_reader_and_writer() {
+        let text = "\"Pt-0\",\"true\",\"10.5\",\"20.0\",\"11.0\",\"21.25\"\n\
+                    \"Pt-1\",\"false\",\"1.0\",\"2.0\",\"3.0\",\"4.0\"\n\
+                    \"Pt-2\",\"true\",\"5.0\",\"6.0\",\"Infinity\",\"Infinity\"\n";
+        let rows = parse_bigwarp_flagged(text, false).unwrap();
+        assert_eq!(
+            rows,
+            vec![
+                (lm(Some("Pt-0"), [10.5, 20.0], [11.0, 21.25], 1.0), true),
+                (lm(Some("Pt-1"), [1.0, 2.0], [3.0, 4.0], 1.0), false),
+            ]
+        );
+        let (lms, flags): (Vec<Landmark>, Vec<bool>) = rows.iter().cloned().unzip();
+        let out = to_bigwarp_flagged(&lms, &flags, false).unwrap();
+        assert!(out.lines().nth(1).unwrap().starts_with("\"Pt-1\",\"false\",\"1\",\"2\""), "{out}");
+        assert_eq!(parse_bigwarp_flagged(&out, false).unwrap(), rows);
+        // The plain reader still skips the inactive row.
+        assert_eq!(parse_bigwarp(&out, false).unwrap(), vec![lms[0].clone()]);
+        // A 3D table's z only has to agree on the active rows.
+        let z3 = "\"a\",\"true\",\"1\",\"2\",\"0\",\"3\",\"4\",\"0\"\n\
+                  \"b\",\"false\",\"1\",\"2\",\"7\",\"3\",\"4\",\"7\"\n";
+        assert_eq!(parse_bigwarp_flagged(z3, false).unwrap().len(), 2);
     }
 
     /// Issue 20: BigWarp exports 3D points by default; a constant z is dropped with a note.
