@@ -141,6 +141,7 @@ where
 /// The JSON error object for an ECLES error: `{"error": kind, "condition": ..., "message": ...}`.
 #[cfg(feature = "cli")]
 pub(crate) fn error_json(e: &super::EclesError) -> Value {
+    use super::EclesError;
     match e {
         EclesError::NotWeaklySolvable { constraint, column } => json!({
             "error": "not_solvable", "condition": "weak_solvability",
