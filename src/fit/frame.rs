@@ -17,7 +17,7 @@
 //!    taken over nearly the whole plane, as a thin-plate spline's is: without them the
 //!    domain's free border (natural boundary) lets the map bend there for nothing, and the
 //!    smoothest map through the landmarks extrapolates worse near the frame's edges
-//!    (measured in `tests/fit_real.rs`: with two rings the noise-free held-out error equals
+//!    (measured in `tests/it/fit/real.rs`: with two rings the noise-free held-out error equals
 //!    the thin-plate spline's to within 1 %; without, it was 11 % worse with 60 landmarks
 //!    and 19 % worse on a local swirl). Scale-free bending weights still refer to the
 //!    domain's area ([`FitOptions::bend_area`]).
@@ -60,7 +60,7 @@ const MAX_MDS_RETRIES: usize = 8;
 
 /// The largest [`Mds::amplification`] the adapted fit accepts before it breaks up the vertex
 /// where the blow-up starts (well-shaped meshes stay below a few thousand; the faces pair of
-/// `tests/morph_faces.rs` had one vertex at 3e6, and at 1.3e9 with one more decimal).
+/// `tests/it/morph/faces.rs` had one vertex at 3e6, and at 1.3e9 with one more decimal).
 pub const MAX_AMPLIFICATION: f64 = 1e5;
 
 /// Control point `p`'s nominal position (its domain point), in `f64`.

@@ -47,7 +47,7 @@
 //! `log10 bend` in `[-11, 2]`, on a grid of step 0.5 then one of step 0.05 around its best
 //! point, each grid scored at once by two `k x k` products. It replaced GCV as the
 //! criterion: over the far-field mesh of [`super::frame`], GCV's choice was worse than
-//! interpolation with 30 noisy landmarks (4.96 against 4.69 px held-out, `tests/fit_real.rs`),
+//! interpolation with 30 noisy landmarks (4.96 against 4.69 px held-out, `tests/it/fit/real.rs`),
 //! leave-one-out's better (4.84). `K` is positive definite when the border is pinned (its null space is the affine
 //! maps); otherwise a ridge `r |x - x_warm|^2`, `r` = [`RIDGE`] times `K`'s mean diagonal,
 //! keeps it definite: the affine part is then effectively unpenalized (`M` gets very large
