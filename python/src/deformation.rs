@@ -83,6 +83,13 @@ impl Deformation {
         self.kept.insert("report".into(), report);
     }
 
+    /// Stores the landmarks the deformation was fitted to (key `"landmarks"`, as `trimorph
+    /// fit` writes them: the editor's re-fit keeps them).
+    pub(crate) fn set_landmarks(&mut self, lms: &[trimorph::fit::landmarks::Landmark]) {
+        use trimorph::io::deformation::{landmarks_value, LANDMARKS_KEY};
+        self.kept.insert(LANDMARKS_KEY.into(), landmarks_value(lms));
+    }
+
     /// The file's JSON text.
     fn text(&self) -> String {
         let mut v = dio::to_json_with(&self.spline, self.last.as_ref(), &self.extras);

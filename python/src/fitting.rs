@@ -138,6 +138,7 @@ pub fn fit<'py>(
             let report = serde_json::to_value(&f.1).map_err(value_error)?;
             let mut d = Deformation::new(f.0);
             d.set_report(report);
+            d.set_landmarks(&lms);
             Ok(d)
         }
         (None, Some(size)) => {
@@ -164,6 +165,7 @@ pub fn fit<'py>(
             v["frame"] = serde_json::to_value(&r.frame).map_err(value_error)?;
             let mut d = Deformation::new(r.fit.spline);
             d.set_report(v);
+            d.set_landmarks(&lms);
             Ok(d)
         }
         (None, None) => Err(value_error(

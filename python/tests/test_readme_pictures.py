@@ -31,6 +31,8 @@ ELSEWHERE = {
     "editor_warp.png": "tests/it/server/editor_e2e.rs",
     "editor_z1.png": "tests/it/server/editor_e2e.rs",
     "editor_landmarks.png": "tests/it/server/editor_e2e.rs",
+    "editor_two.png": "tests/it/server/editor_e2e.rs",
+    "editor_two_colors.png": "tests/it/server/editor_e2e.rs",
     "napari.png": "napari/examples/screenshot.py",
 }
 
