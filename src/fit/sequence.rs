@@ -325,6 +325,9 @@ pub struct FrameResult {
     pub name: String,
     /// The fitted deformation.
     pub spline: Spline,
+    /// The landmarks it was fitted to (the held-out ones left out): its file carries them,
+    /// as every fit's does, so the editor's re-fit keeps them.
+    pub landmarks: Vec<Landmark>,
     /// The fit's report, with the held-out landmarks' TRE.
     pub report: FitReport,
     /// Tracked points lost going into this frame.
@@ -754,6 +757,7 @@ impl Ctx<'_, '_> {
             index: k,
             name: frame.name.clone(),
             spline: f.spline,
+            landmarks: fitted,
             report,
             lost,
             drift,

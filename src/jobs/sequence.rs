@@ -104,7 +104,8 @@ impl FrameFiles<'_> {
     pub fn write(&self, r: &FrameResult, frame: &Frame) -> Result<(), FrameFilesError> {
         let stem = &frame.name;
         let s = &r.spline;
-        write_atomic(&self.path(stem, "json"), deformation::to_string(s, None).as_bytes())?;
+        let text = deformation::to_string_with_landmarks(s, &r.landmarks);
+        write_atomic(&self.path(stem, "json"), text.as_bytes())?;
         let (w, h) = (frame.image.width(), frame.image.height());
         let reg = pull_back(s, &frame.image, w, h, Interp::Bilinear, self.background)?;
         let stack = Stack { pages: vec![reg], gray_float: self.gray_float[r.index] };
@@ -450,6 +451,13 @@ mod tests {
         for name in ["a.json", "a.registered.png", "a.overlay.png", "a.report.json"] {
             assert!(dir.path().join(name).is_file(), "{name}");
         }
+        // The frame's deformation carries the landmarks it was fitted to (issue 53), and
+        // still reads as a deformation.
+        let text = std::fs::read_to_string(dir.path().join("a.json")).unwrap();
+        let doc: serde_json::Value = serde_json::from_str(&text).unwrap();
+        let carried = doc[deformation::LANDMARKS_KEY].as_array().unwrap();
+        assert_eq!(carried.len(), 3);
+        assert_eq!(carried[2]["dst"], serde_json::json!([21.0, 20.0]));
         let st = files.stored(0, &frames[0]).unwrap();
         assert!(st.missing.is_empty() && st.report.is_some() && st.spline.is_some());
         assert_eq!(seq.run_frame(0, &files, &|_| {}).unwrap().action, Action::Skipped);
