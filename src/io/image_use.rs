@@ -100,6 +100,13 @@ impl ImageUse {
     };
 }
 
+/// The pixels of a `width x height` page when it holds 1 to [`MAX_PIXELS`] of them, in
+/// checked arithmetic (`None` when empty, too large or overflowing). Every reader's size
+/// rule: [`check_header`] and the OME-Zarr planes ([`super::ngff`]).
+pub(crate) fn page_pixels(width: u64, height: u64) -> Option<u64> {
+    width.checked_mul(height).filter(|&n| n > 0 && n <= MAX_PIXELS)
+}
+
 /// Checks page `page` of `path`, declared `width x height` with `bytes` decoded bytes
 /// (`None`: the product overflowed), after `held` bytes of earlier pages, for `usage`
 /// (`color` names the pixel type in messages). Returns the bytes held with this page.
@@ -142,8 +149,7 @@ pub(crate) fn check_header_against(
     usage: &ImageUse,
     color: &str,
 ) -> Result<u64, HeaderError> {
-    let pixels = u64::from(width).checked_mul(u64::from(height));
-    if pixels.is_none_or(|n| n == 0 || n > MAX_PIXELS) {
+    if page_pixels(u64::from(width), u64::from(height)).is_none() {
         return Err(HeaderError::Size { path: path.to_path_buf(), page, width, height });
     }
     if let Some(max) = usage.max_side.filter(|&m| width > m || height > m) {
@@ -183,6 +189,10 @@ mod tests {
     /// Sizes whose products overflow are refused, never wrapped.
     #[test]
     fn overflowing_sizes_are_refused() {
+        assert_eq!(page_pixels(1 << 33, 1 << 31), None);
+        assert_eq!(page_pixels(0, 10), None);
+        assert_eq!(page_pixels(1 << 15, 1 << 15), Some(MAX_PIXELS));
+        assert_eq!(page_pixels(1 << 15, (1 << 15) + 1), None);
         let p = Path::new("x.tif");
         let e = check_header(p, 0, u32::MAX, u32::MAX, None, 0, &ImageUse::DECODE, "L8");
         assert!(matches!(e, Err(HeaderError::Size { .. })), "{e:?}");

@@ -364,8 +364,8 @@ pub fn read_image(path: &Path) -> Result<NgffImage, NgffError> {
     };
     let (h, w) = (shape[shape.len() - 2], shape[shape.len() - 1]);
     // Checked products: a shape like [2^33, 2^31] wrapped `w * h` to 0 and passed.
-    let pixels = w.checked_mul(h).filter(|&p| p <= super::raster::MAX_PIXELS);
-    if w == 0 || h == 0 || pixels.is_none() || w > u32::MAX as u64 {
+    let pixels = super::image_use::page_pixels(w, h);
+    if pixels.is_none() || w > u64::from(u32::MAX) || h > u64::from(u32::MAX) {
         return Err(arr_err(format!(
             "planes of {w} x {h} pixels, outside 1 .. 2^30 pixels; crop or split the image"
         )));
