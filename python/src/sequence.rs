@@ -256,12 +256,16 @@ impl FrameSequence {
                 Ok((o.action, stored.report))
             })
             .map_err(|e| sequence_exc(py, e))?;
-        let mut report = report.ok_or_else(|| {
+        let missing = || {
             PyOSError::new_err(format!(
                 "frame {k}: no report in {} after the fit",
                 self.out.display()
             ))
-        })?;
+        };
+        let mut report = report
+            .and_then(|r| serde_json::from_str::<serde_json::Value>(r.text()).ok())
+            .filter(|v| v.is_object())
+            .ok_or_else(missing)?;
         let (status, reason) = match action {
             Action::Skipped => ("skipped", serde_json::Value::Null),
             Action::Fitted(r) => ("fitted", r.to_string().into()),

@@ -55,6 +55,7 @@
 mod anchor;
 mod key;
 mod summary;
+pub use summary::{FrameEntry, SequenceReport};
 #[cfg(test)]
 mod tests;
 
@@ -240,11 +241,35 @@ pub enum SequenceError {
     },
 }
 
+/// A frame's report as a [`Store`] keeps it: the JSON text of
+/// [`FrameResult::report_text`]. Resuming reads the resume key and the error statistics
+/// back from it; a text that is not a JSON object counts as no report (the frame is fitted
+/// as new).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct StoredReport(String);
+
+impl StoredReport {
+    /// A report from its stored text.
+    pub fn new(text: impl Into<String>) -> StoredReport {
+        StoredReport(text.into())
+    }
+
+    /// The stored text.
+    pub fn text(&self) -> &str {
+        &self.0
+    }
+
+    /// The text's JSON object (`None`: not one).
+    fn object(&self) -> Option<serde_json::Value> {
+        serde_json::from_str::<serde_json::Value>(&self.0).ok().filter(|v| v.is_object())
+    }
+}
+
 /// What a [`Store`] holds for a frame.
 #[derive(Clone, Debug, Default)]
 pub struct Stored {
-    /// The frame's report, as written from [`FrameResult::report_json`] (`None`: none).
-    pub report: Option<serde_json::Value>,
+    /// The frame's report, as written from [`FrameResult::report_text`] (`None`: none).
+    pub report: Option<StoredReport>,
     /// Outputs other than the report that are missing (names, for messages).
     pub missing: Vec<String>,
     /// The stored deformation (the next frame's warm start when this one is skipped).
@@ -296,7 +321,7 @@ pub enum Action {
 }
 
 /// Error statistics read from a report: count, RMS, max (pixels).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct Errors {
     /// Landmarks.
     pub count: usize,
@@ -341,16 +366,30 @@ pub struct FrameResult {
 }
 
 impl FrameResult {
-    /// The report to store: the [`FitReport`]'s keys, and `frame`, `tracking_lost`,
-    /// `anchor` and `drift` (`null` when not tracked), and `resume` (the key).
-    pub fn report_json(&self) -> serde_json::Value {
-        let mut v = serde_json::to_value(&self.report).unwrap_or_default();
-        v["frame"] = self.name.as_str().into();
-        v["tracking_lost"] = self.lost.into();
-        v["anchor"] = self.anchor.map(|a| a.to_string()).into();
-        v["drift"] = serde_json::to_value(self.drift).unwrap_or_default();
-        v["resume"] = self.key.to_json();
-        v
+    /// The report to store, as pretty JSON: the [`FitReport`]'s keys, then `frame`,
+    /// `tracking_lost`, `anchor` and `drift` (`null` when not tracked), and `resume` (the
+    /// key).
+    pub fn report_text(&self) -> String {
+        /// The stored report: the fit's keys, then the frame's.
+        #[derive(serde::Serialize)]
+        struct Out<'a> {
+            #[serde(flatten)]
+            report: &'a FitReport,
+            frame: &'a str,
+            tracking_lost: usize,
+            anchor: Option<String>,
+            drift: Option<Drift>,
+            resume: serde_json::Value,
+        }
+        let out = Out {
+            report: &self.report,
+            frame: &self.name,
+            tracking_lost: self.lost,
+            anchor: self.anchor.map(|a| a.to_string()),
+            drift: self.drift,
+            resume: self.key.to_json(),
+        };
+        serde_json::to_string_pretty(&out).unwrap_or_default()
     }
 }
 
@@ -390,7 +429,7 @@ pub enum Event<'a> {
 }
 
 /// TRE pooled over frames.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct Pooled {
     /// Frames with held-out landmarks.
     pub frames: usize,
@@ -721,7 +760,7 @@ impl Ctx<'_, '_> {
         let lost = self.tracking.map_or(0, |t| t.lost[k]);
         let drift = self.tracking.and_then(|t| t.drift[k]);
         let stored = self.store.stored(k, frame).map_err(|e| seq.store_err(k, e))?;
-        let reason = match &stored.report {
+        let reason = match stored.report.as_ref().and_then(StoredReport::object) {
             None => Reason::New,
             Some(r) => match r.get("resume").and_then(ResumeKey::from_json) {
                 None => Reason::Unkeyed,

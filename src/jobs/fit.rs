@@ -181,13 +181,13 @@ impl SequenceJob {
         ));
         lines.extend(sum.tre_line(seq.held_out()));
         lines.extend(sum.drift_line(anchor));
-        Ok(SequenceOutcome { lines, summary: sum.to_json(anchor) })
+        Ok(SequenceOutcome { lines, summary: sum.report(anchor) })
     }
 
     /// Writes the summary of a run to [`SequenceJob::report`], if set.
     pub fn write_report(&self, outcome: &SequenceOutcome) -> Result<(), JobError> {
         if let Some(p) = &self.report {
-            let text = serde_json::to_string_pretty(&outcome.summary)?;
+            let text = outcome.summary.to_text()?;
             write_atomic(p, text.as_bytes())?;
         }
         Ok(())
@@ -199,8 +199,8 @@ impl SequenceJob {
 pub struct SequenceOutcome {
     /// The report lines.
     pub lines: Vec<String>,
-    /// The sequence summary (JSON, the `--report` file).
-    pub summary: serde_json::Value,
+    /// The sequence summary (the `--report` file).
+    pub summary: crate::fit::sequence::SequenceReport,
 }
 
 /// Where a single fit starts.

@@ -17,7 +17,7 @@
 
 use crate::fit::sequence::{
     check_names, content_hash, Anchor, Frame, FrameResult, Sequence, SequenceError,
-    SequenceOptions, Store, StoreError, Stored, Targets,
+    SequenceOptions, Store, StoreError, Stored, StoredReport, Targets,
 };
 use crate::fit::track::TrackOptions;
 use crate::fit::FitOptions;
@@ -123,17 +123,14 @@ impl FrameFiles<'_> {
         let ov = overlay(frame.gray().as_raw(), w, h, &outline, &marks)
             .ok_or(FrameFilesError::EmptyFrame)?;
         save_png(&ov, &self.path(stem, "overlay.png"))?;
-        let text = serde_json::to_string_pretty(&r.report_json())?;
-        write_atomic(&self.path(stem, "report.json"), text.as_bytes())?;
+        write_atomic(&self.path(stem, "report.json"), r.report_text().as_bytes())?;
         Ok(())
     }
 }
 
 impl Store for FrameFiles<'_> {
     fn stored(&self, index: usize, frame: &Frame) -> Result<Stored, StoreError> {
-        let report = read_text(&self.path(&frame.name, "report.json"))
-            .ok()
-            .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok());
+        let report = read_text(&self.path(&frame.name, "report.json")).ok().map(StoredReport::new);
         let missing: Vec<String> = self
             .outputs(index, frame)
             .iter()

@@ -35,9 +35,22 @@ fn landmarks() -> Vec<Landmark> {
 /// Results kept in memory; `drop_output` pretends a frame's deformation file is gone.
 #[derive(Default)]
 struct Memory {
-    frames: Mutex<BTreeMap<usize, (serde_json::Value, Spline)>>,
+    frames: Mutex<BTreeMap<usize, (StoredReport, Spline)>>,
     gone: Mutex<BTreeSet<usize>>,
     saves: Mutex<usize>,
+}
+
+/// How the frame report was written before it was typed (issue 56): the fit report as a
+/// JSON map, then the frame's keys set one by one. Every save of these tests checks that
+/// [`FrameResult::report_text`] writes the same bytes.
+fn legacy_report_text(r: &FrameResult) -> String {
+    let mut v = serde_json::to_value(&r.report).unwrap_or_default();
+    v["frame"] = r.name.as_str().into();
+    v["tracking_lost"] = r.lost.into();
+    v["anchor"] = r.anchor.map(|a| a.to_string()).into();
+    v["drift"] = serde_json::to_value(r.drift).unwrap_or_default();
+    v["resume"] = r.key.to_json();
+    serde_json::to_string_pretty(&v).unwrap()
 }
 
 impl Store for Memory {
@@ -55,7 +68,11 @@ impl Store for Memory {
     }
 
     fn save(&self, r: &FrameResult, _: &Frame) -> Result<(), StoreError> {
-        self.frames.lock().unwrap().insert(r.index, (r.report_json(), r.spline.clone()));
+        assert_eq!(r.report_text(), legacy_report_text(r), "frame {}", r.index);
+        self.frames
+            .lock()
+            .unwrap()
+            .insert(r.index, (StoredReport::new(r.report_text()), r.spline.clone()));
         self.gone.lock().unwrap().remove(&r.index);
         *self.saves.lock().unwrap() += 1;
         Ok(())
@@ -195,7 +212,13 @@ fn resume_skips_current_frames_and_refits_changed_or_incomplete_ones() {
         ]
     );
     // A report without a key (an older version's) is refitted too.
-    store.frames.lock().unwrap().get_mut(&2).unwrap().0.as_object_mut().unwrap().remove("resume");
+    {
+        let mut frames = store.frames.lock().unwrap();
+        let stored = &mut frames.get_mut(&2).unwrap().0;
+        let mut v = stored.object().unwrap();
+        v.as_object_mut().unwrap().remove("resume");
+        *stored = StoredReport::new(v.to_string());
+    }
     let fifth = run(0.02);
     assert_eq!(fifth.frames[2].action, Action::Fitted(Reason::Unkeyed));
     assert_eq!(*store.saves.lock().unwrap(), 3 + 3 + 1 + 1);
@@ -368,8 +391,9 @@ fn frames_fitted_one_by_one_equal_a_whole_run_and_then_resume() {
         let (a, b) = (whole.frames.lock().unwrap(), single.frames.lock().unwrap());
         for k in 0..fr.len() {
             assert_eq!(a[&k].1.points(), b[&k].1.points(), "frame {k}");
-            assert_eq!(a[&k].0["resume"], b[&k].0["resume"], "frame {k}");
-            assert_eq!(a[&k].0["fit"], b[&k].0["fit"], "frame {k}");
+            let (ra, rb) = (a[&k].0.object().unwrap(), b[&k].0.object().unwrap());
+            assert_eq!(ra["resume"], rb["resume"], "frame {k}");
+            assert_eq!(ra["fit"], rb["fit"], "frame {k}");
         }
         drop(b);
         assert_eq!(seq.run_frame(1, &single, &|_| {}).unwrap().action, Action::Skipped);
