@@ -1,17 +1,19 @@
 //! The options of the subcommands (clap), one struct each; `cli::run` hands each to its
 //! command module. The subcommand's help text is the doc comment of its `Command` variant.
 
-use super::common::text;
+use super::common::{choice, text};
 use super::model_cmd;
 use crate::fit::Bend;
 use crate::jobs::model::AutoGrid;
 use crate::jobs::values::{
-    parse_canvas_size, parse_extent, parse_grid, parse_origin, parse_raster_size, parse_spacing,
-    parse_time_range,
+    parse_canvas_size, parse_extent, parse_grid, parse_origin, parse_raster_size, parse_sample,
+    parse_spacing, parse_time_range,
 };
+use crate::morph::Schedule;
 use crate::prism::ZRange;
 use crate::render::deformation::Layers;
-use crate::warp::EdgeMode;
+use crate::render::model::View;
+use crate::warp::{EdgeMode, Interp};
 use std::path::PathBuf;
 
 /// The command line of `trimorph mesh`.
@@ -113,8 +115,8 @@ pub struct RenderCli {
     pub model: Option<PathBuf>,
     /// With --model: `top` (the xy projection, mesh and points) or `oblique` (both z
     /// surfaces, the walls and the model, depth-sorted).
-    #[arg(long, value_enum, default_value = "top")]
-    pub view: super::common::ViewArg,
+    #[arg(long, default_value = "top", value_parser = choice::<View>(&View::NAMES))]
+    pub view: View,
     #[command(flatten)]
     pub up: model_cmd::UpArgs,
     #[command(flatten)]
@@ -150,12 +152,12 @@ pub struct WarpCli {
     #[arg(long)]
     pub inverse: bool,
     /// Image resampling.
-    #[arg(long, value_enum, default_value = "bilinear")]
-    pub interp: super::common::InterpArg,
+    #[arg(long, default_value = "bilinear", value_parser = choice::<Interp>(&Interp::NAMES))]
+    pub interp: Interp,
     /// Value of pixels whose preimage is outside the mesh, or (with --mode constant)
     /// outside the input image (images: default 0, alpha 0; meshes: a gray level 0..255,
     /// default transparent).
-    #[arg(long)]
+    #[arg(long, value_parser = text(parse_sample))]
     pub background: Option<f64>,
     /// Images: what samples read outside the input image, scikit-image's `mode`: constant
     /// (the --background value, as in ITK, elastix and scikit-image), edge (the edge pixels
@@ -233,7 +235,7 @@ pub struct MorphCli {
     /// Background where neither image has a preimage: one value for every channel, in
     /// the images' sample units (0..255 for 8-bit, 0..65535 for 16-bit, 0..1 for float;
     /// alpha is 0 there when the images have alpha).
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value = "0", value_parser = text(parse_sample))]
     pub background: f64,
     /// Number of frames (t = k / (frames - 1)), 2 to 10,000.
     #[arg(long, default_value_t = 30)]
@@ -252,14 +254,14 @@ pub struct MorphCli {
     #[arg(long)]
     pub apng: Option<PathBuf>,
     /// Shape schedule alpha_shape(t) (smooth: 3t^2 - 2t^3).
-    #[arg(long, value_enum, default_value = "linear")]
-    pub shape: super::common::ScheduleArg,
+    #[arg(long, default_value = "linear", value_parser = choice::<Schedule>(&Schedule::NAMES))]
+    pub shape: Schedule,
     /// Colour schedule alpha_color(t).
-    #[arg(long, value_enum, default_value = "linear")]
-    pub color: super::common::ScheduleArg,
+    #[arg(long, default_value = "linear", value_parser = choice::<Schedule>(&Schedule::NAMES))]
+    pub color: Schedule,
     /// Image resampling.
-    #[arg(long, value_enum, default_value = "bilinear")]
-    pub interp: super::common::InterpArg,
+    #[arg(long, default_value = "bilinear", value_parser = choice::<Interp>(&Interp::NAMES))]
+    pub interp: Interp,
     /// Fast preview: draw A as a colour mesh with a vertex every STEP pixels instead of
     /// warping both images.
     #[arg(long, value_name = "STEP")]

@@ -29,7 +29,7 @@ impl RenderCli {
         match &self.model {
             Some(m) => self.marks.refuse_with_model().and_then(|()| {
                 let up = self.up.resolve(m)?;
-                model_cmd::render_model(def, m, out, bg, self.view.into(), size, up)
+                model_cmd::render_model(def, m, out, bg, self.view, size, up)
             }),
             None => spline_cmds::render(def, out, bg, self.show, size, &self.marks),
         }

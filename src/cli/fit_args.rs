@@ -9,7 +9,7 @@ use crate::fit::sequence::AnchorKind;
 use crate::fit::{Bend, FitOptions};
 use crate::io::landmarks::LandmarkSource;
 use crate::jobs::fit::Pin;
-use crate::jobs::values::{parse_frame_size, parse_shard};
+use crate::jobs::values::{parse_frame_size, parse_sample, parse_shard};
 use anyhow::anyhow;
 use std::path::PathBuf;
 
@@ -104,7 +104,7 @@ pub struct FitCli {
     pub key_every: Option<usize>,
     /// With --frames: registered frames get this value (in the frame's sample units)
     /// where the deformation leaves the frame or the mesh.
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value = "0", value_parser = text(parse_sample))]
     pub background: f64,
     /// Only the i-th of n contiguous frame ranges (e.g. 0/4), for cluster array jobs.
     #[arg(long, value_parser = text(parse_shard))]

@@ -24,25 +24,16 @@ fn first_page(path: &Path, which: &str) -> Result<DynamicImage> {
     stack.pages.into_iter().next().ok_or_else(|| anyhow!("image {which} has no pages"))
 }
 
-/// Largest `--cells`: finer meshes exceed the fit's size limit
-/// ([`crate::fit::options::MAX_FIT_VARIABLES`]).
-const MAX_CELLS: usize = 48;
-
 /// Runs the command.
 pub fn run(a: &MorphCli) -> Result<()> {
     let mut ph = Phases::new();
     check_frames(a.frames)?;
-    let (shape, color, interp) = (a.shape.into(), a.color.into(), a.interp.into());
+    let (shape, color, interp) = (a.shape, a.color, a.interp);
     let align = !a.no_align;
     let (img_a, img_b) = rayon::join(|| first_page(&a.a, "A"), || first_page(&a.b, "B"));
     let (img_a, img_b) = (img_a?, img_b?);
     ph.mark("read");
-    if a.cells == 0 || a.cells > MAX_CELLS {
-        bail!("--cells must be between 1 and {MAX_CELLS}, got {}", a.cells);
-    }
-    if !(a.background.is_finite() && a.background >= 0.0) {
-        bail!("--background must be a number >= 0 (sample units), got {}", a.background);
-    }
+    crate::morph::check_cells(a.cells)?;
     let opts = MorphOptions {
         shape,
         color,

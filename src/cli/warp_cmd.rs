@@ -54,15 +54,12 @@ pub fn run(a: &WarpCli) -> Result<()> {
             if a.inverse {
                 bail!("--inverse applies to --points; images are always warped as O(q) = I(phi^-1(q))");
             }
-            if !background.is_finite() {
-                bail!("--background must be a finite number");
-            }
             let input = match image.take() {
                 Some(input) => input?,
                 None => ImageInput::read(img_path)?,
             };
             let wo = WarpOptions {
-                interp: a.interp.into(),
+                interp: a.interp,
                 background,
                 remap: RemapOptions { inverse: opts, ..Default::default() },
                 mode: a.mode,

@@ -102,6 +102,23 @@ pub fn parse_pair(text: &str, sep: char) -> Result<(f64, f64), ValueError> {
     Ok((a, b))
 }
 
+/// A sample value (`--background` of `warp`, `morph` and `fit --frames`): a finite number.
+/// Whether the image's type holds it is [`crate::warp::check_background`]'s rule, checked
+/// once the type is known.
+///
+/// ```
+/// use trimorph::jobs::values::parse_sample;
+/// assert_eq!(parse_sample("12.5").unwrap(), 12.5);
+/// assert!(parse_sample("nan").is_err() && parse_sample("1e400").is_err());
+/// ```
+pub fn parse_sample(text: &str) -> Result<f64, ValueError> {
+    let v = text.trim().parse::<f64>().map_err(|_| ValueError::NotANumber(text.into()))?;
+    if !v.is_finite() {
+        return Err(ValueError::NotFinite);
+    }
+    Ok(v)
+}
+
 /// A pixel spacing `SX,SY`: two positive finite numbers (`field --spacing`).
 pub fn parse_spacing(text: &str) -> Result<[f64; 2], ValueError> {
     let (x, y) = parse_pair(text, ',')?;

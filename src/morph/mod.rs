@@ -116,6 +116,9 @@ pub enum MorphError {
     /// Fewer than 2 frames.
     #[error("a morph needs at least 2 frames, got {0}")]
     Frames(usize),
+    /// A grid over `B` with no cells or more than [`MAX_CELLS`] per side.
+    #[error("--cells (cells per side of the mesh over B) must be between 1 and {max}, got {0}: finer meshes exceed the fit's size limit", max = MAX_CELLS)]
+    Cells(usize),
     /// The background is not a sample of the frames' type.
     #[error(transparent)]
     Background(#[from] crate::warp::WarpError),
@@ -163,6 +166,19 @@ pub enum MorphError {
     },
 }
 
+/// Largest [`MorphOptions::cells`]: finer grids exceed the fit's size limit
+/// ([`crate::fit::options::MAX_FIT_VARIABLES`]).
+pub const MAX_CELLS: usize = 48;
+
+/// Checks [`MorphOptions::cells`]: 1 to [`MAX_CELLS`] ([`MorphError::Cells`] otherwise).
+pub fn check_cells(cells: usize) -> Result<(), MorphError> {
+    if (1..=MAX_CELLS).contains(&cells) {
+        Ok(())
+    } else {
+        Err(MorphError::Cells(cells))
+    }
+}
+
 /// A schedule `alpha(t)`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum Schedule {
@@ -197,13 +213,24 @@ impl Schedule {
     }
 }
 
+impl Schedule {
+    /// The names [`Schedule`]'s `FromStr` takes (`--shape`, `--color`, Python's `shape=`
+    /// and `color=`).
+    pub const NAMES: [&'static str; 2] = ["linear", "smooth"];
+}
+
+/// A schedule name that is none of [`Schedule::NAMES`] (the text given).
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("unknown schedule `{0}` (use linear or smooth)")]
+pub struct UnknownSchedule(pub String);
+
 impl std::str::FromStr for Schedule {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Schedule, String> {
+    type Err = UnknownSchedule;
+    fn from_str(s: &str) -> Result<Schedule, UnknownSchedule> {
         match s {
             "linear" => Ok(Schedule::Linear),
             "smooth" => Ok(Schedule::Smooth),
-            _ => Err(format!("unknown schedule `{s}` (use linear or smooth)")),
+            _ => Err(UnknownSchedule(s.to_string())),
         }
     }
 }
@@ -426,6 +453,7 @@ impl Morph {
             Similarity::identity()
         };
         let (a, b) = common(a, b);
+        frames::check_background(opts.background, &a)?;
         let size = |i: &DynamicImage| [f64::from(i.width()), f64::from(i.height())];
         let (sa, sb) = (size(&a), size(&b));
         let mut to_a: Vec<Landmark> =
@@ -506,6 +534,7 @@ impl Morph {
             }
         }
         let (a, b) = common(a, b);
+        frames::check_background(opts.background, &a)?;
         let (bw, bh) = (f64::from(b.width() - 1), f64::from(b.height() - 1));
         let grid = 24;
         let pts: Vec<[f64; 2]> = (0..grid * grid)
@@ -552,6 +581,7 @@ impl Morph {
                 if samples.len() < 3 {
                     return Err(MorphError::TooFewLandmarks(samples.len()));
                 }
+                check_cells(opts.cells)?;
                 let mesh = Mesh::grid(opts.cells, opts.cells, bw, bh, MeshOptions::default())?;
                 let id_b = Spline::identity(mesh, opts.degree)?;
                 fit(&id_b, &samples, &opts.fit)

@@ -406,3 +406,15 @@ fn the_dissolve_fades_across_b_s_border_instead_of_stepping() {
         assert!(line.first() > line.last(), "{what} goes from the dissolve to A: {line:?}");
     }
 }
+
+/// Issue 56: the `--cells` limit is the library's, so a library caller asking for a
+/// 100000-cell grid is refused before the grid is built (it asked for 160 GB).
+#[test]
+fn cells_outside_one_to_max_are_refused() {
+    assert!(check_cells(1).is_ok() && check_cells(MAX_CELLS).is_ok());
+    for bad in [0, MAX_CELLS + 1, 100_000] {
+        let e = check_cells(bad).unwrap_err();
+        assert!(matches!(e, MorphError::Cells(n) if n == bad), "{e:?}");
+        assert!(e.to_string().contains("--cells"), "{e}");
+    }
+}

@@ -89,6 +89,11 @@ pub enum View {
     Oblique,
 }
 
+impl View {
+    /// The names [`View`]'s `FromStr` takes (`render --view`).
+    pub const NAMES: [&'static str; 2] = ["top", "oblique"];
+}
+
 impl FromStr for View {
     type Err = RenderError;
 

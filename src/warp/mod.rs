@@ -69,14 +69,25 @@ pub enum Interp {
     Bicubic,
 }
 
+impl Interp {
+    /// The names [`Interp`]'s `FromStr` takes (`--interp`, Python's `interp=`), in the
+    /// order of the variants.
+    pub const NAMES: [&'static str; 3] = ["nearest", "bilinear", "bicubic"];
+}
+
+/// An interpolation name that is none of [`Interp::NAMES`] (the text given).
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("unknown interpolation `{0}` (use nearest, bilinear or bicubic)")]
+pub struct UnknownInterp(pub String);
+
 impl std::str::FromStr for Interp {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Interp, String> {
+    type Err = UnknownInterp;
+    fn from_str(s: &str) -> Result<Interp, UnknownInterp> {
         match s {
             "nearest" => Ok(Interp::Nearest),
             "bilinear" => Ok(Interp::Bilinear),
             "bicubic" => Ok(Interp::Bicubic),
-            _ => Err(format!("unknown interpolation `{s}` (use nearest, bilinear or bicubic)")),
+            _ => Err(UnknownInterp(s.to_string())),
         }
     }
 }
