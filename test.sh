@@ -6,10 +6,10 @@
 set -euo pipefail
 cd "$(dirname "$0")"
 
-echo "== cargo test"
+echo "== [$(date -u +%T)] cargo test"
 cargo test "$@"
 
-echo "== python: pip install ./python[test], then pytest python/tests"
+echo "== [$(date -u +%T)] python: pip install ./python[test], then pytest python/tests"
 VENV="${TRIMORPH_VENV:-target/venv}"
 PYTHON="${PYTHON:-python3}"
 [ -x "$VENV/bin/python" ] || "$PYTHON" -m venv "$VENV"
@@ -21,6 +21,6 @@ TRIMORPH_BIN="$PWD/target/debug/trimorph" "$VENV/bin/python" -m pytest -q python
 # The napari plugin (napari/), installed after the package it wraps; its own pytest run, as
 # both test folders have a conftest.py. Its viewer tests need an X server: a private Xvfb
 # is started when there is no display (apt-get install xvfb), else they are skipped.
-echo "== napari plugin: pip install ./napari[test], then pytest napari/tests"
+echo "== [$(date -u +%T)] napari plugin: pip install ./napari[test], then pytest napari/tests"
 "$VENV/bin/python" -m pip install --quiet --disable-pip-version-check "./napari[test]"
 "$VENV/bin/python" -m pytest -q napari/tests
