@@ -118,36 +118,42 @@ pub fn image_term(
     ImageTerm { value: e.value, d_u, valid: e.valid }
 }
 
-/// Where the samples fall on a spline's mesh: per triangle, its samples' barycentric
-/// coordinates and the control points of its patch in Bernstein order.
+/// Where the samples fall on a spline's mesh: per triangle, its samples' Bernstein values
+/// and the control points of its patch in Bernstein order.
+///
+/// The mesh lives in MOVING's pixels, so a sample's barycentric coordinates, and with them
+/// its `(d+1)(d+2)/2` Bernstein values `B^d_m(b_i)`, never change while the spline does:
+/// they are computed once here (21 values, 168 bytes, per sample at degree 5), and every
+/// evaluation of [`SplineSamples::map`] and [`SplineSamples::pull`] is a plain weighted
+/// sum. (Recomputing them in every evaluation was its largest cost.)
 #[derive(Clone, Debug)]
 pub struct SplineSamples {
-    degree: usize,
-    /// Per triangle: `(sample indices, barycentric coordinates)`.
-    tris: Vec<(Vec<usize>, Vec<[f64; 3]>)>,
+    /// Per triangle: `(sample indices, Bernstein values)`, the values of the triangle's
+    /// `k`-th sample at `k * nb .. (k + 1) * nb`.
+    tris: Vec<(Vec<usize>, Vec<f64>)>,
     /// Per triangle: the control point of each Bernstein coefficient ([`multi_indices`] order).
     patch: Vec<Vec<usize>>,
-    /// `multinomial(m)` and `m` per coefficient.
-    coefs: Vec<(f64, [usize; 3])>,
+    /// Bernstein values per sample, `(d+1)(d+2)/2`.
+    nb: usize,
     /// Samples outside the mesh (they never count).
     pub outside: usize,
     n: usize,
 }
 
 impl SplineSamples {
-    /// Locates every sample of `set` in `s`'s mesh.
+    /// Locates every sample of `set` in `s`'s mesh and computes its Bernstein values.
     pub fn new(s: &Spline, set: &SampleSet) -> SplineSamples {
         let mesh = s.mesh();
         let nt = mesh.num_triangles();
-        let mut tris: Vec<(Vec<usize>, Vec<[f64; 3]>)> = vec![(Vec::new(), Vec::new()); nt];
+        let mut located: Vec<(Vec<usize>, Vec<[f64; 3]>)> = vec![(Vec::new(), Vec::new()); nt];
         let mut outside = 0;
         let mut hint = None;
         for (i, &p) in set.pos.iter().enumerate() {
             match mesh.locate(p, hint) {
                 Some((t, b)) => {
                     hint = Some(t);
-                    tris[t].0.push(i);
-                    tris[t].1.push(b);
+                    located[t].0.push(i);
+                    located[t].1.push(b);
                 }
                 None => outside += 1,
             }
@@ -161,39 +167,37 @@ impl SplineSamples {
             })
             .collect();
         let fact = |k: usize| (1..=k).map(|v| v as f64).product::<f64>();
-        let coefs =
+        let coefs: Vec<(f64, [usize; 3])> =
             mi.iter().map(|m| (fact(d) / (fact(m[0]) * fact(m[1]) * fact(m[2])), *m)).collect();
-        SplineSamples { degree: d, tris, patch, coefs, outside, n: set.len() }
-    }
-
-    /// Bernstein values at `b` into `out` (length `(d+1)(d+2)/2`).
-    #[inline]
-    fn basis(&self, b: [f64; 3], pw: &mut [[f64; 3]], out: &mut [f64]) {
-        for (k, row) in pw.iter_mut().enumerate().take(self.degree + 1) {
-            *row = [b[0].powi(k as i32), b[1].powi(k as i32), b[2].powi(k as i32)];
-        }
-        for (o, (c, m)) in out.iter_mut().zip(&self.coefs) {
-            *o = c * pw[m[0]][0] * pw[m[1]][1] * pw[m[2]][2];
-        }
+        let nb = coefs.len();
+        let tris = located
+            .into_par_iter()
+            .map(|(idx, bs)| {
+                let mut pw = vec![[0.0; 3]; d + 1];
+                let mut w = vec![0.0; bs.len() * nb];
+                for (b, out) in bs.iter().zip(w.chunks_exact_mut(nb)) {
+                    basis(&coefs, *b, &mut pw, out);
+                }
+                (idx, w)
+            })
+            .collect();
+        SplineSamples { tris, patch, nb, outside, n: set.len() }
     }
 
     /// `phi(y_i)` for every sample, for control points `pts` (samples outside the mesh get
     /// NaN, which every image reads as outside).
     pub fn map(&self, pts: &[[f64; 2]]) -> Vec<[f64; 2]> {
         let mut u = vec![[f64::NAN; 2]; self.n];
-        let nb = self.coefs.len();
+        let nb = self.nb;
         let parts: Vec<Vec<(usize, [f64; 2])>> = self
             .tris
             .par_iter()
             .zip(&self.patch)
-            .map(|((idx, bs), patch)| {
+            .map(|((idx, ws), patch)| {
                 let q: Vec<[f64; 2]> = patch.iter().map(|&p| pts[p]).collect();
-                let mut pw = vec![[0.0; 3]; self.degree + 1];
-                let mut w = vec![0.0; nb];
                 idx.iter()
-                    .zip(bs)
-                    .map(|(&i, &b)| {
-                        self.basis(b, &mut pw, &mut w);
+                    .zip(ws.chunks_exact(nb))
+                    .map(|(&i, w)| {
                         let mut v = [0.0; 2];
                         for (wk, qk) in w.iter().zip(&q) {
                             v[0] += wk * qk[0];
@@ -215,13 +219,9 @@ impl SplineSamples {
     /// `sum_i B_m(b_i)^2 v_i` per control point and coordinate (the Gauss-Newton diagonal
     /// of a term whose Hessian in `u_i` is `diag(v_i)`).
     pub fn pull_squared(&self, v: &[[f64; 2]], n_points: usize) -> Vec<[f64; 2]> {
-        let nb = self.coefs.len();
         let mut out = vec![[0.0; 2]; n_points];
-        let mut pw = vec![[0.0; 3]; self.degree + 1];
-        let mut w = vec![0.0; nb];
-        for ((idx, bs), patch) in self.tris.iter().zip(&self.patch) {
-            for (&i, &b) in idx.iter().zip(bs) {
-                self.basis(b, &mut pw, &mut w);
+        for ((idx, ws), patch) in self.tris.iter().zip(&self.patch) {
+            for (&i, w) in idx.iter().zip(ws.chunks_exact(self.nb)) {
                 for (wk, &p) in w.iter().zip(patch) {
                     out[p][0] += wk * wk * v[i][0];
                     out[p][1] += wk * wk * v[i][1];
@@ -233,21 +233,18 @@ impl SplineSamples {
 
     /// `dE/dq_m = sum_i B_m(b_i) dE/du_i`, over all control points (`n_points` entries).
     pub fn pull(&self, d_u: &[[f64; 2]], n_points: usize) -> Vec<[f64; 2]> {
-        let nb = self.coefs.len();
+        let nb = self.nb;
         let local: Vec<Vec<[f64; 2]>> = self
             .tris
             .par_iter()
-            .map(|(idx, bs)| {
-                let mut pw = vec![[0.0; 3]; self.degree + 1];
-                let mut w = vec![0.0; nb];
+            .map(|(idx, ws)| {
                 let mut g = vec![[0.0; 2]; nb];
-                for (&i, &b) in idx.iter().zip(bs) {
+                for (&i, w) in idx.iter().zip(ws.chunks_exact(nb)) {
                     let d = d_u[i];
                     if d == [0.0, 0.0] {
                         continue;
                     }
-                    self.basis(b, &mut pw, &mut w);
-                    for (gk, wk) in g.iter_mut().zip(&w) {
+                    for (gk, wk) in g.iter_mut().zip(w) {
                         gk[0] += wk * d[0];
                         gk[1] += wk * d[1];
                     }
@@ -263,6 +260,18 @@ impl SplineSamples {
             }
         }
         out
+    }
+}
+
+/// Bernstein values `B^d_m(b)` into `out`, one per entry of `coefs` (`multinomial(m)` and
+/// `m`), with `pw` (`d + 1` rows) holding the powers `b_j^k`.
+#[inline]
+fn basis(coefs: &[(f64, [usize; 3])], b: [f64; 3], pw: &mut [[f64; 3]], out: &mut [f64]) {
+    for (k, row) in pw.iter_mut().enumerate() {
+        *row = [b[0].powi(k as i32), b[1].powi(k as i32), b[2].powi(k as i32)];
+    }
+    for (o, (c, m)) in out.iter_mut().zip(coefs) {
+        *o = c * pw[m[0]][0] * pw[m[1]][1] * pw[m[2]][2];
     }
 }
 
