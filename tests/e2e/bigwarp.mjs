@@ -12,23 +12,12 @@
 // det J legend, the ghost of a drag, what undo says, and that the path field survives a
 // reload, and measures the live warp: each drag step's time from the pointer event to the
 // redraw with the warped frame. Prints one JSON line.
-import { spawn, spawnSync } from 'node:child_process';
+import { spawnSync } from 'node:child_process';
 import { readFileSync } from 'node:fs';
 import { join } from 'node:path';
-import { chromium } from 'playwright-core';
+import { apiClient, args, fail, launchBrowser, startEditor, stats } from './common.mjs';
 
-const [bin, work, shot] = process.argv.slice(2);
-if (!bin || !work || !shot) {
-  console.error('usage: node bigwarp.mjs TRIMORPH_BINARY WORK_DIR SCREENSHOT.png');
-  process.exit(2);
-}
-const exe = process.env.CHROMIUM || '/usr/bin/chromium';
-
-function fail(msg) {
-  console.error('E2E FAILURE: ' + msg);
-  process.exitCode = 1;
-  throw new Error(msg);
-}
+const [bin, work, shot] = args('bigwarp.mjs');
 
 const fitted = spawnSync(bin, ['fit', '--size', '512,512', '--landmarks', 'landmarks.csv', '-o', 'fit.json'], { cwd: work, encoding: 'utf8' });
 if (fitted.status !== 0) fail('trimorph fit failed: ' + fitted.stderr);
@@ -36,33 +25,11 @@ const fitFile = JSON.parse(readFileSync(join(work, 'fit.json'), 'utf8'));
 const nFit = (fitFile.landmarks || []).length;
 if (nFit < 10) fail('the fit does not carry its landmarks: ' + JSON.stringify(Object.keys(fitFile)));
 
-const editor = spawn(bin, ['editor', 'fit.json', '--moving', 'moving.png', '--fixed', 'fixed.png', '--port', '0'], { cwd: work, stdio: ['ignore', 'pipe', 'inherit'] });
-const [addr, token] = await new Promise((resolve, reject) => {
-  let out = '';
-  const timer = setTimeout(() => reject(new Error('the editor did not print its address')), 30000);
-  editor.stdout.on('data', (d) => {
-    out += d;
-    const m = out.match(/(http:\/\/127\.0\.0\.1:\d+\/)\?token=([0-9a-f]+)/);
-    if (m) { clearTimeout(timer); resolve([m[1], m[2]]); }
-  });
-  editor.on('exit', (c) => reject(new Error('the editor exited with ' + c)));
-});
+const { editor, addr, token } = await startEditor(bin, ['fit.json', '--moving', 'moving.png', '--fixed', 'fixed.png', '--port', '0'], work);
 
-const api = async (method, path, body) => {
-  const r = await fetch(addr + path.replace(/^\//, ''), {
-    method, headers: body ? { 'Content-Type': 'application/json', 'X-Trimorph-Token': token } : { 'X-Trimorph-Token': token },
-    body: body ? JSON.stringify(body) : undefined,
-  });
-  const v = await r.json();
-  if (!r.ok) fail(`${method} ${path}: ${r.status} ${v.error}`);
-  return v;
-};
+const api = apiClient(addr, token);
 
-const browser = await chromium.launch({
-  executablePath: exe,
-  args: ['--headless', '--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run',
-    '--disable-background-networking', '--disable-component-update', '--disable-sync'],
-});
+const browser = await launchBrowser();
 let summary = {};
 try {
   const page = await browser.newPage({ viewport: { width: 1400, height: 800 } });
@@ -228,10 +195,6 @@ try {
   if (kept !== 'kept_name.json') fail('the path field after a reload: ' + kept);
   if (errors.length) fail('page errors: ' + errors.join('; '));
 
-  const stats = (a) => {
-    const s = a.slice().sort((x, y) => x - y);
-    return { n: s.length, median: s[Math.floor(s.length / 2)], p90: s[Math.floor(0.9 * (s.length - 1))], max: s[s.length - 1] };
-  };
   const part = (k) => stats(phases.map((p) => p[k])).median;
   summary = {
     ok: true, fit_pairs: nFit, corrections: placed.length, overlay_colours: colours,

@@ -7,51 +7,18 @@
 // that it moved by the drag, saves the deformation and runs `trimorph check` on it (exact
 // C1), undoes with Ctrl+Z, and takes a screenshot. Prints one JSON line with the measured
 // drag-step times (request + exact update + response + redraw, as seen by the page).
-import { spawn, spawnSync } from 'node:child_process';
+import { spawnSync } from 'node:child_process';
 import { readFileSync } from 'node:fs';
 import { join } from 'node:path';
-import { chromium } from 'playwright-core';
+import { apiClient, args, fail, launchBrowser, startEditor, stats } from './common.mjs';
 
-const [bin, work, shot] = process.argv.slice(2);
-if (!bin || !work || !shot) {
-  console.error('usage: node editor.mjs TRIMORPH_BINARY WORK_DIR SCREENSHOT.png');
-  process.exit(2);
-}
-const exe = process.env.CHROMIUM || '/usr/bin/chromium';
+const [bin, work, shot] = args('editor.mjs');
 
-function fail(msg) {
-  console.error('E2E FAILURE: ' + msg);
-  process.exitCode = 1;
-  throw new Error(msg);
-}
+const { editor, addr, token } = await startEditor(bin, ['--port', '0'], work);
 
-const editor = spawn(bin, ['editor', '--port', '0'], { cwd: work, stdio: ['ignore', 'pipe', 'inherit'] });
-const [addr, token] = await new Promise((resolve, reject) => {
-  let out = '';
-  const timer = setTimeout(() => reject(new Error('the editor did not print its address')), 30000);
-  editor.stdout.on('data', (d) => {
-    out += d;
-    const m = out.match(/(http:\/\/127\.0\.0\.1:\d+\/)\?token=([0-9a-f]+)/);
-    if (m) { clearTimeout(timer); resolve([m[1], m[2]]); }
-  });
-  editor.on('exit', (c) => reject(new Error('the editor exited with ' + c)));
-});
+const api = apiClient(addr, token);
 
-const api = async (method, path, body) => {
-  const r = await fetch(addr + path.replace(/^\//, ''), {
-    method, headers: body ? { 'Content-Type': 'application/json', 'X-Trimorph-Token': token } : { 'X-Trimorph-Token': token },
-    body: body ? JSON.stringify(body) : undefined,
-  });
-  const v = await r.json();
-  if (!r.ok) fail(`${method} ${path}: ${r.status} ${v.error}`);
-  return v;
-};
-
-const browser = await chromium.launch({
-  executablePath: exe,
-  args: ['--headless', '--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run',
-    '--disable-background-networking', '--disable-component-update', '--disable-sync'],
-});
+const browser = await launchBrowser();
 let summary = {};
 try {
   const page = await browser.newPage({ viewport: { width: 1100, height: 800 } });
@@ -346,10 +313,6 @@ try {
   if (errors.length) fail('page errors: ' + errors.join('; '));
 
   const t = await page.evaluate(() => window.trimorph.timings);
-  const stats = (a) => {
-    const s = a.slice().sort((x, y) => x - y);
-    return { n: s.length, median: s[Math.floor(s.length / 2)], p90: s[Math.floor(0.9 * (s.length - 1))], max: s[s.length - 1] };
-  };
   const ph = await page.evaluate(() => window.trimorph.phases);
   const part = (a, k) => stats(a.map((p) => p[k]).filter((v) => v !== null)).median;
   const parts = (a) => ({ request: part(a, 'request'), draw: part(a, 'draw'), update: part(a, 'update') });
