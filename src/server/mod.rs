@@ -70,6 +70,8 @@ pub mod views;
 #[cfg(test)]
 mod tests;
 #[cfg(test)]
+mod tests_answers;
+#[cfg(test)]
 mod tests_bigwarp;
 #[cfg(test)]
 mod tests_http;
