@@ -7,10 +7,15 @@
 //! body that is not a JSON object is refused. Every refusal is a 400
 //! ([`ServerError::BadRequest`]): `` missing `x` ``, `` `x` must be a finite number ``, ...
 //!
+//! `POST /api/update`'s body is a drag step, [`crate::edit::script::Motion`] with `f64`
+//! numbers ([`super::doc::Op`]), read the same way; its own reader names the bad key.
+//!
 //! Keys a body does not know are ignored (the page and scripts may send more than an
 //! endpoint reads). A known key of the wrong type is refused naming it, optional ones
-//! included (`max_dist`, `scene`, `hard`, `mode` of another type were once taken as
-//! absent); `null` stands for an absent optional key.
+//! included; `null` stands for an absent optional key. Before the bodies were typed they
+//! were read with plain `serde_json` into a `Value`: a repeated key then kept its last
+//! value, and an optional `max_dist`, `scene`, `hard` or `mode` of another type was taken
+//! as absent; both are 400s now.
 
 use super::ServerError;
 use crate::edit::Mode;
