@@ -10,11 +10,11 @@
 //!
 //! Each body is a typed value of [`requests`], read by [`requests::read_body`] through the
 //! strict JSON reader (a key given twice is refused; unknown keys are ignored; a bad or
-//! missing field is a 400 naming it). Each answer is a typed value of [`answers`], written
-//! with its keys in alphabetical order; all but the geometry answers also carry
-//! `server_ms` (the handler's time, in its sorted place). A geometry answer (select,
-//! update, undo, redo, refit) is its own keys, then the geometry's ([`views::geometry`]),
-//! then `state` ([`answers::State`]), then `server_ms`.
+//! missing field is a 400 naming it). Each answer is a typed value of [`answers`], its keys
+//! written in the order its fields are declared, then `server_ms` (the handler's time; not
+//! in error answers). A geometry answer (select, update, undo, redo, refit) is its own
+//! keys, then the geometry's ([`views::geometry`]), then `state` ([`answers::State`]),
+//! then `server_ms`.
 //!
 //! | request | body | answer |
 //! |---|---|---|
