@@ -15,6 +15,7 @@ pub mod pairs;
 
 pub use history::{Step, UNDO_LIMIT};
 
+use super::answers::{Certificate, ImageInfo, Refitted, Selected, Stat, State, StateSelection};
 use super::paths::confine;
 use super::ServerError;
 use crate::edit::script::{Motion, Translate};
@@ -259,38 +260,38 @@ impl Doc {
         self.cert.summary()
     }
 
-    /// Summary for the page.
-    pub fn state(&self) -> Value {
+    /// Summary for the page (`GET /api/state`).
+    pub fn state(&self) -> State {
         let s = self.spline();
-        let sel = self.editor.selection();
-        let mut v = json!({
-            "name": self.name,
-            "degree": s.degree(),
-            "points": s.num_points(),
-            "triangles": s.mesh().num_triangles(),
-            "z_modes": s.z_layers().is_some(),
-            "model": self.model.as_ref().map(|m| m.path.display().to_string()),
-            "frame": self.frame.as_ref().map(|f| {
-                json!({"path": f.path.display().to_string(),
-                       "width": f.image.width(), "height": f.image.height()})
+        let image = |f: &Frame| ImageInfo {
+            path: f.path.display().to_string(),
+            width: f.image.width(),
+            height: f.image.height(),
+        };
+        let (undo_next, redo_next) = self.history_labels();
+        State {
+            name: self.name.clone(),
+            degree: s.degree(),
+            points: s.num_points(),
+            triangles: s.mesh().num_triangles(),
+            z_modes: s.z_layers().is_some(),
+            model: self.model.as_ref().map(|m| m.path.display().to_string()),
+            frame: self.frame.as_ref().map(image),
+            fixed: self.fixed.as_ref().map(image),
+            undo: self.undo.len(),
+            redo: self.redo.len(),
+            undo_next: undo_next.map(str::to_string),
+            redo_next: redo_next.map(str::to_string),
+            pinned: self.pinned.iter().copied().collect(),
+            selection: self.editor.selection().map(|s| StateSelection {
+                anchors: s.anchors.clone(),
+                derived: s.derived.clone(),
+                strong: s.strong,
+                mode: mode_name(s.mode),
             }),
-            "fixed": self.fixed.as_ref().map(|f| {
-                json!({"path": f.path.display().to_string(),
-                       "width": f.image.width(), "height": f.image.height()})
-            }),
-            "undo": self.undo.len(),
-            "redo": self.redo.len(),
-            "undo_next": self.history_labels().0,
-            "redo_next": self.history_labels().1,
-            "pinned": self.pinned.iter().collect::<Vec<_>>(),
-            "selection": sel.map(|s| json!({
-                "anchors": s.anchors, "derived": s.derived, "strong": s.strong,
-                "mode": mode_name(s.mode)
-            })),
-            "last_update_ms": self.last_update_ms,
-        });
-        add_det_j(&mut v, &self.det_j());
-        v
+            last_update_ms: self.last_update_ms,
+            det_j: Certificate::from(&self.det_j()),
+        }
     }
 
     /// 2DSD.Select: anchors, a neighbourhood radius (`None`: all points) and the mode.
@@ -299,28 +300,28 @@ impl Doc {
         anchors: &[ControlPoint],
         radius: Option<usize>,
         mode: Mode,
-    ) -> Result<Value, ServerError> {
+    ) -> Result<Selected, ServerError> {
         let hood = match radius {
             Some(r) => Neighborhood::Radius(r),
             None => Neighborhood::All,
         };
         let before = self.editor.spline().clone();
         let sel = self.editor.select(anchors, &[], &hood, mode).map_err(edit_err)?;
-        let out = json!({
-            "anchors": sel.anchors,
-            "derived": sel.derived,
-            "theta": sel.theta,
-            "strong": sel.strong,
-            "relevant": sel.relevant(),
-            "rank": sel.rank(),
-            "solver": if sel.is_global() {
+        let out = Selected {
+            anchors: sel.anchors.clone(),
+            derived: sel.derived.clone(),
+            theta: sel.theta.clone(),
+            strong: sel.strong,
+            relevant: sel.relevant(),
+            rank: sel.rank(),
+            solver: if sel.is_global() {
                 "determining_set"
             } else if sel.is_modular() {
                 "modular"
             } else {
                 "sessions"
             },
-        });
+        };
         self.before_drag = Some(before);
         self.last_op = None;
         Ok(out)
@@ -399,7 +400,16 @@ impl Doc {
     /// Also returns the copies a scene needs
     /// (relative path, the frame's PNG bytes or `None` for the model): a model or frame with no file inside that folder (bundled,
     /// or elsewhere) is written beside the scene as `STEM.model.obj` / `STEM.frame.png`.
-    pub fn to_json(&self, scene: Option<&str>) -> (Value, Vec<SceneCopy>) {
+    /// The text is the file [`Doc::save`] writes.
+    pub fn to_json(&self, scene: Option<&str>) -> (String, Vec<SceneCopy>) {
+        let (v, copies) = self.file_value(scene);
+        (crate::io::json_rows(&v), copies)
+    }
+
+    /// [`Doc::to_json`] as the value `io::deformation` builds. A deformation file is
+    /// `io`'s format, written from its untyped value (`io::deformation::to_json_with`)
+    /// with the editor's keys added, so it stays a `Value` here.
+    fn file_value(&self, scene: Option<&str>) -> (Value, Vec<SceneCopy>) {
         let last = self
             .editor
             .selection()
@@ -476,7 +486,7 @@ impl Doc {
     /// `rel` inside the root; returns the file and the copies written.
     pub fn save(&self, rel: &str, scene: bool) -> Result<(PathBuf, Vec<String>), ServerError> {
         let path = self.output_path(rel)?;
-        let (v, copies) = self.to_json(scene.then_some(rel));
+        let (text, copies) = self.to_json(scene.then_some(rel));
         let io = |e: crate::io::IoError| ServerError::Io(e.to_string());
         let mut written = Vec::new();
         for (c, bytes) in &copies {
@@ -495,7 +505,6 @@ impl Doc {
             }
             written.push(c.clone());
         }
-        let text = crate::io::json_rows(&v);
         write_atomic(&path, text.as_bytes()).map_err(io)?;
         Ok((path, written))
     }
@@ -504,7 +513,7 @@ impl Doc {
     /// (a deformation over the same mesh: loading it keeps the undo history; `null` when
     /// not readable as a deformation), and `scene_copies` (files a scene save would write
     /// besides, that exist already).
-    pub fn stat(&self, rel: &str) -> Result<Value, ServerError> {
+    pub fn stat(&self, rel: &str) -> Result<Stat, ServerError> {
         let path = confine(&self.root, rel, true)?;
         let exists = path.exists();
         let same = exists
@@ -513,13 +522,13 @@ impl Doc {
             .and_then(|t| deformation::from_str(&t).ok())
             .map(|(s, _)| crate::edit::same_layout(self.spline(), &s));
         let copies: Vec<String> = self
-            .to_json(Some(rel))
+            .file_value(Some(rel))
             .1
             .into_iter()
             .map(|(c, _)| c)
             .filter(|c| self.root.join(c).exists())
             .collect();
-        Ok(json!({ "exists": exists, "same_layout": same, "scene_copies": copies }))
+        Ok(Stat { exists, same_layout: same, scene_copies: copies })
     }
 
     /// Loads a deformation or scene from `rel` inside the root. Over the same mesh it
@@ -537,6 +546,8 @@ impl Doc {
             )));
         }
         let pinned = deformation::pinned_from_str(&text).map_err(|e| bad(e.to_string()))?;
+        // A scene is a deformation file (`io::deformation`'s format, any of its keys) with
+        // the editor's keys: read as a free-form value, not a request body.
         let v: Value = serde_json::from_str(&text).map_err(|e| bad(e.to_string()))?;
         // Keys are relative to the scene file's folder (as `trimorph editor SCENE` reads them).
         let folder = Path::new(rel).parent().unwrap_or(Path::new(""));
@@ -650,7 +661,7 @@ impl Doc {
     /// Re-runs the fit from the current state with the landmarks in `rel`, holding every
     /// point corrected by hand exactly ([`FitOptions::pinned`]); `hard` makes the
     /// landmarks exact too. One undoable step.
-    pub fn refit(&mut self, rel: &str, hard: bool) -> Result<Value, ServerError> {
+    pub fn refit(&mut self, rel: &str, hard: bool) -> Result<Refitted, ServerError> {
         let path = confine(&self.root, rel, false)?;
         let lms =
             read_landmarks(&path).map_err(|e| ServerError::Unprocessable(format!("{rel}: {e}")))?;
@@ -664,7 +675,7 @@ impl Doc {
         lms: &[Landmark],
         hard: bool,
         what: String,
-    ) -> Result<Value, ServerError> {
+    ) -> Result<Refitted, ServerError> {
         let opts = FitOptions {
             pinned: self.pinned.iter().copied().collect(),
             hard,
@@ -677,13 +688,14 @@ impl Doc {
         self.push_undo(cur, what);
         self.before_drag = None;
         self.cert.refresh_all(self.editor.spline());
-        Ok(json!({
-            "method": f.report.method,
-            "rms": f.report.fit.rms,
-            "max": f.report.fit.max,
-            "pinned": opts.pinned.len(),
-            "min_det_j": f.report.min_det_j,
-        }))
+        Ok(Refitted {
+            method: f.report.method,
+            rms: f.report.fit.rms,
+            max: f.report.fit.max,
+            pinned: opts.pinned.len(),
+            min_det_j: f.report.min_det_j,
+            landmarks: None,
+        })
     }
 }
 
@@ -721,16 +733,6 @@ fn check_op(op: &Op) -> Result<(), ServerError> {
             Ok(())
         }
     }
-}
-
-/// Adds the certificate's keys to a JSON object: `fold_free` (certified), `folding_triangles`,
-/// `undecided_triangles`, `det_j_lower_bound` and `det_j_sampled_min`.
-pub fn add_det_j(v: &mut Value, c: &DetJ) {
-    v["fold_free"] = json!(c.fold_free);
-    v["folding_triangles"] = json!(c.folding);
-    v["undecided_triangles"] = json!(c.undecided);
-    v["det_j_lower_bound"] = json!(c.lower_bound);
-    v["det_j_sampled_min"] = json!(c.sampled_min);
 }
 
 /// The mode's name in the API.

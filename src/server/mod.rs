@@ -8,32 +8,40 @@
 //!
 //! # API (JSON bodies and answers)
 //!
+//! Each body is a typed value of [`requests`], read by [`requests::read_body`] through the
+//! strict JSON reader (a key given twice is refused; unknown keys are ignored; a bad or
+//! missing field is a 400 naming it). Each answer is a typed value of [`answers`], its keys
+//! written in the order its fields are declared, then `server_ms` (the handler's time; not
+//! in error answers). A geometry answer (select, update, undo, redo, refit) is its own
+//! keys, then the geometry's ([`views::geometry`]), then `state` ([`answers::State`]),
+//! then `server_ms`.
+//!
 //! | request | body | answer |
 //! |---|---|---|
-//! | `GET /api/state` | | [`Doc::state`] |
+//! | `GET /api/state` | | [`answers::State`] ([`Doc::state`]) |
 //! | `GET /api/geometry[?full=1]` | | [`views::geometry`] |
 //! | `GET /api/image.png` | | the frame (the moving image) |
 //! | `GET /api/fixed.png` | | the fixed image of a two-image session ([`doc::Doc::fixed`]) |
 //! | `GET /api/jacobian.png` | | det J overlay ([`views::jacobian_png`]) |
 //! | `GET /api/warp[?step=8]` | | the live warp's coarse inverse map ([`views::inverse_grid`]) |
 //! | `GET /api/warp?forward=1[&step=8]` | | the live warp's coarse forward map ([`views::forward_grid`]) |
-//! | `POST /api/pick` | `{x, y, max_dist?}` | `{index, point}` (nearest control point) |
-//! | `POST /api/select[?warp=8]` | `{anchors, radius?, mode?}` (`radius` null: all) | selection (with `warp`, xy mode and a frame: the live warp's basis for a translation, [`views::translate_grid`]) |
-//! | `POST /api/update[?warp=8]` | `{op: translate, v}` (or `by`) / `{op: rotate, center, angle}` / `{op: scale, center, factor}`: a [`crate::edit::script::Motion`] | geometry (with `warp`: the forward map, [`views::forward_grid`], when a frame is loaded) |
-//! | `POST /api/clear` | | state |
-//! | `POST /api/undo`, `/api/redo` | | geometry and `undid` / `redid`: what the step was (a step is a drag, a load over the same mesh, a re-fit or a pair change: [`doc::history`]) |
-//! | `POST /api/save` | `{path, scene?}` | `{saved, written}` (`written`: a scene's copies of its model and frame) |
-//! | `POST /api/stat` | `{path}` | `{exists, same_layout, scene_copies}` (asked before a save or load) |
-//! | `POST /api/load` | `{path}` | state |
-//! | `POST /api/export` | `{kind: obj / warped, path}` | `{saved}` |
-//! | `POST /api/refit` | `{landmarks?, hard?}` (`landmarks`: a file; none: the doc's pairs) | fit summary (with the pairs' `landmarks` list when fitted from them) |
-//! | `GET /api/landmarks` | | the pairs ([`doc::Doc::pairs_json`], with the `undo` / `redo` counts) |
-//! | `POST /api/landmarks/add` | `{src, dst, name?}` | the pairs, `index` of the new one |
-//! | `POST /api/landmarks/move` | `{index, src?, dst?}` | the pairs |
-//! | `POST /api/landmarks/delete` | `{index}` | the pairs |
-//! | `POST /api/landmarks/active` | `{index, active}` | the pairs (an inactive pair is kept but not fitted) |
-//! | `POST /api/landmarks/import` | `{path}` (CSV, BigWarp CSV or JSON) | the pairs |
-//! | `POST /api/landmarks/export` | `{path, format: csv / bigwarp / json}` | `{saved}` |
+//! | `POST /api/pick` | [`requests::Pick`] `{x, y, max_dist?}` | [`answers::Picked`] `{index, point}` (nearest control point) |
+//! | `POST /api/select[?warp=8]` | [`requests::Select`] `{anchors, radius?, mode?}` (`radius` null: all) | [`answers::Selected`] and geometry (with `warp`, xy mode and a frame: the live warp's basis for a translation, [`views::translate_grid`]) |
+//! | `POST /api/update[?warp=8]` | `{op: translate, v}` (or `by`) / `{op: rotate, center, angle}` / `{op: scale, center, factor}`: a [`crate::edit::script::Motion`] ([`doc::Op`]) | [`answers::Updated`] `{update_ms}` and geometry (with `warp`: the forward map, [`views::forward_grid`], when a frame is loaded) |
+//! | `POST /api/clear` | | [`answers::State`] |
+//! | `POST /api/undo`, `/api/redo` | | [`answers::Undid`] `{undid}` / [`answers::Redid`] `{redid}` and geometry: what the step was (a step is a drag, a load over the same mesh, a re-fit or a pair change: [`doc::history`]) |
+//! | `POST /api/save` | [`requests::Save`] `{path, scene?}` | [`answers::SavedScene`] `{saved, written}` (`written`: a scene's copies of its model and frame) |
+//! | `POST /api/stat` | [`requests::PathBody`] `{path}` | [`answers::Stat`] `{exists, same_layout, scene_copies}` (asked before a save or load) |
+//! | `POST /api/load` | [`requests::PathBody`] `{path}` | [`answers::State`] |
+//! | `POST /api/export` | [`requests::Export`] `{kind: obj / warped, path}` | [`answers::Saved`] `{saved}` |
+//! | `POST /api/refit` | [`requests::Refit`] `{landmarks?, hard?}` (`landmarks`: a file; none: the doc's pairs) | [`answers::Refitted`] (fit summary, with the pairs' `landmarks` list when fitted from them) and geometry |
+//! | `GET /api/landmarks` | | [`answers::Pairs`] ([`doc::Doc::pairs_json`], with the `undo` / `redo` counts) |
+//! | `POST /api/landmarks/add` | [`requests::AddPair`] `{src, dst, name?}` | [`answers::Pairs`], `index` of the new one |
+//! | `POST /api/landmarks/move` | [`requests::MovePair`] `{index, src?, dst?}` | [`answers::Pairs`] |
+//! | `POST /api/landmarks/delete` | [`requests::PairIndex`] `{index}` | [`answers::Pairs`] |
+//! | `POST /api/landmarks/active` | [`requests::SetActive`] `{index, active}` | [`answers::Pairs`] (an inactive pair is kept but not fitted) |
+//! | `POST /api/landmarks/import` | [`requests::PathBody`] `{path}` (CSV, BigWarp CSV or JSON) | [`answers::Pairs`] |
+//! | `POST /api/landmarks/export` | [`requests::ExportPairs`] `{path, format: csv / bigwarp / json}` | [`answers::Saved`] `{saved}` |
 //!
 //! The state and every geometry answer (select, update, undo, redo) also carry the det J
 //! certificate ([`crate::spline::jacobian`]): `fold_free` (certified), `folding_triangles`,
@@ -41,7 +49,7 @@
 //! `folding_outline` (the deformed corners of each folding triangle, 6 numbers each). A drag
 //! re-certifies only the triangles around the points it moved.
 //!
-//! Errors answer `{"error": message}` with 400 (bad request), 401 (no or wrong session
+//! Errors answer `{"error": message}` ([`answers::ErrorAnswer`]) with 400 (bad request), 401 (no or wrong session
 //! token), 403 (path outside the folder, foreign `Host` or `Origin`), 404, 408 (a body not
 //! complete within the read timeout), 413 (body over [`MAX_BODY`] bytes), 415 (body not
 //! `application/json`) or 422 (an edit or file the engine refuses; the document is
@@ -60,15 +68,19 @@
 //! bytes of a request body, serves only the embedded assets, and confines every file path
 //! to the folder it was started in ([`paths::confine`]).
 
+pub mod answers;
 pub mod doc;
 pub mod http;
 pub mod net;
 pub mod paths;
+pub mod requests;
 pub mod start;
 pub mod views;
 
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests_answers;
 #[cfg(test)]
 mod tests_bigwarp;
 #[cfg(test)]
@@ -76,10 +88,9 @@ mod tests_http;
 #[cfg(test)]
 mod tests_pairs;
 
-use crate::edit::Mode;
-use crate::spline::ControlPoint;
 use doc::{Doc, Op};
-use serde_json::{json, Value};
+use requests::read_body;
+use serde::Serialize;
 use std::time::Instant;
 
 pub use net::{serve_bytes, Server, ACCEPT_POLL};
@@ -160,56 +171,23 @@ pub struct Reply {
 }
 
 impl Reply {
-    fn json(v: &Value) -> Reply {
-        Reply { status: 200, content_type: "application/json", body: v.to_string().into_bytes() }
+    /// A JSON answer (the gate's tests answer with it).
+    #[cfg(test)]
+    fn json<T: Serialize + ?Sized>(v: &T) -> Reply {
+        match serde_json::to_vec(v) {
+            Ok(body) => Reply { status: 200, content_type: "application/json", body },
+            Err(e) => Reply::error(&ServerError::Io(format!("writing the answer: {e}"))),
+        }
     }
     fn error(e: &ServerError) -> Reply {
+        let answer = answers::ErrorAnswer { error: e.to_string() };
         Reply {
             status: e.status(),
             content_type: "application/json",
-            body: json!({ "error": e.to_string() }).to_string().into_bytes(),
+            // A struct of one string: serde_json cannot fail to write it.
+            body: serde_json::to_vec(&answer).unwrap_or_default(),
         }
     }
-}
-
-fn field<'a>(b: &'a Value, k: &str) -> Result<&'a Value, ServerError> {
-    b.get(k).ok_or_else(|| ServerError::BadRequest(format!("missing `{k}`")))
-}
-fn num(b: &Value, k: &str) -> Result<f64, ServerError> {
-    field(b, k)?
-        .as_f64()
-        .filter(|v| v.is_finite())
-        .ok_or_else(|| ServerError::BadRequest(format!("`{k}` must be a finite number")))
-}
-fn nums(b: &Value, k: &str) -> Result<Vec<f64>, ServerError> {
-    let bad = || ServerError::BadRequest(format!("`{k}` must be an array of finite numbers"));
-    field(b, k)?
-        .as_array()
-        .ok_or_else(bad)?
-        .iter()
-        .map(|v| v.as_f64().filter(|x| x.is_finite()).ok_or_else(bad))
-        .collect()
-}
-fn pt(b: &Value, k: &str) -> Result<[f64; 2], ServerError> {
-    match nums(b, k)?[..] {
-        [x, y] => Ok([x, y]),
-        _ => Err(ServerError::BadRequest(format!("`{k}` must be 2 numbers [x, y]"))),
-    }
-}
-fn opt_pt(b: &Value, k: &str) -> Result<Option<[f64; 2]>, ServerError> {
-    match b.get(k) {
-        None | Some(Value::Null) => Ok(None),
-        Some(_) => pt(b, k).map(Some),
-    }
-}
-fn index(b: &Value) -> Result<usize, ServerError> {
-    field(b, "index")?
-        .as_u64()
-        .map(|i| i as usize)
-        .ok_or_else(|| ServerError::BadRequest("`index` must be an integer >= 0".into()))
-}
-fn text<'a>(b: &'a Value, k: &str) -> Result<&'a str, ServerError> {
-    field(b, k)?.as_str().ok_or_else(|| ServerError::BadRequest(format!("`{k}` must be a string")))
 }
 
 /// The positive integer `k=N` of a query (`None` when absent).
@@ -235,11 +213,15 @@ pub fn handle(doc: &mut Doc, method: &str, url: &str, body: &[u8]) -> Reply {
     }
     let r = route(doc, method, path, query, body);
     match r {
-        Ok(Answer::Json(mut v)) => {
-            if let Some(o) = v.as_object_mut() {
-                o.insert("server_ms".into(), json!(t0.elapsed().as_secs_f64() * 1e3));
+        Ok(Answer::Json(mut text)) => {
+            // A typed answer's object: `server_ms` last, written as serde_json writes it.
+            let ms = serde_json::to_string(&(t0.elapsed().as_secs_f64() * 1e3));
+            if let (Some(b'}'), Ok(ms)) = (text.as_bytes().last(), ms) {
+                text.pop();
+                let comma = if text.len() > 1 { "," } else { "" };
+                text.push_str(&format!("{comma}\"server_ms\":{ms}}}"));
             }
-            Reply::json(&v)
+            Reply { status: 200, content_type: "application/json", body: text.into_bytes() }
         }
         Ok(Answer::Text(mut text)) => {
             // A JSON object: `server_ms` goes before its closing brace.
@@ -259,16 +241,26 @@ pub fn handle(doc: &mut Doc, method: &str, url: &str, body: &[u8]) -> Reply {
 }
 
 enum Answer {
-    Json(Value),
+    /// A typed answer ([`answers`]) written as a JSON object.
+    Json(String),
     /// A JSON object already written as text (the geometry answers).
     Text(String),
     Png(Vec<u8>),
 }
 
-/// The entries of the object `extra`, the geometry and the state, as one JSON object.
-fn with_geometry(doc: &Doc, extra: Value) -> Answer {
+/// A typed answer ([`answers`]) as JSON text (a 500 if serde_json cannot write it, which
+/// none of them gives it reason to).
+fn json<T: Serialize>(v: T) -> Result<Answer, ServerError> {
+    serde_json::to_string(&v)
+        .map(Answer::Json)
+        .map_err(|e| ServerError::Io(format!("writing the answer: {e}")))
+}
+
+/// The entries of the object `extra` (a typed answer), the geometry and the state, as one
+/// JSON object.
+fn with_geometry<T: Serialize>(doc: &Doc, extra: &T) -> Answer {
     let mut out = views::JsonObject::new();
-    out.extend(&extra);
+    out.extend(extra);
     views::write_geometry(doc, false, &mut out);
     out.value("state", &doc.state());
     Answer::Text(out.finish())
@@ -281,15 +273,9 @@ fn route(
     query: &str,
     body: &[u8],
 ) -> Result<Answer, ServerError> {
-    use Answer::{Json, Png};
-    let parse = || -> Result<Value, ServerError> {
-        if body.is_empty() {
-            return Ok(json!({}));
-        }
-        serde_json::from_slice(body).map_err(|e| ServerError::BadRequest(format!("JSON: {e}")))
-    };
+    use Answer::Png;
     match (method, path) {
-        ("GET", "/api/state") => Ok(Json(doc.state())),
+        ("GET", "/api/state") => json(doc.state()),
         ("GET", "/api/geometry") => {
             Ok(Answer::Text(views::geometry(doc, query.split('&').any(|q| q == "full=1"))))
         }
@@ -332,38 +318,21 @@ fn route(
             views::jacobian_png(doc, w, h).map(Png).map_err(|e| ServerError::Io(e.to_string()))
         }
         ("POST", "/api/pick") => {
-            let b = parse()?;
-            let p = [num(&b, "x")?, num(&b, "y")?];
-            let max = b.get("max_dist").and_then(Value::as_f64).unwrap_or(f64::INFINITY);
+            let b: requests::Pick = read_body(body)?;
+            let p = [b.x, b.y];
+            let max = b.max_dist.unwrap_or(f64::INFINITY);
             let i = doc.editor().nearest_points(&[p])[0].index();
             let q = doc.spline().point_f64(i);
             if (q[0] - p[0]).hypot(q[1] - p[1]) > max {
-                return Ok(Json(json!({ "index": null })));
+                return json(answers::Picked { index: None, point: None });
             }
-            Ok(Json(json!({ "index": i, "point": q })))
+            json(answers::Picked { index: Some(i), point: Some(q) })
         }
         ("POST", "/api/select") => {
-            let b = parse()?;
-            let bad = || ServerError::BadRequest("`anchors` must be an array of indices".into());
-            let anchors: Vec<ControlPoint> = field(&b, "anchors")?
-                .as_array()
-                .ok_or_else(bad)?
-                .iter()
-                .map(|v| v.as_u64().map(|x| ControlPoint(x as usize)).ok_or_else(bad))
-                .collect::<Result<_, _>>()?;
-            let radius = match b.get("radius") {
-                None | Some(Value::Null) => None,
-                Some(v) => Some(v.as_u64().ok_or_else(|| {
-                    ServerError::BadRequest("`radius` must be an integer >= 0 or null".into())
-                })? as usize),
-            };
-            let mode: Mode = match b.get("mode").and_then(Value::as_str) {
-                Some(m) => m.parse().map_err(ServerError::BadRequest)?,
-                None => Mode::Xy,
-            };
+            let b: requests::Select = read_body(body)?;
             let warp = step_query(query, "warp")?;
-            let sel = doc.select(&anchors, radius, mode)?;
-            let mut answer = with_geometry(doc, sel);
+            let sel = doc.select(&b.anchors, b.radius, b.mode)?;
+            let mut answer = with_geometry(doc, &sel);
             if let (Some(step), Answer::Text(text)) = (warp, &mut answer) {
                 if let Some(grid) = views::translate_grid(doc, step) {
                     text.pop();
@@ -375,11 +344,12 @@ fn route(
             Ok(answer)
         }
         ("POST", "/api/update") => {
-            let b = parse()?;
-            let op = Op::from_value(&b).map_err(|e| ServerError::BadRequest(e.to_string()))?;
+            // A drag step is an edit-script motion; its reader names the bad key.
+            let op: Op = read_body(body)?;
             let warp = step_query(query, "warp")?;
             doc.update(&op)?;
-            let mut answer = with_geometry(doc, json!({ "update_ms": doc.last_update_ms }));
+            let mut answer =
+                with_geometry(doc, &answers::Updated { update_ms: doc.last_update_ms });
             if let (Some(step), Answer::Text(text)) = (warp, &mut answer) {
                 if let Some(grid) = views::forward_grid(doc, step) {
                     // Before the closing brace of the geometry object.
@@ -393,94 +363,78 @@ fn route(
         }
         ("POST", "/api/clear") => {
             doc.clear_selection();
-            Ok(Json(doc.state()))
+            json(doc.state())
         }
         ("POST", "/api/undo") => {
-            let what = doc.undo()?;
-            Ok(with_geometry(doc, json!({ "undid": what })))
+            let undid = doc.undo()?;
+            Ok(with_geometry(doc, &answers::Undid { undid }))
         }
         ("POST", "/api/redo") => {
-            let what = doc.redo()?;
-            Ok(with_geometry(doc, json!({ "redid": what })))
+            let redid = doc.redo()?;
+            Ok(with_geometry(doc, &answers::Redid { redid }))
         }
         ("POST", "/api/save") => {
-            let b = parse()?;
-            let scene = b.get("scene").and_then(Value::as_bool).unwrap_or(false);
-            let (p, written) = doc.save(text(&b, "path")?, scene)?;
-            Ok(Json(json!({ "saved": p.display().to_string(), "written": written })))
+            let b: requests::Save = read_body(body)?;
+            let (p, written) = doc.save(&b.path, b.scene)?;
+            json(answers::SavedScene { saved: p.display().to_string(), written })
         }
         ("POST", "/api/stat") => {
-            let b = parse()?;
-            Ok(Json(doc.stat(text(&b, "path")?)?))
+            let b: requests::PathBody = read_body(body)?;
+            json(doc.stat(&b.path)?)
         }
         ("POST", "/api/load") => {
-            let b = parse()?;
-            doc.load(text(&b, "path")?)?;
-            Ok(Json(doc.state()))
+            let b: requests::PathBody = read_body(body)?;
+            doc.load(&b.path)?;
+            json(doc.state())
         }
         ("POST", "/api/export") => {
-            let b = parse()?;
-            let path = text(&b, "path")?;
-            let p = match text(&b, "kind")? {
-                "obj" | "model" => doc.export_model(path)?,
-                "warped" | "image" => doc.export_warped(path)?,
-                other => {
-                    return Err(ServerError::BadRequest(format!(
-                        "unknown export `{other}` (obj or warped)"
-                    )))
-                }
+            let b: requests::Export = read_body(body)?;
+            let p = match b.kind {
+                requests::ExportKind::Model => doc.export_model(&b.path)?,
+                requests::ExportKind::Warped => doc.export_warped(&b.path)?,
             };
-            Ok(Json(json!({ "saved": p.display().to_string() })))
+            json(answers::Saved { saved: p.display().to_string() })
         }
         ("POST", "/api/refit") => {
-            let b = parse()?;
-            let hard = b.get("hard").and_then(Value::as_bool).unwrap_or(false);
-            let r = match b.get("landmarks") {
-                None | Some(Value::Null) => doc.refit_pairs(hard)?,
-                Some(_) => doc.refit(text(&b, "landmarks")?, hard)?,
+            let b: requests::Refit = read_body(body)?;
+            let r = match &b.landmarks {
+                None => doc.refit_pairs(b.hard)?,
+                Some(file) => doc.refit(file, b.hard)?,
             };
-            Ok(with_geometry(doc, r))
+            Ok(with_geometry(doc, &r))
         }
-        ("GET", "/api/landmarks") => Ok(Json(doc.pairs_json())),
+        ("GET", "/api/landmarks") => json(doc.pairs_json()),
         ("POST", "/api/landmarks/add") => {
-            let b = parse()?;
-            let name = match b.get("name") {
-                None | Some(Value::Null) => None,
-                Some(_) => Some(text(&b, "name")?.to_string()).filter(|n| !n.is_empty()),
-            };
-            let i = doc.add_pair(name, pt(&b, "src")?, pt(&b, "dst")?)?;
-            let mut v = doc.pairs_json();
-            v["index"] = json!(i);
-            Ok(Json(v))
+            let b: requests::AddPair = read_body(body)?;
+            let name = b.name.filter(|n| !n.is_empty());
+            let i = doc.add_pair(name, b.src, b.dst)?;
+            json(answers::Pairs { index: Some(i), ..doc.pairs_json() })
         }
         ("POST", "/api/landmarks/move") => {
-            let b = parse()?;
-            doc.move_pair(index(&b)?, opt_pt(&b, "src")?, opt_pt(&b, "dst")?)?;
-            Ok(Json(doc.pairs_json()))
+            let b: requests::MovePair = read_body(body)?;
+            doc.move_pair(b.index, b.src, b.dst)?;
+            json(doc.pairs_json())
         }
         ("POST", "/api/landmarks/delete") => {
-            let b = parse()?;
-            doc.delete_pair(index(&b)?)?;
-            Ok(Json(doc.pairs_json()))
+            let b: requests::PairIndex = read_body(body)?;
+            doc.delete_pair(b.index)?;
+            json(doc.pairs_json())
         }
         ("POST", "/api/landmarks/active") => {
-            let b = parse()?;
-            let active = field(&b, "active")?
-                .as_bool()
-                .ok_or_else(|| ServerError::BadRequest("`active` must be true or false".into()))?;
-            doc.set_active(index(&b)?, active)?;
-            Ok(Json(doc.pairs_json()))
+            let b: requests::SetActive = read_body(body)?;
+            doc.set_active(b.index, b.active)?;
+            json(doc.pairs_json())
         }
         ("POST", "/api/landmarks/import") => {
-            let b = parse()?;
-            doc.import_pairs(text(&b, "path")?)?;
-            Ok(Json(doc.pairs_json()))
+            let b: requests::PathBody = read_body(body)?;
+            doc.import_pairs(&b.path)?;
+            json(doc.pairs_json())
         }
         ("POST", "/api/landmarks/export") => {
-            let b = parse()?;
-            let f = doc::pairs::format_named(text(&b, "format")?)?;
-            let p = doc.export_pairs(text(&b, "path")?, f)?;
-            Ok(Json(json!({ "saved": p.display().to_string() })))
+            let b: requests::ExportPairs = read_body(body)?;
+            let f = doc::pairs::format_named(&b.format)?;
+            let p = doc.export_pairs(&b.path, f)?;
+            json(answers::Saved { saved: p.display().to_string() })
         }
         (_, p) if p.starts_with("/api/") => {
             Err(ServerError::NotFound(format!("{method} {p} is not part of the API")))

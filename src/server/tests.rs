@@ -2,6 +2,7 @@ use super::doc::Doc;
 use super::*;
 use crate::mesh::{Mesh, MeshOptions};
 use crate::spline::{ControlPoint, Spline};
+use serde_json::{json, Value};
 use std::io::{Read as _, Write};
 use std::net::{SocketAddr, TcpStream};
 use std::sync::atomic::{AtomicBool, Ordering};

@@ -14,13 +14,15 @@
 //! * `selection`: anchors, derived points and the relevant non-redundant constraints of the
 //!   current edit (indices into the quadrilaterals).
 
+use super::answers::{Certificate, GeometrySelection};
 use super::doc::Doc;
-use serde_json::{json, Value};
+use serde::Serialize;
 
 /// A JSON object written straight to text. The big numeric arrays of the geometry go in
-/// without a [`Value`] tree: with serde_json's `arbitrary_precision` every number in a
-/// `Value` is its own heap string, which made building the answer cost more than the exact
-/// update it reports.
+/// without a `serde_json::Value` tree: with serde_json's `arbitrary_precision` every number
+/// in a `Value` is its own heap string, which made building the answer cost more than the
+/// exact update it reports. The small parts are typed values ([`super::answers`]) written
+/// as `serde_json` writes them.
 pub struct JsonObject {
     buf: String,
 }
@@ -35,7 +37,7 @@ impl JsonObject {
         if self.buf.len() > 1 {
             self.buf.push(',');
         }
-        self.buf.push_str(&Value::from(k).to_string());
+        self.push_json(k);
         self.buf.push(':');
     }
 
@@ -81,17 +83,31 @@ impl JsonObject {
         self.buf.push_str(text);
     }
 
-    /// Appends `"k": value`.
-    pub fn value(&mut self, k: &str, v: &Value) {
-        self.key(k);
-        self.buf.push_str(&v.to_string());
+    /// `v` as `serde_json` writes it (`null` for a value it cannot write, which no answer
+    /// has: their maps, if any, have string keys).
+    fn push_json<T: Serialize + ?Sized>(&mut self, v: &T) {
+        match serde_json::to_string(v) {
+            Ok(text) => self.buf.push_str(&text),
+            Err(_) => self.buf.push_str("null"),
+        }
     }
 
-    /// Appends every entry of the JSON object `v` (nothing if `v` is not an object).
-    pub fn extend(&mut self, v: &Value) {
-        if let Some(o) = v.as_object() {
-            for (k, x) in o {
-                self.value(k, x);
+    /// Appends `"k": value`.
+    pub fn value<T: Serialize + ?Sized>(&mut self, k: &str, v: &T) {
+        self.key(k);
+        self.push_json(v);
+    }
+
+    /// Appends every entry of `v`, in the order written, if `v` is written as a JSON object
+    /// (a struct of [`super::answers`]); nothing otherwise.
+    pub fn extend<T: Serialize + ?Sized>(&mut self, v: &T) {
+        let Ok(text) = serde_json::to_string(v) else { return };
+        if let Some(inner) = text.strip_prefix('{').and_then(|t| t.strip_suffix('}')) {
+            if !inner.is_empty() {
+                if self.buf.len() > 1 {
+                    self.buf.push(',');
+                }
+                self.buf.push_str(inner);
             }
         }
     }
@@ -190,7 +206,7 @@ pub fn write_geometry(doc: &Doc, full: bool, out: &mut JsonObject) {
         out.numbers("z1", f(&z.z1));
         out.value(
             "z_range",
-            &json!([crate::exact::rat_to_f64(&z.range[0]), crate::exact::rat_to_f64(&z.range[1])]),
+            &[crate::exact::rat_to_f64(&z.range[0]), crate::exact::rat_to_f64(&z.range[1])],
         );
     }
     if let (Some(v), Some(m)) = (doc.deformed_model(), doc.model()) {
@@ -205,9 +221,7 @@ pub fn write_geometry(doc: &Doc, full: bool, out: &mut JsonObject) {
     // The certificate, and each folding triangle's deformed corners (x0, y0, x1, y1, x2, y2)
     // for the page to outline.
     let det_j = doc.det_j();
-    let mut cert = json!({});
-    super::doc::add_det_j(&mut cert, &det_j);
-    out.extend(&cert);
+    out.extend(&Certificate::from(&det_j));
     out.numbers(
         "folding_outline",
         det_j.folding.iter().flat_map(|&t| {
@@ -220,11 +234,11 @@ pub fn write_geometry(doc: &Doc, full: bool, out: &mut JsonObject) {
         let relevant = sel.independent_constraints(doc.editor().spline());
         out.value(
             "selection",
-            &json!({
-                "anchors": sel.anchors,
-                "derived": sel.derived,
-                "constraints": relevant,
-            }),
+            &GeometrySelection {
+                anchors: sel.anchors.clone(),
+                derived: sel.derived.clone(),
+                constraints: relevant,
+            },
         );
     }
     if full {
@@ -234,12 +248,12 @@ pub fn write_geometry(doc: &Doc, full: bool, out: &mut JsonObject) {
             net.extend(nb.iter().filter(|&&b| b > a).map(|&b| [a, b]));
         }
         let quads: Vec<[usize; 4]> = s.quads().iter().map(|q| [q.l, q.p, q.r, q.n]).collect();
-        out.value("net", &json!(net));
-        out.value("quads", &json!(quads));
+        out.value("net", &net);
+        out.value("quads", &quads);
         let mesh = s.mesh();
         out.points("reference", (0..mesh.num_vertices()).map(|v| mesh.vertex(v)));
         if let Some(m) = doc.model() {
-            out.value("model_triangles", &json!(m.model.triangles));
+            out.value("model_triangles", &m.model.triangles);
         }
     }
 }
@@ -297,11 +311,11 @@ pub fn inverse_grid(doc: &Doc, step: u32) -> Option<String> {
         })
         .collect();
     let mut out = JsonObject::new();
-    out.value("step", &json!(step));
-    out.value("width", &json!(w));
-    out.value("height", &json!(h));
-    out.value("nx", &json!(nx));
-    out.value("ny", &json!(ny));
+    out.value("step", &step);
+    out.value("width", &w);
+    out.value("height", &h);
+    out.value("nx", &nx);
+    out.value("ny", &ny);
     out.numbers("map", rows.iter().flatten().flat_map(|p| *p));
     Some(out.finish())
 }
@@ -386,12 +400,12 @@ fn grid_header(doc: &Doc, step: u32) -> Option<JsonObject> {
     let nodes = doc.forward_nodes(w, h, step.clamp(1, 64));
     let target = doc.fixed().map_or((w, h), |x| (x.image.width(), x.image.height()));
     let mut out = JsonObject::new();
-    out.value("forward", &json!(true));
-    out.value("step", &json!(nodes.key.2));
-    out.value("width", &json!(w));
-    out.value("height", &json!(h));
-    out.value("nx", &json!(nodes.nx));
-    out.value("ny", &json!(nodes.ny));
-    out.value("target", &json!([target.0, target.1]));
+    out.value("forward", &true);
+    out.value("step", &nodes.key.2);
+    out.value("width", &w);
+    out.value("height", &h);
+    out.value("nx", &nodes.nx);
+    out.value("ny", &nodes.ny);
+    out.value("target", &[target.0, target.1]);
     Some(out)
 }

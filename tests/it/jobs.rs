@@ -188,5 +188,5 @@ fn the_editor_starts_on_the_bundled_scene() {
     let dir = tempfile::tempdir().unwrap();
     let doc = trimorph::server::start::initial_doc(&Default::default(), dir.path()).unwrap();
     let state = doc.state();
-    assert_eq!(state["name"], "bundled worm scene", "{state}");
+    assert_eq!(state.name.as_deref(), Some("bundled worm scene"), "{state:?}");
 }

@@ -32,6 +32,7 @@
 use super::{within, Doc, MAX_COORD};
 use crate::fit::landmarks::{self, Landmark, LandmarkFormat};
 use crate::io::landmarks::{read_landmarks_flagged, write_landmarks_flagged};
+use crate::server::answers::{PairRow, Pairs, Refitted};
 use crate::server::paths::confine;
 use crate::server::ServerError;
 use serde_json::{json, Value};
@@ -225,12 +226,12 @@ impl Doc {
     /// outside the mesh) and `active` flag, `rms` and `max` over the active pairs with a
     /// residual (`null` without any), and the history's `undo` and `redo` step counts (a
     /// pair change is one step).
-    pub fn pairs_json(&self) -> Value {
+    pub fn pairs_json(&self) -> Pairs {
         let s = self.spline();
         let mut sum = 0.0;
         let mut max: Option<f64> = None;
         let mut n = 0usize;
-        let pairs: Vec<Value> = self
+        let pairs: Vec<PairRow> = self
             .landmarks
             .iter()
             .map(|p| {
@@ -242,13 +243,20 @@ impl Doc {
                     n += 1;
                     max = Some(max.map_or(r, |m: f64| m.max(r)));
                 }
-                json!({"name": l.name, "src": l.src, "dst": l.dst, "weight": l.weight,
-                       "active": p.active, "mapped": m, "residual": r})
+                PairRow {
+                    name: l.name.clone(),
+                    src: l.src,
+                    dst: l.dst,
+                    weight: l.weight,
+                    active: p.active,
+                    mapped: m,
+                    residual: r,
+                }
             })
             .collect();
         let rms = (n > 0).then(|| (sum / n as f64).sqrt());
         let (undo, redo) = self.history_len();
-        json!({ "pairs": pairs, "rms": rms, "max": max, "undo": undo, "redo": redo })
+        Pairs { pairs, rms, max, undo, redo, index: None }
     }
 
     /// Replaces the pairs with those of the landmark file `rel` (CSV, BigWarp or JSON,
@@ -276,7 +284,8 @@ impl Doc {
     }
 
     /// The pairs as a scene's `"landmarks"` value (the JSON landmark format's array, with
-    /// `"active": false` on inactive pairs).
+    /// `"active": false` on inactive pairs): part of the deformation file `io` writes from
+    /// a `Value`.
     pub(super) fn pairs_scene_value(&self) -> Value {
         let lms: Vec<Landmark> = self.landmarks.iter().map(|p| p.landmark.clone()).collect();
         let mut list = crate::io::deformation::landmarks_value(&lms);
@@ -293,7 +302,7 @@ impl Doc {
     /// Re-fits from the document's active pairs (soft, or `hard`: exact), holding every
     /// corrected control point exactly; one undoable step. The answer is [`Doc::refit`]'s
     /// with the pairs' residuals after the fit under `"landmarks"`.
-    pub fn refit_pairs(&mut self, hard: bool) -> Result<Value, ServerError> {
+    pub fn refit_pairs(&mut self, hard: bool) -> Result<Refitted, ServerError> {
         let lms = self.active_landmarks();
         if lms.is_empty() {
             return Err(refuse(if self.landmarks.is_empty() {
@@ -303,17 +312,17 @@ impl Doc {
             }));
         }
         let what = format!("re-fit to {} pairs", lms.len());
-        let mut v = self.refit_with(&lms, hard, what)?;
-        v["landmarks"] = self.pairs_json();
-        Ok(v)
+        let r = self.refit_with(&lms, hard, what)?;
+        Ok(Refitted { landmarks: Some(self.pairs_json()), ..r })
     }
 }
 
 /// The pairs of a scene's (or a fit's deformation's) `"landmarks"` value (`None`: no such
 /// key), each active unless it has `"active": false`; `rel` names the file in errors.
 /// Refuses (422) pairs [`Doc::set_pairs`] would refuse, and an `active` that is not a
-/// boolean.
-pub fn pairs_from_scene(v: &Value, rel: &str) -> Result<Option<Vec<Pair>>, ServerError> {
+/// boolean. A scene is `io::deformation`'s file, read as an untyped value (its other keys
+/// are any deformation's), hence the `Value`.
+pub(crate) fn pairs_from_scene(v: &Value, rel: &str) -> Result<Option<Vec<Pair>>, ServerError> {
     let Some(l) = v.get("landmarks") else { return Ok(None) };
     let text = json!({ "landmarks": l }).to_string();
     let lms =
