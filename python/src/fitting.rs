@@ -226,9 +226,8 @@ pub fn morph<'py>(
     if frames < 2 {
         return Err(value_error(format!("frames must be at least 2, got {frames}")));
     }
-    if !(background.is_finite() && background >= 0.0) {
-        return Err(value_error("background must be a number >= 0 (sample units)"));
-    }
+    // `background`: the library's rule (a sample of the working type, checked before the
+    // fits; `trimorph::warp::check_background`), as for `trimorph morph --background`.
     let opts = MorphOptions {
         shape: shape.parse::<Schedule>().map_err(|e| value_error(format!("shape: {e}")))?,
         color: color.parse::<Schedule>().map_err(|e| value_error(format!("color: {e}")))?,
