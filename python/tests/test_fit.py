@@ -110,6 +110,25 @@ def test_morph_bend_hard_and_pin_frame_equal_the_cli(nuclei, cli, tmp_path):
         trimorph.morph(a, b, nuclei["src"], nuclei["dst"], frames=3, bend="stiff")
 
 
+def test_morph_background_follows_the_cli_rule(nuclei, cli, tmp_path):
+    """Issue 56: one rule for a morph's background, in the library: a sample of the type the
+    morph works in (the deeper of the two images', 16-bit for this pair), refused before
+    the fits in Python and in `trimorph morph` alike."""
+    a = trimorph.read_image(nuclei["a"])
+    b = trimorph.read_image(nuclei["b"])
+    assert np.uint16 in (a.dtype, b.dtype)
+    for bad in [70000.0, -5.0, 12.5]:
+        with pytest.raises(ValueError, match="16-bit samples are whole numbers"):
+            trimorph.morph(a, b, nuclei["src"], nuclei["dst"], frames=2, background=bad)
+        out = tmp_path / f"m{bad}"
+        r = cli("morph", nuclei["a"], nuclei["b"], "--landmarks", nuclei["landmarks"],
+                "--frames", "2", "-o", out, "--quiet", f"--background={bad}", check=False)
+        assert r.returncode == 1 and "16-bit samples are whole numbers" in r.stderr, r.stderr
+        assert "landmarks" not in r.stderr, r.stderr
+        assert not out.exists()
+    assert len(trimorph.morph(a, b, nuclei["src"], nuclei["dst"], frames=2, background=255)) == 2
+
+
 def test_far_rings_extend_the_fitted_mesh(nuclei):
     src, dst = nuclei["src"], nuclei["dst"]
     ringed = trimorph.fit(src, dst, size=(184, 184))

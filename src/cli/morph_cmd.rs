@@ -34,6 +34,7 @@ pub fn run(a: &MorphCli) -> Result<()> {
     let (img_a, img_b) = (img_a?, img_b?);
     ph.mark("read");
     crate::morph::check_cells(a.cells)?;
+    crate::morph::check_background(a.background, &img_a, &img_b)?;
     let opts = MorphOptions {
         shape,
         color,

@@ -24,7 +24,7 @@ impl Morph {
 
     /// [`Morph::frame_exact`] with its [`FrameStats`].
     pub fn frame_with_stats(&self, t: &Rat) -> Result<(DynamicImage, FrameStats), MorphError> {
-        check_background(self.opts.background, &self.a)?;
+        super::check_background(self.opts.background, &self.a, &self.a)?;
         let (_, c) = self.weights(rat_to_f64(t))?;
         let s = self.opts.shape.at_exact(t);
         let (w, h) = (self.a.width(), self.a.height());
@@ -158,23 +158,4 @@ pub struct FrameCheck {
     pub det_j_lower_bound: [f64; 2],
     /// The map is proven to cover `A`'s frame.
     pub covers_frame: [bool; 2],
-}
-
-/// Checks that `value` is a sample of the working type `like` (the images' common type),
-/// so that nothing is clamped silently ([`crate::warp::check_background`]'s rule). The
-/// constructors check it before fitting, and every frame again.
-pub(super) fn check_background(value: f64, like: &DynamicImage) -> Result<(), MorphError> {
-    use crate::warp::Samples;
-    let like = match like {
-        DynamicImage::ImageLuma8(_)
-        | DynamicImage::ImageLumaA8(_)
-        | DynamicImage::ImageRgb8(_)
-        | DynamicImage::ImageRgba8(_) => Samples::U8(&[]),
-        DynamicImage::ImageLuma16(_)
-        | DynamicImage::ImageLumaA16(_)
-        | DynamicImage::ImageRgb16(_)
-        | DynamicImage::ImageRgba16(_) => Samples::U16(&[]),
-        _ => Samples::F32(&[]),
-    };
-    Ok(crate::warp::check_background(value, &like)?)
 }

@@ -309,13 +309,32 @@ pub fn frame_times_exact(n: usize) -> Vec<Rat> {
 }
 
 /// The common working type of two images (see the module docs).
-fn common(a: &DynamicImage, b: &DynamicImage) -> (DynamicImage, DynamicImage) {
+/// A type's sample depth: 0 (8-bit), 1 (16-bit) or 2 (float). A morph works in the deeper
+/// of its two images' ([`common`]).
+fn depth(c: image::ColorType) -> u8 {
     use image::ColorType as C;
-    let depth = |c: C| match c {
+    match c {
         C::Rgb32F | C::Rgba32F => 2,
         C::L16 | C::La16 | C::Rgb16 | C::Rgba16 => 1,
         _ => 0,
+    }
+}
+
+/// Checks that `value` is a background sample of the type a morph of `a` and `b` works in
+/// (the deeper of theirs): [`crate::warp::check_background`]'s rule, so that nothing is
+/// clamped or rounded silently. The constructors check it before fitting (and
+/// `trimorph morph` right after reading the images).
+pub fn check_background(value: f64, a: &DynamicImage, b: &DynamicImage) -> Result<(), MorphError> {
+    use crate::warp::Samples;
+    let like = match depth(a.color()).max(depth(b.color())) {
+        0 => Samples::U8(&[]),
+        1 => Samples::U16(&[]),
+        _ => Samples::F32(&[]),
     };
+    Ok(crate::warp::check_background(value, &like)?)
+}
+
+fn common(a: &DynamicImage, b: &DynamicImage) -> (DynamicImage, DynamicImage) {
     let (ca, cb) = (a.color(), b.color());
     let d = depth(ca).max(depth(cb));
     let alpha = ca.has_alpha() || cb.has_alpha();
@@ -452,8 +471,8 @@ impl Morph {
         } else {
             Similarity::identity()
         };
+        check_background(opts.background, a, b)?;
         let (a, b) = common(a, b);
-        frames::check_background(opts.background, &a)?;
         let size = |i: &DynamicImage| [f64::from(i.width()), f64::from(i.height())];
         let (sa, sb) = (size(&a), size(&b));
         let mut to_a: Vec<Landmark> =
@@ -533,8 +552,8 @@ impl Morph {
                 return Err(MorphError::TooSmall(name, img.width(), img.height()));
             }
         }
+        check_background(opts.background, a, b)?;
         let (a, b) = common(a, b);
-        frames::check_background(opts.background, &a)?;
         let (bw, bh) = (f64::from(b.width() - 1), f64::from(b.height() - 1));
         let grid = 24;
         let pts: Vec<[f64; 2]> = (0..grid * grid)

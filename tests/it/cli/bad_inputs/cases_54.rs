@@ -126,5 +126,18 @@ pub fn cases() -> Vec<Case> {
                 (args(&[&a[..], &["-o", &fx.out("m.json")]].concat()), o)
             },
         },
+        Case {
+            // Bug (issue 56): the background's refusal was put under the landmark file.
+            id: "morph_background_type",
+            setup: |fx, id| {
+                let lms = fx.file(
+                    &format!("{id}.csv"),
+                    format!("{LM_HEAD}a,5,5,6,5\nb,30,5,30,6\nc,5,30,5,30\n"),
+                );
+                let img = s(&fx.image);
+                let a = ["morph", img, img, "--landmarks", s(&lms), "--background=300"];
+                (args(&[&a[..], &["-o", &fx.out("m")]].concat()), no_file())
+            },
+        },
     ]
 }
