@@ -55,7 +55,7 @@
 mod anchor;
 mod key;
 mod summary;
-pub use summary::{FrameEntry, SequenceReport};
+pub use summary::{FrameEntry, SequenceReport, StoredReport};
 #[cfg(test)]
 mod tests;
 
@@ -239,30 +239,6 @@ pub enum SequenceError {
         /// The cause.
         source: StoreError,
     },
-}
-
-/// A frame's report as a [`Store`] keeps it: the JSON text of
-/// [`FrameResult::report_text`]. Resuming reads the resume key and the error statistics
-/// back from it; a text that is not a JSON object counts as no report (the frame is fitted
-/// as new).
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct StoredReport(String);
-
-impl StoredReport {
-    /// A report from its stored text.
-    pub fn new(text: impl Into<String>) -> StoredReport {
-        StoredReport(text.into())
-    }
-
-    /// The stored text.
-    pub fn text(&self) -> &str {
-        &self.0
-    }
-
-    /// The text's JSON object (`None`: not one).
-    fn object(&self) -> Option<serde_json::Value> {
-        serde_json::from_str::<serde_json::Value>(&self.0).ok().filter(|v| v.is_object())
-    }
 }
 
 /// What a [`Store`] holds for a frame.

@@ -1,9 +1,34 @@
 //! The JSON summary of a sequence run (the file of `trimorph fit --frames ... --report`):
 //! per frame what was done and why, the fit and hold-out errors, drift and tracking losses,
-//! then the pooled TRE and the largest drift (see the parent module's docs).
+//! then the pooled TRE and the largest drift (see the parent module's docs); and a frame's
+//! report as a store keeps it ([`StoredReport`]).
 
 use super::{Action, Anchor, Drift, Errors, Pooled, SequenceSummary};
 use serde::Serialize;
+
+/// A frame's report as a [`super::Store`] keeps it: the JSON text of
+/// [`super::FrameResult::report_text`]. Resuming reads the resume key and the error statistics
+/// back from it; a text that is not a JSON object counts as no report (the frame is fitted
+/// as new).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct StoredReport(String);
+
+impl StoredReport {
+    /// A report from its stored text.
+    pub fn new(text: impl Into<String>) -> StoredReport {
+        StoredReport(text.into())
+    }
+
+    /// The stored text.
+    pub fn text(&self) -> &str {
+        &self.0
+    }
+
+    /// The text's JSON object (`None`: not one).
+    pub(super) fn object(&self) -> Option<serde_json::Value> {
+        serde_json::from_str::<serde_json::Value>(&self.0).ok().filter(|v| v.is_object())
+    }
+}
 
 /// The summary file of a sequence run ([`SequenceSummary::report`]; `trimorph fit --frames
 /// ... --report`), its keys in the order of the fields below (the order the file has had
