@@ -1,8 +1,12 @@
 //! `trimorph register FIXED MOVING -o DEF.json`: registration from the images themselves
-//! (a thin layer over [`crate::jobs::register`]).
+//! (a thin layer over [`crate::jobs::register`]); `trimorph register --frames DIR --reference
+//! FRAME -o OUT`: every frame registered to one of them (over [`crate::jobs::register_frames`]).
 
-use super::common::{choice, say};
+use super::common::{choice, say, text};
 use crate::jobs::register::{run as run_job, RegisterFiles};
+use crate::jobs::register_frames::RegisterFramesJob;
+use crate::jobs::values::parse_shard;
+use crate::register::frames::{reason_text, FrameAction, FrameOutcome, WarmStart};
 use crate::register::{Metric, Prealign, RegisterOptions};
 use anyhow::Result;
 use std::path::PathBuf;
@@ -13,23 +17,52 @@ use std::sync::Arc;
 pub(crate) struct RegisterCli {
     /// The fixed image (the grid MOVING is resampled onto). Any type trimorph reads; colour
     /// is registered as grey.
-    fixed: PathBuf,
+    #[arg(required_unless_present = "frames")]
+    fixed: Option<PathBuf>,
     /// The moving image.
-    moving: PathBuf,
+    #[arg(required_unless_present = "frames")]
+    moving: Option<PathBuf>,
     /// Output deformation: phi maps MOVING pixels to FIXED pixels, so
-    /// `trimorph warp DEF --image MOVING` resamples MOVING onto FIXED.
+    /// `trimorph warp DEF --image MOVING` resamples MOVING onto FIXED. With --frames, the
+    /// output folder: per frame <stem>.json, .registered.png (.tif for float frames),
+    /// .overlay.png and .report.json.
     #[arg(short, long)]
     output: PathBuf,
     /// Also write MOVING resampled on FIXED's grid (FIXED's size, MOVING's type).
     #[arg(long, value_name = "IMAGE")]
     warped: Option<PathBuf>,
     /// Write the report (JSON): metric before and after, per level iterations, termination
-    /// and time, the fold certificate, landmark residuals.
+    /// and time, the fold certificate, landmark residuals. With --frames, a summary of the
+    /// run (every frame has its own report).
     #[arg(long, value_name = "JSON")]
     report: Option<PathBuf>,
     /// Write a two-colour overlay (FIXED magenta, MOVING green) before and after (PNG).
     #[arg(long, value_name = "PNG")]
     overlay: Option<PathBuf>,
+    /// Register every frame of a sequence (a folder of images or a multi-page TIFF) to the
+    /// --reference frame instead of FIXED MOVING. Resumable: a frame whose report's resume
+    /// key matches this run and whose outputs are all there is skipped.
+    #[arg(long, value_name = "DIR|STACK",
+          conflicts_with_all = ["fixed", "moving", "warped", "overlay", "landmarks", "init"])]
+    frames: Option<PathBuf>,
+    /// With --frames, the frame every frame is registered to: its name (file stem), its file
+    /// name or its index from 0.
+    #[arg(long, value_name = "FRAME", requires = "frames")]
+    reference: Option<String>,
+    /// With --frames, where each frame's solve starts: chain (from the result of its
+    /// neighbour on the reference's side; default), keyframes (key frames every --key-every
+    /// N frames from the reference chain, the others start from their key frame) or none
+    /// (every frame from its own pre-alignment).
+    #[arg(long, value_name = "chain|keyframes|none", requires = "frames",
+          value_parser = clap::builder::PossibleValuesParser::new(WarmStart::NAMES))]
+    warm_start: Option<String>,
+    /// Key frame spacing of --warm-start keyframes.
+    #[arg(long, value_name = "N", requires = "frames")]
+    key_every: Option<usize>,
+    /// With --frames, only the i-th of n contiguous frame ranges (e.g. 0/4), for cluster
+    /// array jobs.
+    #[arg(long, value_parser = text(parse_shard), requires = "frames")]
+    shard: Option<(usize, usize)>,
     /// Similarity metric: ncc (one modality, any gain and offset), ssd (one modality, same
     /// exposure) or mi (Mattes mutual information: different stains or modalities).
     #[arg(long, default_value = "ncc", value_parser = choice::<Metric>(&Metric::NAMES))]
@@ -100,9 +133,15 @@ pub(super) fn run(args: RegisterCli) -> Result<()> {
             eprintln!("{stage}: iteration {it}, cost {cost:.6}");
         }));
     }
+    if let Some(frames) = &args.frames {
+        return run_frames(&args, frames, opts);
+    }
+    let (Some(fixed), Some(moving)) = (args.fixed.clone(), args.moving.clone()) else {
+        anyhow::bail!("give FIXED and MOVING, or --frames DIR --reference FRAME");
+    };
     let files = RegisterFiles {
-        fixed: args.fixed,
-        moving: args.moving,
+        fixed,
+        moving,
         mask_fixed: args.mask_fixed,
         mask_moving: args.mask_moving,
         landmarks: args.landmarks,
@@ -145,14 +184,82 @@ pub(super) fn run(args: RegisterCli) -> Result<()> {
     Ok(())
 }
 
+/// One line per frame of a sequence registration.
+fn frame_line(o: &FrameOutcome) -> String {
+    let f = &o.figures;
+    let cert = match (f.fold_free, f.det_j_lower_bound) {
+        (Some(true), Some(b)) => format!("certified fold-free (det J >= {b:.4})"),
+        (Some(false), Some(b)) => format!("NOT certified fold-free (det J >= {b:.4})"),
+        _ => "no certificate stored".to_string(),
+    };
+    match &o.action {
+        FrameAction::Skipped => format!("{}: skipped (its stored results are current)", o.frame),
+        FrameAction::Reference(r) => {
+            format!("{}: the reference (identity), {}", o.frame, reason_text(r))
+        }
+        FrameAction::Registered(r) => format!(
+            "{}: {:.4} -> {:.4}, {cert}, from {}, {:.0} ms ({})",
+            o.frame,
+            f.metric_before.unwrap_or(f64::NAN),
+            f.metric_after.unwrap_or(f64::NAN),
+            o.warm_start.as_deref().unwrap_or("its pre-alignment"),
+            o.time_ms,
+            reason_text(r)
+        ),
+    }
+}
+
+/// `trimorph register --frames DIR --reference FRAME -o OUT`.
+fn run_frames(args: &RegisterCli, frames: &std::path::Path, opts: RegisterOptions) -> Result<()> {
+    let reference = args.reference.clone().ok_or_else(|| {
+        anyhow::anyhow!("--frames needs --reference FRAME (a frame's name or index)")
+    })?;
+    let warm_start =
+        WarmStart::from_name(args.warm_start.as_deref().unwrap_or("chain"), args.key_every)?;
+    let job = RegisterFramesJob {
+        frames: frames.to_path_buf(),
+        reference,
+        out: args.output.clone(),
+        mask_fixed: args.mask_fixed.clone(),
+        mask_moving: args.mask_moving.clone(),
+        report: args.report.clone(),
+        warm_start,
+        shard: args.shard,
+    };
+    let summary = crate::jobs::register_frames::run(&job, opts, &|o| {
+        let _ = say(frame_line(o));
+    })?;
+    say(format!(
+        "{} frames of {} ({}..{}): {} registered, {} skipped, reference {}; {} not certified fold-free; {:.0} ms",
+        summary.range[1] - summary.range[0],
+        summary.frames,
+        summary.range[0],
+        summary.range[1],
+        summary.registered,
+        summary.skipped,
+        summary.reference,
+        summary.not_fold_free.len(),
+        summary.time_ms
+    ))?;
+    Ok(())
+}
+
 impl RegisterCli {
     /// The command's files ([`crate::io::clash`]).
     pub(super) fn files(
         &self,
         f: crate::io::clash::CommandFiles,
     ) -> crate::io::clash::CommandFiles {
-        f.input("FIXED", Some(&self.fixed))
-            .input("MOVING", Some(&self.moving))
+        if self.frames.is_some() {
+            // The output is a folder of per-frame files named after the frames.
+            return f
+                .input("--frames", self.frames.as_deref())
+                .input("--mask-fixed", self.mask_fixed.as_deref())
+                .input("--mask-moving", self.mask_moving.as_deref())
+                .output("--report", self.report.as_deref());
+        }
+        f.input("FIXED", self.fixed.as_deref())
+            .input("MOVING", self.moving.as_deref())
             .input("--mask-fixed", self.mask_fixed.as_deref())
             .input("--mask-moving", self.mask_moving.as_deref())
             .input("--landmarks", self.landmarks.as_deref())

@@ -63,6 +63,7 @@ pub use anchor::{
     choose_anchor, drift, follow, track_targets, Anchor, AnchorChoiceError, AnchorKind, Drift,
     Positions, Tracking, UnknownAnchor,
 };
+pub(crate) use key::image_hash;
 pub use key::ResumeKey;
 
 use super::landmarks::{holdout, Landmark};

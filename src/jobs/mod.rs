@@ -14,6 +14,8 @@
 //! * [`fit`]: fits to landmark files, one deformation or a scene over a frame sequence;
 //! * [`sequence`]: a sequence fit's inputs and its frame store (every frame's files, all
 //!   or nothing);
+//! * [`register`]: registration from the images; [`register_frames`]: every frame of a
+//!   sequence registered to a reference frame, with resume and shards;
 //! * [`morph`]: a morph's files in one folder, written all or nothing;
 //! * [`bitgrowth`]: the bit-size study of the exact factoring (CSV and plots);
 //! * [`demo`]: the demonstration on bundled data, written into one folder;
@@ -32,6 +34,7 @@ pub mod model;
 pub mod morph;
 pub mod options;
 pub mod register;
+pub mod register_frames;
 pub mod sequence;
 pub mod spline;
 pub mod values;
@@ -194,6 +197,10 @@ lib_errors!(
     Bundled(crate::bundled::BundledError),
     /// Registration.
     Register(crate::register::RegisterError),
+    /// Sequence registration.
+    RegisterFrames(crate::register::frames::FramesError),
+    /// Frame sequences.
+    Frames(crate::io::frames::FramesError),
 );
 
 impl JobError {

@@ -8,7 +8,7 @@ use crate::io::raster::{read_stack, Stack};
 use crate::io::{deformation, write_atomic};
 use crate::register::image::{Channel, Mask};
 use crate::register::{register, Input, RegisterOptions, RegisterReport};
-use crate::spline::ImageFrame;
+use crate::spline::{ImageFrame, Spline};
 use crate::warp::{warp_pages_sized, WarpOptions};
 use image::DynamicImage;
 use std::path::{Path, PathBuf};
@@ -38,7 +38,7 @@ pub struct RegisterFiles {
     pub overlay: Option<PathBuf>,
 }
 
-fn first_page(path: &Path) -> JobResult<(DynamicImage, bool)> {
+pub(super) fn first_page(path: &Path) -> JobResult<(DynamicImage, bool)> {
     let stack = read_stack(path)?;
     let gray_float = stack.gray_float;
     let page = stack.pages.into_iter().next().ok_or_else(|| {
@@ -58,6 +58,51 @@ fn input(path: &Path, mask: Option<&Path>) -> JobResult<(Input, DynamicImage, bo
         None => None,
     };
     Ok((Input { image, name: path.to_path_buf(), mask }, img, gray_float))
+}
+
+/// MOVING resampled onto FIXED's grid through `spline` (FIXED's size, MOVING's type) when
+/// `warped` or `overlay`, and the two-colour overlay PNG (FIXED magenta, MOVING green; before
+/// and after) when `overlay`. `images` are FIXED, MOVING and MOVING's pixels as read.
+pub(super) fn resampled(
+    spline: &Spline,
+    images: (&Input, &Input, &DynamicImage),
+    warped: bool,
+    overlay: bool,
+) -> JobResult<(Option<DynamicImage>, Option<Vec<u8>>)> {
+    let (fixed, moving, moving_img) = images;
+    if !(warped || overlay) {
+        return Ok((None, None));
+    }
+    let (fw, fh) = (fixed.image.w as u32, fixed.image.h as u32);
+    let (pages, _) = warp_pages_sized(
+        spline,
+        std::slice::from_ref(moving_img),
+        (fw, fh),
+        &WarpOptions::default(),
+        &|_| {},
+    )?;
+    let Some(wimg) = pages.into_iter().next() else { return Ok((None, None)) };
+    if !overlay {
+        return Ok((Some(wimg), None));
+    }
+    let after = Channel::from_image(&wimg, &moving.name)?.data;
+    let mut given = vec![f32::NAN; (fw * fh) as usize];
+    for y in 0..(fh as usize).min(moving.image.h) {
+        for x in 0..(fw as usize).min(moving.image.w) {
+            given[y * fw as usize + x] = moving.image.at(x, y);
+        }
+    }
+    let pm = crate::render::registration::overlay(
+        fw as usize,
+        fh as usize,
+        &fixed.image.data,
+        &given,
+        &after,
+    );
+    let png = pm.encode_png().map_err(|e| {
+        JobError::context("encoding the overlay", std::io::Error::other(e.to_string()))
+    })?;
+    Ok((Some(wimg), Some(png)))
 }
 
 /// What [`run`] did.
@@ -95,43 +140,12 @@ pub fn run(files: &RegisterFiles, mut opts: RegisterOptions) -> JobResult<Regist
     // Everything to write, computed first.
     // The landmarks it was registered with ride along (the editor's re-fit keeps them).
     let def_text = deformation::to_string_with_landmarks(&spline, &opts.landmarks);
-    let need_warp = files.warped.is_some() || files.overlay.is_some();
-    let warped = if need_warp {
-        let (pages, _) = warp_pages_sized(
-            &spline,
-            std::slice::from_ref(&moving_img),
-            (fw, fh),
-            &WarpOptions::default(),
-            &|_| {},
-        )?;
-        pages.into_iter().next()
-    } else {
-        None
-    };
-    let overlay_png = match (&files.overlay, &warped) {
-        (Some(_), Some(wimg)) => {
-            let after = Channel::from_image(wimg, &files.moving)?.data;
-            let mut given = vec![f32::NAN; (fw * fh) as usize];
-            for y in 0..fh as usize {
-                for x in 0..fw as usize {
-                    if x < moving.image.w && y < moving.image.h {
-                        given[y * fw as usize + x] = moving.image.at(x, y);
-                    }
-                }
-            }
-            let pm = crate::render::registration::overlay(
-                fw as usize,
-                fh as usize,
-                &fixed.image.data,
-                &given,
-                &after,
-            );
-            Some(pm.encode_png().map_err(|e| {
-                JobError::context("encoding the overlay", std::io::Error::other(e.to_string()))
-            })?)
-        }
-        _ => None,
-    };
+    let (warped, overlay_png) = resampled(
+        &spline,
+        (&fixed, &moving, &moving_img),
+        files.warped.is_some(),
+        files.overlay.is_some(),
+    )?;
     let report_text = serde_json::to_string_pretty(&reg.report)?;
     drop(fixed_img);
     // Then written, each atomically.

@@ -32,6 +32,7 @@
 pub(crate) mod affine;
 pub(crate) mod deform;
 mod error;
+pub mod frames;
 pub mod image;
 pub(crate) mod metric;
 pub mod samples;

@@ -15,6 +15,7 @@ mod no_panics;
 mod nothing_lost;
 mod reference;
 mod register_cmd;
+mod register_frames;
 mod solve;
 mod spline_cmds;
 mod warp_cmd;

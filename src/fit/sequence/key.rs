@@ -37,7 +37,7 @@ impl Fnv {
 }
 
 /// Hash of an image's type, size and samples.
-pub(super) fn image_hash(img: &DynamicImage) -> String {
+pub(crate) fn image_hash(img: &DynamicImage) -> String {
     let mut h = Fnv::new();
     h.text(&format!("{:?} {}x{}", img.color(), img.width(), img.height())).bytes(img.as_bytes());
     h.hex()
