@@ -231,6 +231,29 @@ pub struct Refitted {
     pub landmarks: Option<Pairs>,
 }
 
+/// `POST /api/register`'s answer (beside the geometry).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Registered {
+    /// The metric's name.
+    pub metric: crate::register::Metric,
+    /// The metric of the deformation the registration started from.
+    pub metric_before: f64,
+    /// The metric after.
+    pub metric_after: f64,
+    /// Certified `det J > 0` everywhere.
+    pub fold_free: bool,
+    /// The certified lower bound of `det J`.
+    pub det_j_lower_bound: f64,
+    /// Control points held exactly (pinned in the editor).
+    pub pinned: usize,
+    /// Landmark pairs in the image term (0: none).
+    pub pairs: usize,
+    /// Solver iterations over every level.
+    pub iterations: u64,
+    /// Wall time (ms).
+    pub time_ms: f64,
+}
+
 /// One landmark pair in [`Pairs`].
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct PairRow {

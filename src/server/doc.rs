@@ -12,6 +12,7 @@
 mod fixed;
 pub mod history;
 pub mod pairs;
+pub mod register;
 
 pub use history::{Step, UNDO_LIMIT};
 

@@ -35,6 +35,7 @@
 //! | `POST /api/load` | [`requests::PathBody`] `{path}` | [`answers::State`] |
 //! | `POST /api/export` | [`requests::Export`] `{kind: obj / warped, path}` | [`answers::Saved`] `{saved}` |
 //! | `POST /api/refit` | [`requests::Refit`] `{landmarks?, hard?}` (`landmarks`: a file; none: the doc's pairs) | [`answers::Refitted`] (fit summary, with the pairs' `landmarks` list when fitted from them) and geometry |
+//! | `POST /api/register` | [`requests::Register`] `{metric?, iterations?, pairs?, hard?}` | [`answers::Registered`] and geometry: the moving image registered to the fixed one again from the current deformation, the pinned points kept ([`doc::register`]; a two-image session only) |
 //! | `GET /api/landmarks` | | [`answers::Pairs`] ([`doc::Doc::pairs_json`], with the `undo` / `redo` counts) |
 //! | `POST /api/landmarks/add` | [`requests::AddPair`] `{src, dst, name?}` | [`answers::Pairs`], `index` of the new one |
 //! | `POST /api/landmarks/move` | [`requests::MovePair`] `{index, src?, dst?}` | [`answers::Pairs`] |
@@ -87,6 +88,8 @@ mod tests_bigwarp;
 mod tests_http;
 #[cfg(test)]
 mod tests_pairs;
+#[cfg(test)]
+mod tests_register;
 
 use doc::{Doc, Op};
 use requests::read_body;
@@ -401,6 +404,11 @@ fn route(
                 None => doc.refit_pairs(b.hard)?,
                 Some(file) => doc.refit(file, b.hard)?,
             };
+            Ok(with_geometry(doc, &r))
+        }
+        ("POST", "/api/register") => {
+            let b: requests::Register = read_body(body)?;
+            let r = doc.reregister(&b)?;
             Ok(with_geometry(doc, &r))
         }
         ("GET", "/api/landmarks") => json(doc.pairs_json()),

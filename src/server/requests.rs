@@ -134,6 +134,24 @@ pub struct Refit {
     pub hard: bool,
 }
 
+/// `POST /api/register`: register the moving image to the fixed one again, starting from
+/// the current deformation, the pinned points kept.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+pub struct Register {
+    /// `ncc`, `ssd` or `mi` (absent or `null`: `ncc`).
+    #[serde(default, deserialize_with = "opt_metric")]
+    pub metric: Option<crate::register::Metric>,
+    /// Solver iterations per pyramid level (absent or `null`: the command line's default).
+    #[serde(default, deserialize_with = "opt_count")]
+    pub iterations: Option<u64>,
+    /// Add the document's active landmark pairs to the image term (absent: no).
+    #[serde(default, deserialize_with = "opt_flag")]
+    pub pairs: bool,
+    /// With `pairs`, meet them exactly (absent: no).
+    #[serde(default, deserialize_with = "opt_flag")]
+    pub hard: bool,
+}
+
 /// `POST /api/landmarks/add`.
 #[derive(Clone, Debug, PartialEq, Deserialize)]
 pub struct AddPair {
@@ -269,6 +287,19 @@ fn flag<'de, D: Deserializer<'de>>(d: D) -> Result<bool, D::Error> {
 
 fn opt_flag<'de, D: Deserializer<'de>>(d: D) -> Result<bool, D::Error> {
     Ok(Option::<bool>::deserialize(d).map_err(must("true, false or null"))?.unwrap_or(false))
+}
+
+fn opt_metric<'de, D: Deserializer<'de>>(
+    d: D,
+) -> Result<Option<crate::register::Metric>, D::Error> {
+    match opt_text(d)? {
+        None => Ok(None),
+        Some(t) => t.parse().map(Some).map_err(D::Error::custom),
+    }
+}
+
+fn opt_count<'de, D: Deserializer<'de>>(d: D) -> Result<Option<u64>, D::Error> {
+    Option::<u64>::deserialize(d).map_err(must("an integer >= 0 or null"))
 }
 
 fn export_kind<'de, D: Deserializer<'de>>(d: D) -> Result<ExportKind, D::Error> {

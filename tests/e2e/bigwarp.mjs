@@ -140,6 +140,16 @@ try {
   const corrRes = lms.pairs.slice(nFit).map((p) => p.residual);
   await page.screenshot({ path: shot });
 
+  // Re-register from the pixels (a button of two-image sessions): the corrected points stay
+  // pinned, the active pairs join the image term; one undo step, named.
+  if (await page.locator('#reregister').isHidden()) fail('no re-register button in a two-image session');
+  await page.click('#reregister');
+  await msgIs(/^re-registered \(ncc\)/);
+  const regMsg = await page.textContent('#msg');
+  if (!/certified fold-free/.test(regMsg)) fail('re-register: ' + regMsg);
+  const regState = await api('GET', '/api/state');
+  if (regState.undo_next !== 're-register (ncc)') fail('re-register is not one undo step: ' + regState.undo_next);
+
   // Save: a scene (images, all pairs with the flag) and a deformation, checked by trimorph.
   await page.fill('#path', 'two_scene.json');
   await page.click('#savescene');
@@ -199,7 +209,7 @@ try {
   summary = {
     ok: true, fit_pairs: nFit, corrections: placed.length, overlay_colours: colours,
     rms_before_refit: rmsBefore, corrections_residual_after: corrRes, far_landmarks: far.length,
-    far_moved_max_px: farMax, undo_message: undoMsg,
+    far_moved_max_px: farMax, undo_message: undoMsg, reregister_message: regMsg,
     live_warp_latency_ms: stats(lat),
     live_warp_median_parts_ms: { request: part('request'), warp: part('warp'), draw: part('draw'), update: part('update') },
   };

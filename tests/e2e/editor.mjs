@@ -272,6 +272,8 @@ try {
     if (text.length !== want) fail(`${file}: ${JSON.stringify(text)}`);
     if (format === 'bigwarp' && !text[0].startsWith('"P2","true"')) fail(`${file} is not a BigWarp table: ${text[0]}`);
   }
+  // One image: no re-register button (it registers the moving image to the fixed one).
+  if (!(await page.locator('#reregister').isHidden())) fail('a re-register button without a fixed image');
   // Re-fit (soft) to the pairs: the residuals drop, the table shows the server's, one undo step.
   const rmsBefore = lms.rms;
   const undoFit = (await api('GET', '/api/state')).undo;

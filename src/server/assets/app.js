@@ -360,6 +360,20 @@ const commands = {
     const n = l.pairs.filter((p) => p.active !== false).length;
     message(`re-fit (${r.method}${$('hard').checked ? ', hard' : ''}) to ${n} pairs: rms ${l.rms.toFixed(3)} px, max ${l.max.toFixed(3)} px; ${r.pinned} corrected points held exactly (undo takes it back)`);
   }),
+  // Two images: the moving image registered to the fixed one again from the pixels,
+  // starting from the current deformation; corrected points stay pinned, and the active
+  // pairs join the image term (exactly with "hard").
+  reregister: () => run(async () => {
+    await updatesDone();
+    const pairs = T.lm.pairs.some((p) => p.active !== false);
+    const hard = pairs && $('hard').checked;
+    message('registering from the pixels...');
+    const r = await api('POST', '/api/register', { pairs, hard });
+    applyGeo(r); draw(); refreshJacobian(); refreshWarp();
+    if (pairs) applyPairs((await api('GET', '/api/landmarks')));
+    draw();
+    message(`re-registered (${r.metric}): ${r.metric_before.toFixed(4)} -> ${r.metric_after.toFixed(4)}, ${r.iterations} iterations, ${Math.round(r.time_ms)} ms; ${r.fold_free ? 'certified fold-free' : 'NOT certified fold-free'} (det J >= ${r.det_j_lower_bound.toFixed(3)}); ${r.pinned} corrected points held exactly${pairs ? `, ${r.pairs} pairs${hard ? ' (exact)' : ''}` : ''} (undo takes it back)`);
+  }),
   ...pairCommands,
 };
 for (const [id, fn] of Object.entries(commands)) $(id).addEventListener('click', fn);

@@ -126,6 +126,7 @@ function layoutPanels() {
   document.body.classList.toggle('two', two);
   mcanvas.hidden = !two;
   $('overlaylabel').hidden = !two;
+  $('reregister').hidden = !two;
 }
 
 // Sizes a canvas's backing store to its CSS size; returns the device pixel ratio.
