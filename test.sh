@@ -13,10 +13,10 @@ echo "== [$(date -u +%T)] python: pip install ./python[test], then pytest python
 VENV="${TRIMORPH_VENV:-target/venv}"
 PYTHON="${PYTHON:-python3}"
 [ -x "$VENV/bin/python" ] || "$PYTHON" -m venv "$VENV"
-# The extension builds in the dev profile (dependencies at opt-level 2, as for `cargo test`)
-# and in the same target folder, so the dependencies both builds share compile once; a
-# release build of everything took a third of the suite's time. `pip install ./python`
-# outside this script builds in release mode.
+# The extension (a member of this workspace) builds in the dev profile (dependencies at
+# opt-level 2, as for `cargo test`) and in the workspace's target folder, so the dependency
+# builds the two share are reused; a release build of everything took a third of the suite's
+# time. `pip install ./python` outside this script builds in release mode.
 export CARGO_TARGET_DIR="$PWD/target"
 MATURIN_PEP517_ARGS="--profile dev" \
   "$VENV/bin/python" -m pip install --quiet --disable-pip-version-check "./python[test]"

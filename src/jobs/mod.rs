@@ -197,11 +197,23 @@ lib_errors!(
     Bundled(crate::bundled::BundledError),
     /// Registration.
     Register(crate::register::RegisterError),
-    /// Sequence registration.
-    RegisterFrames(crate::register::frames::FramesError),
-    /// Frame sequences.
-    Frames(crate::io::frames::FramesError),
+    /// Sequence registration (boxed: it is large).
+    RegisterFrames(Box<crate::register::frames::FramesError>),
+    /// Frame sequences (boxed: it is large).
+    Frames(Box<crate::io::frames::FramesError>),
 );
+
+impl From<crate::register::frames::FramesError> for JobError {
+    fn from(e: crate::register::frames::FramesError) -> JobError {
+        Box::new(e).into()
+    }
+}
+
+impl From<crate::io::frames::FramesError> for JobError {
+    fn from(e: crate::io::frames::FramesError) -> JobError {
+        Box::new(e).into()
+    }
+}
 
 impl JobError {
     /// A [`JobError::Context`]: `source` about `context`.

@@ -96,7 +96,7 @@ impl WarmStart {
             WarmStart::Chain => d - 1,
             WarmStart::KeyFrames(n) => {
                 let n = n.max(1);
-                if d % n == 0 {
+                if d.is_multiple_of(n) {
                     d - n
                 } else {
                     d - d % n
