@@ -78,6 +78,9 @@ trimorph render "$W/fit6.json" --background $T/frame_09.png --show mesh,points \
 "$PY" benches/register_compare.py "$(command -v trimorph)" --pairs ihc --write-pair "$W/register" > /dev/null
 trimorph register "$W/register/fixed.tif" "$W/register/moving.tif" -o "$W/register/def.json" \
     --overlay "$OUT/register_overlay.png" > /dev/null
+# Every frame of the time-lapse registered to the first; frame 5's overlay.
+trimorph register --frames data/microscopy/timelapse --reference frame_00 -o "$W/drift" > /dev/null
+cp "$W/drift/frame_05.overlay.png" "$OUT/register_frames_overlay.png"
 
 # The faces morph, default (top) and with --pin-frame (bottom).
 F=data/faces

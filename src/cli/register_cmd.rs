@@ -229,12 +229,15 @@ fn run_frames(args: &RegisterCli, frames: &std::path::Path, opts: RegisterOption
     let summary = crate::jobs::register_frames::run(&job, opts, &|o| {
         let _ = say(frame_line(o));
     })?;
+    if summary.range[0] == summary.range[1] {
+        say(format!("this shard holds none of the {} frames", summary.frames))?;
+        return Ok(());
+    }
     say(format!(
-        "{} frames of {} ({}..{}): {} registered, {} skipped, reference {}; {} not certified fold-free; {:.0} ms",
-        summary.range[1] - summary.range[0],
-        summary.frames,
+        "frames {} to {} of {}: {} registered, {} skipped, reference {}; {} not certified fold-free; {:.0} ms",
         summary.range[0],
-        summary.range[1],
+        summary.range[1].saturating_sub(1),
+        summary.frames,
         summary.registered,
         summary.skipped,
         summary.reference,

@@ -183,7 +183,7 @@ fn shards_split_the_frames_and_warm_starts_follow_the_rule() {
     ]);
     ok(&o);
     let text = stdout(&o);
-    assert!(text.contains("2 frames of 4 (0..2)"), "{text}");
+    assert!(text.contains("frames 0 to 1 of 4:"), "{text}");
     assert!(out.join("t00.report.json").is_file() && out.join("t01.report.json").is_file());
     assert!(!out.join("t02.json").exists() && !out.join("t03.json").exists());
     for k in 0..2 {
