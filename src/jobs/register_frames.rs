@@ -11,11 +11,12 @@
 //! Every file is written to a temporary file and renamed ([`crate::io::write_atomic`]).
 
 use super::register::{first_page, resampled};
+use super::sequence::{registered_file, stored_files};
 use super::{JobError, JobResult};
 use crate::fit::sequence::{Frame, StoreError};
 use crate::io::frames::read_frames;
 use crate::io::raster::{write_stack, Stack};
-use crate::io::{deformation, read_text, write_atomic};
+use crate::io::{deformation, write_atomic};
 use crate::register::frames::{
     find_reference, FrameOutcome, FrameRegistration, FrameStore, FramesOptions, FramesSummary,
     RegisterFrames, StoredFrame, WarmStart,
@@ -65,11 +66,7 @@ impl RegisteredFrames<'_> {
 
     /// The resampled frame's file (`.tif` for float frames).
     pub fn registered(&self, index: usize, frame: &Frame) -> PathBuf {
-        let float = matches!(
-            frame.image,
-            image::DynamicImage::ImageRgb32F(_) | image::DynamicImage::ImageRgba32F(_)
-        ) || self.gray_float[index];
-        self.path(&frame.name, if float { "registered.tif" } else { "registered.png" })
+        registered_file(self.out, frame, self.gray_float[index])
     }
 
     /// Every output of a frame except the report.
@@ -114,17 +111,8 @@ impl RegisteredFrames<'_> {
 
 impl FrameStore for RegisteredFrames<'_> {
     fn stored(&self, index: usize, frame: &Frame) -> Result<StoredFrame, StoreError> {
-        let report = read_text(&self.path(&frame.name, "report.json")).ok();
-        let missing = self
-            .outputs(index, frame)
-            .iter()
-            .filter(|p| !p.exists())
-            .map(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default())
-            .collect();
-        let spline = read_text(&self.path(&frame.name, "json"))
-            .ok()
-            .and_then(|t| deformation::from_str(&t).ok())
-            .map(|(s, _)| s);
+        let (report, missing, spline) =
+            stored_files(self.out, &frame.name, &self.outputs(index, frame));
         Ok(StoredFrame { report, missing, spline })
     }
 

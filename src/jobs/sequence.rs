@@ -80,11 +80,7 @@ impl FrameFiles<'_> {
 
     /// The registered frame's file (`.tif` for float frames).
     pub fn registered(&self, index: usize, frame: &Frame) -> PathBuf {
-        let float = matches!(
-            frame.image,
-            image::DynamicImage::ImageRgb32F(_) | image::DynamicImage::ImageRgba32F(_)
-        ) || self.gray_float[index];
-        self.path(&frame.name, if float { "registered.tif" } else { "registered.png" })
+        registered_file(self.out, frame, self.gray_float[index])
     }
 
     /// Every output of a frame except the report.
@@ -128,20 +124,41 @@ impl FrameFiles<'_> {
     }
 }
 
+/// `<stem>.registered.png` in `out`, or `.registered.tif` for a float frame (float gray
+/// held as RGB float when `gray_float`), for sequence fits and registrations alike.
+pub(crate) fn registered_file(out: &Path, frame: &Frame, gray_float: bool) -> PathBuf {
+    let float = matches!(
+        frame.image,
+        image::DynamicImage::ImageRgb32F(_) | image::DynamicImage::ImageRgba32F(_)
+    ) || gray_float;
+    out.join(format!("{}.{}", frame.name, if float { "registered.tif" } else { "registered.png" }))
+}
+
+/// What a frame folder holds for frame `stem`: its `report.json` text, the names of the
+/// `outputs` that are missing, and its deformation (`<stem>.json`) when it reads.
+pub(crate) fn stored_files(
+    out: &Path,
+    stem: &str,
+    outputs: &[PathBuf],
+) -> (Option<String>, Vec<String>, Option<Spline>) {
+    let report = read_text(&out.join(format!("{stem}.report.json"))).ok();
+    let missing = outputs
+        .iter()
+        .filter(|p| !p.exists())
+        .map(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default())
+        .collect();
+    let spline = read_text(&out.join(format!("{stem}.json")))
+        .ok()
+        .and_then(|t| deformation::from_str(&t).ok())
+        .map(|(s, _)| s);
+    (report, missing, spline)
+}
+
 impl Store for FrameFiles<'_> {
     fn stored(&self, index: usize, frame: &Frame) -> Result<Stored, StoreError> {
-        let report = read_text(&self.path(&frame.name, "report.json")).ok().map(StoredReport::new);
-        let missing: Vec<String> = self
-            .outputs(index, frame)
-            .iter()
-            .filter(|p| !p.exists())
-            .map(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default())
-            .collect();
-        let spline = read_text(&self.path(&frame.name, "json"))
-            .ok()
-            .and_then(|t| deformation::from_str(&t).ok())
-            .map(|(s, _)| s);
-        Ok(Stored { report, missing, spline })
+        let (report, missing, spline) =
+            stored_files(self.out, &frame.name, &self.outputs(index, frame));
+        Ok(Stored { report: report.map(StoredReport::new), missing, spline })
     }
 
     fn save(&self, result: &FrameResult, frame: &Frame) -> Result<(), StoreError> {

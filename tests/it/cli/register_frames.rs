@@ -25,18 +25,9 @@ fn psi(k: usize, p: [f64; 2]) -> [f64; 2] {
 
 /// Frame `k`: the base through `psi(k)`, bilinear.
 fn frame(m: &GrayImage, k: usize) -> GrayImage {
-    let (w, h) = m.dimensions();
-    let at = |x: f64, y: f64| {
-        let (x, y) = (x.clamp(0.0, w as f64 - 1.001), y.clamp(0.0, h as f64 - 1.001));
-        let (i, j) = (x.floor() as u32, y.floor() as u32);
-        let (fx, fy) = (x - i as f64, y - j as f64);
-        let p = |a: u32, b: u32| m.get_pixel(a, b).0[0] as f64;
-        (1.0 - fy) * ((1.0 - fx) * p(i, j) + fx * p(i + 1, j))
-            + fy * ((1.0 - fx) * p(i, j + 1) + fx * p(i + 1, j + 1))
-    };
-    GrayImage::from_fn(w, h, |x, y| {
+    GrayImage::from_fn(m.width(), m.height(), |x, y| {
         let q = psi(k, [x as f64, y as f64]);
-        Luma([at(q[0], q[1]).round() as u8])
+        Luma([super::register_cmd::bilinear(m, q[0], q[1]).round() as u8])
     })
 }
 
