@@ -7,20 +7,27 @@ set -euo pipefail
 cd "$(dirname "$0")"
 
 echo "== [$(date -u +%T)] cargo test"
-cargo test "$@"
+# `--workspace` resolves the dependencies' features as for the whole workspace, the Python
+# bindings' included (they have no Rust tests of their own), so the extension's build below
+# reuses these dependency builds instead of building about 70 of them again.
+cargo test --workspace "$@"
 
 echo "== [$(date -u +%T)] python: pip install ./python[test], then pytest python/tests"
 VENV="${TRIMORPH_VENV:-target/venv}"
 PYTHON="${PYTHON:-python3}"
 [ -x "$VENV/bin/python" ] || "$PYTHON" -m venv "$VENV"
-# The extension (a member of this workspace) builds in the dev profile (dependencies at
-# opt-level 2, as for `cargo test`) and in the workspace's target folder, so the dependency
-# builds the two share are reused; a release build of everything took a third of the suite's
-# time. `pip install ./python` outside this script builds in release mode.
+# The extension (a member of this workspace) builds in the dev profile and in the
+# workspace's target folder, with the library's default features (`trimorph/default`, the
+# set `cargo test` built it with), so every dependency and the library itself come from
+# the test build above: only PyO3 and the bindings compile here. A release build of
+# everything took a third of the suite's time. `pip install ./python` outside this script
+# builds a release wheel without the command line's features.
 export CARGO_TARGET_DIR="$PWD/target"
-MATURIN_PEP517_ARGS="--profile dev" \
+MATURIN_PEP517_ARGS="--profile dev --features trimorph/default" \
   "$VENV/bin/python" -m pip install --quiet --disable-pip-version-check "./python[test]"
-TRIMORPH_BIN="$PWD/target/debug/trimorph" "$VENV/bin/python" -m pytest -q python/tests
+# Two workers (pytest-xdist): a single pytest process kept CI's second core idle for much of
+# its four minutes. The slowest tests are listed at the end.
+TRIMORPH_BIN="$PWD/target/debug/trimorph" "$VENV/bin/python" -m pytest -q -n 2 --durations=10 python/tests
 
 # The napari plugin (napari/), installed after the package it wraps; its own pytest run, as
 # both test folders have a conftest.py. Its viewer tests need an X server: a private Xvfb
