@@ -165,6 +165,25 @@ pub fn say(text: impl std::fmt::Display) -> std::io::Result<()> {
     writeln!(std::io::stdout(), "{text}")
 }
 
+/// A spinner line on stderr for work of unknown length (`{what}: {message} ({elapsed})`, the
+/// message set by the work as it goes), drawn only when `show` and stderr is a terminal;
+/// otherwise hidden, and no ticking thread is started.
+pub fn spinner(show: bool, what: &str) -> indicatif::ProgressBar {
+    use std::io::IsTerminal;
+    if !show || !std::io::stderr().is_terminal() {
+        return indicatif::ProgressBar::hidden();
+    }
+    let bar = indicatif::ProgressBar::new_spinner();
+    if let Ok(style) =
+        indicatif::ProgressStyle::with_template("{spinner} {prefix}: {msg} ({elapsed})")
+    {
+        bar.set_style(style);
+    }
+    bar.set_prefix(what.to_string());
+    bar.enable_steady_tick(std::time::Duration::from_millis(120));
+    bar
+}
+
 /// A progress bar on stderr for `len` units of work, drawn only when `show` and stderr is a
 /// terminal (indicatif hides it otherwise).
 pub fn progress_bar(len: u64, show: bool, what: &str) -> indicatif::ProgressBar {

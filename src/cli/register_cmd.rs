@@ -2,13 +2,14 @@
 //! (a thin layer over [`crate::jobs::register`]); `trimorph register --frames DIR --reference
 //! FRAME -o OUT`: every frame registered to one of them (over [`crate::jobs::register_frames`]).
 
-use super::common::{choice, say, text};
+use super::common::{choice, say, spinner, text};
 use crate::jobs::register::{run as run_job, RegisterFiles};
 use crate::jobs::register_frames::RegisterFramesJob;
 use crate::jobs::values::parse_shard;
 use crate::register::frames::{reason_text, FrameAction, FrameOutcome, WarmStart};
-use crate::register::{Metric, Prealign, RegisterOptions};
+use crate::register::{Metric, Prealign, Progress, RegisterOptions};
 use anyhow::Result;
+use indicatif::ProgressBar;
 use std::path::PathBuf;
 use std::sync::Arc;
 
@@ -128,13 +129,14 @@ pub(super) fn run(args: RegisterCli) -> Result<()> {
         hard: args.hard,
         ..RegisterOptions::default()
     };
-    if args.verbose {
-        opts.progress = Some(Arc::new(|stage: &str, it: u64, cost: f64| {
-            eprintln!("{stage}: iteration {it}, cost {cost:.6}");
-        }));
-    }
+    // --verbose prints every iteration; otherwise the latest one shows on a spinner line
+    // while stderr is a terminal.
+    let spinner = spinner(!args.verbose, "register");
+    opts.progress = Some(progress(args.verbose, spinner.clone()));
     if let Some(frames) = &args.frames {
-        return run_frames(&args, frames, opts);
+        let done = run_frames(&args, frames, opts, &spinner);
+        spinner.finish_and_clear();
+        return done;
     }
     let (Some(fixed), Some(moving)) = (args.fixed.clone(), args.moving.clone()) else {
         anyhow::bail!("give FIXED and MOVING, or --frames DIR --reference FRAME");
@@ -151,7 +153,9 @@ pub(super) fn run(args: RegisterCli) -> Result<()> {
         report: args.report,
         overlay: args.overlay,
     };
-    let out = run_job(&files, opts)?;
+    let out = run_job(&files, opts);
+    spinner.finish_and_clear();
+    let out = out?;
     let r = &out.report;
     let iters: u64 = r.levels.iter().map(|l| l.iterations).sum();
     say(format!(
@@ -184,6 +188,20 @@ pub(super) fn run(args: RegisterCli) -> Result<()> {
     Ok(())
 }
 
+/// The solver's progress `(stage, iteration, cost)`: a line on stderr per iteration when
+/// `verbose`, else the spinner's message.
+fn progress(verbose: bool, spinner: ProgressBar) -> Progress {
+    if verbose {
+        Arc::new(|stage: &str, it: u64, cost: f64| {
+            eprintln!("{stage}: iteration {it}, cost {cost:.6}");
+        })
+    } else {
+        Arc::new(move |stage: &str, it: u64, cost: f64| {
+            spinner.set_message(format!("{stage}, iteration {it}, cost {cost:.4}"));
+        })
+    }
+}
+
 /// One line per frame of a sequence registration.
 fn frame_line(o: &FrameOutcome) -> String {
     let f = &o.figures;
@@ -210,7 +228,12 @@ fn frame_line(o: &FrameOutcome) -> String {
 }
 
 /// `trimorph register --frames DIR --reference FRAME -o OUT`.
-fn run_frames(args: &RegisterCli, frames: &std::path::Path, opts: RegisterOptions) -> Result<()> {
+fn run_frames(
+    args: &RegisterCli,
+    frames: &std::path::Path,
+    opts: RegisterOptions,
+    spinner: &ProgressBar,
+) -> Result<()> {
     let reference = args.reference.clone().ok_or_else(|| {
         anyhow::anyhow!("--frames needs --reference FRAME (a frame's name or index)")
     })?;
@@ -227,7 +250,9 @@ fn run_frames(args: &RegisterCli, frames: &std::path::Path, opts: RegisterOption
         shard: args.shard,
     };
     let summary = crate::jobs::register_frames::run(&job, opts, &|o| {
-        let _ = say(frame_line(o));
+        spinner.suspend(|| {
+            let _ = say(frame_line(o));
+        });
     })?;
     if summary.range[0] == summary.range[1] {
         say(format!("this shard holds none of the {} frames", summary.frames))?;
@@ -271,5 +296,20 @@ impl RegisterCli {
             .output("--warped", self.warped.as_deref())
             .output("--report", self.report.as_deref())
             .output("--overlay", self.overlay.as_deref())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn without_verbose_the_solver_progress_becomes_the_spinner_message() {
+        let bar = ProgressBar::hidden();
+        let p = progress(false, bar.clone());
+        p("spline level 1", 7, 0.123456);
+        assert_eq!(bar.message(), "spline level 1, iteration 7, cost 0.1235");
+        // --verbose (show = false): no spinner at all.
+        assert!(spinner(false, "register").is_hidden());
     }
 }
