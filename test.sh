@@ -9,7 +9,7 @@ cd "$(dirname "$0")"
 echo "== [$(date -u +%T)] cargo test"
 # `--workspace` resolves the dependencies' features as for the whole workspace, the Python
 # bindings' included (they have no Rust tests of their own), so the extension's build below
-# reuses these dependency builds instead of building about 70 of them again.
+# reuses these dependency builds instead of building about 90 of them again.
 cargo test --workspace "$@"
 
 echo "== [$(date -u +%T)] python: pip install ./python[test], then pytest python/tests"
