@@ -65,3 +65,15 @@ pub fn compare_golden(name: &str, got: &image::DynamicImage) {
     }
     assert!(off <= GOLDEN_MAX_OFF, "{name}: {off} pixels differ (at most {GOLDEN_MAX_OFF} may)");
 }
+
+/// `m` at `(x, y)`, bilinear, clamped to the image (for resampling test images through a
+/// known map).
+pub fn bilinear(m: &image::GrayImage, x: f64, y: f64) -> f64 {
+    let (w, h) = m.dimensions();
+    let (x, y) = (x.clamp(0.0, w as f64 - 1.001), y.clamp(0.0, h as f64 - 1.001));
+    let (i, j) = (x.floor() as u32, y.floor() as u32);
+    let (fx, fy) = (x - i as f64, y - j as f64);
+    let p = |a: u32, b: u32| m.get_pixel(a, b).0[0] as f64;
+    (1.0 - fy) * ((1.0 - fx) * p(i, j) + fx * p(i + 1, j))
+        + fy * ((1.0 - fx) * p(i, j + 1) + fx * p(i + 1, j + 1))
+}

@@ -20,22 +20,11 @@ fn psi(p: [f64; 2]) -> [f64; 2] {
     [p[0] + 2.0 + 1.2 * (p[1] / 30.0).sin(), p[1] - 1.5 + 1.0 * (p[0] / 40.0).cos()]
 }
 
-/// `m` at `(x, y)`, bilinear, clamped to the image.
-pub(super) fn bilinear(m: &image::GrayImage, x: f64, y: f64) -> f64 {
-    let (w, h) = m.dimensions();
-    let (x, y) = (x.clamp(0.0, w as f64 - 1.001), y.clamp(0.0, h as f64 - 1.001));
-    let (i, j) = (x.floor() as u32, y.floor() as u32);
-    let (fx, fy) = (x - i as f64, y - j as f64);
-    let p = |a: u32, b: u32| m.get_pixel(a, b).0[0] as f64;
-    (1.0 - fy) * ((1.0 - fx) * p(i, j) + fx * p(i + 1, j))
-        + fy * ((1.0 - fx) * p(i, j + 1) + fx * p(i + 1, j + 1))
-}
-
 /// FIXED: MOVING through `psi`, bilinear, 16-bit, 190 x 160 (another size and type).
 fn fixed(m: &image::GrayImage) -> DynamicImage {
     DynamicImage::ImageLuma16(ImageBuffer::from_fn(190, 160, |x, y| {
         let q = psi([x as f64, y as f64]);
-        Luma([(bilinear(m, q[0], q[1]) * 257.0).round() as u16])
+        Luma([(crate::common::bilinear(m, q[0], q[1]) * 257.0).round() as u16])
     }))
 }
 

@@ -27,7 +27,7 @@ fn psi(k: usize, p: [f64; 2]) -> [f64; 2] {
 fn frame(m: &GrayImage, k: usize) -> GrayImage {
     GrayImage::from_fn(m.width(), m.height(), |x, y| {
         let q = psi(k, [x as f64, y as f64]);
-        Luma([super::register_cmd::bilinear(m, q[0], q[1]).round() as u8])
+        Luma([crate::common::bilinear(m, q[0], q[1]).round() as u8])
     })
 }
 

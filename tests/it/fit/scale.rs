@@ -138,14 +138,7 @@ fn dense_orb_matches_of_a_real_image_recover_the_known_map() {
         }
         q
     };
-    let at = |x: f64, y: f64| {
-        let (x, y) = (x.clamp(0.0, w as f64 - 1.001), y.clamp(0.0, h as f64 - 1.001));
-        let (i, j) = (x.floor() as u32, y.floor() as u32);
-        let (fx, fy) = (x - i as f64, y - j as f64);
-        let v = |a2: u32, b2: u32| a.get_pixel(a2, b2).0[0] as f64;
-        (1.0 - fy) * ((1.0 - fx) * v(i, j) + fx * v(i + 1, j))
-            + fy * ((1.0 - fx) * v(i, j + 1) + fx * v(i + 1, j + 1))
-    };
+    let at = |x: f64, y: f64| crate::common::bilinear(&a, x, y);
     let b = image::GrayImage::from_fn(w, h, |x, y| {
         let m = psi([x as f64, y as f64]);
         image::Luma([at(m[0], m[1]).round() as u8])
