@@ -24,7 +24,17 @@
 //! Hessian's diagonal at the level's start ([`jacobi`]): the image term's
 //! `(1/N) sum_i B_p(y_i)^2 (dF/dx_c)^2 / var F` per control point and coordinate, pulled to
 //! the variables through the determining set's rows (`sum_p d_p R_pk^2`, cross terms
-//! dropped), plus the landmark rows' and the bending matrix's diagonals.
+//! dropped), plus the bending matrix's diagonal and the landmark rows' spread diagonals.
+//!
+//! A landmark row `w (b . x - t)^2` over the `m` control points of its triangle is rank one:
+//! its curvature `2 w |b|^2` acts along one direction only. Its diagonal `2 w b_p^2` would
+//! shrink every one of the `m` points' steps as if each were that stiff, and the image term
+//! could then barely move the points near a landmark: on the textured test pair of
+//! `tests/it/register.rs` (12 landmarks with 0.25 px noise), 30 iterations per level ended
+//! at 0.115 px of held-out error against the image term's 0.072 px alone. Each point
+//! therefore gets the mean curvature over the row's directions, `2 w b_p^2 / m` (0.066 px
+//! there; where only the landmarks and the bending hold a point, the landmark fit is the
+//! start, see [`super::register`]).
 
 use super::image::Level;
 use super::metric::Metric;
@@ -119,9 +129,12 @@ pub fn jacobi(obj: &Objective, term: &LevelTerm<'_>, x: &[f64]) -> Vec<f64> {
         }
     }
     for r in obj.rows() {
+        // A landmark row is rank one: its curvature `2 w |b|^2` lies along one direction of
+        // the row's `m` points, so each point gets the mean over directions, `2 w b_p^2 / m`.
+        let m = r.row.len().max(1) as f64;
         for &(p, b) in &r.row {
             for &(k, c) in &rows[p] {
-                let v = 2.0 * r.weight * b * b * c * c;
+                let v = 2.0 * r.weight * b * b * c * c / m;
                 d[k] += v;
                 d[nv + k] += v;
             }
