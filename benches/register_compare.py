@@ -88,7 +88,11 @@ def run_elastix(f, m, metric_mi):
     t0 = time.perf_counter()
     _, tp = itk.elastix_registration_method(fixed, moving, parameter_object=po, log_to_console=False)
     secs = time.perf_counter() - t0
-    field = itk.GetArrayFromImage(itk.transformix_deformation_field(moving, tp))
+    # transformix writes deformationField.nii into its output directory (the working
+    # directory unless told): keep it in a temporary one.
+    with tempfile.TemporaryDirectory() as out:
+        field = itk.GetArrayFromImage(
+            itk.transformix_deformation_field(moving, tp, output_directory=out))
     return field[..., 1], field[..., 0], secs
 
 

@@ -39,7 +39,8 @@ fn input(
 /// registration report. `metric` is "ncc", "ssd" or "mi"; `src`/`dst` add landmarks
 /// (MOVING -> FIXED; `hard=True` meets them exactly); `init` starts from a deformation
 /// whose pinned points stay pinned. `order` is the columns' order of `src` and `dst`:
-/// "xy" (x, y) or "rc" (row, col), as in `fit`. Releases the GIL.
+/// "xy" (x, y) or "rc" (row, col), as in `fit`. `bend` is relative to the metric, as
+/// `--bend` (mi multiplies it by 1000). Releases the GIL.
 #[pyfunction]
 #[pyo3(signature = (fixed, moving, metric = "ncc", mask_fixed = None, mask_moving = None,
     src = None, dst = None, weights = None, hard = false, landmark_weight = 1.0, init = None,

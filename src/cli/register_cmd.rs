@@ -97,7 +97,8 @@ pub(crate) struct RegisterCli {
     /// Mesh cell size (MOVING pixels).
     #[arg(long, default_value_t = RegisterOptions::default().spacing)]
     spacing: f64,
-    /// Bending weight (larger: smoother).
+    /// Bending weight (larger: smoother), relative to the metric: mi multiplies it by 1000,
+    /// as its cost is far steeper per pixel than ncc's or ssd's.
     #[arg(long, default_value_t = RegisterOptions::default().bend)]
     bend: f64,
     /// Most samples per pyramid level (a regular subset of MOVING's pixels beyond it).
@@ -311,5 +312,19 @@ mod tests {
         assert_eq!(bar.message(), "spline level 1, iteration 7, cost 0.1235");
         // --verbose (show = false): no spinner at all.
         assert!(spinner(false, "register").is_hidden());
+    }
+
+    #[test]
+    fn the_bend_help_names_the_mi_scale_the_library_uses() {
+        use clap::Args;
+        let cmd = RegisterCli::augment_args(clap::Command::new("register"));
+        let help = cmd
+            .get_arguments()
+            .find(|a| a.get_id() == "bend")
+            .and_then(|a| a.get_help())
+            .map(|h| h.to_string())
+            .unwrap();
+        let scale = crate::register::metric::MI_BEND_SCALE;
+        assert!(help.contains(&format!("by {scale}")), "{help}");
     }
 }

@@ -36,9 +36,42 @@ pub enum Metric {
     Mi,
 }
 
+/// [`Metric::bend_scale`] of `mi`.
+pub const MI_BEND_SCALE: f64 = 1000.0;
+
 impl Metric {
     /// The names `--metric` takes.
     pub const NAMES: [&'static str; 3] = ["ssd", "ncc", "mi"];
+
+    /// The factor the registration's bending weight is multiplied by for this metric, so that
+    /// one weight (`--bend`, default 1) regularizes every metric alike.
+    ///
+    /// The metrics' costs change at different rates per pixel of displacement: the mutual
+    /// information's (histogram entropies) far faster than `1 - r` or the variance-scaled
+    /// `ssd`, so the same bending weight left it under-regularized, with near-folds in the
+    /// flat background of sparse images. Measured with `benches/register_compare.py` (three
+    /// real images, each warped by a known smooth field of 3 px plus noise; mean endpoint
+    /// error over the image content; `mi` on FIXED inverted with gamma 0.6), the error by
+    /// bending weight:
+    ///
+    /// | weight | ncc ihc / cell / nuclei (px) | mi ihc / cell / nuclei (px) |
+    /// |---|---|---|
+    /// | 1 | 0.080 / 0.74 / 0.89 | 0.171 / 2.92 / 2.94 |
+    /// | 30 | 0.045 / 0.50 / 0.71 | 0.139 / 3.05 / 2.80 |
+    /// | 300 | | 0.093 / 2.63 / 2.24 |
+    /// | 1000 | 0.171 / 1.83 / 1.12 | 0.072 / 2.05 / 1.39 |
+    /// | 3000 | | 0.057 / 2.18 / 1.09 |
+    ///
+    /// `ncc` is best near 30 and `mi` near 1000 to 3000: `mi` needs about 30 to 100 times
+    /// the weight. `ncc` and `ssd` keep 1 (the weight their earlier results were measured
+    /// with; the pairs' fields are smoother than many real ones, so the table's optimum is
+    /// not taken as a default); `mi` gets [`MI_BEND_SCALE`].
+    pub fn bend_scale(self) -> f64 {
+        match self {
+            Metric::Ssd | Metric::Ncc => 1.0,
+            Metric::Mi => MI_BEND_SCALE,
+        }
+    }
 
     /// The name used in reports and on the command line.
     pub fn name(self) -> &'static str {

@@ -117,7 +117,8 @@ pub struct RegisterOptions {
     pub spacing: f64,
     /// Spline degree (default 5).
     pub degree: usize,
-    /// Bending weight `lambda` (default [`DEFAULT_BEND`]).
+    /// Bending weight (default [`DEFAULT_BEND`]), relative to the metric: the bending
+    /// energy's weight `lambda` is `bend * metric.bend_scale()` ([`Metric::bend_scale`]).
     pub bend: f64,
     /// The fold barrier's floor (relative to the pre-alignment's area scale; default 0.1).
     pub floor: f64,
@@ -426,7 +427,8 @@ pub fn register(
     };
     drop(check);
 
-    // The spline stage.
+    // The spline stage, with the metric's bending scale.
+    let bend = opts.bend * opts.metric.bend_scale();
     let mds = Mds::new(&s0)?;
     let n = s0.num_points();
     let mut is_var = vec![true; n];
@@ -452,7 +454,7 @@ pub fn register(
     let s_fit = if opts.landmarks.len() >= 3 && opts.landmark_weight > 0.0 {
         let area = (moving.image.w * moving.image.h) as f64;
         let sum_w: f64 = opts.landmarks.iter().map(|l| l.weight).sum::<f64>().max(1e-300);
-        let lambda = opts.bend * n0 / (area * opts.landmark_weight);
+        let lambda = bend * n0 / (area * opts.landmark_weight);
         let fo = FitOptions {
             pinned: opts.pinned.clone(),
             bend: crate::fit::Bend::Weight(lambda / (sum_w * area)),
@@ -500,7 +502,7 @@ pub fn register(
         param,
         rows,
         Loss::Squares,
-        opts.bend / area,
+        bend / area,
         Some(barrier),
         crate::spline::jacobian::SAMPLE_LEVEL,
     );
