@@ -46,10 +46,10 @@ impl Metric {
     /// The factor the registration's bending weight is multiplied by for this metric, so that
     /// one weight (`--bend`, default 1) regularizes every metric alike.
     ///
-    /// The metrics' costs change at different rates per pixel of displacement: the mutual
-    /// information's (histogram entropies) far faster than `1 - r` or the variance-scaled
-    /// `ssd`, so the same bending weight left it under-regularized, with near-folds in the
-    /// flat background of sparse images. Measured with `benches/register_compare.py` (three
+    /// The metrics' costs are on different scales (histogram entropies against `1 - r` or
+    /// the variance-scaled `ssd`), and one bending weight does not suit them all: at `ncc`'s
+    /// weight, `mi` was under-regularized (on the time-lapse pair below its map came within
+    /// `det J >= 0.058` of a fold, against a known map with `det J` near 1). Measured with `benches/register_compare.py` (three
     /// real images, each warped by a known smooth field of 3 px plus noise; mean endpoint
     /// error over the image content; `mi` on FIXED inverted with gamma 0.6), the error by
     /// bending weight:
@@ -57,7 +57,9 @@ impl Metric {
     /// | weight | ncc ihc / cell / nuclei (px) | mi ihc / cell / nuclei (px) |
     /// |---|---|---|
     /// | 1 | 0.080 / 0.74 / 0.89 | 0.171 / 2.92 / 2.94 |
+    /// | 10 | | 0.158 / 2.80 / 2.79 |
     /// | 30 | 0.045 / 0.50 / 0.71 | 0.139 / 3.05 / 2.80 |
+    /// | 100 | | 0.113 / 3.25 / 2.61 |
     /// | 300 | | 0.093 / 2.63 / 2.24 |
     /// | 1000 | 0.171 / 1.83 / 1.12 | 0.072 / 2.05 / 1.39 |
     /// | 3000 | | 0.057 / 2.18 / 1.09 |
