@@ -124,10 +124,15 @@ def main():
     ap.add_argument("--noise", type=float, default=0.02)
     ap.add_argument("--mi", action="store_true", help="inverted + gamma FIXED, --metric mi")
     ap.add_argument("--extra", default="", help="extra trimorph register arguments")
+    ap.add_argument("--scale", type=float, default=1.0,
+                    help="upsample every image by this factor (cubic) first: the users' sizes")
     ap.add_argument("--write-pair", metavar="DIR",
                     help="only write the first pair as DIR/fixed.tif and DIR/moving.tif")
     args = ap.parse_args()
     imgs = images()
+    if args.scale != 1.0:
+        imgs = {k: np.clip(ndimage.zoom(v, args.scale, order=3), 0.0, 1.0)
+                for k, v in imgs.items()}
     if args.write_pair:
         import tifffile
 
