@@ -98,7 +98,7 @@ pub(crate) struct RegisterCli {
     #[arg(long, default_value_t = RegisterOptions::default().spacing)]
     spacing: f64,
     /// Bending weight (larger: smoother), relative to the metric: mi multiplies it by 1000,
-    /// as its cost is far steeper per pixel than ncc's or ssd's.
+    /// as its cost is on another scale than ncc's or ssd's.
     #[arg(long, default_value_t = RegisterOptions::default().bend)]
     bend: f64,
     /// Most samples per pyramid level (a regular subset of MOVING's pixels beyond it).

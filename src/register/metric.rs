@@ -49,10 +49,10 @@ impl Metric {
     /// The metrics' costs are on different scales (histogram entropies against `1 - r` or
     /// the variance-scaled `ssd`), and one bending weight does not suit them all: at `ncc`'s
     /// weight, `mi` was under-regularized (on the time-lapse pair below its map came within
-    /// `det J >= 0.058` of a fold, against a known map with `det J` near 1). Measured with `benches/register_compare.py` (three
-    /// real images, each warped by a known smooth field of 3 px plus noise; mean endpoint
-    /// error over the image content; `mi` on FIXED inverted with gamma 0.6), the error by
-    /// bending weight:
+    /// `det J >= 0.058` of a fold, against a known map with `det J` near 1; 0.79 at the
+    /// scaled weight). Measured with `benches/register_compare.py` (three real images, each
+    /// warped by a known smooth field of 3 px plus noise; mean endpoint error over the image
+    /// content; `mi` on FIXED inverted with gamma 0.6), the error by bending weight:
     ///
     /// | weight | ncc ihc / cell / nuclei (px) | mi ihc / cell / nuclei (px) |
     /// |---|---|---|

@@ -515,8 +515,7 @@ pub fn register(
         obj.scale_weights(&vec![scale / row_scale; obj.rows().len()]);
         row_scale = scale;
         let watch = (opts.progress.as_ref(), &opts.cancel);
-        let (mut nx, mut rep) =
-            deform::run_level(&obj, &term, x.clone(), l as u32, opts.max_iters, watch);
+        let (mut nx, mut rep) = deform::run_level(&obj, &term, x, l as u32, opts.max_iters, watch);
         opts.cancel.check().map_err(|_| RegisterError::Cancelled)?;
         if let Some(xp) = x_prealigned.take() {
             // The coarsest level from the pre-alignment too; the lower objective wins.
