@@ -63,6 +63,7 @@ mod adapt;
 mod build;
 mod check;
 mod locate;
+mod refine;
 #[cfg(test)]
 mod tests;
 mod validate;
@@ -72,6 +73,7 @@ pub use adapt::{
     FRAME_SLACK,
 };
 use locate::Locator;
+pub use refine::Refinement;
 
 /// Options shared by all mesh builders.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -119,6 +121,14 @@ pub enum MeshError {
     InvalidGrid {
         /// The rejected denominator.
         grid: i64,
+    },
+    /// A refinement's marks do not match the mesh ([`Mesh::refine`]).
+    #[error("refinement marks {marks} triangles, the mesh has {triangles}")]
+    MarkCount {
+        /// Marks given.
+        marks: usize,
+        /// Triangles of the mesh.
+        triangles: usize,
     },
     /// A vertex coordinate is NaN or infinite.
     #[error(

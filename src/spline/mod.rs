@@ -31,6 +31,7 @@ mod intform;
 pub mod jacobian;
 pub(crate) mod layout;
 pub mod mds;
+mod prolong;
 mod rref;
 pub mod trace;
 
@@ -95,6 +96,9 @@ pub enum SplineError {
         /// Its number along the edge.
         index: usize,
     },
+    /// A prolongation's fine mesh is not nested in the spline's mesh ([`Spline::prolong`]).
+    #[error("cannot prolong the spline: {0}")]
+    NotNested(String),
     /// More control points than [`MAX_CONTROL_POINTS`].
     #[error(
         "a degree-{degree} spline over this mesh has {points} control points, more than the \
