@@ -40,12 +40,15 @@ fn input(
 /// (MOVING -> FIXED; `hard=True` meets them exactly); `init` starts from a deformation
 /// whose pinned points stay pinned. `order` is the columns' order of `src` and `dst`:
 /// "xy" (x, y) or "rc" (row, col), as in `fit`. `bend` is relative to the metric, as
-/// `--bend` (mi multiplies it by 1000). Releases the GIL.
+/// `--bend` (mi multiplies it by 1000). `mesh_levels` and `refine_share` are those of
+/// `--mesh-levels` and `--refine-share` (the mesh pyramid; default 3 levels without
+/// landmarks, 1 with). Releases the GIL.
 #[pyfunction]
 #[pyo3(signature = (fixed, moving, metric = "ncc", mask_fixed = None, mask_moving = None,
     src = None, dst = None, weights = None, hard = false, landmark_weight = 1.0, init = None,
     prealign = "affine", levels = None, spacing = 48.0, bend = 1.0, iterations = 30,
-    samples = 32768, order = "xy", progress = None, cancel = None))]
+    samples = 32768, order = "xy", progress = None, cancel = None, mesh_levels = None,
+    refine_share = 1.0))]
 #[allow(clippy::too_many_arguments)]
 pub fn register<'py>(
     py: Python<'py>,
@@ -69,6 +72,8 @@ pub fn register<'py>(
     order: &str,
     progress: Option<Bound<'py, PyAny>>,
     cancel: Option<&Bound<'py, CancelToken>>,
+    mesh_levels: Option<u32>,
+    refine_share: f64,
 ) -> PyResult<Deformation> {
     let watch = Watch::new(progress, cancel)?;
     let order = PointOrder::parse(order)?;
@@ -109,6 +114,8 @@ pub fn register<'py>(
         levels,
         prealign,
         spacing,
+        mesh_levels,
+        refine_share,
         bend,
         max_iters: iterations,
         samples: SampleOptions { max_samples: samples },

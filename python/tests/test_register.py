@@ -56,3 +56,20 @@ def test_hard_landmarks_are_met_and_bad_input_is_refused():
         trimorph.register(f, m, metric="cc")
     with pytest.raises(ValueError, match="hard"):
         trimorph.register(f, m, hard=True)
+
+
+def test_the_mesh_pyramid_is_reported_and_its_options_are_checked():
+    f, m, _ = pair()
+    d = trimorph.register(f, m, levels=3, mesh_levels=3, spacing=24.0)
+    r = d.report
+    assert r["mesh_levels"] == 3 and len(r["refinements"]) == 2
+    tris = [lv["triangles"] for lv in r["levels"] if lv["stage"] == "spline"]
+    # Every triangle split in four between levels (refine_share=1).
+    assert tris[1] == 4 * tris[0] and tris[2] == 4 * tris[1] == r["triangles"]
+    assert r["fold_free"] is True
+    one = trimorph.register(f, m, levels=3, mesh_levels=1, spacing=24.0).report
+    assert one["mesh_levels"] == 1 and one["refinements"] == []
+    with pytest.raises(ValueError, match="mesh levels"):
+        trimorph.register(f, m, mesh_levels=0)
+    with pytest.raises(ValueError, match="refinement share"):
+        trimorph.register(f, m, refine_share=1.5)

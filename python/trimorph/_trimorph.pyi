@@ -282,10 +282,13 @@ def register(
     order: _Order = "xy",
     progress: Optional[_Progress] = None,
     cancel: Optional[CancelToken] = None,
+    mesh_levels: Optional[int] = None,
+    refine_share: float = 1.0,
 ) -> Deformation:
     """Registers MOVING to FIXED from the images (`trimorph register`): phi maps MOVING
     pixels to FIXED pixels, exactly C1 and certified fold-free; `report` holds the
-    registration report. Releases the GIL."""
+    registration report. `mesh_levels`/`refine_share`: the mesh pyramid (`--mesh-levels`,
+    `--refine-share`; default 3 levels, 1 with landmarks). Releases the GIL."""
 
 def morph(
     a: _Image,

@@ -94,9 +94,18 @@ pub(crate) struct RegisterCli {
     /// Pyramid levels (default: up to 4, the coarsest at least 48 pixels across).
     #[arg(long)]
     levels: Option<u32>,
-    /// Mesh cell size (MOVING pixels).
+    /// Mesh cell size (MOVING pixels) of the finest mesh level.
     #[arg(long, default_value_t = RegisterOptions::default().spacing)]
     spacing: f64,
+    /// Mesh levels: the spline starts on cells 2^(N-1) times --spacing and is refined
+    /// exactly before each of the N-1 finest pyramid levels (1: one mesh throughout; a
+    /// deformation given by --init keeps its mesh). Default: 3, or 1 with --landmarks.
+    #[arg(long, value_name = "N")]
+    mesh_levels: Option<u32>,
+    /// Share of the refinement indicator (the image term's pull on a twice finer mesh) that
+    /// the refined triangles carry, in (0, 1]; 1 refines every triangle.
+    #[arg(long, default_value_t = RegisterOptions::default().refine_share, value_name = "THETA")]
+    refine_share: f64,
     /// Bending weight (larger: smoother), relative to the metric: mi multiplies it by 1000,
     /// as its cost is on another scale than ncc's or ssd's.
     #[arg(long, default_value_t = RegisterOptions::default().bend)]
@@ -123,6 +132,8 @@ pub(super) fn run(args: RegisterCli) -> Result<()> {
         levels: args.levels,
         prealign: args.prealign,
         spacing: args.spacing,
+        mesh_levels: args.mesh_levels,
+        refine_share: args.refine_share,
         bend: args.bend,
         max_iters: args.iterations,
         samples: crate::register::samples::SampleOptions { max_samples: args.samples },
@@ -169,12 +180,20 @@ pub(super) fn run(args: RegisterCli) -> Result<()> {
         iters,
         r.time_ms
     ))?;
+    // The mesh pyramid's triangles per mesh level, e.g. "18 -> 72 -> 288 triangles".
+    let mut meshes: Vec<usize> = r.levels.iter().filter_map(|l| l.triangles).collect();
+    meshes.dedup();
+    let meshes = if meshes.len() > 1 {
+        meshes.iter().map(|t| t.to_string()).collect::<Vec<_>>().join(" -> ")
+    } else {
+        r.triangles.to_string()
+    };
     say(format!(
         "{}: det J >= {:.4} ({}), exactly C1, {} triangles, {} variables",
         args.output.display(),
         r.det_j_lower_bound,
         if r.fold_free { "certified fold-free" } else { "NOT certified fold-free" },
-        r.triangles,
+        meshes,
         r.variables
     ))?;
     if let Some(l) = &r.landmarks {

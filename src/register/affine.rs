@@ -167,6 +167,7 @@ pub fn prealign(
             metric_before: before,
             metric_after: m.cost,
             time_ms: t0.elapsed().as_secs_f64() * 1e3,
+            triangles: None,
         });
     }
     (th, reports)

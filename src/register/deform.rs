@@ -13,8 +13,8 @@
 //! and barrier), so the registration and the fit share their regularization; the image term
 //! is added beside it with its analytic gradient. Each pyramid level (coarsest first) is
 //! one L-BFGS run under argmin's `Executor` ([`crate::fit::optim::minimize`]), warm-started
-//! from the level before (the same spline space at every level: the coarse levels see
-//! blurred images, not a coarser spline).
+//! from the level before: the same map, in the same spline space or, after a refinement of
+//! the mesh pyramid ([`super::pyramid`]), in a finer space that contains it.
 //!
 //! **Preconditioning.** The curvature of `F` differs by orders of magnitude between
 //! variables: a free point under textured image is held by thousands of samples, one in a
@@ -101,13 +101,10 @@ pub fn total(obj: &Objective, term: &LevelTerm<'_>, x: &[f64]) -> (f64, Vec<f64>
     (t.total + e, gx, e)
 }
 
-/// The preconditioner `D` (module docs): one positive entry per variable.
-pub fn jacobi(obj: &Objective, term: &LevelTerm<'_>, x: &[f64]) -> Vec<f64> {
-    let n = obj.param.var_of.len();
-    let nv = obj.param.nv();
-    let mut pts = vec![[0.0f64; 2]; n];
-    obj.param.points_into(x, &mut pts);
-    let u = term.on_mesh.map(&pts);
+/// The image term's Gauss-Newton curvature per control point and coordinate at the control
+/// points `pts` (module docs): `(1/N) sum_i B_p(y_i)^2 (dF/dx_c)^2 / var F`.
+pub fn image_curvature(term: &LevelTerm<'_>, pts: &[[f64; 2]]) -> Vec<[f64; 2]> {
+    let u = term.on_mesh.map(pts);
     let (lo, hi) = term.set.scale.f_range;
     let var_f = (0.25 * (hi - lo) * (hi - lo)).max(1e-30);
     let nf = term.set.len().max(1) as f64;
@@ -119,7 +116,16 @@ pub fn jacobi(obj: &Objective, term: &LevelTerm<'_>, x: &[f64]) -> Vec<f64> {
             })
         })
         .collect();
-    let d_points = term.on_mesh.pull_squared(&sq, n);
+    term.on_mesh.pull_squared(&sq, pts.len())
+}
+
+/// The preconditioner `D` (module docs): one positive entry per variable.
+pub fn jacobi(obj: &Objective, term: &LevelTerm<'_>, x: &[f64]) -> Vec<f64> {
+    let n = obj.param.var_of.len();
+    let nv = obj.param.nv();
+    let mut pts = vec![[0.0f64; 2]; n];
+    obj.param.points_into(x, &mut pts);
+    let d_points = image_curvature(term, &pts);
     let rows = obj.param.rows();
     let mut d = vec![0.0; 2 * nv];
     for (p, row) in rows.iter().enumerate() {
@@ -201,6 +207,7 @@ pub fn run_level(
         metric_before: before,
         metric_after: after,
         time_ms: t0.elapsed().as_secs_f64() * 1e3,
+        triangles: None,
     };
     (m.x, report)
 }

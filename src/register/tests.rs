@@ -197,3 +197,79 @@ fn bad_inputs_are_refused_with_their_names() {
     let e = Channel::from_image(&img, std::path::Path::new("nan.tif")).unwrap_err();
     assert!(e.to_string().contains("nan.tif") && e.to_string().contains("(6, 1)"), "{e}");
 }
+
+#[test]
+fn the_mesh_pyramid_refines_exactly_between_levels_and_recovers_the_warp() {
+    let m = cell_crop(150, 200, 160, 160);
+    let f = warped(&m);
+    let opts = RegisterOptions {
+        spacing: 20.0,
+        levels: Some(3),
+        mesh_levels: Some(3),
+        refine_share: 1.0,
+        ..RegisterOptions::default()
+    };
+    let reg = register(&input(f.clone(), "fixed"), &input(m.clone(), "moving"), &opts).unwrap();
+    let r = &reg.report;
+    assert_eq!(r.mesh_levels, 3);
+    // 2 x 2 cells of 80 px, then every triangle split in four twice.
+    let tris: Vec<usize> =
+        r.levels.iter().filter(|l| l.stage == "spline").map(|l| l.triangles.unwrap()).collect();
+    assert_eq!(tris, [8, 32, 128]);
+    assert_eq!(r.refinements.len(), 2);
+    assert_eq!((r.refinements[0].red, r.refinements[0].green), (8, 0));
+    assert_eq!((r.refinements[1].red, r.refinements[1].green), (32, 0));
+    assert_eq!(r.triangles, 128);
+    assert!(r.fold_free, "{r:?}");
+    reg.spline.check_c1().unwrap();
+    let err = mean_error(&reg.spline, 160, 160, 12);
+    assert!(err < 0.35, "mean endpoint error {err} px");
+    // Adaptive: fewer triangles split, still exact and certified.
+    let adaptive = RegisterOptions { refine_share: 0.5, ..opts.clone() };
+    let reg = register(&input(f.clone(), "fixed"), &input(m.clone(), "moving"), &adaptive).unwrap();
+    let r = &reg.report;
+    assert!(r.refinements.iter().all(|s| s.marked >= 1), "{:?}", r.refinements);
+    assert!(r.triangles < 128 && r.triangles > 8, "{}", r.triangles);
+    assert!(r.fold_free);
+    reg.spline.check_c1().unwrap();
+    // A given mesh is kept: one mesh level.
+    let init = Spline::identity(frame_mesh(160, 160, 40.0).unwrap(), 5).unwrap();
+    let keep = RegisterOptions { init: Some(init), levels: Some(2), ..opts };
+    let reg = register(&input(f, "fixed"), &input(m, "moving"), &keep).unwrap();
+    assert_eq!((reg.report.mesh_levels, reg.report.triangles), (1, 32));
+    assert!(reg.report.refinements.is_empty());
+}
+
+#[test]
+fn the_refinement_indicator_is_largest_where_the_images_disagree() {
+    // FIXED = MOVING with a local bump of 2 px around (96, 64); elsewhere equal.
+    let m = cell_crop(150, 200, 128, 128);
+    let mut f = m.clone();
+    for y in 0..128 {
+        for x in 0..128 {
+            let (dx, dy) = (x as f64 - 96.0, y as f64 - 64.0);
+            let b = 2.0 * (-(dx * dx + dy * dy) / (2.0 * 12.0 * 12.0)).exp();
+            f.data[y * 128 + x] = m.sample(x as f64 + b, y as f64).expect("inside").0 as f32;
+        }
+    }
+    let fp = pyramid(&f, None, 1);
+    let mp = pyramid(&m, None, 1);
+    let s = Spline::identity(frame_mesh(128, 128, 32.0).unwrap(), 5).unwrap();
+    let eta = pyramid::indicator(&s, &fp[0], &mp[0], Metric::Ncc, Default::default()).unwrap();
+    let mesh = s.mesh();
+    let centroid = |t: usize| {
+        let v = mesh.triangle(t).map(|v| mesh.vertex(v));
+        [(v[0][0] + v[1][0] + v[2][0]) / 3.0, (v[0][1] + v[1][1] + v[2][1]) / 3.0]
+    };
+    let total: f64 = eta.iter().sum();
+    let far: f64 = (0..eta.len()).filter(|&t| centroid(t)[0] < 48.0).map(|t| eta[t]).sum();
+    assert!(total > 0.0 && far < 0.02 * total, "far {far} of {total}");
+    let top = (0..eta.len()).max_by(|&a, &b| eta[a].total_cmp(&eta[b])).unwrap();
+    let c = centroid(top);
+    assert!((c[0] - 96.0).hypot(c[1] - 64.0) < 32.0, "largest at {c:?}");
+    // Doerfler's half: only triangles near the bump.
+    let marked = pyramid::doerfler(&eta, 0.5);
+    for t in (0..eta.len()).filter(|&t| marked[t]) {
+        assert!(centroid(t)[0] > 48.0, "triangle {t} at {:?}", centroid(t));
+    }
+}

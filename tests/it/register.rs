@@ -109,9 +109,11 @@ fn landmarks_plus_image_beat_a_thin_plate_spline_fourfold() {
     let held = landmarks(5, 11.0, 0.0, 9);
     let tps = Tps::new(&fitted);
     let e_tps = mean_error(|p| tps.eval(p), &held);
-    let image_only =
-        register(&input(f.clone(), "f"), &input(m.clone(), "m"), &RegisterOptions::default())
-            .unwrap();
+    // Like with like: the image term alone on the mesh the landmarks' default runs on (one
+    // mesh level, `DEFAULT_MESH_LEVELS`). With its own default (the mesh pyramid) the image
+    // term alone reaches 0.057 px here, better than these noisy landmarks add to.
+    let one_mesh = RegisterOptions { mesh_levels: Some(1), ..RegisterOptions::default() };
+    let image_only = register(&input(f.clone(), "f"), &input(m.clone(), "m"), &one_mesh).unwrap();
     let e_img = mean_error(|p| image_only.spline.eval(p, None).unwrap(), &held);
     let opts = RegisterOptions { landmarks: fitted.clone(), ..RegisterOptions::default() };
     let both = register(&input(f, "f"), &input(m, "m"), &opts).unwrap();

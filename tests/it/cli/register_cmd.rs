@@ -69,6 +69,18 @@ fn register_recovers_a_known_warp_and_writes_every_output() {
     }
     assert_eq!(r["fold_free"], true);
     assert!(r["det_j_lower_bound"].as_f64().unwrap() > 0.0);
+    // The mesh pyramid: the spline runs' meshes grow by the refinements' splits.
+    let spline_tris: Vec<u64> = r["levels"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|l| l["stage"] == "spline")
+        .map(|l| l["triangles"].as_u64().unwrap())
+        .collect();
+    let refinements = r["refinements"].as_array().unwrap();
+    assert_eq!(r["mesh_levels"].as_u64().unwrap() as usize, refinements.len() + 1);
+    assert!(!refinements.is_empty() && spline_tris.windows(2).all(|w| w[0] <= w[1]));
+    assert_eq!(*spline_tris.last().unwrap(), r["triangles"].as_u64().unwrap());
     assert!(r["metric_after"].as_f64().unwrap() < 0.5 * r["metric_before"].as_f64().unwrap());
     let lv = &r["levels"][0];
     for key in ["stage", "level", "iterations", "termination", "time_ms"] {
@@ -148,6 +160,13 @@ fn bad_inputs_exit_1_and_write_nothing() {
     assert_ne!(o.status.code(), Some(0));
     let o = trimorph(&["register", s(&fp), s(&mp), "-o", s(&def), "--metric", "cc"]);
     assert_ne!(o.status.code(), Some(0));
+    // Mesh pyramid options out of range.
+    for bad in [["--mesh-levels", "0"], ["--refine-share", "0"], ["--refine-share", "1.5"]] {
+        let o = trimorph(&["register", s(&fp), s(&mp), "-o", s(&def), bad[0], bad[1]]);
+        assert_eq!(o.status.code(), Some(1), "{bad:?}");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(err.contains("mesh levels") || err.contains("refinement share"), "{err}");
+    }
     assert!(!def.exists(), "nothing is written on bad input");
 }
 
