@@ -42,12 +42,13 @@ def images():
     }
 
 
-def known_map(h, w, amp, seed):
+def known_map(h, w, amp, seed, knots=6):
     """psi(x) - x as (dy, dx) arrays: rotation 1.5 deg and shift (2.5, -1.5) about the
-    centre, plus a smooth random field of mean magnitude `amp` px."""
+    centre, plus a smooth random field of mean magnitude `amp` px (cubic through a
+    `knots x knots` grid of random values: features about 1/knots of the image across)."""
     rng = np.random.default_rng(seed)
-    g = rng.normal(size=(2, 6, 6))
-    f = np.stack([ndimage.zoom(g[k], (h / 6.0, w / 6.0), order=3)[:h, :w] for k in (0, 1)])
+    g = rng.normal(size=(2, knots, knots))
+    f = np.stack([ndimage.zoom(g[k], (h / knots, w / knots), order=3)[:h, :w] for k in (0, 1)])
     f *= amp / np.sqrt((f ** 2).sum(0)).mean()
     yy, xx = np.mgrid[0:h, 0:w].astype(np.float64)
     cy, cx = (h - 1) / 2.0, (w - 1) / 2.0
@@ -57,9 +58,9 @@ def known_map(h, w, amp, seed):
     return f[0] + ry + 2.5, f[1] + rx - 1.5
 
 
-def make_pair(m, amp, noise, seed, invert_gamma=False):
+def make_pair(m, amp, noise, seed, invert_gamma=False, knots=6):
     h, w = m.shape
-    dy, dx = known_map(h, w, amp, seed)
+    dy, dx = known_map(h, w, amp, seed, knots)
     yy, xx = np.mgrid[0:h, 0:w].astype(np.float64)
     f = ndimage.map_coordinates(m, [yy + dy, xx + dx], order=3, mode="nearest")
     if invert_gamma:
@@ -122,6 +123,8 @@ def main():
     ap.add_argument("--pairs", default="ihc,cell,nuclei")
     ap.add_argument("--amp", type=float, default=3.0)
     ap.add_argument("--noise", type=float, default=0.02)
+    ap.add_argument("--knots", type=int, default=6,
+                    help="the known field's random grid (larger: finer deformation)")
     ap.add_argument("--mi", action="store_true", help="inverted + gamma FIXED, --metric mi")
     ap.add_argument("--extra", default="", help="extra trimorph register arguments")
     ap.add_argument("--scale", type=float, default=1.0,
@@ -137,14 +140,14 @@ def main():
         import tifffile
 
         m = imgs[args.pairs.split(",")[0]]
-        f, _, _ = make_pair(m, args.amp, args.noise, 10, invert_gamma=args.mi)
+        f, _, _ = make_pair(m, args.amp, args.noise, 10, invert_gamma=args.mi, knots=args.knots)
         os.makedirs(args.write_pair, exist_ok=True)
         tifffile.imwrite(os.path.join(args.write_pair, "fixed.tif"), f)
         tifffile.imwrite(os.path.join(args.write_pair, "moving.tif"), m.astype(np.float32))
         return
     for k, name in enumerate(args.pairs.split(",")):
         m = imgs[name]
-        f, dy, dx = make_pair(m, args.amp, args.noise, 10 + k, invert_gamma=args.mi)
+        f, dy, dx = make_pair(m, args.amp, args.noise, 10 + k, invert_gamma=args.mi, knots=args.knots)
         mask = content_mask(m, dy, dx)
         err = lambda ey, ex: float(np.nanmean(np.hypot(ey - dy, ex - dx)[mask]))
         base = float(np.mean(np.hypot(dy, dx)[mask]))
