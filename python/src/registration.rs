@@ -41,8 +41,7 @@ fn input(
 /// whose pinned points stay pinned. `order` is the columns' order of `src` and `dst`:
 /// "xy" (x, y) or "rc" (row, col), as in `fit`. `bend` is relative to the metric, as
 /// `--bend` (mi multiplies it by 1000). `mesh_levels` and `refine_share` are those of
-/// `--mesh-levels` and `--refine-share` (the mesh pyramid; default 3 levels without
-/// landmarks, 1 with). Releases the GIL.
+/// `--mesh-levels` and `--refine-share` (the mesh pyramid; default 3 levels). Releases the GIL.
 #[pyfunction]
 #[pyo3(signature = (fixed, moving, metric = "ncc", mask_fixed = None, mask_moving = None,
     src = None, dst = None, weights = None, hard = false, landmark_weight = 1.0, init = None,

@@ -288,7 +288,7 @@ def register(
     """Registers MOVING to FIXED from the images (`trimorph register`): phi maps MOVING
     pixels to FIXED pixels, exactly C1 and certified fold-free; `report` holds the
     registration report. `mesh_levels`/`refine_share`: the mesh pyramid (`--mesh-levels`,
-    `--refine-share`; default 3 levels, 1 with landmarks). Releases the GIL."""
+    `--refine-share`; default 3 levels). Releases the GIL."""
 
 def morph(
     a: _Image,

@@ -99,7 +99,7 @@ pub(crate) struct RegisterCli {
     spacing: f64,
     /// Mesh levels: the spline starts on cells 2^(N-1) times --spacing and is refined
     /// exactly before each of the N-1 finest pyramid levels (1: one mesh throughout; a
-    /// deformation given by --init keeps its mesh). Default: 3, or 1 with --landmarks.
+    /// deformation given by --init keeps its mesh). Default: 3.
     #[arg(long, value_name = "N")]
     mesh_levels: Option<u32>,
     /// Share of the refinement indicator (the image term's pull on a twice finer mesh) that

@@ -121,6 +121,23 @@ pub fn image_curvature(term: &LevelTerm<'_>, pts: &[[f64; 2]]) -> Vec<[f64; 2]> 
 
 /// The preconditioner `D` (module docs): one positive entry per variable.
 pub fn jacobi(obj: &Objective, term: &LevelTerm<'_>, x: &[f64]) -> Vec<f64> {
+    let (_, d) = jacobi_parts(obj, term, x);
+    // A floor: a variable that nothing holds keeps a scale of 1e-6 of the mean.
+    let mean = d.iter().sum::<f64>() / d.len().max(1) as f64;
+    let floor = (1e-6 * mean).max(1e-300);
+    d.iter().map(|&v| v.max(floor)).collect()
+}
+
+/// Per variable, the image term's share of the diagonal curvature `D` of [`jacobi`]: near 1
+/// where the image holds a variable, 0 where only the bending and the landmarks do (flat or
+/// masked parts).
+pub fn image_share(obj: &Objective, term: &LevelTerm<'_>, x: &[f64]) -> Vec<f64> {
+    let (image, all) = jacobi_parts(obj, term, x);
+    image.iter().zip(&all).map(|(i, a)| if *a > 0.0 { i / a } else { 0.0 }).collect()
+}
+
+/// The image term's part of `D` and the whole `D`, before the floor.
+fn jacobi_parts(obj: &Objective, term: &LevelTerm<'_>, x: &[f64]) -> (Vec<f64>, Vec<f64>) {
     let n = obj.param.var_of.len();
     let nv = obj.param.nv();
     let mut pts = vec![[0.0f64; 2]; n];
@@ -134,6 +151,7 @@ pub fn jacobi(obj: &Objective, term: &LevelTerm<'_>, x: &[f64]) -> Vec<f64> {
             d[nv + k] += d_points[p][1] * c * c;
         }
     }
+    let image = d.clone();
     for r in obj.rows() {
         // A landmark row is rank one: its curvature `2 w |b|^2` lies along one direction of
         // the row's `m` points, so each point gets the mean over directions, `2 w b_p^2 / m`.
@@ -150,10 +168,7 @@ pub fn jacobi(obj: &Objective, term: &LevelTerm<'_>, x: &[f64]) -> Vec<f64> {
         d[k] += 2.0 * obj.bend * v;
         d[nv + k] += 2.0 * obj.bend * v;
     }
-    // A floor: a variable that nothing holds keeps a scale of 1e-6 of the mean.
-    let mean = d.iter().sum::<f64>() / d.len().max(1) as f64;
-    let floor = (1e-6 * mean).max(1e-300);
-    d.iter().map(|&v| v.max(floor)).collect()
+    (image, d)
 }
 
 /// Runs the spline stage at one level from `x`; returns the new `x` and the level's report.

@@ -121,10 +121,8 @@ pub struct RegisterOptions {
     pub spacing: f64,
     /// Mesh levels ([`pyramid`]): the spline stage starts on cells `2^(mesh_levels - 1)`
     /// times `spacing` and refines before each of the finest image levels. `None`:
-    /// [`DEFAULT_MESH_LEVELS`] without landmarks, 1 with them (the landmark-fit start needs
-    /// the final mesh's local control: [`DEFAULT_MESH_LEVELS`]). Always one level (a single
-    /// mesh) when starting from `init` or with pinned points, and at most the number of
-    /// pyramid levels.
+    /// [`DEFAULT_MESH_LEVELS`]. Always one level (a single mesh) when starting from `init`
+    /// or with pinned points, and at most the number of pyramid levels.
     pub mesh_levels: Option<u32>,
     /// The share `theta` of the refinement indicator the refined triangles carry (default
     /// [`DEFAULT_REFINE_SHARE`]; 1 refines every triangle).
@@ -180,13 +178,11 @@ pub const DEFAULT_BEND: f64 = 1.0;
 /// 0.80 px in 1.05-1.53 s (one level: 0.263 / 1.126 / 1.515 px; elastix 0.250 / 4.79 /
 /// 6.80 px in 5.5-6.9 s).
 ///
-/// With landmarks the default is one level: the spline stage may start from the landmark
-/// fit ([`register`]), which on a coarse mesh cannot follow the landmarks. On the masked
-/// pair of `tests/it/register.rs` (the right half seen by 16 landmarks only) three levels
-/// end 1.06 px from the held-out truth there against a thin-plate spline's 0.69 px (one
-/// level: below 1.1x the spline's). On the textured pair with 12 noisy landmarks three
-/// levels would be better (0.062 px against 0.066 px), but the image term alone on three
-/// levels is better still (0.057 px): landmarks with 0.25 px of noise add nothing there.
+/// With landmarks too: on the textured pair of `tests/it/register.rs` with 12 noisy
+/// landmarks three levels end 0.062 px from the held-out truth, one level 0.066 px; on its
+/// masked pair (the right half seen only by 16 landmarks) 0.66 px against a thin-plate
+/// spline's 0.69 px, as one level does, once each refinement starts from the landmark fit
+/// where the image holds nothing (`landmark_blend`; without it 1.06 px).
 pub const DEFAULT_MESH_LEVELS: u32 = 3;
 
 /// The default refinement share ([`RegisterOptions::refine_share`]).
@@ -391,6 +387,38 @@ fn points_f64(s: &Spline) -> Vec<[f64; 2]> {
     (0..s.num_points()).map(|p| s.point_f64(p)).collect()
 }
 
+/// After a refinement with landmarks: the new mesh's local control lets the landmarks pull
+/// where the coarser meshes could not, but where the image term sees nothing only the
+/// landmarks and the bending move the new variables, and L-BFGS would take many iterations
+/// to carry their pull there. So each variable starts between the prolonged map `x` and the
+/// landmark fit over the new mesh, weighted by the image term's share of its curvature
+/// ([`deform::image_share`]): where the image holds it, the prolonged value; where nothing
+/// but the landmarks and the bending do, the fit's. Any variables make an exactly C1 spline,
+/// so the blend is one.
+fn landmark_blend(
+    obj: &Objective,
+    term: &deform::LevelTerm<'_>,
+    x: &[f64],
+    s: &Spline,
+    mds: &Mds,
+    landmarks: &[Landmark],
+    fo: &FitOptions,
+) -> Result<Vec<f64>, RegisterError> {
+    let fit = crate::fit::fit_with(s, mds, landmarks, fo, Instant::now())?.spline;
+    let share = deform::image_share(obj, term, x);
+    let nv = obj.param.nv();
+    let mut out = x.to_vec();
+    for (p, k) in obj.param.var_of.iter().enumerate() {
+        if let Some(k) = *k {
+            let q = fit.point_f64(p);
+            for (c, v) in [k, nv + k].into_iter().enumerate() {
+                out[v] = share[v] * x[v] + (1.0 - share[v]) * q[c];
+            }
+        }
+    }
+    Ok(out)
+}
+
 /// Registers MOVING to FIXED (module docs).
 pub fn register(
     fixed: &Input,
@@ -444,8 +472,7 @@ pub fn register(
     let mesh_levels = if opts.init.is_some() || !opts.pinned.is_empty() {
         1
     } else {
-        let auto = if opts.landmarks.is_empty() { DEFAULT_MESH_LEVELS } else { 1 };
-        opts.mesh_levels.unwrap_or(auto).min(nl)
+        opts.mesh_levels.unwrap_or(DEFAULT_MESH_LEVELS).min(nl)
     };
     let fp = image::pyramid(&fixed.image, fixed.mask.as_ref().map(|m| &m.0), nl);
     let mp = image::pyramid(&moving.image, moving.mask.as_ref().map(|m| &m.0), nl);
@@ -520,19 +547,22 @@ pub fn register(
     // is `sum LW w_i |r_i|^2 / N + (bend / A) E` (N samples, A MOVING's area) away from the
     // image term, which is the fit's `sum w_i |r_i|^2 + lambda E` with
     // `lambda = bend N / (A LW)`, and the fit's scale-free weight is `lambda / (sum w_i A)`.
-    let s_fit = if opts.landmarks.len() >= 3 && opts.landmark_weight > 0.0 {
+    let fit_options = (opts.landmarks.len() >= 3 && opts.landmark_weight > 0.0).then(|| {
         let area = (moving.image.w * moving.image.h) as f64;
         let sum_w: f64 = opts.landmarks.iter().map(|l| l.weight).sum::<f64>().max(1e-300);
         let lambda = bend * n0 / (area * opts.landmark_weight);
-        let fo = FitOptions {
+        FitOptions {
             pinned: opts.pinned.clone(),
             bend: crate::fit::Bend::Weight(lambda / (sum_w * area)),
             bend_area: Some(area),
             ..FitOptions::default()
-        };
-        Some(crate::fit::fit_with(&s0, &mds, &opts.landmarks, &fo, Instant::now())?.spline)
-    } else {
-        None
+        }
+    });
+    let s_fit = match &fit_options {
+        Some(fo) => {
+            Some(crate::fit::fit_with(&s0, &mds, &opts.landmarks, fo, Instant::now())?.spline)
+        }
+        None => None,
     };
     let barrier = Barrier::with_floor(opts.floor)
         .map_err(|e| RegisterError::Option(e.to_string()))?
@@ -588,6 +618,7 @@ pub fn register(
     let mut refinements = Vec::new();
     let mut row_scale = 1.0;
     for l in (0..nl as usize).rev() {
+        let mut refined = false;
         // The mesh pyramid: refine (exactly, the same map) until this level's mesh.
         while mesh_level > pyramid::mesh_level(l as u32, mesh_levels) {
             let bits = crate::spline::mds::rounding_bits(mds.amplification(), opts.grid_bits);
@@ -608,11 +639,15 @@ pub fn register(
             variables = x.len();
             row_scale = 1.0;
             mesh_level -= 1;
+            refined = true;
         }
         let term = deform::LevelTerm::new(&cur, &fp[l], &mp[l], opts.metric, opts.samples);
         let scale = 1.0 / term.set.len().max(1) as f64;
         obj.scale_weights(&vec![scale / row_scale; obj.rows().len()]);
         row_scale = scale;
+        if let (true, Some(fo)) = (refined, &fit_options) {
+            x = landmark_blend(&obj, &term, &x, &cur, &mds, &opts.landmarks, fo)?;
+        }
         let watch = (opts.progress.as_ref(), &opts.cancel);
         let (mut nx, mut rep) = deform::run_level(&obj, &term, x, l as u32, opts.max_iters, watch);
         opts.cancel.check().map_err(|_| RegisterError::Cancelled)?;

@@ -109,13 +109,14 @@ fn landmarks_plus_image_beat_a_thin_plate_spline_fourfold() {
     let held = landmarks(5, 11.0, 0.0, 9);
     let tps = Tps::new(&fitted);
     let e_tps = mean_error(|p| tps.eval(p), &held);
-    // Like with like: the image term alone on the mesh the landmarks' default runs on (one
-    // mesh level, `DEFAULT_MESH_LEVELS`). With its own default (the mesh pyramid) the image
-    // term alone reaches 0.057 px here, better than these noisy landmarks add to.
+    // On one mesh level (no mesh pyramid). With the pyramid (the default) the image term
+    // alone reaches 0.057 px here and image + landmarks 0.062 px: these landmarks, with
+    // 0.25 px of noise, do not improve on the pyramid's image term (issue 50, left open);
+    // `landmarks_with_the_mesh_pyramid` below checks the pyramid's figures.
     let one_mesh = RegisterOptions { mesh_levels: Some(1), ..RegisterOptions::default() };
     let image_only = register(&input(f.clone(), "f"), &input(m.clone(), "m"), &one_mesh).unwrap();
     let e_img = mean_error(|p| image_only.spline.eval(p, None).unwrap(), &held);
-    let opts = RegisterOptions { landmarks: fitted.clone(), ..RegisterOptions::default() };
+    let opts = RegisterOptions { landmarks: fitted.clone(), ..one_mesh };
     let both = register(&input(f, "f"), &input(m, "m"), &opts).unwrap();
     let e_both = mean_error(|p| both.spline.eval(p, None).unwrap(), &held);
     eprintln!(
@@ -135,6 +136,28 @@ fn landmarks_plus_image_beat_a_thin_plate_spline_fourfold() {
         SplineStart::Prealigned,
         "the textured pair starts from the pre-alignment"
     );
+}
+
+#[test]
+fn landmarks_with_the_mesh_pyramid() {
+    let m = moving();
+    let f = fixed(&m, |v| v);
+    let mut fitted = landmarks(4, 0.0, 0.25, 5);
+    fitted.truncate(12);
+    let held = landmarks(5, 11.0, 0.0, 9);
+    let e_tps = mean_error(|p| Tps::new(&fitted).eval(p), &held);
+    let opts = RegisterOptions { landmarks: fitted.clone(), ..RegisterOptions::default() };
+    let both = register(&input(f.clone(), "f"), &input(m.clone(), "m"), &opts).unwrap();
+    let e_both = mean_error(|p| both.spline.eval(p, None).unwrap(), &held);
+    let one = RegisterOptions { mesh_levels: Some(1), ..opts };
+    let single = register(&input(f, "f"), &input(m, "m"), &one).unwrap();
+    let e_single = mean_error(|p| single.spline.eval(p, None).unwrap(), &held);
+    eprintln!(
+        "pyramid: image + landmarks {e_both:.4} px, one mesh {e_single:.4} px, TPS {e_tps:.3}"
+    );
+    assert!(both.report.mesh_levels == 3 && both.report.fold_free);
+    // 0.062 px against 0.066 px on one mesh and 2.53 px for the thin-plate spline.
+    assert!(e_both <= e_single && e_both <= 0.25 * e_tps, "{e_both} vs {e_single}, TPS {e_tps}");
 }
 
 #[test]
@@ -184,6 +207,10 @@ fn landmarks_steer_the_map_where_the_image_term_sees_nothing() {
     assert_eq!(both.report.landmarks.as_ref().unwrap().start, SplineStart::LandmarkFit);
     assert!(both.report.fold_free);
     // There the landmarks are all there is: as good as a thin-plate spline through them,
-    // much better than the image term's extrapolation.
+    // much better than the image term's extrapolation. (Bug: with the mesh pyramid the
+    // landmark fit was only a start on the coarsest mesh, and the right half ended at
+    // 1.06 px against the spline's 0.69 px; each refinement now starts the variables the
+    // image does not hold from the landmark fit over the new mesh: 0.66 px.)
+    assert_eq!(both.report.mesh_levels, 3);
     assert!(e_both < 0.75 * e_img && e_both < 1.1 * e_tps, "{e_both} vs {e_img}, TPS {e_tps}");
 }
