@@ -406,17 +406,20 @@ fn landmark_blend(
 ) -> Result<Vec<f64>, RegisterError> {
     let fit = crate::fit::fit_with(s, mds, landmarks, fo, Instant::now())?.spline;
     let share = deform::image_share(obj, term, x);
-    let nv = obj.param.nv();
-    let mut out = x.to_vec();
-    for (p, k) in obj.param.var_of.iter().enumerate() {
+    let xf = variables_of(&obj.param, &fit);
+    Ok(x.iter().zip(&xf).zip(&share).map(|((a, b), w)| w * a + (1.0 - w) * b).collect())
+}
+
+/// The variables of `param` at the control points of `s` (a spline over the same mesh).
+fn variables_of(param: &Param, s: &Spline) -> Vec<f64> {
+    let nv = param.nv();
+    let mut x = vec![0.0; 2 * nv];
+    for (p, k) in param.var_of.iter().enumerate() {
         if let Some(k) = *k {
-            let q = fit.point_f64(p);
-            for (c, v) in [k, nv + k].into_iter().enumerate() {
-                out[v] = share[v] * x[v] + (1.0 - share[v]) * q[c];
-            }
+            [x[k], x[nv + k]] = s.point_f64(p);
         }
     }
-    Ok(out)
+    x
 }
 
 /// Registers MOVING to FIXED (module docs).
@@ -600,16 +603,7 @@ pub fn register(
     };
     let mut obj = objective(s_fit.as_ref().unwrap_or(&s0), &mds, &is_var)?;
     // The pre-alignment in the same variables (the pinned points are equal in both).
-    let mut x_prealigned = s_fit.is_some().then(|| {
-        let nv = obj.param.nv();
-        let mut x = vec![0.0; 2 * nv];
-        for (p, k) in obj.param.var_of.iter().enumerate() {
-            if let Some(k) = *k {
-                [x[k], x[nv + k]] = s0.point_f64(p);
-            }
-        }
-        x
-    });
+    let mut x_prealigned = s_fit.is_some().then(|| variables_of(&obj.param, &s0));
     let mut spline_start = SplineStart::LandmarkFit;
     let mut x = obj.param.x0();
     let mut variables = x.len();
