@@ -9,7 +9,7 @@
 use super::int::Int;
 use num_bigint::BigInt;
 use num_rational::{BigRational, Ratio};
-use num_traits::{One, ToPrimitive, Zero};
+use num_traits::{One, Signed, ToPrimitive, Zero};
 use std::fmt;
 
 /// Exact rational with the small-integer fast path of [`Int`].
@@ -129,6 +129,14 @@ pub fn parse_rat(text: &str) -> Result<Rat, ParseRatError> {
         let q: BigInt = q.trim().parse().map_err(|_| err())?;
         if q.is_zero() {
             return Err(err());
+        }
+        // Dyadic fast path (the deformation files' exact points): `q = ±2^k` is reduced by
+        // shifting out the common factors of two, without a `BigInt` gcd.
+        if let Some(k) = q.trailing_zeros().filter(|&k| q.magnitude().bits() == k + 1) {
+            let shift = p.trailing_zeros().map_or(k, |t| t.min(k));
+            let (p, q) = (&p >> shift, &q >> shift);
+            let (p, q) = if q.is_negative() { (-p, -q) } else { (p, q) };
+            return Ok(Rat::new_raw(Int::from_big(p), Int::from_big(q)));
         }
         return Ok(rat_from_big(&BigRational::new(p, q)));
     }
@@ -442,6 +450,31 @@ mod tests {
             let e = parse_rat(far).unwrap_err();
             assert!(matches!(e, ParseRatError::Exponent(_)), "{far}");
             assert!(e.to_string().contains("exponent is beyond"), "{e}");
+        }
+    }
+
+    /// The dyadic fast path of big `p / ±2^k` gives `BigRational::new`'s value in lowest
+    /// terms: zero, signs, odd and even numerators, denominators beyond `i64` and `i128`.
+    #[test]
+    fn dyadic_fast_path_matches_the_bigint_gcd() {
+        let big = "961347583071961347583071961347583071961347583071";
+        let mut texts = Vec::new();
+        for num in ["0", "1", "-1", "6", "-6", big, &format!("-{big}"), &format!("{big}0")] {
+            for k in [0u32, 1, 3, 63, 64, 100, 200] {
+                let q = BigInt::from(2).pow(k);
+                texts.push(format!("{num}/{q}"));
+                texts.push(format!("{num}/-{q}"));
+                let p: BigInt = num.parse().unwrap();
+                texts.push(format!("{}/{q}", &p << 70u32));
+            }
+        }
+        for t in texts {
+            let (p, q) = t.split_once('/').unwrap();
+            let want = BigRational::new(p.parse().unwrap(), q.parse().unwrap());
+            let got = parse_rat(&t).unwrap();
+            assert_eq!(rat_to_big(&got), want, "{t}");
+            assert!(got.denom().is_positive(), "{t}");
+            assert_eq!(got, rat_from_big(&want), "{t}: the representation too");
         }
     }
 

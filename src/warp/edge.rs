@@ -17,15 +17,17 @@
 //!
 //! In every mode, pixels whose preimage does not exist (outside the mesh) get the background.
 //!
-//! **How.** The samplers ([`super::sample::fill_pixels`], with their vector paths) clamp;
-//! [`fill_pixels_mode`] runs them, then recomputes, with the scalar [`sample_mode`], each
-//! pixel whose support leaves the image: bilinear `x < 0` or `x > w - 1` (or `y`), bicubic
+//! **How.** The samplers ([`super::sample::fill_pixels`], with their vector paths) clamp.
+//! Their vector paths take only positions whose neighbourhood lies inside the image and hand
+//! the others to a scalar closure, which offers them to a hook first; [`fill_pixels_mode`]'s
+//! hook computes, with the scalar [`sample_mode`], each pixel whose support leaves the
+//! image (nearest, whose vector path clamps by itself, is revisited after the samplers): bilinear `x < 0` or `x > w - 1` (or `y`), bicubic
 //! `x < 1` or `x >= w - 2` (its taps `floor(x) - 1 ..= floor(x) + 2`), nearest
 //! `round(x) < 0` or `round(x) > w - 1`. Every other pixel keeps the samplers' exact value,
 //! so in [`EdgeMode::Edge`] nothing changes and elsewhere only a band along the image's
 //! border costs more.
 
-use super::sample::{fast_floor, fill_pixels, keys, Source, Texel};
+use super::sample::{fast_floor, fill_pixels, fill_pixels_with, keys, Source, Texel};
 use super::Interp;
 
 /// What taps outside the source image read (module docs).
@@ -218,10 +220,23 @@ pub fn fill_pixels_mode<T: Texel, const NC: usize>(
     background: f64,
     mode: EdgeMode,
 ) {
-    fill_pixels::<T, NC>(src, pos, out, interp, background);
     if mode == EdgeMode::Edge {
+        return fill_pixels::<T, NC>(src, pos, out, interp, background);
+    }
+    // Bilinear and bicubic: the samplers offer every border position to the hook, so the
+    // pixels whose support leaves the image are done once, in the mode.
+    let beyond = |p: &[f64; 2], px: &mut [T]| {
+        let out = leaves(*p, interp, src.w, src.h);
+        if out {
+            sample_mode(src, *p, interp, mode, background, px);
+        }
+        out
+    };
+    fill_pixels_with::<T, NC>(src, pos, out, interp, background, beyond);
+    if interp != Interp::Nearest {
         return;
     }
+    // Nearest: the vector path clamps by itself, so the pixels are revisited.
     for (p, px) in pos.iter().zip(out.chunks_exact_mut(NC)) {
         if !p[0].is_nan() && leaves(*p, interp, src.w, src.h) {
             sample_mode(src, *p, interp, mode, background, px);
@@ -231,7 +246,10 @@ pub fn fill_pixels_mode<T: Texel, const NC: usize>(
 
 #[cfg(test)]
 mod tests {
+    use super::super::simd_harness::{image, positions, TestTexel};
     use super::*;
+    use rand::rngs::SmallRng;
+    use rand::SeedableRng;
 
     fn img() -> (Vec<u8>, usize, usize) {
         // 4 x 3, values 10 * (y * 4 + x) + 10.
@@ -313,6 +331,60 @@ mod tests {
                 assert_eq!(got, want, "{interp:?} {mode:?}");
             }
         }
+    }
+
+    /// The old two passes: every sampler clamps, then each pixel whose support leaves the
+    /// image is recomputed in the mode.
+    fn two_passes<T: Texel, const NC: usize>(
+        src: &Source<'_, T>,
+        pos: &[[f64; 2]],
+        out: &mut [T],
+        interp: Interp,
+        background: f64,
+        mode: EdgeMode,
+    ) {
+        fill_pixels::<T, NC>(src, pos, out, interp, background);
+        for (p, px) in pos.iter().zip(out.chunks_exact_mut(NC)) {
+            if !p[0].is_nan() && leaves(*p, interp, src.w, src.h) {
+                sample_mode(src, *p, interp, mode, background, px);
+            }
+        }
+    }
+
+    fn fused_equals_two_passes<T: TestTexel, const NC: usize>(seed: u64) {
+        let mut rng = SmallRng::seed_from_u64(seed);
+        for (w, h) in [(37, 29), (5, 4), (64, 3)] {
+            let data: Vec<T> = image(&mut rng, w * h * NC, T::KINDS);
+            let src = Source { data: &data, w, h, nc: NC };
+            let pos = positions(&mut rng, w, h, 3000);
+            for interp in [Interp::Nearest, Interp::Bilinear, Interp::Bicubic] {
+                for mode in [EdgeMode::Constant, EdgeMode::Reflect] {
+                    let mut want = vec![T::from_f32(0.0); NC * pos.len()];
+                    two_passes::<T, NC>(&src, &pos, &mut want, interp, 9.0, mode);
+                    let mut got = vec![T::from_f32(0.0); NC * pos.len()];
+                    fill_pixels_mode::<T, NC>(&src, &pos, &mut got, interp, 9.0, mode);
+                    let bits = |v: &[T]| v.iter().map(|x| x.bits()).collect::<Vec<u32>>();
+                    assert_eq!(bits(&got), bits(&want), "{w}x{h} NC {NC} {interp:?} {mode:?}");
+                }
+            }
+        }
+    }
+
+    /// The border pixels are done once, through the samplers' hook, with the vector paths on
+    /// (where the CPU has them): the same bits as sampling everything clamped and then
+    /// recomputing each pixel whose support leaves the image.
+    #[test]
+    fn the_hook_equals_the_second_pass_bit_for_bit() {
+        fused_equals_two_passes::<u8, 1>(1);
+        fused_equals_two_passes::<u8, 2>(2);
+        fused_equals_two_passes::<u8, 3>(3);
+        fused_equals_two_passes::<u8, 4>(4);
+        fused_equals_two_passes::<u16, 1>(5);
+        fused_equals_two_passes::<u16, 3>(6);
+        fused_equals_two_passes::<u16, 4>(7);
+        fused_equals_two_passes::<f32, 1>(8);
+        fused_equals_two_passes::<f32, 2>(9);
+        fused_equals_two_passes::<f32, 4>(10);
     }
 
     #[test]

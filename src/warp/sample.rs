@@ -279,6 +279,25 @@ pub fn fill_pixels<T: Texel, const NC: usize>(
     interp: Interp,
     background: f64,
 ) {
+    fill_pixels_with::<T, NC>(src, pos, out, interp, background, |_, _| false);
+}
+
+/// [`fill_pixels`] with a hook for the pixels near the border: bilinear and bicubic
+/// positions (not `NaN`) whose neighbourhood is not inside the image are first offered to
+/// `beyond(p, px)`, which either writes the pixel and returns `true` or leaves it to the
+/// clamped scalar sample. The vector paths compute only positions whose neighbourhood lies
+/// inside the image and hand every other to the scalar closure, so `beyond` sees a superset
+/// of the bilinear positions with `x < 0` or `x > w - 1` (or `y`), and of the bicubic ones
+/// with `x < 1` or `x >= w - 2`: the edge modes ([`super::edge`]) need no second pass over
+/// those. Nearest positions never reach it (the vector path clamps them itself).
+pub(super) fn fill_pixels_with<T: Texel, const NC: usize>(
+    src: &Source<'_, T>,
+    pos: &[[f64; 2]],
+    out: &mut [T],
+    interp: Interp,
+    background: f64,
+    beyond: impl Fn(&[f64; 2], &mut [T]) -> bool,
+) {
     debug_assert_eq!(src.nc, NC);
     let bg = T::from_f32(background as f32);
     let zero = T::from_f32(0.0);
@@ -312,7 +331,7 @@ pub fn fill_pixels<T: Texel, const NC: usize>(
                         let u = e + (f - e) * fx;
                         px[c] = T::from_f32(t + (u - t) * fy);
                     }
-                } else {
+                } else if !beyond(p, px) {
                     src.sample_into(*p, Interp::Bilinear, px);
                 }
             };
@@ -358,7 +377,7 @@ pub fn fill_pixels<T: Texel, const NC: usize>(
             let pixel = |px: &mut [T], p: &[f64; 2]| {
                 if p[0].is_nan() {
                     outside(px);
-                } else {
+                } else if !beyond(p, px) {
                     src.sample_into(*p, Interp::Bicubic, px);
                 }
             };
