@@ -136,6 +136,15 @@ pub fn image_share(obj: &Objective, term: &LevelTerm<'_>, x: &[f64]) -> Vec<f64>
     image.iter().zip(&all).map(|(i, a)| if *a > 0.0 { i / a } else { 0.0 }).collect()
 }
 
+/// Per variable, whether the image term sees it: its part of `D` ([`jacobi`]) is at least
+/// `rel` times the mean over the variables (and positive). With a tiny `rel`, those it does
+/// not see lie where no sample falls (masked out, outside FIXED).
+pub fn image_sees(obj: &Objective, term: &LevelTerm<'_>, x: &[f64], rel: f64) -> Vec<bool> {
+    let (image, _) = jacobi_parts(obj, term, x);
+    let mean = image.iter().sum::<f64>() / image.len().max(1) as f64;
+    image.iter().map(|&v| v >= rel * mean && v > 0.0).collect()
+}
+
 /// The image term's part of `D` and the whole `D`, before the floor.
 fn jacobi_parts(obj: &Objective, term: &LevelTerm<'_>, x: &[f64]) -> (Vec<f64>, Vec<f64>) {
     let n = obj.param.var_of.len();

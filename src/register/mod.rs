@@ -351,6 +351,10 @@ pub const DEFAULT_LANDMARK_WEIGHT: f64 = 1.0;
 
 /// The share of MOVING's samples that must land on FIXED after the pre-alignment.
 pub const MIN_OVERLAP: f64 = 0.1;
+/// A variable the image term does not see after a refinement of the mesh pyramid (no sample
+/// falls on its support): its part of the image curvature is below this share of the mean ([`deform::image_sees`],
+/// [`pyramid::unseen_from`]).
+const UNSEEN: f64 = 1e-6;
 
 /// A regular mesh of `cols x rows` cells of about `spacing` pixels over MOVING's frame
 /// `[-0.5, w - 0.5] x [-0.5, h - 0.5]`, each cell split along its rising diagonal.
@@ -483,8 +487,8 @@ pub fn register(
     let mut levels = Vec::new();
 
     // The start: the pre-alignment over a new mesh, or the given deformation.
-    let (s0, th) = match &opts.init {
-        Some(s) => (s.clone(), frame.start(fixed.image.w, fixed.image.h)),
+    let (s0, th, prealigned) = match &opts.init {
+        Some(s) => (s.clone(), frame.start(fixed.image.w, fixed.image.h), None),
         None => {
             let (th, reps) = affine::prealign(
                 opts.prealign,
@@ -501,7 +505,7 @@ pub fn register(
             let ar = a.map(|row| row.map(|v| grid_rat(v, crate::fit::frame::AFFINE_BITS)));
             let mesh =
                 pyramid::coarse_mesh(moving.image.w, moving.image.h, opts.spacing, mesh_levels)?;
-            (Spline::affine(mesh, opts.degree, &ar)?, th)
+            (Spline::affine(mesh, opts.degree, &ar)?, th, Some(ar))
         }
     };
     let affine =
@@ -641,6 +645,10 @@ pub fn register(
         row_scale = scale;
         if let (true, Some(fo)) = (refined, &fit_options) {
             x = landmark_blend(&obj, &term, &x, &cur, &mds, &opts.landmarks, fo)?;
+        } else if let (true, Some(a)) = (refined, &prealigned) {
+            let pre =
+                variables_of(&obj.param, &Spline::affine(cur.mesh().clone(), opts.degree, a)?);
+            x = pyramid::unseen_from(&x, &pre, &deform::image_sees(&obj, &term, &x, UNSEEN));
         }
         let watch = (opts.progress.as_ref(), &opts.cancel);
         let (mut nx, mut rep) = deform::run_level(&obj, &term, x, l as u32, opts.max_iters, watch);
