@@ -16,6 +16,8 @@
 //!   or nothing);
 //! * [`register`]: registration from the images; [`register_frames`]: every frame of a
 //!   sequence registered to a reference frame, with resume and shards;
+//! * [`solve`]: an ECLES problem file solved and its solution written (errors typed with
+//!   the JSON object `trimorph solve` prints);
 //! * [`morph`]: a morph's files in one folder, written all or nothing;
 //! * [`bitgrowth`]: the bit-size study of the exact factoring (CSV and plots);
 //! * [`demo`]: the demonstration on bundled data, written into one folder;
@@ -36,6 +38,7 @@ pub mod options;
 pub mod register;
 pub mod register_frames;
 pub mod sequence;
+pub mod solve;
 pub mod spline;
 pub mod values;
 pub mod warp;
