@@ -18,7 +18,9 @@
 //!   sequence registered to a reference frame, with resume and shards;
 //! * [`solve`]: an ECLES problem file solved and its solution written (errors typed with
 //!   the JSON object `trimorph solve` prints);
-//! * [`morph`]: a morph's files in one folder, written all or nothing;
+//! * [`morph`]: the morph of two image files: [`morph_inputs`] reads the images, the
+//!   landmarks or the given deformations and makes the morph (options, checks, fits, the
+//!   warnings as data); [`morph`] writes its files in one folder, all or nothing;
 //! * [`bitgrowth`]: the bit-size study of the exact factoring (CSV and plots);
 //! * [`demo`]: the demonstration on bundled data, written into one folder;
 //! * [`values`]: the text forms of option values (sizes, grids, shards, time ranges) and
@@ -34,6 +36,7 @@ pub mod field;
 pub mod fit;
 pub mod model;
 pub mod morph;
+pub mod morph_inputs;
 pub mod options;
 pub mod register;
 pub mod register_frames;
