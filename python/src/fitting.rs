@@ -15,8 +15,9 @@ use pyo3::types::PyList;
 use trimorph::fit::frame::{fit_frame, FrameFitOptions};
 use trimorph::fit::objective::{Barrier, Loss};
 use trimorph::fit::{fit as fit_on, with_holdout, Bend, BendError, FitError, FitOptions};
+use trimorph::jobs::morph_inputs::MorphSettings;
 use trimorph::mesh::AdaptOptions;
-use trimorph::morph::{times_between, Morph, MorphError, MorphOptions, Schedule};
+use trimorph::morph::{times_between, Morph, MorphError, Schedule};
 use trimorph::warp::Interp;
 
 /// A fit error as the right Python exception.
@@ -29,6 +30,17 @@ pub fn fit_exc(py: Python<'_>, e: FitError) -> PyErr {
             other => value_error(other),
         }
     }
+}
+
+/// The keyword `bend`: "auto" or a weight >= 0 (`None` when not given).
+fn bend_of(bend: Option<&Bound<'_, PyAny>>) -> PyResult<Option<Bend>> {
+    let Some(b) = bend else { return Ok(None) };
+    match b.extract::<f64>() {
+        Ok(w) => w.to_string().parse(),
+        Err(_) => b.extract::<String>()?.parse(),
+    }
+    .map(Some)
+    .map_err(|e: BendError| value_error(format!("bend: {e}")))
 }
 
 /// The library's fit options from the keywords of `fit` (and of `FrameSequence`): `loss`
@@ -45,14 +57,7 @@ pub fn fit_options(
     max_iters: u64,
     radius: Option<usize>,
 ) -> PyResult<FitOptions> {
-    let bend: Bend = match bend {
-        None => Bend::Auto,
-        Some(b) => match b.extract::<f64>() {
-            Ok(w) => w.to_string().parse(),
-            Err(_) => b.extract::<String>()?.parse(),
-        }
-        .map_err(|e: BendError| value_error(format!("bend: {e}")))?,
-    };
+    let bend = bend_of(bend)?.unwrap_or(Bend::Auto);
     Ok(FitOptions {
         loss: Loss::from_name(loss, loss_scale).map_err(|e| value_error(format!("loss: {e}")))?,
         bend,
@@ -226,9 +231,11 @@ pub fn morph<'py>(
     if frames < 2 {
         return Err(value_error(format!("frames must be at least 2, got {frames}")));
     }
-    // `background`: the library's rule (a sample of the working type, checked before the
-    // fits; `trimorph::warp::check_background`), as for `trimorph morph --background`.
-    let opts = MorphOptions {
+    // The options as `trimorph morph` builds them (`MorphSettings`, the morph's own default
+    // bending weight, interpolation, unless `bend` is given). `background`: the library's
+    // rule (a sample of the working type, checked before the fits;
+    // `trimorph::morph::check_background`), as for `trimorph morph --background`.
+    let opts = MorphSettings {
         shape: shape.parse::<Schedule>().map_err(|e| value_error(format!("shape: {e}")))?,
         color: color.parse::<Schedule>().map_err(|e| value_error(format!("color: {e}")))?,
         interp: interp.parse::<Interp>().map_err(value_error)?,
@@ -236,27 +243,11 @@ pub fn morph<'py>(
         background,
         pin_frame,
         mode: mode.parse().map_err(|e| value_error(format!("mode: {e}")))?,
-        ..MorphOptions::default()
-    };
-    // The morph's own default weight (interpolation) unless `bend` is given.
-    let fit = fit_options(
-        "squares",
-        trimorph::fit::options::DEFAULT_LOSS_SCALE,
-        bend,
+        bend: bend_of(bend)?,
         hard,
-        true,
-        trimorph::fit::options::DEFAULT_MIN_DET,
-        trimorph::fit::options::DEFAULT_MAX_ITERS,
-        None,
-    )?;
-    let opts = MorphOptions {
-        fit: FitOptions {
-            bend: if bend.is_some() { fit.bend } else { opts.fit.bend },
-            hard,
-            ..opts.fit.clone()
-        },
-        ..opts
-    };
+        ..MorphSettings::default()
+    }
+    .options();
     let times = times_between(frames, t0, t1).map_err(value_error)?;
     let out = py
         .detach(|| {

@@ -138,9 +138,9 @@ where
     w.write_all(b"  ]")
 }
 
-/// The JSON error object for an ECLES error: `{"error": kind, "condition": ..., "message": ...}`.
-#[cfg(feature = "cli")]
-pub(crate) fn error_json(e: &super::EclesError) -> Value {
+/// The JSON error object for an ECLES error: `{"error": kind, "condition": ..., "message": ...}`
+/// (what `trimorph solve` prints, with the problem file's `"file"` key added).
+pub fn error_json(e: &super::EclesError) -> Value {
     use super::EclesError;
     match e {
         EclesError::NotWeaklySolvable { constraint, column } => json!({

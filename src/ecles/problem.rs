@@ -37,8 +37,7 @@ use crate::exact::Int;
 use num_traits::{Signed, Zero};
 use rayon::prelude::*;
 
-#[cfg(feature = "cli")]
-pub(crate) use super::output::error_json;
+pub use super::output::error_json;
 
 /// Smallest `|E| x |D|` (relevant constraints times derived parameters) for which `"auto"`
 /// runs the modular path: below it the fraction-free LDU is as fast and needs no primes.

@@ -16,7 +16,11 @@
 //!   or nothing);
 //! * [`register`]: registration from the images; [`register_frames`]: every frame of a
 //!   sequence registered to a reference frame, with resume and shards;
-//! * [`morph`]: a morph's files in one folder, written all or nothing;
+//! * [`solve`]: an ECLES problem file solved and its solution written (errors typed with
+//!   the JSON object `trimorph solve` prints);
+//! * [`morph`]: the morph of two image files: [`morph_inputs`] reads the images, the
+//!   landmarks or the given deformations and makes the morph (options, checks, fits, the
+//!   warnings as data); [`morph`] writes its files in one folder, all or nothing;
 //! * [`bitgrowth`]: the bit-size study of the exact factoring (CSV and plots);
 //! * [`demo`]: the demonstration on bundled data, written into one folder;
 //! * [`values`]: the text forms of option values (sizes, grids, shards, time ranges) and
@@ -32,10 +36,12 @@ pub mod field;
 pub mod fit;
 pub mod model;
 pub mod morph;
+pub mod morph_inputs;
 pub mod options;
 pub mod register;
 pub mod register_frames;
 pub mod sequence;
+pub mod solve;
 pub mod spline;
 pub mod values;
 pub mod warp;

@@ -1,8 +1,9 @@
-//! The files of a morph ([`crate::morph::Morph`]) in one folder, written all or nothing:
-//! `frame_000.png` ..., an endlessly looping `morph.gif` and `morph.apng`,
+//! The file job behind `trimorph morph` ([`MorphJob`]): the morph made from its input files
+//! ([`crate::jobs::morph_inputs`]), then its files ([`write_morph`]) in one folder, written
+//! all or nothing: `frame_000.png` ..., an endlessly looping `morph.gif` and `morph.apng`,
 //! `contact-sheet.png`, and the two deformations `phi_ab.json` (A's pixels -> B's pixels,
-//! with the similarity that aligned B, [`SIMILARITY_KEY`]) and `phi_ba.json`. This is what
-//! `trimorph morph` writes; the command line only reads its inputs and prints.
+//! with the similarity that aligned B, [`SIMILARITY_KEY`]) and `phi_ba.json`. The command
+//! line only parses its options, shows the progress and prints the job's notes and report.
 //!
 //! **All or nothing.** The files go into a sibling folder swapped into place at the end
 //! ([`crate::io::folder::Staged`]), so a failed or killed morph leaves the earlier output as
@@ -29,6 +30,7 @@ use crate::exact::matrix::rat_to_f64;
 use crate::exact::Rat;
 use crate::io::folder::{MadeFolders, Staged};
 use crate::io::{deformation, temp_name, write_atomic, AtomicFile, IoError};
+use crate::jobs::morph_inputs::{MadeMorph, MorphInputError, MorphInputs, MorphNote};
 use crate::memory::OverBudget;
 use crate::morph::align::{Similarity, SIMILARITY_KEY};
 use crate::morph::output::{
@@ -509,9 +511,198 @@ fn uncertified_times(
     Ok(bad.into_iter().flatten().collect())
 }
 
+/// The whole of `trimorph morph`: the morph made from its input files, then its files
+/// written. [`MorphJob::make`] and [`MorphJob::write`] are the two halves (a caller shows
+/// the notes of the first while the second runs); [`MorphJob::run`] does both.
+#[derive(Clone, Debug)]
+pub struct MorphJob {
+    /// The images, the maps' source and the options.
+    pub inputs: MorphInputs,
+    /// What to write, and where. The preview's background is the settings'
+    /// ([`crate::jobs::morph_inputs::MorphSettings::background`]); `files.background` is
+    /// not read.
+    pub files: MorphFileOptions,
+}
+
+/// Why a morph job failed.
+#[derive(Debug, thiserror::Error)]
+pub enum MorphJobError {
+    /// Reading the inputs or making the morph.
+    #[error(transparent)]
+    Inputs(#[from] MorphInputError),
+    /// The frame count or time range, or writing the files.
+    #[error(transparent)]
+    Files(#[from] MorphFilesError),
+}
+
+/// What a [`MorphJob`] did: the notes of making the morph and the report of its files.
+#[derive(Clone, Debug)]
+pub struct MorphOutcome {
+    /// The fits' summaries and warnings and the alignment ([`MadeMorph::notes`]).
+    pub notes: Vec<MorphNote>,
+    /// What writing the files did.
+    pub files: MorphFilesReport,
+    /// Frames written.
+    pub frames: usize,
+    /// The frames' size (A's), px.
+    pub size: (u32, u32),
+    /// The output folder.
+    pub output: PathBuf,
+    /// Whether the maps were fitted to landmarks.
+    pub from_landmarks: bool,
+    /// Wall time of each phase: `read`, `fits`, then [`MorphFilesReport::phases`].
+    pub phases: Phases,
+}
+
+impl MorphOutcome {
+    /// The notes and warnings about the frames written (pixels no image covers, times not
+    /// certified fold-free), as `trimorph morph` prints them.
+    pub fn frame_notes(&self) -> Vec<String> {
+        let rep = &self.files;
+        let mut out = Vec::new();
+        if rep.uncovered > 0 {
+            out.push(format!(
+                "note: {} pixels over all frames have a preimage in neither image (they show \
+                 --background)",
+                rep.uncovered
+            ));
+        }
+        if !rep.uncertified.is_empty() {
+            let ts: Vec<String> = rep.uncertified.iter().map(|t| format!("{t:.3}")).collect();
+            out.push(format!(
+                "warning: the blended maps are not certified fold-free at t = {}",
+                ts.join(", ")
+            ));
+        }
+        out
+    }
+
+    /// The line on the inverse maps' per-pixel Newton solves (`--timings`).
+    pub fn newton_line(&self) -> String {
+        format!(
+            "inverse maps: {} pixels solved by per-pixel Newton over all frames",
+            self.files.newton_solves
+        )
+    }
+
+    /// The summary line: frames, size, the files, and the landmarks' largest residual.
+    pub fn summary(&self) -> String {
+        let rep = &self.files;
+        let residual = if self.from_landmarks {
+            format!("; largest landmark fit residual {:.3} px", rep.largest_residual)
+        } else {
+            String::new()
+        };
+        format!(
+            "{} frames ({} x {}) in {}; {}, {}, {}{}",
+            self.frames,
+            self.size.0,
+            self.size.1,
+            self.output.display(),
+            rep.gif.display(),
+            rep.apng.display(),
+            rep.sheet.display(),
+            residual
+        )
+    }
+}
+
+impl MorphJob {
+    /// Checks the frame count ([`check_frames`]), then makes the morph from its inputs
+    /// ([`MorphInputs::make`]).
+    pub fn make(&self) -> Result<MadeMorph, MorphJobError> {
+        check_frames(self.files.frames)?;
+        Ok(self.inputs.make()?)
+    }
+
+    /// Writes the files of the morph `made` ([`write_morph`]); `progress` is called once
+    /// per computed frame, from any thread.
+    pub fn write(
+        &self,
+        made: &MadeMorph,
+        progress: &(dyn Fn() + Sync),
+    ) -> Result<MorphOutcome, MorphJobError> {
+        let files =
+            MorphFileOptions { background: self.inputs.settings.background, ..self.files.clone() };
+        let report = write_morph(&made.morph, &files, progress)?;
+        let mut phases = made.phases.clone();
+        for &(name, ms) in &report.phases {
+            phases.add(name, ms);
+        }
+        let a = made.morph.image_a();
+        Ok(MorphOutcome {
+            notes: made.notes.clone(),
+            files: report,
+            frames: files.frames,
+            size: (a.width(), a.height()),
+            output: files.output,
+            from_landmarks: made.from_landmarks,
+            phases,
+        })
+    }
+
+    /// Runs the job: [`MorphJob::make`], then [`MorphJob::write`].
+    pub fn run(&self, progress: &(dyn Fn() + Sync)) -> Result<MorphOutcome, MorphJobError> {
+        let made = self.make()?;
+        self.write(&made, progress)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::io::landmarks::LandmarkSource;
+    use crate::jobs::morph_inputs::{MorphSettings, MorphSource};
+
+    fn gray(w: u32, h: u32) -> DynamicImage {
+        DynamicImage::ImageLuma8(image::GrayImage::from_fn(w, h, |x, y| {
+            image::Luma([((x * 7 + y * 3) % 256) as u8])
+        }))
+    }
+
+    fn job(dir: &Path, source: MorphSource, frames: usize) -> MorphJob {
+        MorphJob {
+            inputs: MorphInputs {
+                a: dir.join("a.png"),
+                b: dir.join("b.png"),
+                source,
+                settings: MorphSettings::default(),
+            },
+            files: MorphFileOptions::new(dir.join("out"), frames),
+        }
+    }
+
+    #[test]
+    fn a_job_writes_the_morph_of_its_files_and_reads_its_own_maps_back() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let l = d.join("l.csv");
+        let landmarks = MorphSource::Landmarks(LandmarkSource::File(l.clone()));
+        // The frame count is checked before anything is read.
+        let e = job(d, landmarks.clone(), 1).make().err().unwrap();
+        assert!(matches!(e, MorphJobError::Files(MorphFilesError::TooFewFrames { frames: 1 })));
+        gray(40, 30).save(d.join("a.png")).unwrap();
+        gray(36, 32).save(d.join("b.png")).unwrap();
+        std::fs::write(&l, "p,5,5,6,5\nq,30,6,29,7\nr,8,22,8,24\ns,28,24,27,25\n").unwrap();
+        let done = job(d, landmarks, 3).run(&|| {}).unwrap();
+        assert!(done.from_landmarks && done.frames == 3 && done.size == (40, 30));
+        assert!(matches!(done.notes.last(), Some(MorphNote::Aligned { .. })));
+        let out = d.join("out");
+        assert!(done.summary().starts_with(&format!("3 frames (40 x 30) in {}; ", out.display())));
+        assert!(done.summary().contains("; largest landmark fit residual "));
+        let phases: Vec<&str> = done.phases.rows().iter().map(|r| r.0).collect();
+        assert_eq!(phases[..3], ["read", "fits", "frames and encoding"]);
+        for f in ["frame_000.png", "frame_002.png", "phi_ab.json", "phi_ba.json", "morph.gif"] {
+            assert!(out.join(f).is_file(), "{f}");
+        }
+        // The maps written, given back: the stored similarity aligns B again.
+        std::fs::rename(out.join("phi_ab.json"), d.join("phi_ab.json")).unwrap();
+        let given = MorphSource::Deformations { phi_ab: d.join("phi_ab.json"), phi_ba: None };
+        let done = job(d, given, 2).run(&|| {}).unwrap();
+        assert!(!done.from_landmarks);
+        assert!(matches!(done.notes[0], MorphNote::SimilarityRead { .. }));
+        assert!(!done.summary().contains("residual"));
+    }
 
     #[test]
     fn frame_counts_and_time_ranges_are_typed_errors_with_their_texts() {
