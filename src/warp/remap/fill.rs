@@ -74,6 +74,9 @@ impl RemapPlan<'_> {
         bytemuck::cast_slice_mut::<[f64; 2], u8>(out).fill(0xFF);
         let mut st = RemapStats::default();
         let (ylo, yhi) = (y0 as f64 - 1.0, (y0 + rows) as f64 + 1.0);
+        // Blocks whose image misses the rectangle by more than a gap width (at most half a
+        // pixel, `MAX_GAP`) draw nothing in it: skipped before their squares are looked at.
+        let (xlo, xhi) = (x0 as f64 - 1.0, (x0 + ww) as f64 + 1.0);
         let BandScratch { near, mask, tried, gaps } = scratch;
         gaps.clear();
         near.clear();
@@ -86,11 +89,7 @@ impl RemapPlan<'_> {
         );
         let near = &*near;
         // Which pixels the last piece drawn there is folded (only when there are folds).
-        let any_fold = near.iter().map(|&j| &self.rows[j]).any(|r| {
-            r.blocks.iter().any(|b| b.folded)
-                || r.tris.iter().any(|t| t.folded)
-                || r.newton.iter().any(|b| b.folded)
-        });
+        let any_fold = near.iter().any(|&j| self.rows[j].folded);
         let mut mask = any_fold.then(|| {
             mask.clear();
             mask.resize(rows * ww, false);
@@ -98,7 +97,7 @@ impl RemapPlan<'_> {
         });
         for r in near.iter().map(|&j| &self.rows[j]) {
             for b in &r.blocks {
-                if b.y[1] < ylo || b.y[0] > yhi {
+                if b.y[1] < ylo || b.y[0] > yhi || b.x[1] < xlo || b.x[0] > xhi {
                     continue;
                 }
                 let n = b.k + 1;

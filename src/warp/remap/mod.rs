@@ -238,6 +238,8 @@ struct Block {
     step: [f64; 2],
     k: usize,
     off: usize,
+    /// Output columns and rows spanned by the images of its grid points.
+    x: [f64; 2],
     y: [f64; 2],
     bound: f64,
     /// Width of the gaps its outer edges may leave to neighbours ([`gap_width`]).
@@ -325,6 +327,8 @@ struct Pieces {
     newton: Vec<NewtonBox>,
     /// Smallest and largest output `y` of the pieces.
     y: [f64; 2],
+    /// Some piece is folded (a filled rectangle then keeps a mask of folded pixels).
+    folded: bool,
 }
 
 impl Default for Pieces {
@@ -335,6 +339,7 @@ impl Default for Pieces {
             tris: Vec::new(),
             newton: Vec::new(),
             y: [f64::INFINITY, f64::NEG_INFINITY],
+            folded: false,
         }
     }
 }
@@ -566,6 +571,9 @@ impl<'a> RemapPlan<'a> {
                 for r in out.newton.iter().map(|b| b.r) {
                     out.y = [out.y[0].min(r[1]), out.y[1].max(r[3])];
                 }
+                out.folded = out.blocks.iter().any(|b| b.folded)
+                    || out.tris.iter().any(|t| t.folded)
+                    || out.newton.iter().any(|b| b.folded);
                 out.shrink();
                 used.fetch_add(out.bytes(), std::sync::atomic::Ordering::Relaxed);
                 out

@@ -114,9 +114,19 @@ pub(super) fn raster(
         let row = &mut out[(y - wy0) * ww..(y - wy0 + 1) * ww];
         let start =
             [pc[0] + py[0] * yf + px[0] * x0 as f64, pc[1] + py[1] * yf + px[1] * x0 as f64];
-        for (k, o) in (xs - x0..).zip(row[xs - wx0..=xe - wx0].iter_mut()) {
-            let kf = k as f64;
-            *o = [start[0] + kf * px[0], start[1] + kf * px[1]];
+        // The offsets from `x0` convert to `f64` exactly either way; through `i32` (below
+        // 2^31, every real image) in one instruction where `usize` takes a sequence.
+        let seg = row[xs - wx0..=xe - wx0].iter_mut();
+        if xe - x0 <= i32::MAX as usize {
+            for (k, o) in (xs - x0..).zip(seg) {
+                let kf = f64::from(k as i32);
+                *o = [start[0] + kf * px[0], start[1] + kf * px[1]];
+            }
+        } else {
+            for (k, o) in (xs - x0..).zip(seg) {
+                let kf = k as f64;
+                *o = [start[0] + kf * px[0], start[1] + kf * px[1]];
+            }
         }
         written += xe + 1 - xs;
         if let Some((mask, folded)) = fold_mask.as_mut() {

@@ -297,6 +297,7 @@ impl Refiner<'_> {
             step,
             k,
             off,
+            x: [lo[0], hi[0]],
             y: [lo[1], hi[1]],
             bound: worst,
             gap: gap_width(m2, step[0].max(step[1])),
