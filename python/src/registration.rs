@@ -44,7 +44,7 @@ fn input(
 /// `--mesh-levels` and `--refine-share` (the mesh pyramid; default 3 levels). Releases the GIL.
 #[pyfunction]
 #[pyo3(signature = (fixed, moving, metric = "ncc", mask_fixed = None, mask_moving = None,
-    src = None, dst = None, weights = None, hard = false, landmark_weight = 1.0, init = None,
+    src = None, dst = None, weights = None, hard = false, landmark_weight = 0.25, init = None,
     prealign = "affine", levels = None, spacing = 48.0, bend = 1.0, iterations = 30,
     samples = 32768, order = "xy", progress = None, cancel = None, mesh_levels = None,
     refine_share = 1.0))]

@@ -271,7 +271,7 @@ def register(
     dst: Optional[_Points] = None,
     weights: Optional[Sequence[float]] = None,
     hard: bool = False,
-    landmark_weight: float = 1.0,
+    landmark_weight: float = 0.25,
     init: Optional[Deformation] = None,
     prealign: str = "affine",
     levels: Optional[int] = None,

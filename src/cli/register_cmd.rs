@@ -78,8 +78,9 @@ pub(crate) struct RegisterCli {
     /// BigWarp CSV or JSON; src in MOVING, dst in FIXED).
     #[arg(long, value_name = "FILE")]
     landmarks: Option<PathBuf>,
-    /// Weight of the landmark term against the image term.
-    #[arg(long, default_value_t = 1.0)]
+    /// Weight of the landmark term against the image term: one landmark counts as this
+    /// many image samples per squared pixel.
+    #[arg(long, default_value_t = crate::register::DEFAULT_LANDMARK_WEIGHT)]
     landmark_weight: f64,
     /// Meet the landmarks exactly (checked in rationals).
     #[arg(long, requires = "landmarks")]

@@ -135,7 +135,7 @@ pub fn prealign(
         let eval = |x: &[f64]| {
             let t = full(x);
             let u: Vec<[f64; 2]> = set.pos.iter().map(|&y| frame.apply(&t, y)).collect();
-            let term = image_term(metric, &fixed[l], &set, &u, true);
+            let term = image_term(metric, &fixed[l], &set, &u, true, None);
             if term.valid == 0 {
                 return (f64::INFINITY, vec![0.0; x.len()]);
             }

@@ -38,7 +38,7 @@
 
 use super::image::Level;
 use super::metric::Metric;
-use super::samples::{image_term, SampleOptions, SampleSet, SplineSamples};
+use super::samples::{image_term, membership, Membership, SampleOptions, SampleSet, SplineSamples};
 use super::{LevelReport, Progress};
 use crate::fit::objective::Objective;
 use crate::fit::optim::{minimize, MinimizeOptions};
@@ -74,22 +74,48 @@ impl<'a> LevelTerm<'a> {
     /// `(E, dE/dq)` over all control points `pts` (the gradient when `grad`), and the
     /// number of valid samples.
     pub fn eval(&self, pts: &[[f64; 2]], grad: bool) -> (f64, Vec<[f64; 2]>, usize) {
+        self.eval_kept(pts, grad, None)
+    }
+
+    /// [`LevelTerm::eval`] over the samples `keep` names (`None`: those inside FIXED),
+    /// continued beyond FIXED's border ([`Membership`]).
+    pub fn eval_kept(
+        &self,
+        pts: &[[f64; 2]],
+        grad: bool,
+        keep: Option<&[bool]>,
+    ) -> (f64, Vec<[f64; 2]>, usize) {
         let u = self.on_mesh.map(pts);
-        let term = image_term(self.metric, self.fixed, &self.set, &u, grad);
+        let term = image_term(self.metric, self.fixed, &self.set, &u, grad, keep);
         let g = if grad { self.on_mesh.pull(&term.d_u, pts.len()) } else { Vec::new() };
         (term.value, g, term.valid)
+    }
+
+    /// The samples inside FIXED (and its mask) for control points `pts`.
+    pub fn membership(&self, pts: &[[f64; 2]]) -> Membership {
+        membership(self.fixed, &self.on_mesh.map(pts))
     }
 }
 
 /// `F(x)` and its gradient (module docs) for the objective `obj` (bending, landmarks,
 /// barrier) and the image term `term`.
 pub fn total(obj: &Objective, term: &LevelTerm<'_>, x: &[f64]) -> (f64, Vec<f64>, f64) {
+    total_kept(obj, term, x, None)
+}
+
+/// [`total`] over the samples `keep` names ([`LevelTerm::eval_kept`]).
+pub fn total_kept(
+    obj: &Objective,
+    term: &LevelTerm<'_>,
+    x: &[f64],
+    keep: Option<&[bool]>,
+) -> (f64, Vec<f64>, f64) {
     let n = obj.param.var_of.len();
     let mut gx = vec![0.0; x.len()];
     let t = obj.eval(x, Some(&mut gx));
     let mut pts = vec![[0.0f64; 2]; n];
     obj.param.points_into(x, &mut pts);
-    let (e, mut g, valid) = term.eval(&pts, true);
+    let (e, mut g, valid) = term.eval_kept(&pts, true, keep);
     if valid == 0 || !t.total.is_finite() {
         return (f64::INFINITY, vec![0.0; x.len()], e);
     }
@@ -126,14 +152,6 @@ pub fn jacobi(obj: &Objective, term: &LevelTerm<'_>, x: &[f64]) -> Vec<f64> {
     let mean = d.iter().sum::<f64>() / d.len().max(1) as f64;
     let floor = (1e-6 * mean).max(1e-300);
     d.iter().map(|&v| v.max(floor)).collect()
-}
-
-/// Per variable, the image term's share of the diagonal curvature `D` of [`jacobi`]: near 1
-/// where the image holds a variable, 0 where only the bending and the landmarks do (flat or
-/// masked parts).
-pub fn image_share(obj: &Objective, term: &LevelTerm<'_>, x: &[f64]) -> Vec<f64> {
-    let (image, all) = jacobi_parts(obj, term, x);
-    image.iter().zip(&all).map(|(i, a)| if *a > 0.0 { i / a } else { 0.0 }).collect()
 }
 
 /// Per variable, whether the image term sees it: its part of `D` ([`jacobi`]) is at least
@@ -191,10 +209,16 @@ pub fn run_level(
 ) -> (Vec<f64>, LevelReport) {
     let t0 = Instant::now();
     let sd: Vec<f64> = jacobi(obj, term, &x).iter().map(|v| v.sqrt()).collect();
+    // The samples of the run: those inside FIXED at its start ([`Membership`]).
+    let keep = {
+        let mut pts = vec![[0.0f64; 2]; obj.param.var_of.len()];
+        obj.param.points_into(&x, &mut pts);
+        term.membership(&pts)
+    };
     // In z = sqrt(D) x: F(z / sqrt(D)), gradient grad_x / sqrt(D).
     let eval = |z: &[f64]| {
         let xs: Vec<f64> = z.iter().zip(&sd).map(|(a, s)| a / s).collect();
-        let (f, mut g, _) = total(obj, term, &xs);
+        let (f, mut g, _) = total_kept(obj, term, &xs, Some(&keep));
         g.iter_mut().zip(&sd).for_each(|(a, s)| *a /= s);
         (f, g)
     };

@@ -256,6 +256,25 @@ impl Level {
         [(p[0] - o) / s, (p[1] - o) / s]
     }
 
+    /// `F` and its gradient with respect to level-0 coordinates at the level-0 point `p`
+    /// moved into the image's domain (the pixel centres grown by half a pixel) when it lies
+    /// beyond: the interpolant continued by its border values, constant across the border
+    /// (a zero gradient across it), and the mask not looked at. For the samples a run keeps
+    /// whatever the map does ([`super::samples::Membership`]).
+    #[inline]
+    pub fn sample_clamped(&self, p: [f64; 2]) -> (f64, [f64; 2]) {
+        let q = self.from_full(p);
+        let (wf, hf) = (self.image.w as f64 - 0.5, self.image.h as f64 - 0.5);
+        let x = q[0].clamp(-0.5, wf);
+        let y = q[1].clamp(-0.5, hf);
+        let s = (1u64 << self.level) as f64;
+        let (v, g) = self.image.sample(x, y).unwrap_or((0.0, [0.0, 0.0]));
+        // Clamped coordinates (NaN included) do not move with p.
+        let kx = if x == q[0] { 1.0 / s } else { 0.0 };
+        let ky = if y == q[1] { 1.0 / s } else { 0.0 };
+        (v, [g[0] * kx, g[1] * ky])
+    }
+
     /// `F` and its gradient with respect to level-0 coordinates at the level-0 point `p`,
     /// or `None` outside the image or its mask.
     #[inline]

@@ -172,17 +172,19 @@ pub const DEFAULT_BEND: f64 = 1.0;
 /// known field, 512^2 to 550 x 660, mean endpoint error in px against elastix's default
 /// B-spline registration): one mesh of 48 px cells gives 0.080 / 0.742 / 0.894 px in
 /// 1.28 / 0.68 / 0.71 s, three levels (192, 96, 48 px, every triangle refined) 0.082 /
-/// 0.700 / 0.580 px in 0.70 / 0.54 / 0.73 s (elastix 0.089 / 2.01 / 2.85 px in 2-3 s);
+/// 0.700 / 0.580 px in 0.70 / 0.54 / 0.73 s (elastix 0.089 / 2.01 / 2.85 px in 2-3 s;
+/// 0.085 / 0.704 / 0.538 px once a run's samples keep their membership,
+/// [`samples::Membership`]);
 /// with a finer known field (`--knots 12`) 0.111 / 0.751 / 1.19 px against 0.092 / 0.780 /
 /// 1.159 px. At twice the size (1024^2 to 1100 x 1320) three levels give 0.250 / 1.089 /
 /// 0.80 px in 1.05-1.53 s (one level: 0.263 / 1.126 / 1.515 px; elastix 0.250 / 4.79 /
 /// 6.80 px in 5.5-6.9 s).
 ///
 /// With landmarks too: on the textured pair of `tests/it/register.rs` with 12 noisy
-/// landmarks three levels end 0.062 px from the held-out truth, one level 0.066 px; on its
+/// landmarks three levels end 0.057 px from the held-out truth, one level 0.063 px; on its
 /// masked pair (the right half seen only by 16 landmarks) 0.66 px against a thin-plate
 /// spline's 0.69 px, as one level does, once each refinement starts from the landmark fit
-/// where the image holds nothing (`landmark_blend`; without it 1.06 px).
+/// where the image holds nothing (`landmark_start`; without it 1.06 px).
 pub const DEFAULT_MESH_LEVELS: u32 = 3;
 
 /// The default refinement share ([`RegisterOptions::refine_share`]).
@@ -346,8 +348,18 @@ pub struct Registration {
 }
 
 /// The default landmark weight: one landmark counts as this many image samples (per squared
-/// pixel; `tests/it/register.rs`).
-pub const DEFAULT_LANDMARK_WEIGHT: f64 = 1.0;
+/// pixel). Chosen on the pairs of `tests/it/register.rs` (12 or 16 landmarks with 0.25 px of
+/// noise), held-out error with the mesh pyramid by weight:
+///
+/// | weight | 1 | 0.5 | 0.25 | 0.1 |
+/// |---|---|---|---|---|
+/// | textured pair (image alone 0.0584 px) | 0.0625 | 0.0596 | 0.0571 | 0.0561 |
+/// | MOVING masked to its left half, right half (TPS 0.690 px) | 0.655 | 0.657 | 0.658 | 0.659 |
+///
+/// Where the image is textured, landmarks this noisy pull the fine meshes off at a weight
+/// of 1 (worse than the image term alone); where the image sees nothing they carry the map
+/// at any of these weights, as nothing else competes there but the bending.
+pub const DEFAULT_LANDMARK_WEIGHT: f64 = 0.25;
 
 /// The share of MOVING's samples that must land on FIXED after the pre-alignment.
 pub const MIN_OVERLAP: f64 = 0.1;
@@ -394,12 +406,17 @@ fn points_f64(s: &Spline) -> Vec<[f64; 2]> {
 /// After a refinement with landmarks: the new mesh's local control lets the landmarks pull
 /// where the coarser meshes could not, but where the image term sees nothing only the
 /// landmarks and the bending move the new variables, and L-BFGS would take many iterations
-/// to carry their pull there. So each variable starts between the prolonged map `x` and the
-/// landmark fit over the new mesh, weighted by the image term's share of its curvature
-/// ([`deform::image_share`]): where the image holds it, the prolonged value; where nothing
-/// but the landmarks and the bending do, the fit's. Any variables make an exactly C1 spline,
-/// so the blend is one.
-fn landmark_blend(
+/// to carry their pull there. So the variables the image term does not see
+/// ([`deform::image_sees`], as [`pyramid::unseen_from`] without landmarks) start from the
+/// landmark fit over the new mesh, the others from the prolonged map `x`. Any variables
+/// make an exactly C1 spline.
+///
+/// (Bug: each variable started between the two, weighted by the image term's share of its
+/// curvature. With two mesh levels on the textured pair of `tests/it/register.rs` that
+/// share was well below 1 where the image does hold the map, the start moved towards the
+/// landmarks-only fit, the metric rose fourteenfold at the refinement, and 30 iterations
+/// ended 0.33 px from the truth against 0.072 px for the image alone; now 0.073 px.)
+fn landmark_start(
     obj: &Objective,
     term: &deform::LevelTerm<'_>,
     x: &[f64],
@@ -409,9 +426,8 @@ fn landmark_blend(
     fo: &FitOptions,
 ) -> Result<Vec<f64>, RegisterError> {
     let fit = crate::fit::fit_with(s, mds, landmarks, fo, Instant::now())?.spline;
-    let share = deform::image_share(obj, term, x);
     let xf = variables_of(&obj.param, &fit);
-    Ok(x.iter().zip(&xf).zip(&share).map(|((a, b), w)| w * a + (1.0 - w) * b).collect())
+    Ok(pyramid::unseen_from(x, &xf, &deform::image_sees(obj, term, x, UNSEEN)))
 }
 
 /// The variables of `param` at the control points of `s` (a spline over the same mesh).
@@ -644,7 +660,7 @@ pub fn register(
         obj.scale_weights(&vec![scale / row_scale; obj.rows().len()]);
         row_scale = scale;
         if let (true, Some(fo)) = (refined, &fit_options) {
-            x = landmark_blend(&obj, &term, &x, &cur, &mds, &opts.landmarks, fo)?;
+            x = landmark_start(&obj, &term, &x, &cur, &mds, &opts.landmarks, fo)?;
         } else if let (true, Some(a)) = (refined, &prealigned) {
             let pre =
                 variables_of(&obj.param, &Spline::affine(cur.mesh().clone(), opts.degree, a)?);
