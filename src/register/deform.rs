@@ -14,7 +14,10 @@
 //! is added beside it with its analytic gradient. Each pyramid level (coarsest first) is
 //! one L-BFGS run under argmin's `Executor` ([`crate::fit::optim::minimize`]), warm-started
 //! from the level before: the same map, in the same spline space or, after a refinement of
-//! the mesh pyramid ([`super::pyramid`]), in a finer space that contains it.
+//! the mesh pyramid ([`super::pyramid`]), in a finer space that contains it. Within a run
+//! the image term sums over the samples inside FIXED at the run's start
+//! ([`super::samples::Membership`]), so that no sample crossing FIXED's border makes the
+//! cost jump under the line search.
 //!
 //! **Preconditioning.** The curvature of `F` differs by orders of magnitude between
 //! variables: a free point under textured image is held by thousands of samples, one in a
